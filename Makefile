@@ -1,0 +1,40 @@
+# wsgrasp: every target bootstraps .venv itself.
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+export MPLBACKEND := Agg
+
+.PHONY: demo test lint bench eval schema clean sysdeps
+
+$(BIN)/python:
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install -q --upgrade pip
+
+sysdeps:
+	@bash scripts/ensure-sysdeps.sh
+
+$(STAMP): pyproject.toml | $(BIN)/python
+	@bash scripts/ensure-sysdeps.sh
+	$(BIN)/python -m pip install -q -e '.[dev]'
+	@touch $(STAMP)
+
+demo: $(STAMP)
+	$(BIN)/wsgrasp demo --out demo
+
+lint: $(STAMP)
+	$(BIN)/ruff format --check wsgrasp plugins tests benchmarks
+	$(BIN)/ruff check wsgrasp plugins tests benchmarks
+	$(BIN)/mypy
+
+test: $(STAMP) lint
+	$(BIN)/python -m pytest -q -m "not slow"
+
+bench: $(STAMP)
+	$(BIN)/wsgrasp bench
+
+schema: $(STAMP)
+	$(BIN)/wsgrasp schema
+
+clean:
+	rm -rf $(VENV) demo runs .pytest_cache .mypy_cache .ruff_cache

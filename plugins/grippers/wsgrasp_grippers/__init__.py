@@ -1,0 +1,1 @@
+"""Built-in wsgrasp grippers, registered through the `wsgrasp` entry-point group."""

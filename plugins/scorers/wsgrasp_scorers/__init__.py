@@ -1,0 +1,1 @@
+"""Built-in wsgrasp scorers, registered through the `wsgrasp` entry-point group."""

@@ -1,0 +1,1 @@
+"""Built-in wsgrasp segmenters, registered through the `wsgrasp` entry-point group."""

@@ -1,0 +1,158 @@
+"""Reading YAML/TOML/JSON documents and turning validation errors into one clear
+message with file, line, key path, what was expected and what was found."""
+
+from __future__ import annotations
+
+import json
+import re
+import tomllib
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import yaml
+from pydantic import BaseModel, ValidationError
+
+from wsgrasp.errors import SpecError
+
+__all__ = ["load_document", "validate_document", "DocumentLines"]
+
+
+class DocumentLines:
+    """Maps key paths of a loaded document to line numbers (1-based)."""
+
+    def __init__(self, path: Path | None, text: str, node: yaml.Node | None) -> None:
+        self.path = path
+        self.text = text
+        self.node = node
+
+    def line_of(self, loc: Sequence[str | int]) -> int | None:
+        """Line of the deepest existing key along ``loc``."""
+        node = self.node
+        line = None
+        for key in loc:
+            if isinstance(node, yaml.MappingNode):
+                found = None
+                for k, v in node.value:
+                    if getattr(k, "value", None) == str(key):
+                        found = (k, v)
+                        break
+                if found is None:
+                    break
+                line = found[0].start_mark.line + 1
+                node = found[1]
+            elif isinstance(node, yaml.SequenceNode) and isinstance(key, int):
+                if key >= len(node.value):
+                    break
+                node = node.value[key]
+                line = node.start_mark.line + 1
+            else:
+                break
+        if line is None and self.node is None and loc:
+            # TOML: no parser positions; find the last key textually.
+            for key in reversed([k for k in loc if isinstance(k, str)]):
+                m = re.search(rf"^\s*{re.escape(key)}\s*=", self.text, re.MULTILINE)
+                if m:
+                    return self.text.count("\n", 0, m.start()) + 1
+        return line
+
+
+def load_document(path: str | Path) -> tuple[dict[str, Any], DocumentLines]:
+    """Load a YAML, TOML or JSON file into a dict, with line information.
+
+    Raises
+    ------
+    SpecError
+        The file is missing, unreadable, not a mapping, or does not parse.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise SpecError(
+            f"{p}: file not found", hint="check the path (relative to the current "
+            "directory)"
+        )
+    text = p.read_text(encoding="utf-8")
+    suffix = p.suffix.lower()
+    node: yaml.Node | None = None
+    try:
+        if suffix == ".toml":
+            data: Any = tomllib.loads(text)
+        elif suffix == ".json":
+            data = json.loads(text)
+            node = yaml.compose(text, Loader=yaml.SafeLoader)
+        else:
+            data = yaml.safe_load(text)
+            node = yaml.compose(text, Loader=yaml.SafeLoader)
+    except (yaml.YAMLError, json.JSONDecodeError, tomllib.TOMLDecodeError) as exc:
+        line = _parse_error_line(exc)
+        where = f"{p}:{line}" if line else str(p)
+        raise SpecError(
+            f"{where}: cannot parse {suffix.lstrip('.') or 'YAML'}: "
+            f"{str(exc).splitlines()[0]}",
+            hint="fix the syntax at that line",
+        ) from None
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise SpecError(
+            f"{p}: expected a mapping of keys at the top level, found "
+            f"{type(data).__name__}",
+            hint="start the file with `key: value` lines",
+        )
+    return data, DocumentLines(p, text, node)
+
+
+def _parse_error_line(exc: Exception) -> int | None:
+    mark = getattr(exc, "problem_mark", None)
+    if mark is not None:
+        return int(mark.line) + 1
+    lineno = getattr(exc, "lineno", None)
+    if lineno is not None:
+        return int(lineno)
+    m = re.search(r"line (\d+)", str(exc))
+    return int(m.group(1)) if m else None
+
+
+def format_validation_error(
+    exc: ValidationError,
+    lines: DocumentLines | None,
+    what: str,
+    prefix: Sequence[str | int] = (),
+) -> str:
+    """One message for the first error of a pydantic ``ValidationError``."""
+    err = exc.errors()[0]
+    loc = [*prefix, *[x for x in err["loc"] if not str(x).startswith("function-")]]
+    key = ".".join(str(x) for x in loc) or "(top level)"
+    line = lines.line_of(loc) if lines is not None else None
+    where = ""
+    if lines is not None and lines.path is not None:
+        where = f"{lines.path}:{line}: " if line else f"{lines.path}: "
+    found = err.get("input")
+    kind = err["type"]
+    if kind == "extra_forbidden":
+        text = f"unknown key {key!r} in {what}"
+    elif kind == "missing":
+        text = f"missing key {key!r} in {what}"
+    else:
+        shown = repr(found)
+        if len(shown) > 60:
+            shown = shown[:57] + "..."
+        text = f"{key}: {err['msg'].rstrip('.')}; found {shown}"
+    more = len(exc.errors()) - 1
+    if more:
+        text += f" (and {more} more problem{'s' if more > 1 else ''})"
+    return where + text
+
+
+def validate_document(
+    model: type[BaseModel],
+    data: dict[str, Any],
+    lines: DocumentLines | None,
+    what: str,
+    hint: str,
+) -> Any:
+    """Validate ``data`` against ``model`` or raise one ``SpecError``."""
+    try:
+        return model.model_validate(data)
+    except ValidationError as exc:
+        raise SpecError(format_validation_error(exc, lines, what), hint=hint) from None

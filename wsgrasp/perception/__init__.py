@@ -1,0 +1,1 @@
+"""Scene processing: cloud I/O, view merging, downsampling, object frame, sampling."""

@@ -1,0 +1,90 @@
+"""Data passed between the perception stages and the segmenter plugins."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+from pydantic import BaseModel
+
+__all__ = ["View", "Scene", "Plane", "Segmentation", "Segmenter"]
+
+Array = NDArray[np.float64]
+
+
+@dataclass
+class View:
+    """One depth view: its points in the camera frame and the camera's pose.
+
+    Attributes
+    ----------
+    points : (n, 3) float
+        In the camera frame.
+    T_world_camera : (4, 4) float
+    """
+
+    points: Array
+    T_world_camera: Array = field(default_factory=lambda: np.eye(4))
+    name: str = ""
+
+
+@dataclass
+class Scene:
+    """The planner's input: one or more views merged into the world frame.
+
+    Attributes
+    ----------
+    views : list of View
+    points : (N, 3) float
+        Merged finite points in the world (input) frame.
+    dropped_nonfinite : int
+        NaN/inf points removed while merging.
+    """
+
+    views: list[View]
+    points: Array
+    dropped_nonfinite: int = 0
+
+
+@dataclass
+class Plane:
+    """The table plane ``normal · p + offset = 0``, normal pointing to the objects."""
+
+    normal: Array
+    offset: float
+
+    def signed_distance(self, points: Array) -> Array:
+        """Heights of points ``(n, 3)`` above the plane, ``(n,)``."""
+        return np.asarray(points, dtype=np.float64) @ self.normal + self.offset
+
+
+@dataclass
+class Segmentation:
+    """What a segmenter returns.
+
+    Attributes
+    ----------
+    table : Plane
+    table_points : (m, 3) float
+        Inliers of the plane (may be empty when the plane was given).
+    clusters : list of (n_i, 3) float
+        Objects standing on the table, largest first.
+    """
+
+    table: Plane
+    table_points: Array
+    clusters: list[Array]
+    info: dict[str, Any] = field(default_factory=dict)
+
+
+class Segmenter(Protocol):
+    """What a segmenter plugin registers: a class with an ``Options`` model."""
+
+    Options: ClassVar[type[BaseModel]]
+
+    def segment(self, points: Array, options: Any, *, seed: int) -> Segmentation:
+        """Split a scene ``(N, 3)`` into table plane and object clusters, or raise
+        ``InputError`` saying why not."""
+        ...

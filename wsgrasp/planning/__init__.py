@@ -1,0 +1,1 @@
+"""Candidate generation, batched evaluation, rejection reasons, search."""

@@ -1,0 +1,156 @@
+"""Plan results: the chosen grasp, every candidate and why it was rejected."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["REASONS", "CandidateSet", "Contact", "Alternative", "PlanResult"]
+
+#: Rejection reasons, by code. Code 0 is a feasible candidate. A candidate gets the
+#: first reason that applies, in this order (the order of Algorithm 1's checks).
+REASONS: tuple[str, ...] = (
+    "feasible",
+    "table_collision",
+    "object_collision",
+    "obstacle_collision",
+    "finger_without_contact",
+)
+
+
+@dataclass
+class CandidateSet:
+    """Every candidate evaluated, as arrays over candidates ``C``.
+
+    Attributes
+    ----------
+    T_world_gwc, T_world_ee : (C, 4, 4) float
+    sample : (C,) int
+        Index of the bounding-box sample point.
+    theta : (C,) float
+        Orientation about the object's major axis (rad).
+    reason : (C,) int
+        Code into :data:`REASONS`.
+    contacts : (C, nf) int
+        Object points inside each finger's spheres (0 where not evaluated).
+    score : (C,) float
+        Combined score; NaN for rejected candidates.
+    terms : dict of str to (C,) float
+        Each scorer's term; NaN for rejected candidates.
+    """
+
+    T_world_gwc: NDArray[np.float64]
+    T_world_ee: NDArray[np.float64]
+    sample: NDArray[np.int64]
+    theta: NDArray[np.float64]
+    reason: NDArray[np.int64]
+    contacts: NDArray[np.int64]
+    score: NDArray[np.float64]
+    terms: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return int(self.reason.shape[0])
+
+    @property
+    def feasible(self) -> NDArray[np.bool_]:
+        return self.reason == 0
+
+    def histogram(self) -> dict[str, int]:
+        """Reason name → count, every reason listed (feasible included)."""
+        counts = np.bincount(self.reason, minlength=len(REASONS))
+        return {name: int(c) for name, c in zip(REASONS, counts, strict=True)}
+
+
+@dataclass
+class Contact:
+    """What one finger holds at the chosen pose.
+
+    Attributes
+    ----------
+    finger : str
+    points : (k, 3) float
+        Object points inside the finger's spheres, world frame.
+    spheres : (m,) int
+        Indices (into the model's spheres) of the spheres holding object points.
+    """
+
+    finger: str
+    points: NDArray[np.float64]
+    spheres: NDArray[np.int64]
+
+
+@dataclass
+class Alternative:
+    """A runner-up grasp."""
+
+    index: int
+    T_world_ee: NDArray[np.float64]
+    score: float
+    terms: dict[str, float]
+
+
+@dataclass
+class PlanResult:
+    """The outcome of one plan.
+
+    ``found`` is False when no candidate was feasible: that is a normal result with
+    the rejection histogram and a ``hint`` saying what stood in the way.
+    """
+
+    found: bool
+    gripper: str
+    T_world_ee: NDArray[np.float64] | None
+    T_world_gwc: NDArray[np.float64] | None
+    T_world_tcp: NDArray[np.float64] | None
+    pregrasp: dict[str, float]
+    closed: dict[str, float]
+    contacts: list[Contact]
+    score: float | None
+    score_terms: dict[str, float]
+    best_index: int | None
+    alternatives: list[Alternative]
+    candidates: CandidateSet
+    rejections: dict[str, int]
+    timing_ms: dict[str, float]
+    hint: str = ""
+    T_world_object: NDArray[np.float64] | None = None
+    object_extents: NDArray[np.float64] | None = None
+    info: dict[str, Any] = field(default_factory=dict)
+
+    def to_json(self) -> dict[str, Any]:
+        """Plain data: what ``wsgrasp plan --json`` prints."""
+
+        def m(T: NDArray[np.float64] | None) -> list[list[float]] | None:
+            return None if T is None else np.asarray(T).tolist()
+
+        return {
+            "found": self.found,
+            "gripper": self.gripper,
+            "T_world_ee": m(self.T_world_ee),
+            "T_world_gwc": m(self.T_world_gwc),
+            "T_world_tcp": m(self.T_world_tcp),
+            "pregrasp": self.pregrasp,
+            "closed": self.closed,
+            "score": self.score,
+            "score_terms": self.score_terms,
+            "candidates": len(self.candidates),
+            "feasible": int(self.candidates.feasible.sum()),
+            "rejections": self.rejections,
+            "contacts": {
+                c.finger: {"points": int(len(c.points)), "spheres": c.spheres.tolist()}
+                for c in self.contacts
+            },
+            "alternatives": [
+                {"index": a.index, "T_world_ee": m(a.T_world_ee), "score": a.score}
+                for a in self.alternatives
+            ],
+            "timing_ms": self.timing_ms,
+            "hint": self.hint,
+            "T_world_object": m(self.T_world_object),
+            "object_extents": None
+            if self.object_extents is None
+            else np.asarray(self.object_extents).tolist(),
+        }

@@ -1,0 +1,1 @@
+"""Recording runs to MCAP, reading them back, replaying them."""

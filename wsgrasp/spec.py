@@ -1,0 +1,413 @@
+"""Pipeline specs and gripper descriptions: pydantic models and their loading.
+
+Both are plain files (YAML, TOML or JSON). Every model forbids unknown keys; a bad
+file gets one ``SpecError`` naming the file, line, key path, what was expected and
+what was found. Plugin options are validated against the plugin's own ``Options``
+model when the spec loads, not halfway through a run.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from wsgrasp._loading import (
+    DocumentLines,
+    format_validation_error,
+    load_document,
+    validate_document,
+)
+from wsgrasp.errors import PluginError, SpecError
+
+__all__ = [
+    "FingerDescription",
+    "GripperDescription",
+    "PadRegion",
+    "PipelineSpec",
+    "load_gripper_description",
+    "load_spec",
+]
+
+Vec3 = tuple[float, float, float]
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=False)
+
+
+# --------------------------------------------------------------------------------
+# Gripper description
+# --------------------------------------------------------------------------------
+class PadRegion(_Model):
+    """The fingertip pad: a box on a link, in that link's frame (metres)."""
+
+    link: str = Field(description="URDF link that carries the pad")
+    center: Vec3 = Field((0.0, 0.0, 0.0), description="box centre in the link frame")
+    size: Vec3 = Field(description="full box extents along the link's x, y, z")
+    samples: int = Field(
+        3, ge=1, le=12, description="points per box edge when sampling the pad"
+    )
+
+
+class FingerDescription(_Model):
+    """One finger: the joints that move its pad, and the pad."""
+
+    name: str
+    joints: list[str] = Field(
+        min_length=1,
+        description="actuated joints that move this finger's pad; mimic joints "
+        "follow their masters automatically",
+    )
+    pad: PadRegion
+
+
+class FrameOffset(_Model):
+    """A frame fixed to a link: translation (m) and roll-pitch-yaw (rad)."""
+
+    link: str
+    xyz: Vec3 = (0.0, 0.0, 0.0)
+    rpy: Vec3 = (0.0, 0.0, 0.0)
+
+
+class BodyEllipsoid(_Model):
+    """A body superellipsoid given by hand, in the base frame."""
+
+    center: Vec3
+    semi_axes: Vec3
+
+
+class EllipsoidSettings(_Model):
+    """Superellipsoids that approximate the gripper body."""
+
+    count: int = Field(5, ge=1, le=32, description="number of superellipsoids (ne)")
+    exponent: float = Field(
+        10.0, ge=2.0, description="exponent l of eq. (1) for x and y"
+    )
+    given: list[BodyEllipsoid] | None = Field(
+        None,
+        description="superellipsoids given by hand instead of fitted; their number "
+        "must equal count",
+    )
+
+    @model_validator(mode="after")
+    def _given_count(self) -> EllipsoidSettings:
+        if self.given is not None and len(self.given) != self.count:
+            raise ValueError(
+                f"ellipsoids.given has {len(self.given)} entries but count is "
+                f"{self.count}"
+            )
+        return self
+
+
+class GripperDescription(_Model):
+    """A gripper: URDF plus what the planner needs to know about it.
+
+    Units are SI: metres and radians. Axes are unit vectors in the base frame.
+    """
+
+    version: Literal[1] = 1
+    name: str = Field(description="registered name of the gripper")
+    urdf: str = Field(description="URDF path, relative to this YAML file")
+    base_link: str = Field(description="link the arm's flange holds (gripper frame)")
+    tool_frame: FrameOffset = Field(
+        description="tool centre point (TCP) as an offset from a link"
+    )
+    approach_axis: Vec3 = Field(description="direction the gripper moves to grasp")
+    closing_axis: Vec3 = Field(
+        description="direction across which the fingers close (perpendicular to "
+        "approach)"
+    )
+    fingers: list[FingerDescription] = Field(min_length=1)
+    joint_samples: int = Field(
+        8, ge=2, le=64, description="grid points per joint when sampling workspaces"
+    )
+    spheres_per_finger: int = Field(10, ge=1, le=500, description="nsp")
+    workspace_voxel: float = Field(
+        0.002, gt=0.0, le=0.05, description="voxel size (m) of the sampled workspace"
+    )
+    min_sphere_radius: float = Field(
+        0.002, gt=0.0, description="smallest sphere radius (m) worth placing"
+    )
+    ellipsoids: EllipsoidSettings = EllipsoidSettings()
+    cloud_points: int = Field(500, ge=50, le=20000, description="ng")
+    pregrasp: dict[str, float] = Field(
+        description="joint positions (m or rad) of the open, pre-grasp posture"
+    )
+    closed: dict[str, float] = Field(
+        description="joint positions (m or rad) the fingers close towards"
+    )
+
+    @model_validator(mode="after")
+    def _axes(self) -> GripperDescription:
+        import numpy as np
+
+        a = np.asarray(self.approach_axis, dtype=float)
+        c = np.asarray(self.closing_axis, dtype=float)
+        for label, v in (("approach_axis", a), ("closing_axis", c)):
+            if not np.isclose(np.linalg.norm(v), 1.0, atol=1e-3):
+                raise ValueError(f"{label} must be a unit vector, found {tuple(v)}")
+        if abs(float(a @ c)) > 1e-3:
+            raise ValueError("approach_axis and closing_axis must be perpendicular")
+        names = [f.name for f in self.fingers]
+        if len(set(names)) != len(names):
+            raise ValueError(f"finger names must be unique, found {names}")
+        return self
+
+
+def load_gripper_description(path: str | Path) -> tuple[GripperDescription, Path]:
+    """Load and validate a gripper YAML; returns it and the YAML's directory."""
+    data, lines = load_document(path)
+    desc = validate_document(
+        GripperDescription,
+        data,
+        lines,
+        "gripper description",
+        hint="see schemas/gripper.schema.json for the fields of a gripper YAML",
+    )
+    return desc, Path(path).resolve().parent
+
+
+# --------------------------------------------------------------------------------
+# Pipeline spec
+# --------------------------------------------------------------------------------
+class PluginRef(_Model):
+    """A plugin by name, with its options (validated by the plugin's model)."""
+
+    name: str
+    options: dict[str, Any] = Field(default_factory=dict)
+
+
+class ScorerRef(PluginRef):
+    """A scorer and its weight in the combined score."""
+
+    weight: float = Field(1.0, ge=0.0)
+
+
+class TargetRule(_Model):
+    """Which cluster is the object when the segmenter finds several."""
+
+    rule: Literal["largest", "nearest", "inside_box", "only"] = Field(
+        "largest",
+        description="largest cluster, nearest to `point`, the one inside `box`, or "
+        "`only` (several clusters are an error)",
+    )
+    point: Vec3 | None = Field(None, description="for rule nearest, world frame (m)")
+    box_min: Vec3 | None = Field(None, description="for rule inside_box (m)")
+    box_max: Vec3 | None = Field(None, description="for rule inside_box (m)")
+    obstacles: bool = Field(
+        True, description="other clusters are obstacles candidates must not hit"
+    )
+
+    @model_validator(mode="after")
+    def _needs(self) -> TargetRule:
+        if self.rule == "nearest" and self.point is None:
+            raise ValueError("target.rule 'nearest' needs target.point")
+        if self.rule == "inside_box" and (self.box_min is None or self.box_max is None):
+            raise ValueError("target.rule 'inside_box' needs box_min and box_max")
+        return self
+
+
+class Preprocess(_Model):
+    """Scene preprocessing."""
+
+    voxel_size: float = Field(0.005, gt=0.0, le=0.1, description="voxel (m)")
+    max_object_points: int = Field(
+        800, ge=10, description="object cloud is thinned to at most this (no)"
+    )
+    icp: bool = Field(False, description="refine view poses with ICP")
+    crop_radius: float | None = Field(
+        None, gt=0.0, description="drop points farther than this from the origin"
+    )
+
+
+class ObjectFrame(_Model):
+    """How the object frame (z = major axis) is found."""
+
+    method: Literal["farthest_split", "pca"] = "farthest_split"
+
+
+class Sampling(_Model):
+    """Candidate sampling: points in the object's box times orientations."""
+
+    points: int = Field(147, ge=1, le=100000, description="ns")
+    grid: tuple[int, int, int] | None = Field(
+        None, description="explicit grid along object x, y, z; overrides points"
+    )
+    scale: Vec3 = Field(
+        (0.95, 0.95, 0.70), description="fraction of the object extents sampled"
+    )
+    orientations: int = Field(4, ge=1, le=360, description="nos")
+    angle_range_deg: float = Field(
+        360.0, gt=0.0, le=360.0, description="orientations span this about z"
+    )
+
+
+class TableSettings(_Model):
+    """The table's special ellipsoid, under the table surface."""
+
+    semi_axes: Vec3 = Field((0.35, 0.35, 0.05), description="in-plane a, b; depth c")
+    exponent: float = Field(10.0, ge=2.0)
+    clearance: float = Field(
+        0.0, ge=0.0, description="raise the SE's top by this (m) for a safety margin"
+    )
+
+
+class RecordSettings(_Model):
+    """Recording of runs to MCAP."""
+
+    enabled: bool = True
+    dir: str = "runs"
+
+
+class PipelineSpec(_Model):
+    """A whole pipeline: gripper, segmenter, preprocessing, sampling, scoring."""
+
+    version: Literal[1] = 1
+    gripper: str = Field(
+        description="a registered gripper name, or a path to a gripper YAML"
+    )
+    segmenter: PluginRef = PluginRef(name="ransac_dbscan")
+    target: TargetRule = TargetRule()
+    preprocess: Preprocess = Preprocess()
+    object_frame: ObjectFrame = ObjectFrame()
+    sampling: Sampling = Sampling()
+    table: TableSettings = TableSettings()
+    scorers: list[ScorerRef] = Field(
+        default_factory=lambda: [ScorerRef(name="centroid_distance")], min_length=1
+    )
+    top_k: int = Field(5, ge=1, le=1000, description="alternatives kept")
+    seed: int = Field(0, description="random seed for every random step")
+    record: RecordSettings = RecordSettings()
+
+    #: where the spec was loaded from (not part of the file)
+    _source: Path | None = None
+
+    @property
+    def source(self) -> Path | None:
+        """The file this spec was loaded from, if any."""
+        return self._source
+
+
+def load_spec(
+    source: str | Path | dict[str, Any],
+    *,
+    registry: Any | None = None,
+    check_plugins: bool = True,
+) -> PipelineSpec:
+    """Load and validate a pipeline spec.
+
+    Parameters
+    ----------
+    source
+        A YAML/TOML/JSON file or an already loaded mapping.
+    registry
+        Plugin registry to resolve names and options against; the process-wide one
+        by default.
+    check_plugins
+        Resolve the segmenter and scorers and validate their options.
+
+    Raises
+    ------
+    SpecError
+        With file, line, key path, what was expected and what was found.
+    """
+    lines: DocumentLines | None = None
+    if isinstance(source, dict):
+        data = source
+    else:
+        data, lines = load_document(source)
+    spec: PipelineSpec = validate_document(
+        PipelineSpec,
+        data,
+        lines,
+        "pipeline spec",
+        hint="see schemas/pipeline.schema.json, or `wsgrasp spec check FILE`",
+    )
+    if lines is not None:
+        spec._source = lines.path
+    if check_plugins:
+        from wsgrasp.plugins import get_registry
+
+        reg = registry if registry is not None else get_registry()
+        _check_plugin(reg, "segmenters", spec.segmenter, ("segmenter",), lines)
+        for i, ref in enumerate(spec.scorers):
+            _check_plugin(reg, "scorers", ref, ("scorers", i), lines)
+        if not _looks_like_path(spec.gripper):
+            _check_name(reg, "grippers", spec.gripper, ("gripper",), lines)
+    return spec
+
+
+def _looks_like_path(name: str) -> bool:
+    return name.endswith((".yaml", ".yml", ".json", ".toml")) or "/" in name
+
+
+def _where(lines: DocumentLines | None, loc: tuple[str | int, ...]) -> str:
+    if lines is None or lines.path is None:
+        return ""
+    line = lines.line_of(loc)
+    return f"{lines.path}:{line}: " if line else f"{lines.path}: "
+
+
+def _check_name(
+    reg: Any, kind: str, name: str, loc: tuple[str | int, ...], lines: Any
+) -> Any:
+    try:
+        return reg.get(kind, name)
+    except PluginError as exc:
+        raise SpecError(
+            _where(lines, loc) + ".".join(map(str, loc)) + ": " + exc.message,
+            hint=exc.hint,
+        ) from None
+
+
+def _check_plugin(
+    reg: Any,
+    kind: str,
+    ref: PluginRef,
+    loc: tuple[str | int, ...],
+    lines: DocumentLines | None,
+) -> None:
+    entry = _check_name(reg, kind, ref.name, (*loc, "name"), lines)
+    options_model = getattr(entry.obj, "Options", None)
+    if options_model is None:
+        return
+    try:
+        options_model.model_validate(ref.options)
+    except ValidationError as exc:
+        msg = format_validation_error(
+            exc, lines, f"options of {kind[:-1]} {ref.name!r}", (*loc, "options")
+        )
+        raise SpecError(
+            msg,
+            hint=f"see the options of {ref.name!r} in `wsgrasp plugins --options`",
+        ) from None
+
+
+def json_schemas() -> dict[str, dict[str, Any]]:
+    """JSON Schemas of the pipeline spec and the gripper description, by file name."""
+    out = {}
+    for fname, model, title in (
+        ("pipeline.schema.json", PipelineSpec, "wsgrasp pipeline spec"),
+        ("gripper.schema.json", GripperDescription, "wsgrasp gripper description"),
+    ):
+        schema = model.model_json_schema()
+        schema["title"] = title
+        schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
+        out[fname] = schema
+    return out
+
+
+def write_schemas(directory: str | Path) -> list[Path]:
+    """Write the JSON Schemas into ``directory``; returns the paths written."""
+    import json
+
+    d = Path(directory)
+    d.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for fname, schema in json_schemas().items():
+        p = d / fname
+        p.write_text(json.dumps(schema, indent=2, sort_keys=True) + "\n")
+        paths.append(p)
+    return paths
