@@ -29,3 +29,8 @@ __all__ = [
     "__version__",
     "hookimpl",
 ]
+
+from wsgrasp.api import Pipeline, plan  # noqa: E402
+from wsgrasp.spec import load_spec  # noqa: E402
+
+__all__ += ["Pipeline", "load_spec", "plan"]

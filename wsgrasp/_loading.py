@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import json
 import re
-import tomllib
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import tomllib
 import yaml
 from pydantic import BaseModel, ValidationError
 
@@ -68,8 +68,8 @@ def load_document(path: str | Path) -> tuple[dict[str, Any], DocumentLines]:
     p = Path(path)
     if not p.is_file():
         raise SpecError(
-            f"{p}: file not found", hint="check the path (relative to the current "
-            "directory)"
+            f"{p}: file not found",
+            hint="check the path (relative to the current directory)",
         )
     text = p.read_text(encoding="utf-8")
     suffix = p.suffix.lower()

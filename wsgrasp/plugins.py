@@ -58,9 +58,7 @@ class _Hooks:
         ``GripperModel``, or a ``GripperDescription``."""
 
     @hookspec
-    def wsgrasp_register_segmenters(
-        self, register: Callable[[str, Any], None]
-    ) -> None:
+    def wsgrasp_register_segmenters(self, register: Callable[[str, Any], None]) -> None:
         """Register segmenters: ``register(name, segmenter_class)``. The class has an
         ``Options`` pydantic model and a ``segment(scene, options)`` method."""
 

@@ -39,14 +39,24 @@ def plugins(
         print_json({"plugins": summary, "failed": failed})
         return
     table = Table(title="wsgrasp plugins")
-    for col in ("plugin", "distribution", "version", "grippers", "segmenters", "scorers"):
+    for col in (
+        "plugin",
+        "distribution",
+        "version",
+        "grippers",
+        "segmenters",
+        "scorers",
+    ):
         table.add_column(col)
     for p in summary:
         table.add_row(
             p["name"],
             p["distribution"],
             p["version"],
-            *(", ".join(p["provides"].get(k, [])) for k in ("grippers", "segmenters", "scorers")),
+            *(
+                ", ".join(p["provides"].get(k, []))
+                for k in ("grippers", "segmenters", "scorers")
+            ),
         )
     console.print(table)
     for f in failed:
@@ -67,7 +77,9 @@ def schema(
 
 
 @spec_app.command("check")
-def spec_check(file: Path = typer.Argument(..., help="Spec file (YAML/TOML/JSON).")) -> None:
+def spec_check(
+    file: Path = typer.Argument(..., help="Spec file (YAML/TOML/JSON)."),
+) -> None:
     """Validate a pipeline spec, including its plugins' options."""
     from wsgrasp.spec import load_spec
 

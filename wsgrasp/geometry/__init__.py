@@ -2,6 +2,7 @@
 
 from wsgrasp.geometry._spheres import points_in_spheres, spheres_hit_by_points
 from wsgrasp.geometry._superellipsoid import (
+    coordinates_in_superellipsoids,
     points_in_superellipsoids,
     superellipsoid_values,
 )
@@ -18,6 +19,7 @@ from wsgrasp.geometry._transforms import (
 
 __all__ = [
     "check_points",
+    "coordinates_in_superellipsoids",
     "check_transforms",
     "invert_transforms",
     "points_in_spheres",

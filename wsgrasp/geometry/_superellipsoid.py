@@ -58,6 +58,60 @@ def superellipsoid_values(
     return _power(d[..., 0], exponent) + _power(d[..., 1], exponent) + d[..., 2] ** 2
 
 
+def coordinates_in_superellipsoids(
+    x: ArrayLike,
+    y: ArrayLike,
+    z: ArrayLike,
+    centers: ArrayLike,
+    semi_axes: ArrayLike,
+    exponent: float = 10.0,
+) -> NDArray[np.bool_]:
+    """Which points, given as separate coordinate arrays, lie strictly inside any
+    of the superellipsoids.
+
+    Working on contiguous per-coordinate arrays, one superellipsoid at a time, with
+    a bounding-box test before eq. (1), is several times faster than a
+    ``(..., n, m, 3)`` difference array.
+
+    Parameters
+    ----------
+    x, y, z : (...) float
+        Coordinates of the points, all of one shape.
+    centers, semi_axes : (m, 3) float
+    exponent
+        ``l`` of eq. (1).
+
+    Returns
+    -------
+    (...) bool
+    """
+    x = np.asarray(x, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    z = np.asarray(z, dtype=np.float64)
+    c = np.asarray(centers, dtype=np.float64).reshape(-1, 3)
+    ax = np.asarray(semi_axes, dtype=np.float64).reshape(-1, 3)
+    inside = np.zeros(x.shape, dtype=bool)
+    for e in range(len(c)):  # a handful of superellipsoids; points are vectorised
+        dx = np.abs(x - c[e, 0])
+        box = dx < ax[e, 0]
+        dy = np.abs(y - c[e, 1])
+        box &= dy < ax[e, 1]
+        dz = np.abs(z - c[e, 2])
+        box &= dz < ax[e, 2]
+        box &= ~inside
+        hits = np.nonzero(box)
+        if hits[0].size == 0:
+            continue
+        value = (
+            _power(dx[hits] / ax[e, 0], exponent)
+            + _power(dy[hits] / ax[e, 1], exponent)
+            + (dz[hits] / ax[e, 2]) ** 2
+        )
+        keep = value < 1.0
+        inside[tuple(h[keep] for h in hits)] = True
+    return inside
+
+
 def points_in_superellipsoids(
     points: ArrayLike,
     centers: ArrayLike,
@@ -65,9 +119,6 @@ def points_in_superellipsoids(
     exponent: float = 10.0,
 ) -> NDArray[np.bool_]:
     """Which points lie strictly inside any of the superellipsoids.
-
-    A cheap bounding-box test (a point inside an SE is inside its box) runs first;
-    eq. (1) is evaluated only for the points that pass it.
 
     Parameters
     ----------
@@ -81,14 +132,6 @@ def points_in_superellipsoids(
     (..., n) bool
     """
     p = np.asarray(points, dtype=np.float64)
-    c = np.asarray(centers, dtype=np.float64).reshape(-1, 3)
-    ax = np.asarray(semi_axes, dtype=np.float64).reshape(-1, 3)
-    flat = p.reshape(-1, 3)  # (N, 3) with N = prod(batch) * n
-    inside = np.zeros(flat.shape[0], dtype=bool)
-    lo = (c - ax).min(axis=0)
-    hi = (c + ax).max(axis=0)
-    near = np.flatnonzero(np.all((flat > lo) & (flat < hi), axis=1))
-    if near.size:
-        values = superellipsoid_values(flat[near], c, ax, exponent)  # (k, m)
-        inside[near] = np.any(values < 1.0, axis=1)
-    return inside.reshape(p.shape[:-1])
+    return coordinates_in_superellipsoids(
+        p[..., 0], p[..., 1], p[..., 2], centers, semi_axes, exponent
+    )

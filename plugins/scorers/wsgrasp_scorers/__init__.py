@@ -1,1 +1,118 @@
-"""Built-in wsgrasp scorers, registered through the `wsgrasp` entry-point group."""
+"""Built-in candidate scorers, registered through the ``wsgrasp`` entry-point group.
+
+Each scorer is vectorised over the batch of feasible candidates and returns one
+value per candidate, higher is better, within [0, 1] so that weights in a spec
+compare like with like.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from wsgrasp.plugins import hookimpl
+
+__all__ = [
+    "AntipodalScorer",
+    "ApproachDirectionScorer",
+    "CentroidDistanceScorer",
+    "ContactBalanceScorer",
+    "TableClearanceScorer",
+]
+
+
+class _Options(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class CentroidDistanceScorer:
+    """The paper's criterion: the GWC frame's origin close to the object centroid.
+
+    ``1 / (1 + d / d_ref)`` with ``d`` the distance and ``d_ref`` half the object's
+    diagonal: monotone in ``d``, so the best candidate is the paper's.
+    """
+
+    class Options(_Options):
+        pass
+
+    def score(self, batch: Any, options: Options) -> np.ndarray:
+        d = np.linalg.norm(
+            batch.T_world_gwc[:, :3, 3] - batch.T_world_object[:3, 3], axis=-1
+        )
+        d_ref = max(0.5 * float(np.linalg.norm(batch.extents)), 1e-6)
+        return 1.0 / (1.0 + d / d_ref)
+
+
+class ContactBalanceScorer:
+    """Every finger holding a similar share of the object: ``min / max`` of the
+    object points held per finger."""
+
+    class Options(_Options):
+        pass
+
+    def score(self, batch: Any, options: Options) -> np.ndarray:
+        counts = batch.contacts.astype(np.float64)  # (F, nf)
+        return counts.min(axis=1) / np.maximum(counts.max(axis=1), 1.0)
+
+
+class AntipodalScorer:
+    """Contact normals that oppose each other and line up with the closing axis.
+
+    Half of the term is the opposition of the fingers' mean contact normals,
+    ``1 - |Σ n_f| / nf`` (1 when they cancel), half is their alignment with the
+    closing axis, ``mean |n_f · closing|``.
+    """
+
+    class Options(_Options):
+        pass
+
+    def score(self, batch: Any, options: Options) -> np.ndarray:
+        n = batch.contact_normals  # (F, nf, 3)
+        nf = n.shape[1]
+        opposition = 1.0 - np.linalg.norm(n.sum(axis=1), axis=-1) / nf
+        alignment = np.abs(np.einsum("fnj,fj->fn", n, batch.closing)).mean(axis=1)
+        return 0.5 * np.clip(opposition, 0.0, 1.0) + 0.5 * alignment
+
+
+class TableClearanceScorer:
+    """Distance between the gripper and the table, saturating at ``margin``."""
+
+    class Options(_Options):
+        margin: float = Field(
+            0.03, gt=0.0, description="clearance (m) that earns the full score"
+        )
+
+    def score(self, batch: Any, options: Options) -> np.ndarray:
+        return np.clip(batch.min_table_height / options.margin, 0.0, 1.0)
+
+
+class ApproachDirectionScorer:
+    """Preference for an approach direction: ``(1 + a · d) / 2``.
+
+    ``direction`` is ``against_table`` (straight down onto the table) or a vector
+    in the world frame.
+    """
+
+    class Options(_Options):
+        direction: Literal["against_table"] | tuple[float, float, float] = (
+            "against_table"
+        )
+
+    def score(self, batch: Any, options: Options) -> np.ndarray:
+        if options.direction == "against_table":
+            d = -np.asarray(batch.table_normal, dtype=np.float64)
+        else:
+            d = np.asarray(options.direction, dtype=np.float64)
+            d = d / max(float(np.linalg.norm(d)), 1e-12)
+        return 0.5 * (1.0 + batch.approach @ d)
+
+
+@hookimpl
+def wsgrasp_register_scorers(register: Any) -> None:
+    register("centroid_distance", CentroidDistanceScorer)
+    register("contact_balance", ContactBalanceScorer)
+    register("antipodal", AntipodalScorer)
+    register("table_clearance", TableClearanceScorer)
+    register("approach_direction", ApproachDirectionScorer)

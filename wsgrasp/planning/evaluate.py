@@ -1,0 +1,264 @@
+"""Batched evaluation of grasp candidates (Algorithm 1, lines 8–24, vectorised).
+
+Each candidate gets the first rejection reason that applies, in Algorithm 1's order:
+table collision (gripper cloud inside the table superellipsoid), object collision
+(object points inside a body superellipsoid), obstacle collision (points of other
+objects inside a body superellipsoid), and a finger with no object point inside any
+of its workspace spheres. Later checks run only on the survivors of earlier ones.
+
+Cost does not grow with the number of spheres: per finger, a point lies inside some
+sphere ``(c, r)`` exactly when its nearest neighbour among the lifted centres
+``(c, sqrt(R² - r²))`` (``R`` the finger's largest radius) lies closer than ``R``
+to ``(p, 0)``, so one KD-tree query per point and finger answers it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import cKDTree
+
+from wsgrasp.geometry import (
+    coordinates_in_superellipsoids,
+    invert_transforms,
+)
+from wsgrasp.gripper.model import GripperModel
+
+__all__ = ["FingerSpheres", "Evaluation", "evaluate_candidates", "TableSE"]
+
+Array = NDArray[np.float64]
+
+#: Work on at most this many transformed points at once (bounds memory).
+_CHUNK_POINTS = 2_000_000
+
+
+@dataclass(frozen=True)
+class TableSE:
+    """The table's superellipsoid, in the table frame (z = table normal).
+
+    Attributes
+    ----------
+    T_world_table : (4, 4) float
+    center, semi_axes : (3,) float
+    exponent : float
+    """
+
+    T_world_table: Array
+    center: Array
+    semi_axes: Array
+    exponent: float
+
+
+class FingerSpheres:
+    """Exact point-in-sphere queries per finger, at a cost independent of the
+    number of spheres (a KD-tree over lifted centres per finger)."""
+
+    def __init__(self, gripper: GripperModel) -> None:
+        self.num_fingers = gripper.num_fingers
+        self._fingers = []
+        for f in range(self.num_fingers):
+            sel = gripper.sphere_finger == f
+            centers = gripper.sphere_centers[sel]  # (nsp, 3)
+            radii = gripper.sphere_radii[sel]  # (nsp,)
+            R = float(radii.max())
+            lifted = np.hstack([centers, np.sqrt(R * R - radii * radii)[:, None]])
+            lo = (centers - radii[:, None]).min(axis=0)
+            hi = (centers + radii[:, None]).max(axis=0)
+            self._fingers.append((cKDTree(lifted), centers, radii, R, lo, hi))
+
+    def holding(self, points: Array) -> NDArray[np.bool_]:
+        """Which finger's spheres hold each point.
+
+        Parameters
+        ----------
+        points : (n, 3) float
+            In the gripper frame.
+
+        Returns
+        -------
+        (n, nf) bool
+        """
+        out = np.zeros((len(points), self.num_fingers), dtype=bool)
+        for f, (tree, centers, radii, R, lo, hi) in enumerate(self._fingers):
+            idx = np.flatnonzero(np.all((points > lo) & (points < hi), axis=1))
+            if idx.size == 0:
+                continue
+            query = np.hstack([points[idx], np.zeros((idx.size, 1))])  # (k, 4)
+            _, nearest = tree.query(query, k=1, distance_upper_bound=R)
+            found = nearest < len(centers)
+            idx, nearest = idx[found], nearest[found]
+            # exact test against the sphere nearest in power distance
+            d2 = np.sum((points[idx] - centers[nearest]) ** 2, axis=-1)
+            out[idx[d2 < radii[nearest] * radii[nearest]], f] = True
+        return out
+
+
+@dataclass
+class Evaluation:
+    """What evaluation found, per candidate ``C`` and for the feasible ones ``F``.
+
+    Attributes
+    ----------
+    reason : (C,) int
+        Code into ``REASONS`` (0 feasible).
+    contacts : (C, nf) int
+        Object points held per finger (evaluated candidates only, else 0).
+    feasible : (F,) int
+        Indices of the feasible candidates.
+    holding : (F, no, nf) bool
+        Which object points each finger's spheres hold, per feasible candidate.
+    min_table_height : (F,) float
+        Lowest gripper-cloud point above the table surface, per feasible candidate.
+    """
+
+    reason: NDArray[np.int64]
+    contacts: NDArray[np.int64]
+    feasible: NDArray[np.int64]
+    holding: NDArray[np.bool_]
+    min_table_height: Array
+
+
+def _chunks(n_items: int, points_per_item: int) -> list[slice]:
+    step = max(1, _CHUNK_POINTS // max(points_per_item, 1))
+    return [slice(i, min(i + step, n_items)) for i in range(0, n_items, step)]
+
+
+def _inside(
+    T: Array, points: Array, se: tuple[Array, Array, float]
+) -> NDArray[np.bool_]:
+    """Whether ``T[k] @ points[k]`` lies inside the SE, for transforms ``(k, 4, 4)``
+    and points ``(k, 3)``: ``(k,)``."""
+    p = np.einsum("kij,kj->ki", T[:, :3, :3], points) + T[:, :3, 3]  # (k, 3)
+    return coordinates_in_superellipsoids(p[:, 0], p[:, 1], p[:, 2], *se)
+
+
+def table_collisions(
+    T_world_gripper: Array, cloud: Array, table: TableSE
+) -> tuple[NDArray[np.bool_], Array]:
+    """Candidates whose gripper cloud enters the table superellipsoid.
+
+    Returns
+    -------
+    hit : (C,) bool
+    min_height : (C,) float
+        Lowest cloud point above the table surface (z = 0 of the table frame).
+    """
+    T_table_gripper = invert_transforms(table.T_world_table) @ T_world_gripper
+    top = table.center[2] + table.semi_axes[2]
+    hit = np.zeros(len(T_world_gripper), dtype=bool)
+    min_height = np.empty(len(T_world_gripper))
+    se = (table.center, table.semi_axes, table.exponent)
+    for sl in _chunks(len(T_world_gripper), len(cloud)):
+        T = T_table_gripper[sl]
+        # heights of every cloud point in the table frame: (c, ng)
+        z = (cloud @ T[:, 2, :3].T).T + T[:, 2, 3][:, None]
+        min_height[sl] = z.min(axis=1)
+        below = z < top  # only these can be inside the SE
+        maybe = np.flatnonzero(below.any(axis=1))
+        if maybe.size == 0:
+            continue
+        block = np.zeros(len(T), dtype=bool)
+        # quick: the lowest point of each candidate is nearly always inside when
+        # any point is; test it first, all the points below the top only for the rest
+        lowest = cloud[z[maybe].argmin(axis=1)]  # (k, 3)
+        block[maybe] = _inside(T[maybe], lowest, se)
+        rest = maybe[~block[maybe]]
+        if rest.size:
+            ci, pi = np.nonzero(below[rest])
+            inside = _inside(T[rest[ci]], cloud[pi], se)
+            block[rest[ci[inside]]] = True
+        hit[sl] = block
+    return hit, min_height
+
+
+def _coordinates(T: Array, points: Array) -> tuple[Array, Array, Array]:
+    """Points ``(n, 3)`` under transforms ``(a, 4, 4)``, as three ``(n, a)`` arrays."""
+    R, t = T[:, :3, :3], T[:, :3, 3]
+    x = points @ R[:, 0, :].T + t[:, 0]
+    y = points @ R[:, 1, :].T + t[:, 1]
+    z = points @ R[:, 2, :].T + t[:, 2]
+    return x, y, z
+
+
+def evaluate_candidates(
+    T_world_gripper: Array,
+    gripper: GripperModel,
+    object_points: Array,
+    obstacle_points: Array,
+    table: TableSE,
+    spheres: FingerSpheres | None = None,
+) -> Evaluation:
+    """Evaluate every candidate pose.
+
+    Parameters
+    ----------
+    T_world_gripper : (C, 4, 4) float
+    gripper : GripperModel
+    object_points : (no, 3) float
+        World frame.
+    obstacle_points : (k, 3) float
+        Points of other objects, world frame (may be empty).
+    table : TableSE
+    spheres : FingerSpheres, optional
+        Prebuilt sphere index of ``gripper`` (built here when omitted).
+    """
+    spheres = spheres or FingerSpheres(gripper)
+    C, nf, no = len(T_world_gripper), gripper.num_fingers, len(object_points)
+    reason = np.zeros(C, dtype=np.int64)
+    contacts = np.zeros((C, nf), dtype=np.int64)
+
+    # 1. table
+    table_hit, min_height = table_collisions(T_world_gripper, gripper.cloud, table)
+    reason[table_hit] = 1
+    alive = np.flatnonzero(~table_hit)
+
+    feasible_parts: list[NDArray[np.int64]] = []
+    holding_parts: list[NDArray[np.bool_]] = []
+    T_gripper_world = invert_transforms(T_world_gripper[alive])  # (A, 4, 4)
+    se = (gripper.se_centers, gripper.se_semi_axes, gripper.se_exponent)
+    for sl in _chunks(len(alive), max(no, len(obstacle_points))):
+        idx = alive[sl]
+        T = T_gripper_world[sl]
+        # 2. object points in the gripper frame, one array per coordinate: 3 × (no, a)
+        xyz = _coordinates(T, object_points)
+        obj_hit = coordinates_in_superellipsoids(*xyz, *se).any(axis=0)  # (a,)
+        reason[idx[obj_hit]] = 2
+        keep = ~obj_hit
+        # 3. obstacles
+        if len(obstacle_points) and keep.any():
+            obs_hit = np.zeros(len(idx), dtype=bool)
+            obs_xyz = _coordinates(T[keep], obstacle_points)
+            obs_hit[keep] = coordinates_in_superellipsoids(*obs_xyz, *se).any(axis=0)
+            reason[idx[obs_hit]] = 3
+            keep &= ~obs_hit
+        if not keep.any():
+            continue
+        # 4. fingers: 3 × (no, b) -> (b, no, 3) -> (b * no, 3) -> (b, no, nf)
+        p_keep = np.stack([c[:, keep] for c in xyz], axis=-1).transpose(1, 0, 2)
+        b = len(p_keep)
+        held = spheres.holding(p_keep.reshape(-1, 3)).reshape(b, no, nf)
+        counts = held.sum(axis=1)  # (b, nf)
+        kept_idx = idx[keep]
+        contacts[kept_idx] = counts
+        ok = np.all(counts > 0, axis=1)
+        reason[kept_idx[~ok]] = 4
+        feasible_parts.append(kept_idx[ok])
+        holding_parts.append(held[ok])
+
+    feasible = (
+        np.concatenate(feasible_parts) if feasible_parts else np.zeros(0, np.int64)
+    )
+    holding = (
+        np.concatenate(holding_parts)
+        if holding_parts
+        else np.zeros((0, no, nf), dtype=bool)
+    )
+    return Evaluation(
+        reason=reason,
+        contacts=contacts,
+        feasible=feasible,
+        holding=holding,
+        min_table_height=min_height[feasible],
+    )

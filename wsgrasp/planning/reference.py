@@ -1,0 +1,131 @@
+"""A plain, loop-by-loop implementation of the paper's Algorithm 1.
+
+This is the oracle the vectorised search is tested against and the baseline of
+``wsgrasp bench``. It follows the paper's structure: loops over samples,
+orientations, superellipsoids, fingers and spheres, with only the innermost
+loop over points done by numpy (as the authors' C++ does with PCL). It is not
+used for planning.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from wsgrasp.gripper.model import GripperModel
+from wsgrasp.planning.evaluate import TableSE
+
+__all__ = ["ReferenceResult", "reference_search"]
+
+Array = NDArray[np.float64]
+
+
+@dataclass
+class ReferenceResult:
+    reason: NDArray[np.int64]  # (C,) codes into REASONS
+    contacts: NDArray[np.int64]  # (C, nf)
+    best: int | None  # index of the paper's choice, or None
+    best_distance: float
+
+
+def _se_value(p: Array, center: Array, axes: Array, exponent: float) -> Array:
+    d = np.abs(p - center) / axes
+    return d[:, 0] ** exponent + d[:, 1] ** exponent + d[:, 2] ** 2
+
+
+def _rt(T: Array, p: Array) -> Array:
+    return p @ T[:3, :3].T + T[:3, 3]
+
+
+def _inv(T: Array) -> Array:
+    out = np.eye(4)
+    out[:3, :3] = T[:3, :3].T
+    out[:3, 3] = -T[:3, :3].T @ T[:3, 3]
+    return out
+
+
+def reference_search(
+    gripper: GripperModel,
+    T_world_object: Array,
+    samples_object: Array,
+    thetas: Array,
+    object_points: Array,
+    obstacle_points: Array,
+    table: TableSE,
+) -> ReferenceResult:
+    """Algorithm 1, one candidate at a time; same candidate order as the fast path
+    (samples outer, orientations inner)."""
+    g = gripper
+    nf = g.num_fingers
+    C = len(samples_object) * len(thetas)
+    reason = np.zeros(C, dtype=np.int64)
+    contacts = np.zeros((C, nf), dtype=np.int64)
+    T_table_world = _inv(table.T_world_table)
+    T_gwc_gripper = _inv(g.T_gripper_gwc)
+    centroid = T_world_object[:3, 3]
+    best, best_d = None, np.inf
+    k = -1
+    for s in samples_object:
+        for theta in thetas:
+            k += 1
+            c, sn = np.cos(theta), np.sin(theta)
+            T_object_gwc = np.eye(4)
+            T_object_gwc[:3, 0] = [0.0, 0.0, 1.0]
+            T_object_gwc[:3, 1] = [-sn, c, 0.0]
+            T_object_gwc[:3, 2] = [-c, -sn, 0.0]
+            T_object_gwc[:3, 3] = s
+            T_world_gwc = T_world_object @ T_object_gwc
+            T_world_gripper = T_world_gwc @ T_gwc_gripper
+            # table: gripper cloud in the table frame
+            cloud_table = _rt(T_table_world @ T_world_gripper, g.cloud)
+            if np.any(
+                _se_value(cloud_table, table.center, table.semi_axes, table.exponent)
+                < 1.0
+            ):
+                reason[k] = 1
+                continue
+            T_gripper_world = _inv(T_world_gripper)
+            obj = _rt(T_gripper_world, object_points)
+            hit = False
+            for e in range(len(g.se_centers)):
+                if np.any(
+                    _se_value(obj, g.se_centers[e], g.se_semi_axes[e], g.se_exponent)
+                    < 1.0
+                ):
+                    hit = True
+                    break
+            if hit:
+                reason[k] = 2
+                continue
+            if len(obstacle_points):
+                obs = _rt(T_gripper_world, obstacle_points)
+                for e in range(len(g.se_centers)):
+                    if np.any(
+                        _se_value(
+                            obs, g.se_centers[e], g.se_semi_axes[e], g.se_exponent
+                        )
+                        < 1.0
+                    ):
+                        hit = True
+                        break
+                if hit:
+                    reason[k] = 3
+                    continue
+            d = float(np.linalg.norm(T_world_gwc[:3, 3] - centroid))
+            held = np.zeros((len(obj), nf), dtype=bool)
+            for i_sphere in range(len(g.sphere_centers)):
+                f = g.sphere_finger[i_sphere]
+                r = g.sphere_radii[i_sphere]
+                inside = (
+                    np.sum((obj - g.sphere_centers[i_sphere]) ** 2, axis=-1) < r * r
+                )
+                held[:, f] |= inside
+            contacts[k] = held.sum(axis=0)
+            if np.all(contacts[k] > 0):
+                if d < best_d:
+                    best, best_d = k, d
+            else:
+                reason[k] = 4
+    return ReferenceResult(reason, contacts, best, float(best_d))

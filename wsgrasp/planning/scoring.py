@@ -1,0 +1,149 @@
+"""Scoring feasible candidates: the batch scorers see, and their weighted sum."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any, ClassVar, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+from pydantic import BaseModel
+
+from wsgrasp.errors import PluginError
+from wsgrasp.gripper.model import GripperModel
+
+__all__ = ["CandidateBatch", "Scorer", "combine_scores"]
+
+Array = NDArray[np.float64]
+
+
+@dataclass
+class CandidateBatch:
+    """The feasible candidates ``F``, as scorers see them. World frame throughout.
+
+    Attributes
+    ----------
+    gripper : GripperModel
+    T_world_gwc, T_world_gripper : (F, 4, 4) float
+    theta : (F,) float
+    holding : (F, no, nf) bool
+        Which object points each finger's spheres hold.
+    object_points : (no, 3) float
+    T_world_object : (4, 4) float
+        Origin at the object's centroid, z along its major axis.
+    extents : (3,) float
+        Object extents along the object axes.
+    table_normal : (3,) float
+        Unit normal of the table, pointing to the object.
+    min_table_height : (F,) float
+        Lowest gripper point above the table surface.
+    """
+
+    gripper: GripperModel
+    T_world_gwc: Array
+    T_world_gripper: Array
+    theta: Array
+    holding: NDArray[np.bool_]
+    object_points: Array
+    T_world_object: Array
+    extents: Array
+    table_normal: Array
+    min_table_height: Array
+    normals_fn: Callable[[Array], Array] | None = field(default=None, repr=False)
+
+    def __len__(self) -> int:
+        return int(self.T_world_gwc.shape[0])
+
+    @cached_property
+    def contacts(self) -> NDArray[np.int64]:
+        """Object points held per finger, ``(F, nf)``."""
+        return self.holding.sum(axis=1)
+
+    @cached_property
+    def contact_centroids(self) -> Array:
+        """Centroid of the points each finger holds, ``(F, nf, 3)`` (NaN if none)."""
+        w = self.holding.astype(np.float64)  # (F, no, nf)
+        sums = np.einsum("fpn,pj->fnj", w, self.object_points)  # (F, nf, 3)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return sums / self.contacts[..., None]
+
+    @cached_property
+    def object_normals(self) -> Array:
+        """Outward unit surface normals of the object points, ``(no, 3)``."""
+        if self.normals_fn is None:
+            raise PluginError(
+                "this batch has no surface normals",
+                hint="plan through wsgrasp.Pipeline, which provides them",
+            )
+        return self.normals_fn(self.object_points)
+
+    @cached_property
+    def contact_normals(self) -> Array:
+        """Mean outward normal of the points each finger holds, unit, ``(F, nf, 3)``
+        (zero where a finger holds nothing)."""
+        w = self.holding.astype(np.float64)
+        n = np.einsum("fpn,pj->fnj", w, self.object_normals)  # (F, nf, 3)
+        norm = np.linalg.norm(n, axis=-1, keepdims=True)
+        return np.divide(n, norm, out=np.zeros_like(n), where=norm > 0)
+
+    @property
+    def approach(self) -> Array:
+        """Approach direction of each candidate, ``(F, 3)`` (GWC z)."""
+        return self.T_world_gwc[:, :3, 2]
+
+    @property
+    def closing(self) -> Array:
+        """Closing direction of each candidate, ``(F, 3)`` (GWC y)."""
+        return self.T_world_gwc[:, :3, 1]
+
+
+class Scorer(Protocol):
+    """What a scorer plugin registers: a class with an ``Options`` model and a
+    vectorised ``score``; higher is better, ideally within [0, 1]."""
+
+    Options: ClassVar[type[BaseModel]]
+
+    def score(self, batch: CandidateBatch, options: Any) -> Array:
+        """One score per candidate of ``batch``, ``(F,)``."""
+        ...
+
+
+def combine_scores(
+    batch: CandidateBatch,
+    scorers: Sequence[tuple[str, Any, Any, float]],
+) -> tuple[Array, dict[str, Array]]:
+    """Weighted sum of the scorers' terms.
+
+    Parameters
+    ----------
+    batch : CandidateBatch
+    scorers : sequence of (name, scorer, options, weight)
+
+    Returns
+    -------
+    total : (F,) float
+    terms : dict of name to (F,) float
+    """
+    total = np.zeros(len(batch))
+    terms: dict[str, Array] = {}
+    for name, scorer, options, weight in scorers:
+        try:
+            values = np.asarray(scorer.score(batch, options), dtype=np.float64)
+        except PluginError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - a plugin's failure, reported
+            raise PluginError(
+                f"scorer {name!r} raised {type(exc).__name__}: {exc}",
+                hint="fix the scorer plugin or remove it from the spec's scorers",
+            ) from exc
+        if values.shape != (len(batch),) or not np.all(np.isfinite(values)):
+            raise PluginError(
+                f"scorer {name!r} returned {values.shape} values (finite: "
+                f"{bool(np.all(np.isfinite(values)))}), expected {len(batch)} finite",
+                hint="a scorer returns one finite float per candidate",
+            )
+        terms[name] = values
+        total = total + weight * values
+    return total, terms

@@ -1,0 +1,205 @@
+"""The search: candidates → evaluation → scores → the chosen grasp.
+
+This module works on arrays in the world frame; ``wsgrasp.api`` turns a scene into
+them and a ``PlanResult`` out of what this returns.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from wsgrasp.geometry import invert_transforms, points_in_spheres, transform_points
+from wsgrasp.gripper.model import GripperModel
+from wsgrasp.planning.candidates import candidate_poses
+from wsgrasp.planning.evaluate import FingerSpheres, TableSE, evaluate_candidates
+from wsgrasp.planning.result import REASONS, Alternative, CandidateSet, Contact
+from wsgrasp.planning.scoring import CandidateBatch, combine_scores
+
+__all__ = ["SearchInput", "SearchOutput", "run_search", "no_grasp_hint"]
+
+Array = NDArray[np.float64]
+
+
+@dataclass
+class SearchInput:
+    """Everything the search needs, world frame.
+
+    Attributes
+    ----------
+    gripper : GripperModel
+    T_world_object : (4, 4) float
+    extents : (3,) float
+    samples_object : (ns, 3) float
+    thetas : (nos,) float
+    object_points : (no, 3) float
+    obstacle_points : (k, 3) float
+    table : TableSE
+    """
+
+    gripper: GripperModel
+    T_world_object: Array
+    extents: Array
+    samples_object: Array
+    thetas: Array
+    object_points: Array
+    obstacle_points: Array
+    table: TableSE
+
+
+@dataclass
+class SearchOutput:
+    candidates: CandidateSet
+    best: int | None
+    alternatives: list[Alternative]
+    contacts: list[Contact]
+    score_terms: dict[str, float]
+    timing_ms: dict[str, float]
+
+
+def run_search(
+    inp: SearchInput,
+    scorers: Sequence[tuple[str, Any, Any, float]],
+    *,
+    top_k: int = 5,
+    spheres: FingerSpheres | None = None,
+    normals_fn: Callable[[Array], Array] | None = None,
+    clock: Callable[[], float] | None = None,
+) -> SearchOutput:
+    """Generate, evaluate and score all candidates; pick the best."""
+    import time
+
+    now = clock or time.perf_counter
+    g = inp.gripper
+    t0 = now()
+    T_world_gwc, T_world_gripper, sample, theta = candidate_poses(
+        inp.T_world_object, inp.samples_object, inp.thetas, g.T_gripper_gwc
+    )
+    ev = evaluate_candidates(
+        T_world_gripper, g, inp.object_points, inp.obstacle_points, inp.table, spheres
+    )
+    t1 = now()
+    C = len(sample)
+    score = np.full(C, np.nan)
+    terms_all: dict[str, Array] = {}
+    best: int | None = None
+    alternatives: list[Alternative] = []
+    contacts: list[Contact] = []
+    best_terms: dict[str, float] = {}
+    if ev.feasible.size:
+        f = ev.feasible
+        batch = CandidateBatch(
+            gripper=g,
+            T_world_gwc=T_world_gwc[f],
+            T_world_gripper=T_world_gripper[f],
+            theta=theta[f],
+            holding=ev.holding,
+            object_points=inp.object_points,
+            T_world_object=inp.T_world_object,
+            extents=inp.extents,
+            table_normal=inp.table.T_world_table[:3, 2],
+            min_table_height=ev.min_table_height,
+            normals_fn=normals_fn,
+        )
+        total, terms = combine_scores(batch, scorers)
+        score[f] = total
+        for name, values in terms.items():
+            column = np.full(C, np.nan)
+            column[f] = values
+            terms_all[name] = column
+        # stable: ties keep the earlier candidate, as Algorithm 1's strict "<"
+        order = np.argsort(-total, kind="stable")
+        best_local = int(order[0])
+        best = int(f[best_local])
+        best_terms = {k: float(v[best_local]) for k, v in terms.items()}
+        for j in order[1 : top_k + 1]:
+            alternatives.append(
+                Alternative(
+                    index=int(f[j]),
+                    T_world_ee=T_world_gripper[f[j]],
+                    score=float(total[j]),
+                    terms={k: float(v[j]) for k, v in terms.items()},
+                )
+            )
+        contacts = _contacts(g, T_world_gripper[best], inp.object_points)
+    t2 = now()
+    cands = CandidateSet(
+        T_world_gwc=T_world_gwc,
+        T_world_ee=T_world_gripper,
+        sample=sample,
+        theta=theta,
+        reason=ev.reason,
+        contacts=ev.contacts,
+        score=score,
+        terms=terms_all,
+    )
+    return SearchOutput(
+        candidates=cands,
+        best=best,
+        alternatives=alternatives,
+        contacts=contacts,
+        score_terms=best_terms,
+        timing_ms={"search": (t1 - t0) * 1e3, "scoring": (t2 - t1) * 1e3},
+    )
+
+
+def _contacts(
+    g: GripperModel, T_world_gripper: Array, object_points: Array
+) -> list[Contact]:
+    """Per finger: the object points its spheres hold and the spheres holding them."""
+    p = transform_points(invert_transforms(T_world_gripper), object_points)  # (no, 3)
+    inside = points_in_spheres(p, g.sphere_centers, g.sphere_radii)  # (no, S)
+    out = []
+    for f, name in enumerate(g.finger_names):
+        mine = g.sphere_finger == f
+        held = inside[:, mine]
+        out.append(
+            Contact(
+                finger=name,
+                points=object_points[held.any(axis=1)],
+                spheres=np.flatnonzero(mine)[held.any(axis=0)].astype(np.int64),
+            )
+        )
+    return out
+
+
+def no_grasp_hint(
+    histogram: dict[str, int], extents: Array, gripper: GripperModel, height: float
+) -> str:
+    """Why no candidate was feasible, in one sentence a user can act on."""
+    total = sum(histogram.values())
+    if total == 0:
+        return "no candidates were generated; raise sampling.points or orientations"
+    worst = max((r for r in REASONS if r != "feasible"), key=lambda r: histogram[r])
+    cross = float(np.sort(np.asarray(extents))[:2].min())
+    if worst == "finger_without_contact" and cross > gripper.max_opening:
+        return (
+            f"object is wider ({cross:.3f} m across its major axis) than the "
+            f"gripper opening ({gripper.max_opening:.3f} m)"
+        )
+    if worst == "table_collision":
+        return (
+            f"the gripper hits the table at {histogram[worst]} of {total} poses; the "
+            f"object stands {height:.3f} m tall; try more orientations or a lower "
+            "table.clearance"
+        )
+    if worst == "object_collision":
+        return (
+            f"the gripper body hits the object at {histogram[worst]} of {total} "
+            "poses; the object may be larger than the gripper can hold, or try more "
+            "samples and orientations"
+        )
+    if worst == "obstacle_collision":
+        return (
+            f"neighbouring objects block {histogram[worst]} of {total} poses; "
+            "pick another target or clear the scene"
+        )
+    return (
+        f"no pose puts object points in every finger's workspace "
+        f"({histogram[worst]} of {total} poses); the object may be too small or "
+        "too large for this gripper, or raise sampling.points"
+    )
