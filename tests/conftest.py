@@ -46,7 +46,10 @@ def make_jaw_gripper(spheres_per_finger: int = 10, seed: int = 0) -> GripperMode
         ]
     )
     cloud = np.concatenate(
-        [_box_surface(c, a * 0.95, 100, rng) for c, a in zip(se_centers, se_axes)]
+        [
+            _box_surface(c, a * 0.95, 100, rng)
+            for c, a in zip(se_centers, se_axes, strict=True)
+        ]
     )
     offsets = np.linspace(0.004, 0.040, spheres_per_finger)
     left = np.stack([np.zeros_like(offsets), offsets, np.full_like(offsets, 0.104)], 1)

@@ -292,7 +292,10 @@ def plan(
     gripper: GripperModel | None = None,
     observers: Sequence[PlanObserver] = (),
 ) -> PlanResult:
-    """Plan a grasp in one call: ``wsgrasp.plan(points, "examples/specs/franka.yaml")``."""
+    """Plan a grasp in one call.
+
+    ``wsgrasp.plan(points, "examples/specs/franka.yaml")``
+    """
     if not isinstance(spec, PipelineSpec):
         spec = load_spec(spec)
     if scene is None:

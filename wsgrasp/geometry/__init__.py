@@ -1,5 +1,20 @@
 """Pure numpy kernels: transforms, superellipsoids, spheres. No I/O, no specs."""
 
+from wsgrasp.geometry._fitting import box_corner_se_factors, enclosing_scale
+from wsgrasp.geometry._kinematics import (
+    JOINT_FIXED,
+    JOINT_PRISMATIC,
+    JOINT_REVOLUTE,
+    axis_angle_matrices,
+    chain_forward_kinematics,
+    grid_configurations,
+    joint_motion_transforms,
+)
+from wsgrasp.geometry._sampling import (
+    box_grid_points,
+    farthest_point_indices,
+    superellipsoid_surface,
+)
 from wsgrasp.geometry._spheres import points_in_spheres, spheres_hit_by_points
 from wsgrasp.geometry._superellipsoid import (
     coordinates_in_superellipsoids,
@@ -18,16 +33,28 @@ from wsgrasp.geometry._transforms import (
 )
 
 __all__ = [
+    "JOINT_FIXED",
+    "JOINT_PRISMATIC",
+    "JOINT_REVOLUTE",
+    "axis_angle_matrices",
+    "box_corner_se_factors",
+    "box_grid_points",
+    "chain_forward_kinematics",
     "check_points",
-    "coordinates_in_superellipsoids",
     "check_transforms",
+    "coordinates_in_superellipsoids",
+    "enclosing_scale",
+    "farthest_point_indices",
+    "grid_configurations",
     "invert_transforms",
+    "joint_motion_transforms",
     "points_in_spheres",
     "points_in_superellipsoids",
     "rot_x",
     "rot_y",
     "rot_z",
     "spheres_hit_by_points",
+    "superellipsoid_surface",
     "superellipsoid_values",
     "transform_from",
     "transform_points",

@@ -69,8 +69,8 @@ def candidate_poses(
     T_object_gwc[:, :, :3, :3] = R_object_gwc[None]
     T_object_gwc[:, :, :3, 3] = samples_object[:, None, :]
     T_object_gwc[:, :, 3, 3] = 1.0
-    T_object_gwc = T_object_gwc.reshape(ns * nos, 4, 4)  # (C, 4, 4)
-    T_world_gwc = T_world_object @ T_object_gwc
+    T_object_gwc_flat = T_object_gwc.reshape(ns * nos, 4, 4)  # (C, 4, 4)
+    T_world_gwc = T_world_object @ T_object_gwc_flat
     T_world_gripper = T_world_gwc @ invert_transforms(T_gripper_gwc)
     sample = np.repeat(np.arange(ns, dtype=np.int64), nos)
     theta = np.tile(np.asarray(thetas, dtype=np.float64), ns)
