@@ -1,0 +1,198 @@
+"""``ransac_dbscan``: RANSAC table plane, then DBSCAN clusters standing on it.
+
+Nothing assumes the input frame has z up. Planes are found largest first (RANSAC on
+what the previous planes left); the table is the first plane with at least one
+cluster *standing* on one side of it: within ``contact_distance`` of the plane at
+its lowest, no larger than ``max_object_extent``, with ``min_points`` points or
+more. The normal is turned to the side with more standing points. Walls are passed
+over because the table (a cluster larger than ``max_object_extent``) is the only
+thing touching them; the floor below a table sees only the legs, likewise too long.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+from scipy.spatial import cKDTree
+
+from wsgrasp.errors import InputError
+from wsgrasp.perception.process import cluster_labels, fit_plane_ransac
+from wsgrasp.perception.types import Array, Plane, Segmentation
+
+
+class RansacDbscanOptions(BaseModel):
+    """Options of ``ransac_dbscan`` (metres)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    plane_distance: float = Field(
+        0.005, gt=0.0, le=0.1, description="RANSAC inlier distance to the plane"
+    )
+    ransac_iterations: int = Field(1000, ge=10, le=100000)
+    min_plane_points: int = Field(
+        100, ge=3, description="a plane with fewer inliers is not a table"
+    )
+    max_planes: int = Field(
+        3, ge=1, le=10, description="planes tried, largest first, to find the table"
+    )
+    cluster_eps: float = Field(
+        0.01, gt=0.0, le=0.2, description="DBSCAN neighbourhood radius"
+    )
+    core_points: int = Field(
+        4, ge=1, description="DBSCAN: neighbours within cluster_eps of a core point"
+    )
+    min_points: int = Field(30, ge=1, description="smallest object cluster")
+    min_height: float = Field(
+        0.01, ge=0.0, description="points lower than this above the table are table"
+    )
+    max_height: float = Field(
+        1.0, gt=0.0, description="points higher than this above the table are ignored"
+    )
+    contact_distance: float = Field(
+        0.03,
+        gt=0.0,
+        description="a cluster stands on the plane if its lowest point is this close",
+    )
+    max_object_extent: float = Field(
+        0.6, gt=0.0, description="larger clusters are not objects (walls, table legs)"
+    )
+
+    @model_validator(mode="after")
+    def _heights(self) -> RansacDbscanOptions:
+        if self.min_height >= self.max_height:
+            raise ValueError("min_height must be below max_height")
+        return self
+
+
+class RansacDbscan:
+    """Table plane by RANSAC (open3d ``segment_plane``), objects by DBSCAN."""
+
+    Options: ClassVar[type[BaseModel]] = RansacDbscanOptions
+
+    def segment(
+        self, points: Array, options: RansacDbscanOptions, *, seed: int
+    ) -> Segmentation:
+        """Find the table plane and the clusters standing on it.
+
+        Raises
+        ------
+        InputError
+            No plane with ``min_plane_points`` inliers, or nothing stands on any of
+            the planes tried.
+        """
+        o = options
+        p = np.asarray(points, dtype=np.float64)
+        remaining = np.arange(p.shape[0])
+        tried: list[dict[str, Any]] = []
+        for k in range(o.max_planes):
+            if remaining.size < max(o.min_plane_points, 3):
+                break
+            normal, offset, inl = fit_plane_ransac(
+                p[remaining], o.plane_distance, o.ransac_iterations, seed + k
+            )
+            if inl.size < o.min_plane_points:
+                tried.append({"inliers": int(inl.size)})
+                break
+            inliers = remaining[inl]
+            found = self._clusters_on(p, normal, offset, o)
+            tried.append({"inliers": int(inl.size), **found["why"]})
+            if found["clusters"]:
+                plane = Plane(normal=found["normal"], offset=found["offset"])
+                return Segmentation(
+                    table=plane,
+                    table_points=p[
+                        np.abs(plane.signed_distance(p)) <= o.plane_distance
+                    ],
+                    clusters=found["clusters"],
+                    info={"planes_tried": tried, "plane_rank": k},
+                )
+            keep = np.ones(p.shape[0], dtype=bool)
+            keep[inliers] = False
+            remaining = remaining[keep[remaining]]
+        if not tried or tried[0]["inliers"] < o.min_plane_points:
+            best = tried[0]["inliers"] if tried else 0
+            raise InputError(
+                f"ransac_dbscan found no table plane: the largest plane within "
+                f"{o.plane_distance:g} m has {best} of {p.shape[0]} points, expected "
+                f"at least {o.min_plane_points}",
+                hint="check that the table is in view and the cloud is in metres; "
+                "raise plane_distance for noisy clouds, or use the given_table "
+                "segmenter",
+            )
+        why = "; ".join(
+            f"plane {i + 1} ({t['inliers']} points): "
+            + ", ".join(f"{v} {r}" for r, v in t.items() if r != "inliers" and v)
+            for i, t in enumerate(tried)
+        )
+        raise InputError(
+            f"nothing stands on the table: no cluster of at least {o.min_points} "
+            f"points lies on a plane (tried {len(tried)}: {why or 'no clusters'})",
+            hint="check that the object is in view and on the table; lower "
+            "min_points or min_height, raise max_object_extent for large objects",
+        )
+
+    @staticmethod
+    def _clusters_on(
+        p: Array, normal: Array, offset: float, o: RansacDbscanOptions
+    ) -> dict[str, Any]:
+        """Clusters standing on either side of a plane; the side with more points."""
+        h = p @ normal + offset  # (n,) signed heights
+        ah = np.abs(h)
+        cand = np.flatnonzero((ah > o.min_height) & (ah < o.max_height))
+        labels = cluster_labels(p[cand], o.cluster_eps, o.core_points)
+        why = {"too small": 0, "not touching": 0, "too large": 0}
+        empty = {"clusters": [], "why": why, "normal": normal, "offset": offset}
+        if labels.size == 0 or labels.max() < 0:
+            return empty
+        ok = labels >= 0
+        lab, idx = labels[ok], cand[ok]
+        nlab = int(lab.max()) + 1
+        counts = np.bincount(lab, minlength=nlab)
+        # per-cluster lowest |height|, side (sum of signs) and bounding-box size
+        low = np.full(nlab, np.inf)
+        np.minimum.at(low, lab, ah[idx])
+        side = np.bincount(lab, weights=np.sign(h[idx]), minlength=nlab)
+        lo = np.full((nlab, 3), np.inf)
+        hi = np.full((nlab, 3), -np.inf)
+        np.minimum.at(lo, lab, p[idx])
+        np.maximum.at(hi, lab, p[idx])
+        extent = np.linalg.norm(hi - lo, axis=1)
+        small = counts < o.min_points
+        far = ~small & (low > o.contact_distance)
+        large = ~small & ~far & (extent > o.max_object_extent)
+        why.update(
+            {
+                "too small": int(small.sum()),
+                "not touching": int(far.sum()),
+                "too large": int(large.sum()),
+            }
+        )
+        standing = ~(small | far | large)
+        if not standing.any():
+            return empty
+        up = int(counts[standing & (side > 0)].sum())
+        down = int(counts[standing & (side < 0)].sum())
+        if down > up:
+            normal, offset, h = -normal, -offset, -h
+            keep = standing & (side < 0)
+        else:
+            keep = standing & (side > 0)
+        # give back each kept cluster's foot: points between the plane's inlier band
+        # and min_height, within cluster_eps of that cluster
+        lab_full = np.full(p.shape[0], -1)
+        lab_full[idx[keep[lab]]] = lab[keep[lab]]
+        members = np.flatnonzero(lab_full >= 0)
+        foot = np.flatnonzero((h > o.plane_distance) & (h <= o.min_height))
+        if foot.size and members.size:
+            d, j = cKDTree(p[members]).query(
+                p[foot], distance_upper_bound=o.cluster_eps
+            )
+            hit = np.isfinite(d)
+            lab_full[foot[hit]] = lab_full[members[j[hit]]]
+        kept = np.flatnonzero(keep)
+        order = kept[np.argsort(-counts[kept], kind="stable")]
+        clusters = [p[lab_full == c] for c in order]
+        clusters.sort(key=lambda c: -c.shape[0])
+        return {"clusters": clusters, "why": why, "normal": normal, "offset": offset}

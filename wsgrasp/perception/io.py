@@ -1,0 +1,428 @@
+"""Reading point clouds and scenes.
+
+A scene is one or several views. Accepted inputs:
+
+- one cloud file (PLY, PCD, XYZ/TXT/CSV, NPY, NPZ): its frame is the world frame;
+- a scene YAML (``.yaml``/``.yml``) listing views, each a cloud file in its camera
+  frame and the camera pose ``T_world_camera``::
+
+      version: 1
+      units: m            # m (default), cm or mm; applies to clouds and translations
+      views:
+        - cloud: view_0.npz
+          T_world_camera: [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]
+
+- several cloud files only with ``registered=True`` (CLI ``--registered``): they are
+  then taken to be in one world frame already. Several clouds without poses are
+  otherwise an error, since merging unregistered views gives a wrong object.
+
+NaN and inf points are dropped and counted; empty, all-NaN, wrongly shaped clouds and
+clouds whose extents suggest millimetres raise ``InputError``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike
+from pydantic import BaseModel, ConfigDict, Field
+
+from wsgrasp.errors import InputError, SpecError
+from wsgrasp.geometry import transform_points
+from wsgrasp.perception.types import Array, Scene, View
+
+__all__ = [
+    "CLOUD_SUFFIXES",
+    "MAX_SCENE_EXTENT",
+    "check_units",
+    "load_cloud",
+    "load_scene",
+    "refine_views_icp",
+    "scene_from_arrays",
+]
+
+#: cloud file suffixes load_cloud understands
+CLOUD_SUFFIXES = (".ply", ".pcd", ".xyz", ".txt", ".csv", ".npy", ".npz")
+SCENE_SUFFIXES = (".yaml", ".yml")
+#: a scene wider than this (metres, robust extent) is taken to be in millimetres
+MAX_SCENE_EXTENT = 20.0
+_UNIT_SCALE = {"m": 1.0, "cm": 0.01, "mm": 0.001}
+
+
+# --------------------------------------------------------------------------------
+# single clouds
+# --------------------------------------------------------------------------------
+def load_cloud(path: str | Path) -> Array:
+    """Read a point cloud file as it is (NaN/inf kept; see ``load_scene``).
+
+    Parameters
+    ----------
+    path
+        PLY or PCD (open3d), XYZ/TXT/CSV (whitespace or comma separated, first three
+        columns, ``#`` comments), NPY (``(n, 3)``) or NPZ (key ``points``, or its only
+        array).
+
+    Returns
+    -------
+    (n, 3) float
+    """
+    p = Path(path)
+    if not p.exists():
+        raise InputError(
+            f"cloud file {str(p)!r} does not exist",
+            hint="check the path (relative paths are from the current directory)",
+        )
+    if p.is_dir():
+        raise InputError(
+            f"cloud file {str(p)!r} is a directory, expected a file",
+            hint="give a cloud file such as scene.ply or scene.npz",
+        )
+    suffix = p.suffix.lower()
+    if suffix in (".ply", ".pcd"):
+        arr = _read_open3d(p)
+    elif suffix in (".xyz", ".txt", ".csv"):
+        arr = _read_text(p)
+    elif suffix == ".npy":
+        arr = _read_npy(p)
+    elif suffix == ".npz":
+        arr = _read_npz(p)
+    else:
+        raise InputError(
+            f"cloud file {str(p)!r} has unknown format {suffix or '(no suffix)'!r}; "
+            f"expected one of {', '.join(CLOUD_SUFFIXES)}",
+            hint="convert it to PLY or NPZ, or give a scene YAML (.yaml)",
+        )
+    return _check_shape(arr, str(p))
+
+
+def _read_open3d(p: Path) -> Array:
+    import open3d as o3d
+
+    pcd = o3d.io.read_point_cloud(p, remove_nan_points=False)
+    arr = np.asarray(pcd.points, dtype=np.float64)
+    if arr.size == 0 and p.stat().st_size > 0:
+        # open3d reports unreadable files only as a warning with an empty cloud;
+        # a mesh PLY has its vertices as points
+        mesh = o3d.io.read_triangle_mesh(p)
+        arr = np.asarray(mesh.vertices, dtype=np.float64)
+    return arr.reshape(-1, 3)
+
+
+def _read_text(p: Path) -> Array:
+    text = p.read_text(errors="replace")
+    delimiter = "," if p.suffix.lower() == ".csv" or "," in text[:2000] else None
+    try:
+        arr = np.loadtxt(p, delimiter=delimiter, comments="#", ndmin=2)
+    except ValueError as exc:
+        # a header row: try once more skipping it
+        try:
+            arr = np.loadtxt(p, delimiter=delimiter, comments="#", ndmin=2, skiprows=1)
+        except ValueError:
+            raise InputError(
+                f"cloud file {str(p)!r} is not a table of numbers: {exc}",
+                hint="write one point per line as 'x y z' or 'x,y,z' (metres)",
+            ) from None
+    if arr.ndim == 2 and arr.shape[1] > 3:
+        arr = arr[:, :3]  # extra columns (colour, intensity) are ignored
+    return np.asarray(arr, dtype=np.float64)
+
+
+def _read_npy(p: Path) -> Array:
+    try:
+        arr = np.load(p, allow_pickle=False)
+    except ValueError as exc:
+        raise InputError(
+            f"cloud file {str(p)!r} is not a readable .npy array: {exc}",
+            hint="save it with np.save(path, points) where points is (n, 3)",
+        ) from None
+    return _as_numeric(arr, str(p))
+
+
+def _read_npz(p: Path) -> Array:
+    try:
+        with np.load(p, allow_pickle=False) as data:
+            keys = list(data.keys())
+            if "points" in keys:
+                arr = data["points"]
+            elif len(keys) == 1:
+                arr = data[keys[0]]
+            else:
+                raise InputError(
+                    f"cloud file {str(p)!r} holds arrays {keys} and none is named "
+                    "'points'",
+                    hint="save the cloud with np.savez(path, points=points)",
+                )
+    except (ValueError, OSError) as exc:
+        raise InputError(
+            f"cloud file {str(p)!r} is not a readable .npz archive: {exc}",
+            hint="save it with np.savez(path, points=points)",
+        ) from None
+    return _as_numeric(arr, str(p))
+
+
+def _as_numeric(arr: np.ndarray, name: str) -> Array:
+    if not np.issubdtype(arr.dtype, np.number):
+        raise InputError(
+            f"cloud {name!r} has dtype {arr.dtype}, expected numbers",
+            hint="store the points as a float (n, 3) array",
+        )
+    return np.asarray(arr, dtype=np.float64)
+
+
+def _check_shape(arr: ArrayLike, name: str) -> Array:
+    a = np.asarray(arr, dtype=np.float64)
+    if a.ndim == 3 and a.shape[-1] == 3:
+        a = a.reshape(-1, 3)  # an organised cloud (h, w, 3) -> (h*w, 3)
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise InputError(
+            f"cloud {name!r} has shape {a.shape}, expected (n, 3)",
+            hint="give one point per row with x, y, z columns",
+        )
+    return a
+
+
+# --------------------------------------------------------------------------------
+# scenes
+# --------------------------------------------------------------------------------
+class _ViewEntry(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    cloud: str = Field(description="cloud file, relative to the scene YAML")
+    T_world_camera: list[list[float]] = Field(
+        default_factory=lambda: np.eye(4).tolist(),
+        description="4x4 pose of the camera in the world frame",
+    )
+    name: str = ""
+
+
+class SceneFile(BaseModel):
+    """A scene YAML: views with their camera poses."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    version: Literal[1] = 1
+    units: Literal["m", "cm", "mm"] = Field(
+        "m", description="unit of the clouds and of the pose translations"
+    )
+    views: list[_ViewEntry] = Field(min_length=1)
+
+
+def load_scene(
+    paths: str | Path | Sequence[str | Path],
+    *,
+    icp: bool = False,
+    registered: bool = False,
+    icp_distance: float = 0.01,
+) -> Scene:
+    """Read a scene from cloud files or a scene YAML and merge it into the world frame.
+
+    Parameters
+    ----------
+    paths
+        One cloud file, one scene YAML, or several cloud files (with
+        ``registered=True``).
+    icp
+        Refine the view poses with point-to-plane ICP (views 2.. against view 1).
+    registered
+        Several cloud files are already in one (world) frame.
+    icp_distance
+        Largest correspondence distance (m) for ICP.
+
+    Returns
+    -------
+    Scene
+        ``points`` (N, 3) finite, world frame; ``dropped_nonfinite`` counted.
+    """
+    if isinstance(paths, (str, Path)):
+        paths = [paths]
+    plist = [Path(p) for p in paths]
+    if not plist:
+        raise InputError(
+            "no cloud given, expected a cloud file or a scene YAML",
+            hint="pass e.g. examples/scenes/box_upright.npz",
+        )
+    scene_files = [p for p in plist if p.suffix.lower() in SCENE_SUFFIXES]
+    if scene_files:
+        if len(plist) > 1:
+            raise InputError(
+                f"a scene YAML ({scene_files[0]}) must be given alone, found "
+                f"{len(plist)} inputs",
+                hint="list every view inside the scene YAML",
+            )
+        views = _read_scene_yaml(plist[0])
+    else:
+        if len(plist) > 1 and not registered:
+            raise InputError(
+                f"{len(plist)} clouds given without camera poses; merging them "
+                "as they are assumes they are already registered in one frame",
+                hint="write a scene YAML with T_world_camera per view "
+                "(see examples/scenes/README.md), or pass --registered "
+                "(registered=True) if they already share one frame",
+            )
+        views = [
+            View(points=load_cloud(p), T_world_camera=np.eye(4), name=p.name)
+            for p in plist
+        ]
+    return _merge(views, icp=icp, icp_distance=icp_distance)
+
+
+def _read_scene_yaml(path: Path) -> list[View]:
+    from wsgrasp._loading import load_document, validate_document
+
+    if not path.exists():
+        raise InputError(
+            f"scene file {str(path)!r} does not exist", hint="check the path"
+        )
+    try:
+        data, lines = load_document(path)
+        doc: SceneFile = validate_document(
+            SceneFile,
+            data,
+            lines,
+            "scene file",
+            hint="a scene YAML has `views:` with `cloud:` and `T_world_camera:` "
+            "(4x4) per view; see examples/scenes/README.md",
+        )
+    except SpecError as exc:
+        raise InputError(exc.message, hint=exc.hint) from None
+    scale = _UNIT_SCALE[doc.units]
+    views = []
+    for i, entry in enumerate(doc.views):
+        cloud_path = Path(entry.cloud)
+        if not cloud_path.is_absolute():
+            cloud_path = path.parent / cloud_path
+        T = _check_pose(entry.T_world_camera, f"{path}: views[{i}].T_world_camera")
+        T[:3, 3] *= scale
+        pts = load_cloud(cloud_path) * scale
+        views.append(View(points=pts, T_world_camera=T, name=entry.name or entry.cloud))
+    return views
+
+
+def _check_pose(T: Any, name: str) -> Array:
+    from wsgrasp.geometry import check_transforms
+
+    arr = np.asarray(T, dtype=np.float64)
+    if arr.shape == (3, 4):
+        arr = np.vstack([arr, [0.0, 0.0, 0.0, 1.0]])
+    try:
+        return np.array(check_transforms(arr, name))
+    except ValueError as exc:
+        raise InputError(
+            f"{exc}",
+            hint="give a rigid 4x4 transform [[R, t], [0, 0, 0, 1]] with R a "
+            "rotation matrix",
+        ) from None
+
+
+def scene_from_arrays(
+    views: ArrayLike | Sequence[tuple[ArrayLike, ArrayLike]],
+    *,
+    icp: bool = False,
+    icp_distance: float = 0.01,
+) -> Scene:
+    """Build a scene from arrays (the Python API's counterpart of ``load_scene``).
+
+    Parameters
+    ----------
+    views
+        Either one cloud ``(n, 3)`` already in the world frame, or a list of
+        ``(points (n_i, 3), T_world_camera (4, 4))`` pairs, points in camera frame.
+    icp
+        Refine the poses with ICP.
+    """
+    if isinstance(views, (list, tuple)) and views and isinstance(views[0], tuple):
+        vlist = [
+            View(
+                points=_check_shape(p, f"views[{i}]"),
+                T_world_camera=_check_pose(T, f"views[{i}].T_world_camera"),
+                name=f"view_{i}",
+            )
+            for i, (p, T) in enumerate(views)  # type: ignore[misc]
+        ]
+    else:
+        vlist = [View(points=_check_shape(views, "points"), name="points")]  # type: ignore[arg-type]
+    return _merge(vlist, icp=icp, icp_distance=icp_distance)
+
+
+def _merge(views: list[View], *, icp: bool, icp_distance: float) -> Scene:
+    dropped = 0
+    for v in views:
+        if v.points.shape[0] == 0:
+            raise InputError(
+                f"cloud {v.name!r} is empty (0 points)",
+                hint="check that the capture or export wrote points",
+            )
+        finite = np.isfinite(v.points).all(axis=1)
+        n_bad = int(v.points.shape[0] - finite.sum())
+        if n_bad == v.points.shape[0]:
+            raise InputError(
+                f"cloud {v.name!r} has no finite point: all {n_bad} are NaN or inf",
+                hint="the capture produced no valid depth; check the camera and "
+                "the export",
+            )
+        dropped += n_bad
+        if n_bad:
+            v.points = v.points[finite]
+    if icp and len(views) > 1:
+        refine_views_icp(views, max_distance=icp_distance)
+    # (N, 3) world-frame points of every view
+    merged = np.concatenate(
+        [transform_points(v.T_world_camera, v.points) for v in views], axis=0
+    )
+    check_units(merged, name=" + ".join(v.name for v in views) or "points")
+    return Scene(views=views, points=merged, dropped_nonfinite=dropped)
+
+
+def check_units(points: Array, name: str = "points") -> None:
+    """Raise ``InputError`` when a cloud is too large to be in metres.
+
+    The robust extent (0.5th to 99.5th percentile per axis) must stay below
+    ``MAX_SCENE_EXTENT``; a larger one usually means millimetres.
+    """
+    if points.shape[0] == 0:
+        return
+    lo, hi = np.percentile(points, [0.5, 99.5], axis=0)
+    extent = float(np.max(hi - lo))
+    if extent > MAX_SCENE_EXTENT:
+        factor = "1000 (millimetres)" if extent < 20000 else "the unit's size"
+        raise InputError(
+            f"cloud {name!r} spans {extent:.4g} units; a tabletop scene in metres "
+            f"spans well under {MAX_SCENE_EXTENT:g} m, so it is probably in "
+            "millimetres",
+            hint=f"divide the points by {factor}, or set `units: mm` in a scene YAML",
+        )
+
+
+# --------------------------------------------------------------------------------
+# ICP
+# --------------------------------------------------------------------------------
+def refine_views_icp(
+    views: list[View], *, max_distance: float = 0.01, voxel: float = 0.004
+) -> None:
+    """Refine ``T_world_camera`` of views 2.. by point-to-plane ICP against view 1.
+
+    The poses are updated in place; each view's points stay in its camera frame.
+    """
+    import open3d as o3d
+
+    def cloud(points: Array) -> Any:
+        pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
+        pcd = pcd.voxel_down_sample(voxel)
+        pcd.estimate_normals(
+            o3d.geometry.KDTreeSearchParamHybrid(radius=4 * voxel, max_nn=30)
+        )
+        return pcd
+
+    target = cloud(transform_points(views[0].T_world_camera, views[0].points))
+    method = o3d.pipelines.registration.TransformationEstimationPointToPlane()
+    criteria = o3d.pipelines.registration.ICPConvergenceCriteria(max_iteration=30)
+    for v in views[1:]:
+        source = cloud(transform_points(v.T_world_camera, v.points))
+        result = o3d.pipelines.registration.registration_icp(
+            source, target, max_distance, np.eye(4), method, criteria
+        )
+        # correction in the world frame: T_world_camera <- T_fix @ T_world_camera
+        v.T_world_camera = np.asarray(result.transformation) @ v.T_world_camera

@@ -1,0 +1,216 @@
+"""Scene processing: cropping, voxel downsampling, clustering, plane fitting, target
+selection. The building blocks the segmenter plugins share."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from wsgrasp.errors import InputError
+from wsgrasp.perception.types import Array, Plane, Segmentation
+
+__all__ = [
+    "cluster_labels",
+    "crop",
+    "downsample",
+    "fit_plane_ransac",
+    "select_target",
+    "split_clusters",
+    "thin",
+]
+
+
+def _pcd(points: Array) -> Any:
+    import open3d as o3d
+
+    return o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
+
+
+def downsample(points: ArrayLike, voxel: float) -> Array:
+    """Voxel-grid downsampling (open3d): one point, the mean, per occupied voxel.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+    voxel
+        Edge length (m); ``0`` returns the points unchanged.
+
+    Returns
+    -------
+    (m, 3) float
+    """
+    p = np.asarray(points, dtype=np.float64)
+    if voxel <= 0.0 or p.shape[0] == 0:
+        return p
+    return np.asarray(_pcd(p).voxel_down_sample(float(voxel)).points, dtype=np.float64)
+
+
+def crop(
+    points: ArrayLike, radius: float | None, center: ArrayLike = (0, 0, 0)
+) -> Array:
+    """Points ``(m, 3)`` within ``radius`` of ``center``; all points if ``radius`` is
+    None."""
+    p = np.asarray(points, dtype=np.float64)
+    if radius is None:
+        return p
+    c = np.asarray(center, dtype=np.float64)
+    keep = ((p - c) ** 2).sum(axis=1) <= radius * radius
+    if not keep.any():
+        raise InputError(
+            f"no point lies within crop_radius {radius:g} m of the origin "
+            f"(nearest at {np.sqrt(((p - c) ** 2).sum(axis=1).min()):.3g} m)",
+            hint="raise preprocess.crop_radius or remove it",
+        )
+    return p[keep]
+
+
+def thin(points: ArrayLike, max_points: int, seed: int = 0) -> Array:
+    """At most ``max_points`` of ``points`` ``(n, 3)``, chosen by farthest-point
+    sampling from a seeded start so the object keeps its shape."""
+    p = np.asarray(points, dtype=np.float64)
+    if p.shape[0] <= max_points:
+        return p
+    pcd = _pcd(p)
+    try:
+        out = pcd.farthest_point_down_sample(int(max_points))
+        return np.asarray(out.points, dtype=np.float64)
+    except (AttributeError, TypeError):  # older open3d: seeded random subset
+        idx = np.random.default_rng(seed).choice(p.shape[0], max_points, replace=False)
+        return p[np.sort(idx)]
+
+
+def cluster_labels(
+    points: ArrayLike, eps: float, core_points: int
+) -> NDArray[np.int64]:
+    """DBSCAN labels ``(n,)`` (open3d); ``-1`` is noise."""
+    p = np.asarray(points, dtype=np.float64)
+    if p.shape[0] == 0:
+        return np.zeros(0, dtype=np.int64)
+    labels = _pcd(p).cluster_dbscan(float(eps), int(core_points), print_progress=False)
+    return np.asarray(labels, dtype=np.int64)
+
+
+def split_clusters(points: Array, labels: NDArray[np.int64]) -> list[Array]:
+    """Points of each label ``>= 0``, largest cluster first."""
+    if labels.size == 0 or labels.max() < 0:
+        return []
+    counts = np.bincount(labels[labels >= 0])
+    order = np.argsort(-counts, kind="stable")
+    sort_idx = np.argsort(labels, kind="stable")
+    # offsets of each label's run in sort_idx (noise, -1, sorts first)
+    start = np.searchsorted(labels[sort_idx], np.arange(counts.size))
+    return [points[sort_idx[start[k] : start[k] + counts[k]]] for k in order]
+
+
+def fit_plane_ransac(
+    points: Array,
+    distance: float,
+    iterations: int,
+    seed: int,
+) -> tuple[Array, float, NDArray[np.int64]]:
+    """RANSAC plane (open3d ``segment_plane``, seeded).
+
+    Returns
+    -------
+    normal : (3,) float
+        Unit normal (sign arbitrary).
+    offset : float
+    inliers : (k,) int
+    """
+    import open3d as o3d
+
+    if points.shape[0] < 3:
+        return np.array([0.0, 0.0, 1.0]), 0.0, np.zeros(0, dtype=np.int64)
+    o3d.utility.random.seed(int(seed))
+    model, inliers = _pcd(points).segment_plane(
+        distance_threshold=float(distance),
+        ransac_n=3,
+        num_iterations=int(iterations),
+    )
+    model = np.asarray(model, dtype=np.float64).reshape(4)
+    norm = float(np.linalg.norm(model[:3]))
+    if norm == 0.0:
+        return np.array([0.0, 0.0, 1.0]), 0.0, np.zeros(0, dtype=np.int64)
+    return model[:3] / norm, float(model[3] / norm), np.asarray(inliers, np.int64)
+
+
+def _describe(clusters: list[Array]) -> str:
+    sizes = ", ".join(str(c.shape[0]) for c in clusters[:6])
+    more = ", ..." if len(clusters) > 6 else ""
+    return f"{len(clusters)} clusters of {sizes}{more} points"
+
+
+def select_target(segmentation: Segmentation, rule: Any) -> tuple[Array, list[Array]]:
+    """The object to grasp and the obstacles, by the spec's ``TargetRule``.
+
+    Parameters
+    ----------
+    segmentation
+        A segmenter's result; ``clusters`` must not be empty.
+    rule
+        ``TargetRule``: ``largest``, ``nearest`` (to ``point``), ``inside_box``
+        (cluster centroid within ``box_min``..``box_max``; the largest such) or
+        ``only`` (several clusters are an error).
+
+    Returns
+    -------
+    object_points : (n, 3) float
+    obstacles : list of (m_i, 3) float
+        The other clusters (empty when ``rule.obstacles`` is false).
+    """
+    clusters = list(segmentation.clusters)
+    if not clusters:
+        raise InputError(
+            "nothing stands on the table: the segmenter found no object cluster",
+            hint="check that the object is in view, or lower the segmenter's "
+            "min_points / min_height",
+        )
+    sizes = np.array([c.shape[0] for c in clusters])
+    name = rule.rule
+    if name == "largest":
+        k = int(np.argmax(sizes))
+    elif name == "only":
+        if len(clusters) > 1:
+            raise InputError(
+                f"target rule 'only' expects one object on the table, found "
+                f"{_describe(clusters)}",
+                hint="use target.rule largest, nearest (with point) or inside_box, "
+                "or clear the table",
+            )
+        k = 0
+    elif name == "nearest":
+        q = np.asarray(rule.point, dtype=np.float64)
+        dists = np.array([np.sqrt(((c - q) ** 2).sum(axis=1).min()) for c in clusters])
+        k = int(np.argmin(dists))
+    elif name == "inside_box":
+        lo = np.asarray(rule.box_min, dtype=np.float64)
+        hi = np.asarray(rule.box_max, dtype=np.float64)
+        cents = np.stack([c.mean(axis=0) for c in clusters])  # (k, 3)
+        inside = ((cents >= lo) & (cents <= hi)).all(axis=1)
+        if not inside.any():
+            raise InputError(
+                f"no object's centroid lies inside the target box {tuple(lo)}.."
+                f"{tuple(hi)}; centroids found: "
+                + ", ".join(str(tuple(np.round(c, 3))) for c in cents[:6]),
+                hint="move target.box_min/box_max (world frame, metres) around the "
+                "object",
+            )
+        k = int(np.argmax(np.where(inside, sizes, -1)))
+    else:
+        raise InputError(
+            f"unknown target rule {name!r}, expected largest, nearest, inside_box "
+            "or only",
+            hint="set target.rule in the spec",
+        )
+    obstacles = [c for i, c in enumerate(clusters) if i != k]
+    return clusters[k], (obstacles if getattr(rule, "obstacles", True) else [])
+
+
+def plane_towards(normal: ArrayLike, offset: float, points: Array) -> Plane:
+    """A ``Plane`` whose normal points to the side where most of ``points`` lie."""
+    n = np.asarray(normal, dtype=np.float64)
+    if points.shape[0] and float(np.median(points @ n + offset)) < 0.0:
+        n, offset = -n, -offset
+    return Plane(normal=n, offset=float(offset))
