@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -23,34 +24,44 @@ from numpy.typing import ArrayLike, NDArray
 
 from wsgrasp.errors import InputError, PluginError, WsgraspError
 from wsgrasp.gripper.model import GripperModel
-from wsgrasp.perception.types import Scene
+from wsgrasp.perception.types import Plane, Scene
 from wsgrasp.planning.candidates import orientation_angles
 from wsgrasp.planning.evaluate import FingerSpheres, TableSE
 from wsgrasp.planning.observer import PlanObserver
 from wsgrasp.planning.result import PlanResult
-from wsgrasp.planning.search import SearchInput, no_grasp_hint, run_search
+from wsgrasp.planning.search import (
+    SearchInput,
+    SearchOutput,
+    no_grasp_hint,
+    run_search,
+)
 from wsgrasp.spec import PipelineSpec, load_spec
 
-__all__ = ["Pipeline", "plan", "load_spec", "as_scene"]
+__all__ = ["Pipeline", "Prepared", "plan", "load_spec", "as_scene"]
 
 Array = NDArray[np.float64]
 
 
-def as_scene(source: Scene | ArrayLike | str | Path | Sequence[str | Path]) -> Scene:
-    """Turn points ``(N, 3)``, a ``Scene``, or cloud/scene files into a ``Scene``."""
+def as_scene(
+    source: Scene | ArrayLike | str | Path | Sequence[str | Path],
+    *,
+    icp: bool = False,
+) -> Scene:
+    """Turn points ``(N, 3)``, a ``Scene``, or cloud/scene files into a ``Scene``
+    (view poses refined with ICP when ``icp``)."""
     from wsgrasp.perception.io import load_scene, scene_from_arrays
 
     if isinstance(source, Scene):
         return source
     if isinstance(source, (str, Path)):
-        return load_scene([source])
+        return load_scene([source], icp=icp)
     if (
         isinstance(source, (list, tuple))
         and source
         and isinstance(source[0], (str, Path))
     ):
-        return load_scene(list(source))
-    return scene_from_arrays(np.asarray(source, dtype=np.float64))
+        return load_scene(list(source), icp=icp)
+    return scene_from_arrays(np.asarray(source, dtype=np.float64), icp=icp)
 
 
 class Pipeline:
@@ -111,7 +122,7 @@ class Pipeline:
     ) -> PlanResult:
         """Plan a grasp on a scene (points ``(N, 3)`` in any frame, a ``Scene`` or
         cloud files). "No grasp" is a result with ``found=False`` and a hint."""
-        scene = as_scene(scene)
+        scene = as_scene(scene, icp=self.spec.preprocess.icp)
         for o in observers:
             o.on_start(self.spec, self.gripper, scene)
         try:
@@ -124,9 +135,10 @@ class Pipeline:
             o.on_result(result)
         return result
 
-    def _plan(self, scene: Scene, observers: Sequence[PlanObserver]) -> PlanResult:
+    def prepare(self, scene: Scene, observers: Sequence[PlanObserver] = ()) -> Prepared:
+        """Run the stages before the search: downsampling, segmentation, target
+        choice, object frame, samples and table; report each to ``observers``."""
         from wsgrasp.perception.frame import (
-            estimate_normals,
             object_frame,
             sample_box,
             table_frame,
@@ -134,23 +146,20 @@ class Pipeline:
         )
         from wsgrasp.perception.process import downsample, select_target
 
-        spec, g = self.spec, self.gripper
+        spec = self.spec
         timing: dict[str, float] = {}
-        t_start = t = time.perf_counter()
+        t = time.perf_counter()
 
-        def lap(stage: str) -> None:
+        def lap(stage: str, data: dict[str, Any]) -> None:
             nonlocal t
             now = time.perf_counter()
             timing[stage] = (now - t) * 1e3
-            t = now
-
-        def report(stage: str, data: dict[str, Any]) -> None:
             for o in observers:
                 o.on_stage(stage, data)
+            t = time.perf_counter()
 
         points = downsample(scene.points, spec.preprocess.voxel_size)
-        lap("preprocess")
-        report("preprocess", {"points": points})
+        lap("preprocess", {"points": points})
 
         try:
             segmentation = self._segmenter.segment(
@@ -169,8 +178,7 @@ class Pipeline:
             object_points, spec.preprocess.max_object_points, spec.seed
         )
         obstacle_points = np.concatenate(obstacles) if obstacles else np.zeros((0, 3))
-        lap("segmentation")
-        report(
+        lap(
             "segmentation",
             {
                 "table_normal": segmentation.table.normal,
@@ -183,11 +191,13 @@ class Pipeline:
 
         frame = object_frame(object_points, spec.object_frame.method)
         samples_object = sample_box(frame, spec.sampling)
-        T_world_table = table_frame(segmentation.table, frame.T_world_object[:3, 3])
+        T_world_table = table_frame(segmentation.table, frame.centroid)
         se_center, se_axes, se_exp = table_superellipsoid(spec.table)
         table = TableSE(T_world_table, se_center, se_axes, se_exp)
-        lap("object_frame")
-        report(
+        thetas = orientation_angles(
+            spec.sampling.orientations, spec.sampling.angle_range_deg
+        )
+        lap(
             "object_frame",
             {
                 "T_world_object": frame.T_world_object,
@@ -197,44 +207,58 @@ class Pipeline:
                 "T_world_table": T_world_table,
             },
         )
+        search_input = SearchInput(
+            gripper=self.gripper,
+            T_world_object=frame.T_world_object,
+            extents=frame.extents,
+            samples_object=samples_object,
+            thetas=thetas,
+            object_points=object_points,
+            obstacle_points=obstacle_points,
+            table=table,
+        )
+        return Prepared(
+            search_input=search_input,
+            downsampled=points,
+            table_plane=segmentation.table,
+            obstacles=obstacles,
+            timing_ms=timing,
+        )
 
-        thetas = orientation_angles(
-            spec.sampling.orientations, spec.sampling.angle_range_deg
-        )
-        out = run_search(
-            SearchInput(
-                gripper=g,
-                T_world_object=frame.T_world_object,
-                extents=frame.extents,
-                samples_object=samples_object,
-                thetas=thetas,
-                object_points=object_points,
-                obstacle_points=obstacle_points,
-                table=table,
-            ),
+    def search(self, prepared: Prepared) -> SearchOutput:
+        """The vectorised search on prepared inputs."""
+        centroid = prepared.search_input.T_world_object[:3, 3]
+        return run_search(
+            prepared.search_input,
             self._scorers,
-            top_k=spec.top_k,
+            top_k=self.spec.top_k,
             spheres=self._spheres,
-            normals_fn=lambda p: estimate_normals(p, frame.T_world_object[:3, 3]),
+            normals_fn=lambda p: _normals(p, centroid),
         )
-        timing.update(out.timing_ms)
-        t = time.perf_counter()
-        report("candidates", {"candidates": out.candidates})
+
+    def _plan(self, scene: Scene, observers: Sequence[PlanObserver]) -> PlanResult:
+        g = self.gripper
+        t_start = time.perf_counter()
+        prep = self.prepare(scene, observers)
+        out = self.search(prep)
+        for o in observers:
+            o.on_stage("candidates", {"candidates": out.candidates})
+        timing = {**prep.timing_ms, **out.timing_ms}
         timing["total"] = (time.perf_counter() - t_start) * 1e3
 
+        inp = prep.search_input
         hist = out.candidates.histogram()
         rejections = {k: v for k, v in hist.items() if k != "feasible"}
         found = out.best is not None
         T_world_gripper = T_world_gwc = T_world_tcp = None
         hint = ""
-        if found:
-            assert out.best is not None
+        if out.best is not None:
             T_world_gripper = out.candidates.T_world_ee[out.best]
             T_world_gwc = out.candidates.T_world_gwc[out.best]
             T_world_tcp = T_world_gripper @ g.T_gripper_tcp
         else:
-            heights = segmentation.table.signed_distance(object_points)
-            hint = no_grasp_hint(hist, frame.extents, g, float(heights.max()))
+            heights = prep.table_plane.signed_distance(inp.object_points)
+            hint = no_grasp_hint(hist, inp.extents, g, float(heights.max()))
         return PlanResult(
             found=found,
             gripper=g.name,
@@ -252,16 +276,38 @@ class Pipeline:
             rejections=rejections,
             timing_ms=timing,
             hint=hint,
-            T_world_object=frame.T_world_object,
-            object_extents=frame.extents,
+            T_world_object=inp.T_world_object,
+            object_extents=inp.extents,
             info={
-                "object_points": int(len(object_points)),
-                "obstacles": len(obstacles),
+                "object_points": int(len(inp.object_points)),
+                "obstacles": len(prep.obstacles),
                 "scene_points": int(len(scene.points)),
-                "downsampled_points": int(len(points)),
+                "downsampled_points": int(len(prep.downsampled)),
                 "dropped_nonfinite": int(scene.dropped_nonfinite),
             },
         )
+
+
+@dataclass
+class Prepared:
+    """The stages before the search, ready for it."""
+
+    search_input: SearchInput
+    downsampled: Array
+    table_plane: Plane
+    obstacles: list[Array]
+    timing_ms: dict[str, float]
+
+
+def _normals(points: Array, centroid: Array) -> Array:
+    """Unit normals of the object points ``(n, 3)``, pointing away from the
+    object's centroid."""
+    from wsgrasp.perception.frame import estimate_normals
+
+    n = estimate_normals(points)
+    flip = np.einsum("ij,ij->i", points - centroid, n) < 0.0
+    n[flip] *= -1.0
+    return n
 
 
 def _instantiate(entry: Any) -> Any:

@@ -1,9 +1,228 @@
-"""Command module (commands are added as their features land)."""
+"""``wsgrasp plan``, ``wsgrasp demo`` and ``wsgrasp bench``."""
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import Any
+
+import numpy as np
 import typer
+from rich.table import Table
+
+from wsgrasp.cli._common import console, err_console, print_json
+from wsgrasp.errors import InputError
 
 
 def register(app: typer.Typer) -> None:
-    """Add this module's commands to ``app``."""
+    app.command("plan")(plan)
+    app.command("demo")(demo)
+    app.command("bench")(bench)
+
+
+def _pose_text(T: np.ndarray) -> str:
+    from scipy.spatial.transform import Rotation
+
+    xyz = T[:3, 3]
+    q = Rotation.from_matrix(T[:3, :3]).as_quat()  # x, y, z, w
+    return (
+        f"xyz [{xyz[0]:+.4f}, {xyz[1]:+.4f}, {xyz[2]:+.4f}] m, "
+        f"q_xyzw [{q[0]:+.4f}, {q[1]:+.4f}, {q[2]:+.4f}, {q[3]:+.4f}]"
+    )
+
+
+def print_result(result: Any, title: str = "plan") -> None:
+    """A rich summary of a ``PlanResult``."""
+    table = Table(title=title, show_header=False)
+    table.add_column("", style="bold")
+    table.add_column("")
+    table.add_row("gripper", result.gripper)
+    if result.found:
+        table.add_row("found", "[green]yes[/]")
+        table.add_row("T_world_ee", _pose_text(result.T_world_ee))
+        table.add_row("T_world_tcp", _pose_text(result.T_world_tcp))
+        table.add_row(
+            "score",
+            f"{result.score:.4f} = "
+            + " + ".join(f"{k} {v:.3f}" for k, v in result.score_terms.items()),
+        )
+        table.add_row(
+            "contacts",
+            ", ".join(
+                f"{c.finger}: {len(c.points)} pts / {len(c.spheres)} spheres"
+                for c in result.contacts
+            ),
+        )
+    else:
+        table.add_row("found", "[red]no[/]")
+        table.add_row("why", result.hint)
+    n = len(result.candidates)
+    table.add_row(
+        "candidates",
+        f"{n} evaluated, {int(result.candidates.feasible.sum())} feasible; rejected: "
+        + ", ".join(f"{k} {v}" for k, v in result.rejections.items() if v),
+    )
+    table.add_row(
+        "timing",
+        ", ".join(f"{k} {v:.1f} ms" for k, v in result.timing_ms.items()),
+    )
+    console.print(table)
+
+
+def _observers(
+    spec: Any,
+    gripper_name: str,
+    record: Path | None,
+    no_record: bool,
+    force: bool,
+) -> tuple[list[Any], Path | None]:
+    if no_record or (record is None and not spec.record.enabled):
+        return [], None
+    from wsgrasp.record import RunRecorder, default_run_path
+
+    path = record if record is not None else default_run_path(spec, gripper_name)
+    return [RunRecorder(path, force=force)], path
+
+
+def plan(
+    clouds: list[Path] = typer.Argument(
+        ..., help="Cloud files (PLY, PCD, XYZ, NPY/NPZ), a scene YAML, or a ROS 2 bag."
+    ),
+    spec_file: Path = typer.Option(..., "--spec", "-s", help="Pipeline spec file."),
+    record: Path | None = typer.Option(
+        None, "--record", help="Write the run's MCAP recording here."
+    ),
+    no_record: bool = typer.Option(False, "--no-record", help="Do not record."),
+    force: bool = typer.Option(
+        False, "--force", help="Overwrite an existing recording at --record."
+    ),
+    registered: bool = typer.Option(
+        False, "--registered", help="Several clouds already share one frame."
+    ),
+    topic: str | None = typer.Option(
+        None, "--topic", help="PointCloud2 topic, when the input is a ROS 2 bag."
+    ),
+    frame: str | None = typer.Option(
+        None, "--frame", help="World frame of the bag's /tf tree."
+    ),
+    at: float | None = typer.Option(
+        None, "--at", help="Bag time (s) to plan at; the latest cloud by default."
+    ),
+    as_json: bool = typer.Option(False, "--json", help="Print the result as JSON."),
+) -> None:
+    """Plan a grasp on a scene."""
+    from wsgrasp.api import Pipeline
+    from wsgrasp.perception.io import load_scene
+    from wsgrasp.spec import load_spec
+
+    spec = load_spec(spec_file)
+    if record is not None and no_record:
+        raise InputError(
+            "--record and --no-record were both given", hint="choose one of them"
+        )
+    bag = len(clouds) == 1 and clouds[0].suffix.lower() == ".mcap"
+    if bag:
+        from wsgrasp.record.bag import read_bag_scene
+
+        if topic is None:
+            raise InputError(
+                f"{clouds[0]} is an MCAP file: planning on a ROS 2 bag needs --topic",
+                hint="pass --topic /camera/points (the PointCloud2 topic)",
+            )
+        scene = read_bag_scene(clouds[0], topic, frame=frame, at=at)
+    else:
+        scene = load_scene(clouds, icp=spec.preprocess.icp, registered=registered)
+    pipeline = Pipeline(spec)
+    observers, path = _observers(spec, pipeline.gripper.name, record, no_record, force)
+    result = pipeline.plan(scene, observers=observers)
+    if as_json:
+        data = result.to_json()
+        data["recording"] = None if path is None else str(path)
+        print_json(data)
+        return
+    print_result(result)
+    if path is not None:
+        console.print(f"recorded to {path}")
+
+
+def demo(
+    out: Path = typer.Option(Path("demo"), "--out", "-o", help="Output directory."),
+) -> None:
+    """Build both grippers, plan with each on a bundled scene, write pictures and
+    recordings."""
+    from wsgrasp.api import Pipeline
+    from wsgrasp.bench import project_root
+    from wsgrasp.perception.io import load_scene
+    from wsgrasp.spec import load_spec
+
+    root = project_root()
+    out.mkdir(parents=True, exist_ok=True)
+    scene_path = root / "examples" / "scenes" / "box_upright.npz"
+    scene = load_scene([scene_path])
+    for name, spec_name in (("franka_hand", "franka"), ("allegro_right", "allegro")):
+        spec = load_spec(root / "examples" / "specs" / f"{spec_name}.yaml")
+        with console.status(f"building the {name} model (cached after the first run)"):
+            pipeline = Pipeline(spec)
+        from wsgrasp.view import render_gripper
+
+        gripper_png = out / f"{name}_model.png"
+        render_gripper(pipeline.gripper, gripper_png)
+        from wsgrasp.record import RunRecorder
+
+        run_path = out / f"{name}.mcap"
+        result = pipeline.plan(scene, observers=[RunRecorder(run_path, force=True)])
+        print_result(result, title=f"{name} on {scene_path.name}")
+        from wsgrasp.view import render_run
+
+        picture = out / f"{name}_grasp.png"
+        render_run(run_path, picture)
+        console.print(f"wrote {gripper_png}, {run_path} and {picture}", highlight=False)
+
+
+def bench(
+    as_json: bool = typer.Option(False, "--json", help="Print JSON."),
+    repeat: int = typer.Option(15, help="Runs per median."),
+    scaling: bool = typer.Option(True, help="Also measure the scaling table."),
+) -> None:
+    """Time the whole plan, the search and the loop-by-loop reference (medians)."""
+    from wsgrasp.bench import run_bench
+
+    with console.status("benchmarking") as status:
+        res = run_bench(
+            repeat=repeat, scaling=scaling, progress=lambda m: status.update(m)
+        )
+    if as_json:
+        print_json({**res.rows, "scaling": res.scaling})
+        return
+    t = Table(title="wsgrasp bench (medians, ms)")
+    cols = [
+        "plan_ms",
+        "preprocess_ms",
+        "segmentation_ms",
+        "object_frame_ms",
+        "search_ms",
+        "reference_search_ms",
+        "speedup",
+        "paper_plan_ms",
+    ]
+    t.add_column("gripper")
+    for c in cols:
+        t.add_column(c.replace("_ms", ""), justify="right")
+    for g, row in res.rows.items():
+        t.add_row(g, *(f"{row.get(c, float('nan')):.1f}" for c in cols))
+    console.print(t)
+    if res.scaling:
+        s = Table(title="search scaling (medians, ms)")
+        for c in ("gripper", "samples", "orientations", "candidates", "object points"):
+            s.add_column(c, justify="right")
+        s.add_column("search ms", justify="right")
+        for r in res.scaling:
+            s.add_row(
+                r["gripper"],
+                str(r["samples"]),
+                str(r["orientations"]),
+                str(r["samples"] * r["orientations"]),
+                str(r["object_points"]),
+                f"{r['search_ms']:.1f}",
+            )
+        console.print(s)
+    err_console.print("timings are medians on this machine; see `wsgrasp bench --json`")

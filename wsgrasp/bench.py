@@ -1,0 +1,179 @@
+"""``wsgrasp bench``: timings of the whole plan, the search alone and the
+loop-by-loop reference, side by side in one run, and how the search scales.
+
+Figures are medians over repeated runs on the same inputs; the speed-up is the
+ratio of the reference's median to the search's median measured in the same run.
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from wsgrasp.api import Pipeline, as_scene
+from wsgrasp.perception.frame import sample_box
+from wsgrasp.planning.candidates import orientation_angles
+from wsgrasp.planning.reference import reference_search
+from wsgrasp.spec import load_spec
+
+__all__ = ["BenchCase", "run_bench", "default_cases"]
+
+#: the paper's per-plan times (Table II averages), for comparison
+PAPER_PLAN_S = {"franka_hand": 0.34, "allegro_right": 1.22}
+
+
+@dataclass
+class BenchCase:
+    gripper: str
+    spec: Path
+    scene: Path
+
+
+@dataclass
+class BenchResult:
+    rows: dict[str, dict[str, float]] = field(default_factory=dict)
+    scaling: list[dict[str, Any]] = field(default_factory=list)
+
+
+def project_root() -> Path:
+    """The source checkout holding ``examples/`` (the demo and bench data)."""
+    here = Path(__file__).resolve().parent.parent
+    for root in (here, Path.cwd()):
+        if (root / "examples" / "specs").is_dir():
+            return root
+    return Path.cwd()
+
+
+def default_cases() -> list[BenchCase]:
+    root = project_root()
+    scene = root / "examples" / "scenes" / "box_upright.npz"
+    return [
+        BenchCase("franka_hand", root / "examples/specs/franka.yaml", scene),
+        BenchCase("allegro_right", root / "examples/specs/allegro.yaml", scene),
+    ]
+
+
+def _median_ms(fn: Callable[[], Any], repeat: int, warmup: int = 1) -> float:
+    for _ in range(warmup):
+        fn()
+    times = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        times.append((time.perf_counter() - t) * 1e3)
+    return statistics.median(times)
+
+
+def run_bench(
+    cases: list[BenchCase] | None = None,
+    *,
+    repeat: int = 15,
+    reference_repeat: int = 3,
+    scaling: bool = True,
+    progress: Callable[[str], None] | None = None,
+) -> BenchResult:
+    """Measure every case; see the module docstring."""
+    say = progress or (lambda _msg: None)
+    out = BenchResult()
+    for case in cases or default_cases():
+        say(f"{case.gripper}: loading")
+        pipe = Pipeline(load_spec(case.spec))
+        scene = as_scene(case.scene)
+        say(f"{case.gripper}: whole plan ×{repeat}")
+        plan_ms = _median_ms(lambda: pipe.plan(scene), repeat)
+        prep = pipe.prepare(scene)
+        stages = {k: [] for k in prep.timing_ms}  # type: dict[str, list[float]]
+        for _ in range(repeat):
+            for k, v in pipe.prepare(scene).timing_ms.items():
+                stages[k].append(v)
+        say(f"{case.gripper}: search ×{repeat}")
+        search_ms = _median_ms(lambda: pipe.search(prep), repeat)
+        inp = prep.search_input
+        say(f"{case.gripper}: loop-by-loop reference ×{reference_repeat}")
+        ref_ms = _median_ms(
+            lambda: reference_search(
+                inp.gripper,
+                inp.T_world_object,
+                inp.samples_object,
+                inp.thetas,
+                inp.object_points,
+                inp.obstacle_points,
+                inp.table,
+            ),
+            reference_repeat,
+            warmup=0,
+        )
+        row = {
+            "plan_ms": plan_ms,
+            "search_ms": search_ms,
+            "reference_search_ms": ref_ms,
+            "speedup": ref_ms / search_ms,
+            "candidates": float(len(inp.samples_object) * len(inp.thetas)),
+            "object_points": float(len(inp.object_points)),
+            "scene_points": float(len(scene.points)),
+            "paper_plan_ms": PAPER_PLAN_S.get(case.gripper, float("nan")) * 1e3,
+        }
+        row.update({f"{k}_ms": statistics.median(v) for k, v in stages.items()})
+        out.rows[case.gripper] = row
+        if scaling:
+            say(f"{case.gripper}: scaling")
+            out.scaling += _scaling(pipe, prep, scene)
+    return out
+
+
+def _scaling(pipe: Pipeline, prep: Any, scene: Any) -> list[dict[str, Any]]:
+    """Search time over sample counts × orientations and object point counts."""
+    from wsgrasp.perception.frame import object_frame
+
+    rows = []
+    inp = prep.search_input
+    # a denser object cloud for the point-count sweep: the scene at 2 mm voxels
+    dense_spec = pipe.spec.model_copy(deep=True)
+    dense_spec.preprocess.voxel_size = 0.002
+    dense_spec.preprocess.max_object_points = 100_000
+    dense = Pipeline(dense_spec, gripper=pipe.gripper).prepare(scene)
+    dense_points = dense.search_input.object_points
+    rng = np.random.default_rng(0)
+    frame = object_frame(inp.object_points, pipe.spec.object_frame.method)
+    for ns, nos in ((147, 4), (500, 8), (1000, 8), (2000, 16)):
+        sampling = pipe.spec.sampling.model_copy(
+            update={"points": ns, "orientations": nos}
+        )
+        case = replace(
+            inp,
+            samples_object=sample_box(frame, sampling),
+            thetas=orientation_angles(nos, sampling.angle_range_deg),
+        )
+        p = replace(prep, search_input=case)
+        ms = _median_ms(lambda: pipe.search(p), 5)
+        rows.append(
+            {
+                "gripper": pipe.gripper.name,
+                "samples": len(case.samples_object),
+                "orientations": nos,
+                "object_points": len(inp.object_points),
+                "search_ms": ms,
+            }
+        )
+    for n in (300, 800, 2000, 5000):
+        take = min(n, len(dense_points))
+        pts = dense_points[np.sort(rng.choice(len(dense_points), take, replace=False))]
+        case = replace(inp, object_points=pts)
+        p = replace(prep, search_input=case)
+        ms = _median_ms(lambda: pipe.search(p), 5)
+        rows.append(
+            {
+                "gripper": pipe.gripper.name,
+                "samples": len(inp.samples_object),
+                "orientations": len(inp.thetas),
+                "object_points": take,
+                "search_ms": ms,
+            }
+        )
+    return rows
