@@ -1,9 +1,211 @@
-"""Command module (commands are added as their features land)."""
+"""``wsgrasp scene``: synthetic scenes and a look at what perception makes of a
+scene."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import typer
+
+from wsgrasp.cli._common import console, print_json
+
+scene_app = typer.Typer(
+    help="Scenes: render synthetic ones, inspect segmentation.", no_args_is_help=True
+)
 
 
 def register(app: typer.Typer) -> None:
     """Add this module's commands to ``app``."""
+    app.add_typer(scene_app, name="scene")
+
+
+def _floats(text: str | None, what: str) -> list[float] | None:
+    from wsgrasp.errors import InputError
+
+    if not text:
+        return None
+    try:
+        return [float(v) for v in text.replace(" ", "").split(",") if v]
+    except ValueError:
+        raise InputError(
+            f"{what} {text!r} is not a comma-separated list of numbers",
+            hint=f"e.g. {what} 0.06,0.08,0.16",
+        ) from None
+
+
+@scene_app.command("synth")
+def synth(
+    out: Path = typer.Option(
+        ..., "--out", "-o", help="Merged cloud (.npz, .ply, .pcd, .xyz)."
+    ),
+    obj: str = typer.Option(
+        "box",
+        "--object",
+        help="box, cylinder, cone, ring, sphere, or a mesh file (metres).",
+    ),
+    size: str | None = typer.Option(
+        None,
+        "--size",
+        help="Comma-separated sizes (m): box x,y,z; cylinder/cone r,h; "
+        "ring r_in,r_out,h; sphere r.",
+    ),
+    pose: str = typer.Option("upright", "--pose", help="upright, lying or random."),
+    views: int = typer.Option(3, "--views", help="Number of cameras."),
+    noise: float = typer.Option(0.001, "--noise", help="Depth noise std (m)."),
+    seed: int = typer.Option(0, "--seed", help="Random seed."),
+    table_size: float = typer.Option(0.6, "--table-size", help="Table side (m)."),
+    width: int = typer.Option(320, "--width", help="Image width (px)."),
+    height: int = typer.Option(240, "--height", help="Image height (px)."),
+    distance: float = typer.Option(0.55, "--distance", help="Camera distance (m)."),
+    elevation: float = typer.Option(
+        45.0, "--elevation", help="Camera elevation above the table (deg)."
+    ),
+    views_out: Path | None = typer.Option(
+        None,
+        "--views-out",
+        help="Also write each view in its camera frame and a scene.yaml here.",
+    ),
+    camera_frame: bool = typer.Option(
+        False,
+        "--camera-frame",
+        help="Express everything in the first camera's frame (table tilted).",
+    ),
+    as_json: bool = typer.Option(False, "--json", help="Print a JSON summary."),
+) -> None:
+    """Render an object on a table from virtual depth cameras."""
+    from wsgrasp.errors import InputError
+    from wsgrasp.perception.io import save_cloud, write_scene_yaml
+    from wsgrasp.perception.synth import synth_scene
+
+    if pose not in ("upright", "lying", "random"):
+        raise InputError(
+            f"--pose {pose!r} is unknown, expected upright, lying or random",
+            hint="pass --pose upright",
+        )
+    scene = synth_scene(
+        obj,
+        size=_floats(size, "--size"),
+        pose=pose,  # type: ignore[arg-type]
+        views=views,
+        noise=noise,
+        seed=seed,
+        table_size=table_size,
+        width=width,
+        height=height,
+        distance=distance,
+        elevation_deg=elevation,
+        camera_frame=camera_frame,
+    )
+    save_cloud(out, scene.points)
+    yaml_path = write_scene_yaml(views_out, scene.views) if views_out else None
+    summary = {
+        "out": str(out),
+        "points": int(scene.points.shape[0]),
+        "views": [int(v.points.shape[0]) for v in scene.views],
+        "frame": "camera 0" if camera_frame else "world (z up)",
+        "T_world_object": scene.T_world_mesh,
+        "table_normal": scene.table.normal,
+        "table_offset": scene.table.offset,
+        "scene_yaml": str(yaml_path) if yaml_path else None,
+    }
+    if as_json:
+        print_json(summary)
+        return
+    console.print(
+        f"wrote {out}: {summary['points']} points from {len(scene.views)} views "
+        f"({', '.join(map(str, summary['views']))}), frame {summary['frame']}"
+    )
+    if yaml_path:
+        console.print(f"wrote {yaml_path} and {len(scene.views)} view files")
+
+
+@scene_app.command("info")
+def info(
+    clouds: list[Path] = typer.Argument(..., help="Cloud files or one scene YAML."),
+    spec: Path | None = typer.Option(
+        None, "--spec", help="Pipeline spec (segmenter, preprocess, target)."
+    ),
+    registered: bool = typer.Option(
+        False, "--registered", help="Several clouds already share one frame."
+    ),
+    icp: bool = typer.Option(False, "--icp", help="Refine view poses with ICP."),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON."),
+) -> None:
+    """Load a scene and show the table plane, objects and object frame found."""
+    import time
+
+    from wsgrasp.perception.frame import object_frame
+    from wsgrasp.perception.io import load_scene
+    from wsgrasp.perception.process import crop, downsample, select_target, thin
+    from wsgrasp.plugins import get_registry
+    from wsgrasp.spec import PipelineSpec, load_spec
+
+    ps = (
+        load_spec(spec)
+        if spec
+        else PipelineSpec.model_validate({"gripper": "franka_hand"})
+    )
+    import open3d  # noqa: F401 - imported before timing starts
+
+    entry = get_registry().get("segmenters", ps.segmenter.name)
+    options = entry.obj.Options.model_validate(ps.segmenter.options)
+    timing: dict[str, float] = {}
+    t = time.perf_counter()
+
+    def lap(stage: str) -> None:
+        nonlocal t
+        now = time.perf_counter()
+        timing[stage] = round((now - t) * 1e3, 2)
+        t = now
+
+    scene = load_scene(clouds, icp=icp or ps.preprocess.icp, registered=registered)
+    lap("load")
+    points = downsample(
+        crop(scene.points, ps.preprocess.crop_radius), ps.preprocess.voxel_size
+    )
+    lap("downsample")
+    seg = entry.obj().segment(points, options, seed=ps.seed)
+    lap("segment")
+    obj_points, obstacles = select_target(seg, ps.target)
+    obj_points = thin(obj_points, ps.preprocess.max_object_points, ps.seed)
+    frame = object_frame(obj_points, ps.object_frame.method)
+    lap("object_frame")
+    summary = {
+        "points": int(scene.points.shape[0]),
+        "dropped_nonfinite": scene.dropped_nonfinite,
+        "downsampled": int(points.shape[0]),
+        "table_normal": seg.table.normal,
+        "table_offset": seg.table.offset,
+        "table_points": int(seg.table_points.shape[0]),
+        "clusters": [int(c.shape[0]) for c in seg.clusters],
+        "object_points": int(obj_points.shape[0]),
+        "obstacles": len(obstacles),
+        "T_world_object": frame.T_world_object,
+        "extents": frame.extents,
+        "timing_ms": timing,
+    }
+    if as_json:
+        print_json(summary)
+        return
+    n = seg.table.normal
+    console.print(
+        f"{summary['points']} points ({scene.dropped_nonfinite} non-finite dropped), "
+        f"{summary['downsampled']} after voxel {ps.preprocess.voxel_size:g} m"
+    )
+    console.print(
+        f"table: normal ({n[0]:.3f}, {n[1]:.3f}, {n[2]:.3f}), offset "
+        f"{seg.table.offset:.4f} m, {summary['table_points']} points"
+    )
+    console.print(
+        f"objects: {len(seg.clusters)} ({', '.join(map(str, summary['clusters']))} "
+        f"points); target {obj_points.shape[0]} points, {len(obstacles)} obstacles"
+    )
+    e = frame.extents
+    console.print(
+        f"object frame ({frame.method}): centroid "
+        f"{tuple(round(float(v), 4) for v in frame.centroid)}, extents "
+        f"{e[0]:.3f} x {e[1]:.3f} x {e[2]:.3f} m"
+    )
+    console.print(
+        "timing (ms): " + ", ".join(f"{k} {v:.1f}" for k, v in timing.items())
+    )

@@ -41,6 +41,8 @@ __all__ = [
     "load_cloud",
     "load_scene",
     "refine_views_icp",
+    "save_cloud",
+    "write_scene_yaml",
     "scene_from_arrays",
 ]
 
@@ -426,3 +428,54 @@ def refine_views_icp(
         )
         # correction in the world frame: T_world_camera <- T_fix @ T_world_camera
         v.T_world_camera = np.asarray(result.transformation) @ v.T_world_camera
+
+
+# --------------------------------------------------------------------------------
+# writing
+# --------------------------------------------------------------------------------
+def save_cloud(path: str | Path, points: ArrayLike) -> Path:
+    """Write a cloud ``(n, 3)``: NPZ (float32, key ``points``), NPY, PLY/PCD (open3d)
+    or XYZ/TXT/CSV (text, metres)."""
+    p = Path(path)
+    pts = _check_shape(points, str(p))
+    suffix = p.suffix.lower()
+    p.parent.mkdir(parents=True, exist_ok=True)
+    if suffix == ".npz":
+        np.savez_compressed(p, points=pts.astype(np.float32))
+    elif suffix == ".npy":
+        np.save(p, pts.astype(np.float32))
+    elif suffix in (".ply", ".pcd"):
+        import open3d as o3d
+
+        pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts))
+        o3d.io.write_point_cloud(p, pcd)
+    elif suffix in (".xyz", ".txt", ".csv"):
+        np.savetxt(p, pts, fmt="%.6f", delimiter="," if suffix == ".csv" else " ")
+    else:
+        raise InputError(
+            f"cannot write cloud {str(p)!r}: unknown format {suffix!r}, expected one "
+            f"of {', '.join(CLOUD_SUFFIXES)}",
+            hint="name the output e.g. scene.npz",
+        )
+    return p
+
+
+def write_scene_yaml(
+    directory: str | Path, views: Sequence[View], name: str = "scene.yaml"
+) -> Path:
+    """Write each view's points (camera frame) as ``view_<i>.npz`` and a scene YAML
+    listing them with their ``T_world_camera``; returns the YAML's path."""
+    import yaml
+
+    d = Path(directory)
+    d.mkdir(parents=True, exist_ok=True)
+    entries = []
+    for i, v in enumerate(views):
+        fname = f"view_{i}.npz"
+        save_cloud(d / fname, v.points)
+        T = np.round(np.asarray(v.T_world_camera, dtype=np.float64), 9)
+        entries.append({"cloud": fname, "T_world_camera": T.tolist()})
+    doc = {"version": 1, "units": "m", "views": entries}
+    out = d / name
+    out.write_text(yaml.safe_dump(doc, sort_keys=False, default_flow_style=None))
+    return out
