@@ -32,6 +32,8 @@ Array = NDArray[np.float64]
 
 #: Work on at most this many transformed points at once (bounds memory).
 _CHUNK_POINTS = 2_000_000
+#: Object points in the coarse collision pass.
+_COARSE_POINTS = 48
 
 
 @dataclass(frozen=True)
@@ -221,9 +223,17 @@ def evaluate_candidates(
     for sl in _chunks(len(alive), max(no, len(obstacle_points))):
         idx = alive[sl]
         T = T_gripper_world[sl]
-        # 2. object points in the gripper frame, one array per coordinate: 3 × (no, a)
+        # 2. object collision. A coarse pass with every k-th object point first:
+        # a hit by a subset is a hit by the whole cloud, and it rejects most
+        # colliding candidates at a fraction of the cost.
+        coarse = coordinates_in_superellipsoids(
+            *_coordinates(T, object_points[:: max(1, no // _COARSE_POINTS)]), *se
+        ).any(axis=0)  # (a,)
+        idx, T = idx[~coarse], T[~coarse]
+        reason[alive[sl][coarse]] = 2
+        # the rest, with every point, in the gripper frame: 3 × (no, a')
         xyz = _coordinates(T, object_points)
-        obj_hit = coordinates_in_superellipsoids(*xyz, *se).any(axis=0)  # (a,)
+        obj_hit = coordinates_in_superellipsoids(*xyz, *se).any(axis=0)  # (a',)
         reason[idx[obj_hit]] = 2
         keep = ~obj_hit
         # 3. obstacles
