@@ -1,0 +1,106 @@
+"""Built-in scorers on hand-made batches: each prefers what it says it prefers."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import make_jaw_gripper
+
+from wsgrasp.errors import PluginError
+from wsgrasp.planning.scoring import CandidateBatch, combine_scores
+from wsgrasp.plugins import get_registry
+
+
+def _batch(
+    holding, normals, approach=((0, 0, -1),), closing=((0, 1, 0),), heights=None
+):
+    holding = np.asarray(holding, dtype=bool)
+    F = holding.shape[0]
+    T = np.tile(np.eye(4), (F, 1, 1))
+    a = np.broadcast_to(np.asarray(approach, float), (F, 3))
+    c = np.broadcast_to(np.asarray(closing, float), (F, 3))
+    T[:, :3, 2] = a
+    T[:, :3, 1] = c
+    T[:, :3, 0] = np.cross(c, a)
+    points = np.array([[0.0, 0.03, 0.0], [0.0, -0.03, 0.0], [0.03, 0.0, 0.0]])
+    n = np.asarray(normals, dtype=float)
+    return CandidateBatch(
+        gripper=make_jaw_gripper(),
+        T_world_gwc=T,
+        T_world_gripper=T,
+        theta=np.zeros(F),
+        holding=holding,
+        object_points=points,
+        T_world_object=np.eye(4),
+        extents=np.array([0.06, 0.06, 0.1]),
+        table_normal=np.array([0.0, 0.0, 1.0]),
+        min_table_height=np.zeros(F) if heights is None else np.asarray(heights),
+        normals_fn=lambda p: n,
+    )
+
+
+def _scorer(name):
+    entry = get_registry().get("scorers", name)
+    return entry.obj(), entry.obj.Options()
+
+
+NORMALS = [[0, 1, 0], [0, -1, 0], [1, 0, 0]]
+# candidate 0: fingers on opposite faces; candidate 1: one face and a side face
+HOLD = [
+    [[True, False], [False, True], [False, False]],
+    [[True, False], [False, False], [False, True]],
+]
+
+
+def test_antipodal_prefers_opposite_faces_along_the_closing_axis():
+    scorer, opts = _scorer("antipodal")
+    s = scorer.score(_batch(HOLD, NORMALS), opts)
+    assert s[0] == pytest.approx(1.0)
+    assert s[1] < 0.7
+
+
+def test_contact_balance():
+    scorer, opts = _scorer("contact_balance")
+    hold = [[[True, False], [True, False], [False, True]], HOLD[0]]
+    s = scorer.score(_batch(hold, NORMALS), opts)
+    np.testing.assert_allclose(s, [0.5, 1.0])
+
+
+def test_table_clearance_saturates():
+    scorer, opts = _scorer("table_clearance")
+    s = scorer.score(_batch(HOLD * 2, NORMALS, heights=[0.0, 0.015, 0.03, 0.5]), opts)
+    np.testing.assert_allclose(s, [0.0, 0.5, 1.0, 1.0])
+
+
+def test_approach_direction_prefers_top_down():
+    scorer, opts = _scorer("approach_direction")
+    b = _batch(HOLD, NORMALS, approach=[(0, 0, -1), (1, 0, 0)])
+    np.testing.assert_allclose(scorer.score(b, opts), [1.0, 0.5])
+
+
+def test_centroid_distance_is_monotone_in_distance():
+    scorer, opts = _scorer("centroid_distance")
+    b = _batch(HOLD * 3, NORMALS)
+    b.T_world_gwc[:, 0, 3] = [0.0, 0.01, 0.02, 0.05, 0.02, 0.0]
+    s = scorer.score(b, opts)
+    assert s[0] == s[5] == pytest.approx(1.0)
+    assert s[0] > s[1] > s[2] > s[3]
+
+
+def test_weighted_sum_and_a_failing_scorer_named():
+    b = _batch(HOLD, NORMALS)
+    cd, cd_opts = _scorer("centroid_distance")
+    ap, ap_opts = _scorer("antipodal")
+    total, terms = combine_scores(
+        b, [("centroid_distance", cd, cd_opts, 1.0), ("antipodal", ap, ap_opts, 2.0)]
+    )
+    np.testing.assert_allclose(
+        total, terms["centroid_distance"] + 2 * terms["antipodal"]
+    )
+
+    class Broken:
+        def score(self, batch, options):
+            return np.zeros(len(batch) + 1)
+
+    with pytest.raises(PluginError, match="scorer 'broken'"):
+        combine_scores(b, [("broken", Broken(), None, 1.0)])
