@@ -98,17 +98,17 @@ def chain_forward_kinematics(
     (..., 4, 4) float
         ``T_root_tip`` per configuration.
     """
-    O = np.asarray(origins, dtype=np.float64).reshape(-1, 4, 4)
+    Os = np.asarray(origins, dtype=np.float64).reshape(-1, 4, 4)
     A = np.asarray(axes, dtype=np.float64).reshape(-1, 3)
     k = np.asarray(kinds).reshape(-1)
     q = np.asarray(q, dtype=np.float64)
-    if q.shape[-1] != O.shape[0]:
+    if q.shape[-1] != Os.shape[0]:
         raise ValueError(
-            f"q: expected last dimension {O.shape[0]} (joints), got {q.shape}"
+            f"q: expected last dimension {Os.shape[0]} (joints), got {q.shape}"
         )
     T = np.broadcast_to(np.eye(4), (*q.shape[:-1], 4, 4)).copy()
-    for j in range(O.shape[0]):
-        T = T @ O[j]
+    for j in range(Os.shape[0]):
+        T = T @ Os[j]
         if k[j] != JOINT_FIXED:
             T = T @ joint_motion_transforms(int(k[j]), A[j], q[..., j])
     return T

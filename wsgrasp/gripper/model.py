@@ -117,9 +117,8 @@ class GripperModel:
         }
         buf = io.BytesIO()
         arrays = {k: np.asarray(getattr(self, k)) for k in _ARRAYS}
-        np.savez_compressed(
-            buf, meta=np.frombuffer(json.dumps(meta).encode(), np.uint8), **arrays
-        )
+        arrays["meta"] = np.frombuffer(json.dumps(meta).encode(), np.uint8)
+        np.savez_compressed(buf, **arrays)  # type: ignore[arg-type]
         return buf.getvalue()
 
     @classmethod

@@ -1,0 +1,414 @@
+"""A URDF read into plain arrays: the joint tree, mimic couplings, link geometry.
+
+yourdfpy parses the file; forward kinematics is ours (batched, in
+:mod:`wsgrasp.geometry`), so no yourdfpy call is made per configuration. Meshes are
+loaded lazily, only when a cloud is sampled, with trimesh.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import difflib
+import io
+import xml.etree.ElementTree as ET
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from wsgrasp.errors import GripperError
+from wsgrasp.geometry import (
+    JOINT_FIXED,
+    JOINT_PRISMATIC,
+    JOINT_REVOLUTE,
+    chain_forward_kinematics,
+)
+
+Array = NDArray[np.float64]
+
+_KINDS = {
+    "fixed": JOINT_FIXED,
+    "revolute": JOINT_REVOLUTE,
+    "continuous": JOINT_REVOLUTE,
+    "prismatic": JOINT_PRISMATIC,
+}
+
+
+@dataclass(frozen=True)
+class Joint:
+    """One URDF joint."""
+
+    name: str
+    kind: int
+    parent: str
+    child: str
+    origin: Array  # (4, 4) joint frame in the parent link frame
+    axis: Array  # (3,) unit axis in the joint frame
+    lower: float
+    upper: float
+    mimic: tuple[str, float, float] | None = None  # (master, multiplier, offset)
+
+
+@dataclass(frozen=True)
+class Shape:
+    """One collision (or visual) element of a link, in the link frame."""
+
+    link: str
+    kind: str  # box | cylinder | sphere | mesh
+    T_link_shape: Array  # (4, 4)
+    size: tuple[float, ...] = ()  # box: (x, y, z); cylinder: (r, length); sphere: (r,)
+    mesh_path: Path | None = None
+    mesh_scale: tuple[float, float, float] = (1.0, 1.0, 1.0)
+
+
+@dataclass
+class Kinematics:
+    """The joint tree of a URDF and its link geometry.
+
+    Attributes
+    ----------
+    joints : dict of str to Joint
+    parent_joint : dict of str to str
+        For each link with a parent, the joint that attaches it.
+    shapes : dict of str to list of Shape
+        Collision elements per link (visual ones where a link has no collision).
+    """
+
+    robot_name: str
+    path: Path
+    joints: dict[str, Joint]
+    links: list[str]
+    parent_joint: dict[str, str]
+    shapes: dict[str, list[Shape]] = field(default_factory=dict)
+
+    # -- names -------------------------------------------------------------------
+    def check_link(self, link: str, gripper: str, where: str) -> None:
+        """Raise ``GripperError`` naming ``where`` if the URDF has no ``link``."""
+        if link not in self.links:
+            raise GripperError(
+                f"gripper {gripper!r}: {where} names link {link!r}, which "
+                f"{self.path.name} does not have{_close(link, self.links)}",
+                hint=f"use one of the links of {self.path.name} in {where}",
+            )
+
+    def check_joint(self, joint: str, gripper: str, where: str) -> None:
+        """Raise ``GripperError`` naming ``where`` if the URDF has no ``joint``."""
+        if joint not in self.joints:
+            raise GripperError(
+                f"gripper {gripper!r}: {where} names joint {joint!r}, which "
+                f"{self.path.name} does not have{_close(joint, self.joints)}",
+                hint=f"use one of the joints of {self.path.name} in {where}",
+            )
+
+    def master(self, joint: str) -> str:
+        """The actuated joint that drives ``joint`` (itself unless it is a mimic)."""
+        seen = set()
+        while self.joints[joint].mimic is not None:
+            if joint in seen:
+                raise GripperError(
+                    f"URDF {self.path.name}: mimic joints form a cycle at {joint!r}",
+                    hint="make every mimic chain end at an actuated joint",
+                )
+            seen.add(joint)
+            joint = self.joints[joint].mimic[0]  # type: ignore[index]
+        return joint
+
+    def actuated(self) -> list[str]:
+        """Names of the movable joints that are not mimics, in file order."""
+        return [
+            j.name
+            for j in self.joints.values()
+            if j.kind != JOINT_FIXED and j.mimic is None
+        ]
+
+    # -- chains ------------------------------------------------------------------
+    def chain(self, base: str, tip: str) -> list[Joint]:
+        """The joints from link ``base`` down to link ``tip``, root first.
+
+        Raises ``ValueError`` when ``tip`` is not below ``base``.
+        """
+        out: list[Joint] = []
+        link = tip
+        while link != base:
+            jname = self.parent_joint.get(link)
+            if jname is None:
+                raise ValueError(f"link {tip!r} is not below link {base!r}")
+            joint = self.joints[jname]
+            out.append(joint)
+            link = joint.parent
+        return out[::-1]
+
+    def subtree(self, base: str) -> list[str]:
+        """``base`` and every link below it, parents before children."""
+        children: dict[str, list[str]] = {}
+        for j in self.joints.values():
+            children.setdefault(j.parent, []).append(j.child)
+        order, stack = [], [base]
+        while stack:
+            link = stack.pop()
+            order.append(link)
+            stack.extend(reversed(children.get(link, [])))
+        return order
+
+    def joint_positions(
+        self, chain: Iterable[Joint], masters: Mapping[str, Any]
+    ) -> Array:
+        """Positions of the joints of ``chain`` from actuated-joint values.
+
+        Parameters
+        ----------
+        chain
+            Joints, e.g. from :meth:`chain`.
+        masters
+            Actuated joint name to position, a float or an array ``(...,)``;
+            missing joints are held at 0 clipped into their limits.
+
+        Returns
+        -------
+        (..., J) float
+        """
+        cols = []
+        for j in chain:
+            if j.kind == JOINT_FIXED:
+                cols.append(np.asarray(0.0))
+                continue
+            mult, off = 1.0, 0.0
+            name = j.name
+            while self.joints[name].mimic is not None:
+                m_name, m_mult, m_off = self.joints[name].mimic  # type: ignore[misc]
+                mult, off = mult * m_mult, off * m_mult + m_off
+                name = m_name
+            if name in masters:
+                value = np.asarray(masters[name], dtype=np.float64)
+            else:
+                m = self.joints[name]
+                value = np.asarray(np.clip(0.0, m.lower, m.upper))
+            cols.append(mult * value + off)
+        shape = np.broadcast_shapes(*(c.shape for c in cols)) if cols else ()
+        return np.stack([np.broadcast_to(c, shape) for c in cols], axis=-1)
+
+    def chain_poses(self, base: str, tip: str, masters: Mapping[str, Any]) -> Array:
+        """``T_base_tip`` for (a batch of) actuated-joint values; ``(..., 4, 4)``."""
+        chain = self.chain(base, tip)
+        if not chain:
+            return np.eye(4)
+        q = self.joint_positions(chain, masters)  # (..., J)
+        return chain_forward_kinematics(
+            np.stack([j.origin for j in chain]),
+            np.stack([j.axis for j in chain]),
+            np.array([j.kind for j in chain]),
+            q,
+        )
+
+    def link_poses(self, base: str, masters: Mapping[str, float]) -> dict[str, Array]:
+        """``T_base_link`` of every link below ``base`` at one configuration."""
+        poses = {base: np.eye(4)}
+        for link in self.subtree(base)[1:]:
+            joint = self.joints[self.parent_joint[link]]
+            q = self.joint_positions([joint], masters)  # (1,)
+            T = chain_forward_kinematics(
+                joint.origin[None], joint.axis[None], np.array([joint.kind]), q
+            )
+            poses[link] = poses[joint.parent] @ T
+        return poses
+
+
+def _close(name: str, known: Iterable[str]) -> str:
+    close = difflib.get_close_matches(name, list(known), n=3, cutoff=0.5)
+    if close:
+        return "; did you mean " + " or ".join(repr(c) for c in close) + "?"
+    return ""
+
+
+def _origin(o: Any) -> Array:
+    return np.eye(4) if o is None else np.asarray(o, dtype=np.float64).copy()
+
+
+def load_kinematics(path: Path, gripper: str) -> Kinematics:
+    """Read a URDF with yourdfpy into :class:`Kinematics`.
+
+    Raises
+    ------
+    GripperError
+        The file is missing or does not parse, or a movable joint lacks limits.
+    """
+    import yourdfpy
+
+    def fail(what: str) -> GripperError:
+        return GripperError(
+            f"gripper {gripper!r}: urdf {str(path)!r} {what}",
+            hint="fix the URDF, or point the `urdf` field of the gripper YAML at a "
+            "valid URDF file (relative to the YAML)",
+        )
+
+    if not path.is_file():
+        raise fail("does not exist")
+    text = path.read_bytes()
+    try:
+        root = ET.fromstring(text)
+    except ET.ParseError as exc:
+        raise fail(f"is not valid XML: {exc}") from None
+    if root.tag != "robot":
+        raise fail(f"has root element <{root.tag}>, expected <robot>")
+    sink = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(sink), contextlib.redirect_stderr(sink):
+            urdf = yourdfpy.URDF.load(
+                str(path),
+                build_scene_graph=False,
+                build_collision_scene_graph=False,
+                load_meshes=False,
+                load_collision_meshes=False,
+            )
+    except Exception as exc:  # noqa: BLE001 - any parser failure is a user error
+        raise fail(f"does not parse: {type(exc).__name__}: {exc}") from None
+    robot = urdf.robot
+    links = [link.name for link in robot.links]
+    if not links:
+        raise fail("has no links")
+    joints: dict[str, Joint] = {}
+    parent_joint: dict[str, str] = {}
+    for j in robot.joints:
+        if j.type not in _KINDS:
+            raise fail(
+                f"has joint {j.name!r} of type {j.type!r}; supported: "
+                + ", ".join(_KINDS)
+            )
+        kind = _KINDS[j.type]
+        if j.parent not in links or j.child not in links:
+            raise fail(f"has joint {j.name!r} between unknown links")
+        axis = np.asarray(j.axis if j.axis is not None else (1, 0, 0), float)
+        if kind != JOINT_FIXED:
+            norm = float(np.linalg.norm(axis))
+            if norm < 1e-9:
+                raise fail(f"has joint {j.name!r} with a zero axis")
+            axis = axis / norm
+        lower, upper = 0.0, 0.0
+        if j.type == "continuous":
+            lower, upper = -np.pi, np.pi
+            if j.limit is not None and j.limit.lower is not None:
+                lower, upper = float(j.limit.lower), float(j.limit.upper)
+        elif kind != JOINT_FIXED:
+            if j.limit is None or j.limit.lower is None or j.limit.upper is None:
+                raise fail(f"has {j.type} joint {j.name!r} without <limit lower upper>")
+            lower, upper = float(j.limit.lower), float(j.limit.upper)
+        mimic = None
+        if j.mimic is not None:
+            mimic = (
+                j.mimic.joint,
+                float(1.0 if j.mimic.multiplier is None else j.mimic.multiplier),
+                float(0.0 if j.mimic.offset is None else j.mimic.offset),
+            )
+        joints[j.name] = Joint(
+            j.name,
+            kind,
+            j.parent,
+            j.child,
+            _origin(j.origin),
+            axis,
+            lower,
+            upper,
+            mimic,
+        )
+        if j.child in parent_joint:
+            raise fail(f"gives link {j.child!r} two parents")
+        parent_joint[j.child] = j.name
+    for j in joints.values():
+        if j.mimic is not None and j.mimic[0] not in joints:
+            raise fail(f"has joint {j.name!r} mimicking unknown joint {j.mimic[0]!r}")
+    kin = Kinematics(robot.name, path, joints, links, parent_joint)
+    for j in joints:
+        kin.master(j)  # cycles
+    for link in robot.links:
+        kin.shapes[link.name] = _shapes(link, path.parent, fail)
+    return kin
+
+
+def _shapes(link: Any, urdf_dir: Path, fail: Any) -> list[Shape]:
+    elements = link.collisions or link.visuals or []
+    out = []
+    for el in elements:
+        g = el.geometry
+        T = _origin(el.origin)
+        if g is None:
+            continue
+        if g.box is not None:
+            out.append(Shape(link.name, "box", T, tuple(float(v) for v in g.box.size)))
+        elif g.cylinder is not None:
+            size = (float(g.cylinder.radius), float(g.cylinder.length))
+            out.append(Shape(link.name, "cylinder", T, size))
+        elif g.sphere is not None:
+            out.append(Shape(link.name, "sphere", T, (float(g.sphere.radius),)))
+        elif g.mesh is not None:
+            mesh_path = resolve_mesh(g.mesh.filename, urdf_dir)
+            if mesh_path is None:
+                raise fail(
+                    f"link {link.name!r} references mesh {g.mesh.filename!r}, which "
+                    "is not found"
+                )
+            scale = g.mesh.scale
+            if scale is None:
+                sc: tuple[float, float, float] = (1.0, 1.0, 1.0)
+            else:
+                s = np.broadcast_to(np.asarray(scale, dtype=np.float64), (3,))
+                sc = (float(s[0]), float(s[1]), float(s[2]))
+            out.append(Shape(link.name, "mesh", T, (), mesh_path, sc))
+    return out
+
+
+def resolve_mesh(filename: str, urdf_dir: Path) -> Path | None:
+    """Find a mesh file named in a URDF: absolute, relative to the URDF, or a
+    ``package://pkg/rel`` path looked up beside the URDF and its parents."""
+    name = filename
+    if name.startswith("file://"):
+        name = name[len("file://") :]
+    candidates: list[Path] = []
+    if name.startswith("package://"):
+        rest = name[len("package://") :]
+        rel = Path(rest.split("/", 1)[1]) if "/" in rest else Path(rest)
+        for d in (urdf_dir, *urdf_dir.parents[:3]):
+            candidates += [d / rel, d / rest]
+    else:
+        p = Path(name)
+        candidates.append(p if p.is_absolute() else urdf_dir / p)
+    for c in candidates:
+        if c.is_file():
+            return c
+    return None
+
+
+def mesh_files(kin: Kinematics) -> list[Path]:
+    """Every mesh file referenced by the link shapes (sorted, unique)."""
+    files = {s.mesh_path for shapes in kin.shapes.values() for s in shapes}
+    return sorted(p for p in files if p is not None)
+
+
+def shape_mesh(shape: Shape) -> Any:
+    """The shape as a ``trimesh.Trimesh`` in its link frame (meshes loaded now)."""
+    import trimesh
+
+    if shape.kind == "box":
+        mesh = trimesh.creation.box(extents=shape.size)
+    elif shape.kind == "cylinder":
+        mesh = trimesh.creation.cylinder(
+            radius=shape.size[0], height=shape.size[1], sections=32
+        )
+    elif shape.kind == "sphere":
+        mesh = trimesh.creation.icosphere(subdivisions=3, radius=shape.size[0])
+    else:
+        assert shape.mesh_path is not None
+        try:
+            mesh = trimesh.load(str(shape.mesh_path), force="mesh")
+        except Exception as exc:  # noqa: BLE001 - unreadable mesh file
+            raise GripperError(
+                f"mesh {str(shape.mesh_path)!r} of link {shape.link!r} cannot be "
+                f"read: {exc}",
+                hint="convert the mesh to STL, OBJ or PLY",
+            ) from None
+        mesh = mesh.copy()
+        mesh.apply_transform(np.diag([*shape.mesh_scale, 1.0]))
+    mesh.apply_transform(shape.T_link_shape)
+    return mesh

@@ -1,0 +1,284 @@
+"""Fingertip workspaces and the spheres that fill them (paper, section II).
+
+Per finger: a grid over the finger's joint space, batched forward kinematics of the
+pad points (the sampled operation space), a voxel grid of it with small gaps closed,
+the Euclidean distance transform (largest inscribed radius at each voxel), and a
+greedy choice of spheres, each the largest that stays inside the workspace at its
+centre, picked to cover as many not-yet-covered voxels as possible.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+
+from wsgrasp.errors import GripperError
+from wsgrasp.geometry import box_grid_points, grid_configurations, transform_points
+from wsgrasp.gripper._urdf import Kinematics
+from wsgrasp.spec import FingerDescription, GripperDescription
+
+Array = NDArray[np.float64]
+
+#: a pad must move at least this far (m) over its joint range to count as moving
+MIN_PAD_TRAVEL = 1e-4
+#: the largest gap-closing radius (voxels) applied before giving up on closing more
+MAX_CLOSING_VOXELS = 6
+#: candidates whose exact coverage gain is evaluated together in the greedy loop
+GAIN_BATCH = 256
+
+
+@dataclass
+class Workspace:
+    """The sampled operation space of one fingertip and its voxel grid.
+
+    Attributes
+    ----------
+    points : (n, 3) float
+        Pad points over the joint grid, gripper frame.
+    occupied : (X, Y, Z) bool
+        Voxels holding a sample, with gaps closed.
+    origin : (3,) float
+        Centre of voxel ``(0, 0, 0)``; voxel ``i`` has centre
+        ``origin + i * voxel`` (centres, not corners, sit on the lattice, so a
+        sample grid with the voxel's spacing maps onto voxel centres exactly).
+    voxel : float
+    distance : (X, Y, Z) float
+        Distance (voxels) from each voxel centre to the nearest empty voxel centre.
+    closing : int
+        Radius (voxels) of the morphological closing applied.
+    """
+
+    finger: str
+    points: Array
+    occupied: NDArray[np.bool_]
+    origin: Array
+    voxel: float
+    distance: Array
+    closing: int
+
+    def centers(self, index: NDArray[np.int64]) -> Array:
+        """Voxel centres ``(k, 3)`` of voxel indices ``(k, 3)``."""
+        return self.origin + np.asarray(index) * self.voxel
+
+    def contains(self, points: Array) -> NDArray[np.bool_]:
+        """Whether each point ``(n, 3)`` falls in an occupied voxel."""
+        idx = np.rint((np.asarray(points) - self.origin) / self.voxel).astype(int)
+        shape = np.array(self.occupied.shape)
+        ok = np.all((idx >= 0) & (idx < shape), axis=1)
+        out = np.zeros(len(idx), dtype=bool)
+        out[ok] = self.occupied[tuple(idx[ok].T)]
+        return out
+
+    @property
+    def volume(self) -> float:
+        """Occupied volume (m³)."""
+        return float(self.occupied.sum()) * self.voxel**3
+
+
+def finger_joints(
+    kin: Kinematics, desc: GripperDescription, finger: FingerDescription
+) -> list[str]:
+    """The actuated joints a finger samples (mimics replaced by their masters),
+    checked to exist and to lie on the chain from the base to the pad."""
+    where = f"fingers[{finger.name}]"
+    kin.check_link(finger.pad.link, desc.name, f"{where}.pad.link")
+    try:
+        chain = kin.chain(desc.base_link, finger.pad.link)
+    except ValueError:
+        raise GripperError(
+            f"gripper {desc.name!r}: {where}.pad.link {finger.pad.link!r} is not "
+            f"below base_link {desc.base_link!r} in the URDF",
+            hint="choose a pad link that the base link carries",
+        ) from None
+    on_chain = {kin.master(j.name) for j in chain if j.kind != 0}
+    masters: list[str] = []
+    for name in finger.joints:
+        kin.check_joint(name, desc.name, f"{where}.joints")
+        m = kin.master(name)
+        if kin.joints[m].kind == 0:
+            raise GripperError(
+                f"gripper {desc.name!r}: {where}.joints lists {name!r}, a fixed "
+                "joint, which cannot move the pad",
+                hint="list the revolute or prismatic joints of this finger",
+            )
+        if m not in on_chain:
+            movers = sorted(on_chain) or ["none"]
+            raise GripperError(
+                f"gripper {desc.name!r}: {where}.joints lists {name!r}, which does "
+                f"not move pad link {finger.pad.link!r} (joints that do: "
+                f"{', '.join(movers)})",
+                hint=f"list the joints between {desc.base_link!r} and "
+                f"{finger.pad.link!r} in {where}.joints",
+            )
+        if m not in masters:
+            masters.append(m)
+    return masters
+
+
+def sample_workspace(
+    kin: Kinematics, desc: GripperDescription, finger: FingerDescription
+) -> Workspace:
+    """Sampled operation space of one fingertip, voxelized.
+
+    The finger's joints take ``desc.joint_samples`` values each over their limits;
+    other joints stay in the pre-grasp posture; mimic joints follow their masters.
+    """
+    masters = finger_joints(kin, desc, finger)
+    lower = np.array([kin.joints[m].lower for m in masters])
+    upper = np.array([kin.joints[m].upper for m in masters])
+    n = desc.joint_samples
+    d = len(masters)
+    q = grid_configurations(lower, upper, n)  # (n**d, d)
+    values: dict[str, Any] = dict(desc.pregrasp)
+    for i, m in enumerate(masters):
+        values[m] = q[:, i]
+    T = kin.chain_poses(desc.base_link, finger.pad.link, values)  # (K, 4, 4)
+    pad = finger.pad
+    pad_pts = box_grid_points(pad.center, pad.size, pad.samples)  # (P, 3)
+    pts = transform_points(T, pad_pts)  # (K, P, 3)
+    where = f"gripper {desc.name!r}: fingers[{finger.name}]"
+    travel = float(np.linalg.norm(np.ptp(pts[:, 0, :], axis=0)))
+    if travel < MIN_PAD_TRAVEL:
+        raise GripperError(
+            f"{where}: joints {masters} do not move pad link {pad.link!r} "
+            f"(it travels {travel * 1000:.3f} mm over their limits)",
+            hint="check the joint limits and axes in the URDF, and that "
+            "fingers.joints and fingers.pad.link belong to the same finger",
+        )
+    # largest distance between neighbouring samples, along each joint and pad edge
+    grid = pts.reshape(*(n,) * d, -1, 3)  # (n, ..., n, P, 3)
+    gap = 0.0
+    for axis in range(d):
+        step = np.linalg.norm(np.diff(grid, axis=axis), axis=-1)
+        gap = max(gap, float(step.max()))
+    sizes = np.asarray(pad.size, dtype=np.float64)
+    if pad.samples > 1:
+        gap = max(gap, float(sizes.max()) / (pad.samples - 1))
+    v = desc.workspace_voxel
+    closing = int(min(MAX_CLOSING_VOXELS, max(1, np.ceil(gap / (2.0 * v)))))
+    flat = pts.reshape(-1, 3)  # (K * P, 3)
+    margin = closing + 2
+    origin = flat.min(axis=0) - margin * v
+    idx = np.rint((flat - origin) / v).astype(np.int64)  # (K * P, 3)
+    shape = tuple(int(s) for s in idx.max(axis=0) + margin + 1)
+    occupied = np.zeros(shape, dtype=bool)
+    occupied[tuple(idx.T)] = True
+    if closing:
+        r = np.arange(-closing, closing + 1)
+        ball = (
+            r[:, None, None] ** 2 + r[None, :, None] ** 2 + r[None, None, :] ** 2
+        ) <= (closing**2)  # (2c+1, 2c+1, 2c+1)
+        occupied = ndimage.binary_closing(occupied, structure=ball)
+    distance = ndimage.distance_transform_edt(occupied)
+    return Workspace(finger.name, flat, occupied, origin, v, distance, closing)
+
+
+@dataclass
+class SphereFill:
+    """Spheres placed in one workspace and how much of it they cover."""
+
+    centers: Array  # (nsp, 3)
+    radii: Array  # (nsp,)
+    covered_fraction: float
+    candidates: int
+
+
+def fill_spheres(
+    ws: Workspace, count: int, min_radius: float, gripper: str
+) -> SphereFill:
+    """Place ``count`` spheres in a workspace, greedily maximising coverage.
+
+    A sphere centred at a voxel gets the largest radius that keeps it inside the
+    occupied voxels: ``(distance - 1) * voxel``, i.e. it reaches at most the centre
+    of the last occupied voxel. Each step takes the candidate that covers the most
+    not-yet-covered voxels (lazy greedy: gains only shrink, so stale gains are upper
+    bounds and only the best few are re-evaluated, as one batched gather). Once all
+    is covered, further spheres go to the largest candidates farthest from the
+    spheres already placed.
+
+    Raises
+    ------
+    GripperError
+        When no voxel can hold a sphere of ``min_radius``, or fewer voxels can than
+        ``count``.
+    """
+    v = ws.voxel
+    r_vox = ws.distance - 1.0  # (X, Y, Z) radius in voxels at each centre
+    where = f"gripper {gripper!r}: finger {ws.finger!r}"
+    best = float(r_vox.max()) * v
+    cand_mask = r_vox * v >= min_radius - 1e-12
+    cand_idx = np.argwhere(cand_mask)  # (C, 3)
+    C = len(cand_idx)
+    if C == 0:
+        raise GripperError(
+            f"{where}: its workspace is too thin to hold a sphere of "
+            f"min_sphere_radius {min_radius * 1000:.1f} mm (the largest that fits is "
+            f"{max(best, 0.0) * 1000:.2f} mm at workspace_voxel "
+            f"{v * 1000:.1f} mm)",
+            hint="lower min_sphere_radius or workspace_voxel, enlarge fingers.pad."
+            "size, or widen the joint limits",
+        )
+    if C < count:
+        raise GripperError(
+            f"{where}: only {C} sphere centres of radius >= min_sphere_radius "
+            f"{min_radius * 1000:.1f} mm fit in its workspace, but "
+            f"spheres_per_finger asks for {count} ({count - C} unreachable)",
+            hint="lower spheres_per_finger, workspace_voxel or min_sphere_radius",
+        )
+    radii = r_vox[tuple(cand_idx.T)]  # (C,) voxels
+    shape = np.array(ws.occupied.shape)
+    strides = np.array([shape[1] * shape[2], shape[2], 1])
+    cand_flat = cand_idx @ strides  # (C,)
+    # stencil of lattice offsets within the largest radius, sorted by length
+    R = int(np.floor(radii.max()))
+    g = np.arange(-R, R + 1)
+    off = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
+    norm = np.linalg.norm(off, axis=1)
+    order = np.argsort(norm, kind="stable")
+    off, norm = off[order], norm[order]  # (M, 3), (M,)
+    off_flat = off @ strides  # (M,)
+    n_in = np.searchsorted(norm, radii + 1e-9, side="right")  # (C,) voxels covered
+    uncovered = ws.occupied.reshape(-1).copy()  # (V,)
+    total = int(uncovered.sum())
+    bound = n_in.astype(np.int64)  # upper bounds of the gains
+    chosen: list[int] = []
+    available = np.ones(C, dtype=bool)
+    centres_m = ws.centers(cand_idx)  # (C, 3)
+    min_d = np.full(C, np.inf)  # distance to the nearest chosen centre (m)
+    while len(chosen) < count:
+        masked = np.where(available, bound, -1)
+        if masked.max() <= 0:
+            # everything covered: spread the rest, large and far first
+            score = np.where(available, radii * v + min_d, -np.inf)
+            pick = int(np.argmax(score))
+        else:
+            k = min(GAIN_BATCH, int(available.sum()))
+            top = np.argpartition(-masked, k - 1)[:k]  # (k,)
+            m = int(n_in[top].max())
+            ids = cand_flat[top, None] + off_flat[None, :m]  # (k, m)
+            np.clip(ids, 0, uncovered.size - 1, out=ids)  # beyond n_in: masked
+            inside = np.arange(m)[None, :] < n_in[top, None]  # (k, m)
+            gains = np.sum(uncovered[ids] & inside, axis=1)  # (k,)
+            bound[top] = gains
+            rest = masked.copy()
+            rest[top] = -1
+            j = int(np.argmax(gains))
+            if gains[j] < rest.max():
+                continue
+            pick = int(top[j])
+        chosen.append(pick)
+        available[pick] = False
+        uncovered[cand_flat[pick] + off_flat[: n_in[pick]]] = False
+        min_d = np.minimum(min_d, np.linalg.norm(centres_m - centres_m[pick], axis=1))
+    sel = np.array(chosen)
+    covered = total - int(uncovered.sum())
+    return SphereFill(
+        centers=centres_m[sel],
+        radii=radii[sel] * v,
+        covered_fraction=covered / total if total else 0.0,
+        candidates=C,
+    )
