@@ -144,7 +144,7 @@ class Pipeline:
             table_frame,
             table_superellipsoid,
         )
-        from wsgrasp.perception.process import downsample, select_target
+        from wsgrasp.perception.process import downsample, select_target, thin
 
         spec = self.spec
         timing: dict[str, float] = {}
@@ -174,7 +174,8 @@ class Pipeline:
                 "the plugin's authors",
             ) from exc
         object_points, obstacles = select_target(segmentation, spec.target)
-        object_points = _thin(
+        # farthest-point thinning keeps the object's shape
+        object_points = thin(
             object_points, spec.preprocess.max_object_points, spec.seed
         )
         obstacle_points = np.concatenate(obstacles) if obstacles else np.zeros((0, 3))
@@ -320,15 +321,6 @@ def _instantiate(entry: Any) -> Any:
             f"could not be created: {type(exc).__name__}: {exc}",
             hint="report it to the plugin's authors",
         ) from exc
-
-
-def _thin(points: Array, limit: int, seed: int) -> Array:
-    """At most ``limit`` points, a seeded uniform subset in original order."""
-    if len(points) <= limit:
-        return points
-    rng = np.random.default_rng(seed)
-    keep = np.sort(rng.choice(len(points), size=limit, replace=False))
-    return points[keep]
 
 
 def plan(
