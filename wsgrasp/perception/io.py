@@ -404,11 +404,15 @@ def check_units(points: Array, name: str = "points") -> None:
 def refine_views_icp(
     views: list[View], *, max_distance: float = 0.01, voxel: float = 0.004
 ) -> None:
-    """Refine ``T_world_camera`` of views 2.. by point-to-plane ICP against view 1.
+    """Refine ``T_world_camera`` of views 2.. by point-to-plane ICP (open3d, Tukey
+    robust loss) against all the other views merged.
 
-    The poses are updated in place; each view's points stay in its camera frame.
+    The first view anchors the world frame. Poses are updated in place; each
+    view's points stay in its camera frame.
     """
     import open3d as o3d
+
+    reg = o3d.pipelines.registration
 
     def cloud(points: Array) -> Any:
         pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
@@ -418,13 +422,22 @@ def refine_views_icp(
         )
         return pcd
 
-    target = cloud(transform_points(views[0].T_world_camera, views[0].points))
-    method = o3d.pipelines.registration.TransformationEstimationPointToPlane()
-    criteria = o3d.pipelines.registration.ICPConvergenceCriteria(max_iteration=30)
-    for v in views[1:]:
+    # the robust loss keeps depth edges and unseen surfaces from dragging the
+    # dominant table plane sideways, which plain point-to-plane ICP does
+    method = reg.TransformationEstimationPointToPlane(reg.TukeyLoss(k=max_distance / 2))
+    criteria = reg.ICPConvergenceCriteria(max_iteration=50)
+    for i in range(1, len(views)):
+        others = np.concatenate(
+            [
+                transform_points(v.T_world_camera, v.points)
+                for j, v in enumerate(views)
+                if j != i
+            ]
+        )
+        v = views[i]
         source = cloud(transform_points(v.T_world_camera, v.points))
-        result = o3d.pipelines.registration.registration_icp(
-            source, target, max_distance, np.eye(4), method, criteria
+        result = reg.registration_icp(
+            source, cloud(others), max_distance, np.eye(4), method, criteria
         )
         # correction in the world frame: T_world_camera <- T_fix @ T_world_camera
         v.T_world_camera = np.asarray(result.transformation) @ v.T_world_camera

@@ -104,13 +104,26 @@ def split_clusters(points: Array, labels: NDArray[np.int64]) -> list[Array]:
     return [points[sort_idx[start[k] : start[k] + counts[k]]] for k in order]
 
 
+_RANSAC_BATCH = 64
+_RANSAC_CONFIDENCE = 0.9999
+
+
 def fit_plane_ransac(
     points: Array,
     distance: float,
     iterations: int,
     seed: int,
+    *,
+    score_points: int = 1024,
 ) -> tuple[Array, float, NDArray[np.int64]]:
-    """RANSAC plane (open3d ``segment_plane``, seeded).
+    """RANSAC plane, seeded and deterministic, then refined by least squares.
+
+    Hypotheses (planes through 3 random points) are scored in batches on a random
+    subset of ``score_points`` points, until ``iterations`` or until enough were
+    drawn to have hit the best plane's inliers with probability 0.9999; the best
+    one's inliers among all points are then refitted twice by least squares.
+    (open3d's ``segment_plane`` runs its iterations in parallel threads and is not
+    reproducible for a seed.)
 
     Returns
     -------
@@ -118,22 +131,59 @@ def fit_plane_ransac(
         Unit normal (sign arbitrary).
     offset : float
     inliers : (k,) int
+        Indices of points within ``distance`` of the plane.
     """
-    import open3d as o3d
-
-    if points.shape[0] < 3:
-        return np.array([0.0, 0.0, 1.0]), 0.0, np.zeros(0, dtype=np.int64)
-    o3d.utility.random.seed(int(seed))
-    model, inliers = _pcd(points).segment_plane(
-        distance_threshold=float(distance),
-        ransac_n=3,
-        num_iterations=int(iterations),
-    )
-    model = np.asarray(model, dtype=np.float64).reshape(4)
-    norm = float(np.linalg.norm(model[:3]))
-    if norm == 0.0:
-        return np.array([0.0, 0.0, 1.0]), 0.0, np.zeros(0, dtype=np.int64)
-    return model[:3] / norm, float(model[3] / norm), np.asarray(inliers, np.int64)
+    p = np.asarray(points, dtype=np.float64)
+    n = p.shape[0]
+    none = (np.array([0.0, 0.0, 1.0]), 0.0, np.zeros(0, dtype=np.int64))
+    if n < 3:
+        return none
+    rng = np.random.default_rng(seed)
+    sub = p if n <= score_points else p[rng.choice(n, score_points, replace=False)]
+    best_count, normal, offset = -1, none[0], 0.0
+    done = 0
+    needed = float(iterations)
+    while done < min(needed, iterations):
+        batch = min(_RANSAC_BATCH, iterations - done)
+        tri = p[rng.integers(0, n, (batch, 3))]  # (b, 3 points, 3)
+        u, v = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]  # (b, 3) each
+        normals = np.column_stack(  # u x v, (b, 3)
+            [
+                u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1],
+                u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2],
+                u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0],
+            ]
+        )
+        length = np.linalg.norm(normals, axis=1)
+        ok = length > 1e-12
+        done += batch
+        if not ok.any():
+            continue
+        normals = normals[ok] / length[ok, None]
+        offsets = -(normals * tri[ok, 0]).sum(axis=1)  # (b,)
+        # (m, b) distances of the subset to every hypothesis -> inlier counts (b,)
+        counts = (np.abs(sub @ normals.T + offsets) <= distance).sum(axis=0)
+        k = int(np.argmax(counts))
+        if counts[k] > best_count:
+            best_count, normal, offset = int(counts[k]), normals[k], float(offsets[k])
+            # hypotheses needed to draw 3 inliers with probability _RANSAC_CONFIDENCE
+            w3 = (best_count / sub.shape[0]) ** 3
+            if w3 >= 1.0:
+                needed = 0.0
+            elif w3 > 0.0:
+                needed = np.log(1 - _RANSAC_CONFIDENCE) / np.log1p(-w3)
+    if best_count <= 0:
+        return none
+    inliers = np.flatnonzero(np.abs(p @ normal + offset) <= distance)
+    for _ in range(2):
+        if inliers.size < 3:
+            break
+        c = p[inliers].mean(axis=0)
+        _, _, vt = np.linalg.svd(p[inliers] - c, full_matrices=False)
+        normal = vt[2]
+        offset = -float(normal @ c)
+        inliers = np.flatnonzero(np.abs(p @ normal + offset) <= distance)
+    return normal, offset, inliers
 
 
 def _describe(clusters: list[Array]) -> str:

@@ -7,6 +7,8 @@ its lowest, no larger than ``max_object_extent``, with ``min_points`` points or
 more. The normal is turned to the side with more standing points. Walls are passed
 over because the table (a cluster larger than ``max_object_extent``) is the only
 thing touching them; the floor below a table sees only the legs, likewise too long.
+When looking for what stands on one plane, the points of other wide planes with a
+fair share of its inliers (a table seen from the wall beside it) are left out.
 """
 
 from __future__ import annotations
@@ -14,12 +16,17 @@ from __future__ import annotations
 from typing import Any, ClassVar
 
 import numpy as np
+from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 from scipy.spatial import cKDTree
 
 from wsgrasp.errors import InputError
 from wsgrasp.perception.process import cluster_labels, fit_plane_ransac
 from wsgrasp.perception.types import Array, Plane, Segmentation
+
+#: another wide plane with at least this fraction of a candidate table's inliers is
+#: left out of the candidate's clusters
+_OTHER_PLANE_FRACTION = 0.25
 
 
 class RansacDbscanOptions(BaseModel):
@@ -84,20 +91,29 @@ class RansacDbscan:
         """
         o = options
         p = np.asarray(points, dtype=np.float64)
-        remaining = np.arange(p.shape[0])
+        finder = _PlaneFinder(p, o, seed)
+        # Planes that could matter when judging the largest one: wide ones with a
+        # fair share of its points (a wall beside the table, the table beside a wall)
+        while finder.worth_another(_OTHER_PLANE_FRACTION) and finder.next():
+            pass
         tried: list[dict[str, Any]] = []
-        for k in range(o.max_planes):
-            if remaining.size < max(o.min_plane_points, 3):
+        k = 0
+        while k < len(finder.planes) or finder.next():
+            normal, offset, inliers, _ = finder.planes[k]
+            if inliers.size < o.min_plane_points:
+                tried.append({"inliers": int(inliers.size)})
                 break
-            normal, offset, inl = fit_plane_ransac(
-                p[remaining], o.plane_distance, o.ransac_iterations, seed + k
-            )
-            if inl.size < o.min_plane_points:
-                tried.append({"inliers": int(inl.size)})
-                break
-            inliers = remaining[inl]
-            found = self._clusters_on(p, normal, offset, o)
-            tried.append({"inliers": int(inl.size), **found["why"]})
+            # Wide planes other than this one are not objects standing on it
+            exclude = np.zeros(p.shape[0], dtype=bool)
+            for j, (_, _, other, wide) in enumerate(finder.planes):
+                if (
+                    j != k
+                    and wide
+                    and other.size >= _OTHER_PLANE_FRACTION * inliers.size
+                ):
+                    exclude[other] = True
+            found = self._clusters_on(p, normal, offset, o, exclude)
+            tried.append({"inliers": int(inliers.size), **found["why"]})
             if found["clusters"]:
                 plane = Plane(normal=found["normal"], offset=found["offset"])
                 return Segmentation(
@@ -108,9 +124,7 @@ class RansacDbscan:
                     clusters=found["clusters"],
                     info={"planes_tried": tried, "plane_rank": k},
                 )
-            keep = np.ones(p.shape[0], dtype=bool)
-            keep[inliers] = False
-            remaining = remaining[keep[remaining]]
+            k += 1
         if not tried or tried[0]["inliers"] < o.min_plane_points:
             best = tried[0]["inliers"] if tried else 0
             raise InputError(
@@ -135,12 +149,16 @@ class RansacDbscan:
 
     @staticmethod
     def _clusters_on(
-        p: Array, normal: Array, offset: float, o: RansacDbscanOptions
+        p: Array,
+        normal: Array,
+        offset: float,
+        o: RansacDbscanOptions,
+        exclude: NDArray[np.bool_],
     ) -> dict[str, Any]:
         """Clusters standing on either side of a plane; the side with more points."""
         h = p @ normal + offset  # (n,) signed heights
         ah = np.abs(h)
-        cand = np.flatnonzero((ah > o.min_height) & (ah < o.max_height))
+        cand = np.flatnonzero((ah > o.min_height) & (ah < o.max_height) & ~exclude)
         labels = cluster_labels(p[cand], o.cluster_eps, o.core_points)
         why = {"too small": 0, "not touching": 0, "too large": 0}
         empty = {"clusters": [], "why": why, "normal": normal, "offset": offset}
@@ -196,3 +214,50 @@ class RansacDbscan:
         clusters = [p[lab_full == c] for c in order]
         clusters.sort(key=lambda c: -c.shape[0])
         return {"clusters": clusters, "why": why, "normal": normal, "offset": offset}
+
+
+class _PlaneFinder:
+    """Planes found one at a time by RANSAC, each in what the previous ones left:
+    ``planes`` holds ``(normal, offset, inliers, wide)``; ``wide`` when the
+    inliers span more than half ``max_object_extent`` (not an object's face)."""
+
+    def __init__(self, p: Array, o: RansacDbscanOptions, seed: int) -> None:
+        self.p, self.o, self.seed = p, o, seed
+        self.remaining = np.arange(p.shape[0])
+        self.planes: list[tuple[Array, float, NDArray[np.int64], bool]] = []
+        self.exhausted = False
+
+    def worth_another(self, fraction: float) -> bool:
+        """Whether what is left could hold a wide plane with ``fraction`` of the
+        smallest plane's inliers so far."""
+        if not self.planes:
+            return True
+        _, _, inliers, wide = self.planes[-1]
+        return wide and self.remaining.size >= fraction * inliers.size
+
+    def next(self) -> bool:
+        """Find one more plane; False when no more can be found."""
+        o = self.o
+        k = len(self.planes)
+        if (
+            self.exhausted
+            or k >= o.max_planes
+            or self.remaining.size < max(o.min_plane_points, 3)
+        ):
+            self.exhausted = True
+            return False
+        normal, offset, inl = fit_plane_ransac(
+            self.p[self.remaining], o.plane_distance, o.ransac_iterations, self.seed + k
+        )
+        inliers = self.remaining[inl]
+        wide = False
+        if inliers.size:
+            lo, hi = np.percentile(self.p[inliers], [1, 99], axis=0)
+            wide = bool(np.linalg.norm(hi - lo) > o.max_object_extent / 2.0)
+        self.planes.append((normal, offset, inliers, wide))
+        if inliers.size < o.min_plane_points:
+            self.exhausted = True
+        keep = np.ones(self.p.shape[0], dtype=bool)
+        keep[inliers] = False
+        self.remaining = self.remaining[keep[self.remaining]]
+        return True

@@ -1,0 +1,220 @@
+"""Cloud and scene loading: every format, NaN handling, views with poses, ICP, and
+every bad input."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from numpy.testing import assert_allclose
+
+from conftest_perception import random_rigid, small_scene
+from wsgrasp.errors import InputError
+from wsgrasp.geometry import invert_transforms, transform_points
+from wsgrasp.perception.io import (
+    load_cloud,
+    load_scene,
+    save_cloud,
+    scene_from_arrays,
+    write_scene_yaml,
+)
+
+RNG_POINTS = np.random.default_rng(0).uniform(-0.2, 0.2, (50, 3))
+
+
+@pytest.mark.parametrize(
+    "suffix", [".ply", ".pcd", ".xyz", ".txt", ".csv", ".npy", ".npz"]
+)
+def test_round_trip_every_format(tmp_path: Path, suffix: str) -> None:
+    path = save_cloud(tmp_path / f"cloud{suffix}", RNG_POINTS)
+    got = load_cloud(path)
+    assert got.dtype == np.float64 and got.shape == (50, 3)
+    # npz/npy are float32, text has 6 decimals
+    assert_allclose(got, RNG_POINTS, atol=1e-6)
+
+
+def test_npz_single_array_under_any_key(tmp_path: Path) -> None:
+    np.savez(tmp_path / "a.npz", cloud=RNG_POINTS)
+    assert_allclose(load_cloud(tmp_path / "a.npz"), RNG_POINTS)
+
+
+def test_npz_with_several_arrays_needs_points_key(tmp_path: Path) -> None:
+    np.savez(tmp_path / "a.npz", a=RNG_POINTS, b=RNG_POINTS)
+    with pytest.raises(InputError, match="none is named 'points'"):
+        load_cloud(tmp_path / "a.npz")
+
+
+def test_text_with_header_and_extra_columns(tmp_path: Path) -> None:
+    rows = np.hstack([RNG_POINTS, np.ones((50, 3))])  # x y z r g b
+    text = "x y z r g b\n" + "\n".join(" ".join(f"{v:.6f}" for v in r) for r in rows)
+    (tmp_path / "c.txt").write_text(text)
+    assert_allclose(load_cloud(tmp_path / "c.txt"), RNG_POINTS, atol=1e-6)
+
+
+def test_nan_and_inf_are_dropped_and_counted(tmp_path: Path) -> None:
+    pts = RNG_POINTS.copy()
+    pts[3] = np.nan
+    pts[7, 1] = np.inf
+    pts[9, 2] = -np.inf
+    for suffix in (".npz", ".ply", ".xyz"):
+        path = tmp_path / f"nan{suffix}"
+        if suffix == ".npz":
+            np.savez(path, points=pts)
+        else:
+            save_cloud(path, pts)
+        scene = load_scene(path)
+        assert scene.dropped_nonfinite == 3, suffix
+        assert scene.points.shape == (47, 3)
+        assert np.isfinite(scene.points).all()
+
+
+# --------------------------------------------------------------------------------
+# scenes with several views
+# --------------------------------------------------------------------------------
+def test_scene_yaml_merges_views_into_world(tmp_path: Path) -> None:
+    synth = small_scene("box", "upright", 0)
+    yaml_path = write_scene_yaml(tmp_path, synth.views)
+    scene = load_scene([yaml_path])
+    assert len(scene.views) == 3
+    # float32 storage of camera-frame points: well under a millimetre
+    assert_allclose(scene.points, synth.points, atol=1e-5)
+
+
+def test_scene_yaml_in_millimetres(tmp_path: Path) -> None:
+    T = random_rigid(np.random.default_rng(1), reach=0.5)
+    np.savez(tmp_path / "v.npz", points=RNG_POINTS * 1000.0)
+    T_mm = T.copy()
+    T_mm[:3, 3] *= 1000.0
+    doc = {
+        "units": "mm",
+        "views": [{"cloud": "v.npz", "T_world_camera": T_mm.tolist()}],
+    }
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(doc))
+    scene = load_scene(tmp_path / "s.yaml")
+    assert_allclose(scene.points, transform_points(T, RNG_POINTS), atol=1e-9)
+
+
+def test_scene_from_arrays_with_poses() -> None:
+    rng = np.random.default_rng(2)
+    T0, T1 = random_rigid(rng, 0.5), random_rigid(rng, 0.5)
+    world = RNG_POINTS
+    views = [
+        (transform_points(invert_transforms(T0), world), T0),
+        (transform_points(invert_transforms(T1), world[:20]), T1),
+    ]
+    scene = scene_from_arrays(views)
+    assert_allclose(scene.points, np.vstack([world, world[:20]]), atol=1e-12)
+    single = scene_from_arrays(world)
+    assert_allclose(single.points, world)
+
+
+def test_icp_refines_a_perturbed_view() -> None:
+    from scipy.spatial.transform import Rotation
+
+    from wsgrasp.geometry import transform_from
+    from wsgrasp.perception.synth import synth_scene
+
+    synth = synth_scene("box", seed=0, table_size=0.4)
+    # a 2 degree, 1 cm error on the second camera's pose
+    rot = Rotation.from_rotvec([0.0, 0.01, 0.03]).as_matrix()
+    err = transform_from(rot, [0.01, -0.005, 0.003])
+    views = [(v.points, v.T_world_camera) for v in synth.views]
+    views[1] = (views[1][0], err @ views[1][1])
+    refined = scene_from_arrays(views, icp=True)
+    p = synth.views[1].points
+    truth = transform_points(synth.views[1].T_world_camera, p)
+
+    def error(T: np.ndarray) -> float:
+        return float(np.linalg.norm(transform_points(T, p) - truth, axis=1).mean())
+
+    assert error(views[1][1]) > 0.01
+    assert error(refined.views[1].T_world_camera) < 0.002
+
+
+def test_several_clouds_without_poses_need_registered(tmp_path: Path) -> None:
+    a = save_cloud(tmp_path / "a.npz", RNG_POINTS)
+    b = save_cloud(tmp_path / "b.npz", RNG_POINTS + 0.01)
+    with pytest.raises(InputError, match="without camera poses") as info:
+        load_scene([a, b])
+    assert "scene YAML" in str(info.value) and "--registered" in str(info.value)
+    scene = load_scene([a, b], registered=True)
+    assert scene.points.shape == (100, 3)
+
+
+# --------------------------------------------------------------------------------
+# bad input
+# --------------------------------------------------------------------------------
+def test_missing_file(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="does not exist"):
+        load_scene(tmp_path / "nope.ply")
+
+
+def test_unknown_format(tmp_path: Path) -> None:
+    (tmp_path / "cloud.las").write_text("x")
+    with pytest.raises(InputError, match="unknown format '.las'") as info:
+        load_cloud(tmp_path / "cloud.las")
+    assert info.value.hint
+
+
+@pytest.mark.parametrize("suffix", [".npz", ".xyz", ".ply"])
+def test_empty_cloud(tmp_path: Path, suffix: str) -> None:
+    path = tmp_path / f"empty{suffix}"
+    if suffix == ".npz":
+        np.savez(path, points=np.zeros((0, 3)))
+    elif suffix == ".xyz":
+        path.write_text("")
+    else:
+        path.write_text(
+            "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\n"
+            "property float y\nproperty float z\nend_header\n"
+        )
+    with pytest.raises(InputError, match="empty|0 points|shape"):
+        load_scene(path)
+
+
+def test_all_nan_cloud(tmp_path: Path) -> None:
+    np.savez(tmp_path / "nan.npz", points=np.full((10, 3), np.nan))
+    with pytest.raises(InputError, match="no finite point"):
+        load_scene(tmp_path / "nan.npz")
+
+
+@pytest.mark.parametrize("shape", [(10,), (10, 2), (10, 4, 2)], ids=str)
+def test_wrong_shape(tmp_path: Path, shape: tuple[int, ...]) -> None:
+    np.save(tmp_path / "bad.npy", np.zeros(shape))
+    with pytest.raises(InputError, match=r"expected \(n, 3\)"):
+        load_cloud(tmp_path / "bad.npy")
+    with pytest.raises(InputError, match=r"expected \(n, 3\)"):
+        scene_from_arrays(np.zeros(shape))
+
+
+def test_millimetre_cloud_is_reported() -> None:
+    synth = small_scene("box", "upright", 0)
+    with pytest.raises(InputError, match="millimetres") as info:
+        scene_from_arrays(synth.points * 1000.0)
+    assert "divide the points by 1000" in str(info.value)
+
+
+def test_non_numeric_text(tmp_path: Path) -> None:
+    (tmp_path / "c.xyz").write_text("a b c\nd e f\n")
+    with pytest.raises(InputError, match="not a table of numbers"):
+        load_cloud(tmp_path / "c.xyz")
+
+
+def test_scene_yaml_errors(tmp_path: Path) -> None:
+    np.savez(tmp_path / "v.npz", points=RNG_POINTS)
+    bad_pose = [[1, 0, 0, 0], [0, 2, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]
+    (tmp_path / "s.yaml").write_text(
+        yaml.safe_dump({"views": [{"cloud": "v.npz", "T_world_camera": bad_pose}]})
+    )
+    with pytest.raises(InputError, match="not orthonormal"):
+        load_scene(tmp_path / "s.yaml")
+    (tmp_path / "t.yaml").write_text(yaml.safe_dump({"views": [{"clouds": "v.npz"}]}))
+    with pytest.raises(InputError, match="t.yaml"):
+        load_scene(tmp_path / "t.yaml")
+    (tmp_path / "u.yaml").write_text(yaml.safe_dump({"views": [{"cloud": "w.npz"}]}))
+    with pytest.raises(InputError, match="w.npz.*does not exist"):
+        load_scene(tmp_path / "u.yaml")
+    with pytest.raises(InputError, match="alone"):
+        load_scene([tmp_path / "u.yaml", tmp_path / "v.npz"])

@@ -1,0 +1,238 @@
+"""Segmenters and target selection on synthetic scenes, in a z-up frame and in
+arbitrary rigid frames (nothing may assume z up)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from conftest_perception import VOXEL, move_plane, moved, random_rigid, small_scene
+from wsgrasp.errors import InputError
+from wsgrasp.geometry import transform_from
+from wsgrasp.perception.process import downsample, select_target
+from wsgrasp.perception.synth import default_cameras, make_object, render_scene
+from wsgrasp.perception.types import Segmentation
+from wsgrasp.plugins import get_registry
+from wsgrasp.spec import TargetRule
+from wsgrasp_segmenters.given_table import GivenTable, GivenTableOptions
+from wsgrasp_segmenters.ransac_dbscan import RansacDbscan, RansacDbscanOptions
+
+
+def segment(points: np.ndarray, **options: float) -> Segmentation:
+    return RansacDbscan().segment(points, RansacDbscanOptions(**options), seed=0)
+
+
+def mesh_points(kind: str, pose: str, seed: int) -> np.ndarray:
+    synth = small_scene(kind, pose, seed)
+    return (
+        synth.mesh.vertices @ synth.T_world_mesh[:3, :3].T + synth.T_world_mesh[:3, 3]
+    )
+
+
+def test_segmenters_are_registered() -> None:
+    reg = get_registry()
+    assert reg.get("segmenters", "ransac_dbscan").obj is RansacDbscan
+    assert reg.get("segmenters", "given_table").obj is GivenTable
+
+
+# --------------------------------------------------------------------------------
+# ransac_dbscan
+# --------------------------------------------------------------------------------
+SCENES = [
+    ("box", "upright"),
+    ("cylinder", "lying"),
+    ("cone", "random"),
+    ("ring", "upright"),
+]
+
+
+@pytest.mark.parametrize("kind,pose", SCENES, ids=[f"{k}-{p}" for k, p in SCENES])
+@pytest.mark.parametrize("frame", range(3), ids=["z-up", "rigid-1", "rigid-2"])
+def test_table_and_object_in_any_frame(kind: str, pose: str, frame: int) -> None:
+    synth = small_scene(kind, pose, 0)
+    T = np.eye(4) if frame == 0 else random_rigid(np.random.default_rng(frame))
+    points = downsample(moved(T, synth.points), VOXEL)
+    seg = segment(points)
+    truth = move_plane(T, synth.table)
+    # the normal points to the object, whatever the frame
+    assert_allclose(seg.table.normal, truth.normal, atol=0.01)
+    assert seg.table.offset == pytest.approx(truth.offset, abs=0.003)
+    assert len(seg.clusters) == 1
+    obj = seg.clusters[0]
+    assert (seg.table.signed_distance(obj) > 0).all()
+    # the cluster is the object: its box matches the mesh's within 1.5 cm
+    mesh = moved(T, mesh_points(kind, pose, 0))
+    assert_allclose(obj.min(axis=0), mesh.min(axis=0), atol=0.015)
+    assert_allclose(obj.max(axis=0), mesh.max(axis=0), atol=0.015)
+
+
+def test_camera_frame_scene_table_is_tilted_and_found() -> None:
+    synth = small_scene("box", "upright", 3, camera_frame=True)
+    # in the camera frame z is the viewing direction: the table is far from z-up
+    assert abs(synth.table.normal[2]) < 0.95
+    seg = segment(downsample(synth.points, VOXEL))
+    assert_allclose(seg.table.normal, synth.table.normal, atol=0.01)
+    assert len(seg.clusters) == 1
+
+
+def test_segmentation_is_deterministic_for_a_seed() -> None:
+    points = downsample(small_scene("box", "upright", 0).points, VOXEL)
+    a, b = segment(points), segment(points)
+    assert a.table.offset == b.table.offset
+    assert_allclose(a.clusters[0], b.clusters[0])
+
+
+def test_object_standing_under_a_wall_is_not_taken_for_the_wall() -> None:
+    """A wall beside the table is a large plane; the table is still chosen."""
+    synth = small_scene("box", "upright", 0)
+    rng = np.random.default_rng(0)
+    # a 0.4 x 0.4 m wall at x = -0.2, rising from the table (more points than table)
+    wall = np.column_stack(
+        [
+            np.full(40000, -0.2) + rng.normal(0, 0.001, 40000),
+            rng.uniform(-0.2, 0.2, 40000),
+            rng.uniform(0.0, 0.4, 40000),
+        ]
+    )
+    points = downsample(np.vstack([synth.points, wall]), VOXEL)
+    seg = segment(points)
+    assert_allclose(seg.table.normal, [0, 0, 1], atol=0.01)
+    assert len(seg.clusters) == 1
+    assert np.ptp(seg.clusters[0], axis=0).max() < 0.2
+
+
+def two_objects() -> np.ndarray:
+    """A box at (0.1, 0, 0) and a smaller cylinder at (-0.1, 0.05, 0), z up."""
+    rng = np.random.default_rng(5)
+    box, cyl = make_object("box"), make_object("cylinder", (0.03, 0.08))
+    parts = [
+        (box, transform_from(None, [0.1, 0.0, 0.08])),
+        (cyl, transform_from(None, [-0.1, 0.05, 0.04])),
+    ]
+    cams = default_cameras(3, (0, 0, 0.05), rng=rng, width=200, height=150)
+    views = render_scene(parts, 0.5, cams, 0.001, rng)
+    return np.vstack(
+        [v.points @ v.T_world_camera[:3, :3].T + v.T_world_camera[:3, 3] for v in views]
+    )
+
+
+def test_several_objects_and_every_target_rule() -> None:
+    T = random_rigid(np.random.default_rng(9))
+    seg = segment(downsample(moved(T, two_objects()), VOXEL))
+    assert len(seg.clusters) == 2
+    box_c, cyl_c = moved(T, np.array([[0.1, 0.0, 0.08], [-0.1, 0.05, 0.04]]))
+
+    def centroid(rule: TargetRule) -> np.ndarray:
+        obj, obstacles = select_target(seg, rule)
+        assert len(obstacles) == (1 if rule.obstacles else 0)
+        return obj.mean(axis=0)
+
+    assert_allclose(centroid(TargetRule(rule="largest")), box_c, atol=0.02)
+    near = TargetRule(rule="nearest", point=tuple(cyl_c))
+    assert_allclose(centroid(near), cyl_c, atol=0.02)
+    lo, hi = (
+        np.minimum(cyl_c - 0.05, cyl_c + 0.05),
+        np.maximum(cyl_c - 0.05, cyl_c + 0.05),
+    )
+    box = TargetRule(rule="inside_box", box_min=tuple(lo), box_max=tuple(hi))
+    assert_allclose(centroid(box), cyl_c, atol=0.02)
+    alone = TargetRule(rule="largest", obstacles=False)
+    assert_allclose(centroid(alone), box_c, atol=0.02)
+    with pytest.raises(
+        InputError, match="'only' expects one object on the table, found 2"
+    ):
+        select_target(seg, TargetRule(rule="only"))
+    far = TargetRule(rule="inside_box", box_min=(5, 5, 5), box_max=(6, 6, 6))
+    with pytest.raises(InputError, match="inside the target box"):
+        select_target(seg, far)
+
+
+def test_rule_only_with_one_object() -> None:
+    seg = segment(downsample(small_scene("box", "upright", 0).points, VOXEL))
+    obj, obstacles = select_target(seg, TargetRule(rule="only"))
+    assert obj.shape[0] > 100 and obstacles == []
+
+
+# --------------------------------------------------------------------------------
+# bad input
+# --------------------------------------------------------------------------------
+def test_no_plane_in_a_blob() -> None:
+    blob = np.random.default_rng(0).normal(0, 0.2, (3000, 3))
+    with pytest.raises(InputError, match="no table plane") as info:
+        segment(blob)
+    assert "given_table" in str(info.value)
+
+
+def test_nothing_on_the_table() -> None:
+    rng = np.random.default_rng(0)
+    table = np.column_stack(
+        [
+            rng.uniform(-0.3, 0.3, 5000),
+            rng.uniform(-0.3, 0.3, 5000),
+            rng.normal(0, 5e-4, 5000),
+        ]
+    )
+    with pytest.raises(InputError, match="nothing stands on the table"):
+        segment(table)
+
+
+def test_object_too_small_for_min_points() -> None:
+    points = downsample(small_scene("sphere", "upright", 0).points, VOXEL)
+    with pytest.raises(InputError, match="nothing stands on the table.*too small"):
+        segment(points, min_points=100000)
+
+
+def test_select_target_without_clusters() -> None:
+    seg = Segmentation(
+        table=segment_plane_only(), table_points=np.zeros((0, 3)), clusters=[]
+    )
+    with pytest.raises(InputError, match="nothing stands on the table"):
+        select_target(seg, TargetRule())
+
+
+def segment_plane_only():  # noqa: ANN201 - tiny helper
+    from wsgrasp.perception.types import Plane
+
+    return Plane(np.array([0.0, 0.0, 1.0]), 0.0)
+
+
+def test_options_are_validated() -> None:
+    with pytest.raises(ValueError, match="min_height"):
+        RansacDbscanOptions(min_height=0.5, max_height=0.1)
+    with pytest.raises(ValueError, match="extra"):
+        RansacDbscanOptions(plane_dist=0.01)  # type: ignore[call-arg]
+    with pytest.raises(ValueError, match="exactly one of offset or point"):
+        GivenTableOptions(normal=(0, 0, 1))
+
+
+# --------------------------------------------------------------------------------
+# given_table
+# --------------------------------------------------------------------------------
+@pytest.mark.parametrize("flip", [False, True], ids=["normal-up", "normal-down"])
+def test_given_table_removes_table_points(flip: bool) -> None:
+    T = random_rigid(np.random.default_rng(4))
+    synth = small_scene("box", "upright", 0)
+    points = moved(T, downsample(synth.points, VOXEL))
+    table = move_plane(T, synth.table)
+    n = -table.normal if flip else table.normal
+    point_on_table = T[:3, 3]  # the world origin is on the table
+    opts = GivenTableOptions(normal=tuple(n), point=tuple(point_on_table))
+    seg = GivenTable().segment(points, opts, seed=0)
+    assert_allclose(seg.table.normal, table.normal, atol=1e-9)
+    (obj,) = seg.clusters
+    heights = seg.table.signed_distance(obj)
+    assert heights.min() > 0.005
+    # every box point above the threshold is kept
+    assert obj.shape[0] == int((table.signed_distance(points) > 0.005).sum())
+    by_offset = GivenTableOptions(normal=tuple(n), offset=float(-n @ point_on_table))
+    assert (
+        GivenTable().segment(points, by_offset, seed=0).clusters[0].shape == obj.shape
+    )
+
+
+def test_given_table_with_nothing_above() -> None:
+    flat = np.random.default_rng(0).uniform(-0.1, 0.1, (100, 3)) * [1, 1, 0]
+    opts = GivenTableOptions(normal=(0, 0, 1), offset=0.0)
+    with pytest.raises(InputError, match="none of the 100 points"):
+        GivenTable().segment(flat, opts, seed=0)
