@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from conftest_perception import random_rigid, small_scene
 from numpy.testing import assert_allclose
 
-from conftest_perception import random_rigid, small_scene
 from wsgrasp.errors import InputError
 from wsgrasp.geometry import invert_transforms, transform_points
 from wsgrasp.perception.io import (

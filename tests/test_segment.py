@@ -5,9 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from numpy.testing import assert_allclose
-
 from conftest_perception import VOXEL, move_plane, moved, random_rigid, small_scene
+from numpy.testing import assert_allclose
+from wsgrasp_segmenters.given_table import GivenTable, GivenTableOptions
+from wsgrasp_segmenters.ransac_dbscan import RansacDbscan, RansacDbscanOptions
+
 from wsgrasp.errors import InputError
 from wsgrasp.geometry import transform_from
 from wsgrasp.perception.process import downsample, select_target
@@ -15,8 +17,6 @@ from wsgrasp.perception.synth import default_cameras, make_object, render_scene
 from wsgrasp.perception.types import Segmentation
 from wsgrasp.plugins import get_registry
 from wsgrasp.spec import TargetRule
-from wsgrasp_segmenters.given_table import GivenTable, GivenTableOptions
-from wsgrasp_segmenters.ransac_dbscan import RansacDbscan, RansacDbscanOptions
 
 
 def segment(points: np.ndarray, **options: float) -> Segmentation:

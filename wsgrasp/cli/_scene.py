@@ -98,10 +98,11 @@ def synth(
     )
     save_cloud(out, scene.points)
     yaml_path = write_scene_yaml(views_out, scene.views) if views_out else None
+    counts = [int(v.points.shape[0]) for v in scene.views]
     summary = {
         "out": str(out),
         "points": int(scene.points.shape[0]),
-        "views": [int(v.points.shape[0]) for v in scene.views],
+        "views": counts,
         "frame": "camera 0" if camera_frame else "world (z up)",
         "T_world_object": scene.T_world_mesh,
         "table_normal": scene.table.normal,
@@ -113,7 +114,7 @@ def synth(
         return
     console.print(
         f"wrote {out}: {summary['points']} points from {len(scene.views)} views "
-        f"({', '.join(map(str, summary['views']))}), frame {summary['frame']}"
+        f"({', '.join(map(str, counts))}), frame {summary['frame']}"
     )
     if yaml_path:
         console.print(f"wrote {yaml_path} and {len(scene.views)} view files")
