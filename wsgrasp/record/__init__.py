@@ -1,1 +1,32 @@
-"""Recording runs to MCAP, reading them back, replaying them."""
+"""Recording runs to MCAP, reading them back, replaying them.
+
+- :class:`RunRecorder` is a plan observer that writes one ``.mcap`` file per run;
+  :func:`default_run_path` is where ``plan`` puts it.
+- :func:`open_run` reads a run back (also a truncated one) as a :class:`Run`.
+- :func:`replay_run` re-plans a run's inputs and compares the results.
+- :func:`summarize_run` is what ``wsgrasp inspect --json`` prints.
+- :mod:`wsgrasp.record.bag` reads ROS 2 bags (``sensor_msgs/msg/PointCloud2``).
+"""
+
+from __future__ import annotations
+
+from wsgrasp.record._codec import FORMAT_VERSION
+from wsgrasp.record._reader import PARTS, RawMessage, Run, open_run
+from wsgrasp.record._replay import ReplayReport, compare_results, replay_run
+from wsgrasp.record._summary import summarize_run
+from wsgrasp.record._writer import RunRecorder, check_record_path, default_run_path
+
+__all__ = [
+    "FORMAT_VERSION",
+    "PARTS",
+    "RawMessage",
+    "ReplayReport",
+    "Run",
+    "RunRecorder",
+    "check_record_path",
+    "compare_results",
+    "default_run_path",
+    "open_run",
+    "replay_run",
+    "summarize_run",
+]

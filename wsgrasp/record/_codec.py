@@ -1,0 +1,130 @@
+"""The full-fidelity encoding of a run: exact arrays inside a structured record.
+
+Each full-fidelity message is one ``wsgrasp.Record`` (protobuf, see :mod:`._proto`):
+a JSON text for the structure, in which ``{"$array": i}`` stands for the i-th raw
+little-endian array of the record, so arrays decode bit for bit. A float that JSON
+cannot hold (NaN, ±inf) is ``{"$float": "nan"}``. Everything else is plain JSON.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import fields, is_dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from wsgrasp.errors import RecordingError
+from wsgrasp.record._proto import ArrayBytes, decode_record, encode_record
+
+__all__ = [
+    "FORMAT_VERSION",
+    "PROFILE",
+    "TOPICS",
+    "encode_value",
+    "decode_value",
+    "dumps",
+    "loads",
+]
+
+#: Version of the recording layout. A reader refuses files with a larger one.
+FORMAT_VERSION = 1
+
+#: MCAP header profile of wsgrasp runs.
+PROFILE = "wsgrasp"
+
+#: Full-fidelity channels, in the order they are written.
+TOPICS = {
+    "inputs": "/wsgrasp/inputs",
+    "preprocess": "/wsgrasp/stage/preprocess",
+    "segmentation": "/wsgrasp/stage/segmentation",
+    "object_frame": "/wsgrasp/stage/object_frame",
+    "candidates": "/wsgrasp/stage/candidates",
+    "result": "/wsgrasp/result",
+    "error": "/wsgrasp/error",
+}
+
+_DTYPES = {"<f8", "<i8", "|b1", "<f4", "<i4", "|u1"}
+
+
+def _encode_array(a: NDArray[Any], arrays: list[ArrayBytes]) -> dict[str, Any]:
+    a = np.asarray(a)
+    if a.dtype.kind == "f":
+        a = a.astype("<f8" if a.dtype.itemsize == 8 else "<f4", copy=False)
+    elif a.dtype.kind in "iu" and a.dtype != np.uint8:
+        a = a.astype("<i8" if a.dtype.itemsize == 8 else "<i4", copy=False)
+    elif a.dtype.kind == "b":
+        a = a.astype("|b1", copy=False)
+    if a.dtype.str not in _DTYPES:
+        raise RecordingError(f"cannot record an array of dtype {a.dtype}")
+    a = np.ascontiguousarray(a)
+    raw = a.reshape(-1).view(np.uint8).data  # (nbytes,) view, no copy
+    arrays.append(ArrayBytes(a.dtype.str, tuple(a.shape), raw))
+    return {"$array": len(arrays) - 1}
+
+
+def encode_value(value: Any, arrays: list[ArrayBytes]) -> Any:
+    """Turn ``value`` into plain JSON data, moving arrays into ``arrays``.
+
+    Dataclasses become dicts of their fields, pydantic models their JSON dump, numpy
+    scalars Python numbers; anything else its ``repr``.
+    """
+    if isinstance(value, np.ndarray):
+        return _encode_array(value, arrays)
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        f = float(value)
+        if math.isfinite(f):
+            return f
+        return {"$float": "nan" if math.isnan(f) else ("inf" if f > 0 else "-inf")}
+    if value is None or isinstance(value, str):
+        return value
+    if isinstance(value, dict):
+        return {str(k): encode_value(v, arrays) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [encode_value(v, arrays) for v in value]
+    if is_dataclass(value) and not isinstance(value, type):
+        return {
+            f.name: encode_value(getattr(value, f.name), arrays) for f in fields(value)
+        }
+    if hasattr(value, "model_dump"):  # pydantic models
+        return encode_value(value.model_dump(mode="json"), arrays)
+    return repr(value)
+
+
+def decode_value(data: Any, arrays: list[ArrayBytes]) -> Any:
+    """Inverse of :func:`encode_value` (dataclasses come back as dicts)."""
+    if isinstance(data, dict):
+        if "$array" in data and len(data) == 1:
+            a = arrays[int(data["$array"])]
+            if a.dtype not in _DTYPES:
+                raise ValueError(f"unknown array dtype {a.dtype!r}")
+            flat = np.frombuffer(a.data, dtype=np.dtype(a.dtype))
+            # the record's own shape, e.g. (n, 3) points or (C, 4, 4) poses
+            return flat.reshape(a.shape).copy()
+        if "$float" in data and len(data) == 1:
+            return float(data["$float"])
+        return {k: decode_value(v, arrays) for k, v in data.items()}
+    if isinstance(data, list):
+        return [decode_value(v, arrays) for v in data]
+    return data
+
+
+def dumps(value: Any, kind: str = "") -> bytes:
+    """Encode ``value`` to the bytes of one ``wsgrasp.Record``."""
+    arrays: list[ArrayBytes] = []
+    text = json.dumps(
+        encode_value(value, arrays), allow_nan=False, separators=(",", ":")
+    )
+    return encode_record(kind, text, arrays, FORMAT_VERSION)
+
+
+def loads(data: bytes | memoryview) -> Any:
+    """Decode the bytes of one ``wsgrasp.Record``."""
+    _, _, text, arrays = decode_record(data)
+    return decode_value(json.loads(text), arrays)

@@ -1,0 +1,258 @@
+"""Messages in Foxglove's well-known schemas, so that Foxglove shows a run as it is.
+
+Each builder returns ``(schema_name, encoded_bytes)``; the schema name is the exact
+well-known name (``foxglove.PointCloud``, ...) and :func:`schema_of` gives the
+protobuf ``FileDescriptorSet`` the writer registers for it.
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+try:  # foxglove-sdk >= 0.16 names them ``messages``
+    import foxglove.messages as fm
+except ImportError:  # pragma: no cover - older foxglove-sdk
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        import foxglove.schemas as fm  # type: ignore[no-redef]
+
+__all__ = [
+    "REASON_RGBA",
+    "schema_of",
+    "point_cloud",
+    "frame_transform",
+    "pose_in_frame",
+    "poses_in_frame",
+    "scene_update",
+    "cube",
+    "sphere",
+]
+
+Array = NDArray[np.float64]
+
+#: Colour (r, g, b, a in 0..1) of each rejection reason, feasible first; the same
+#: order as :data:`wsgrasp.planning.result.REASONS`.
+REASON_RGBA: dict[str, tuple[float, float, float, float]] = {
+    "feasible": (0.10, 0.75, 0.20, 1.0),
+    "table_collision": (0.55, 0.35, 0.15, 0.8),
+    "object_collision": (0.90, 0.15, 0.15, 0.8),
+    "obstacle_collision": (0.60, 0.20, 0.75, 0.8),
+    "finger_without_contact": (0.55, 0.60, 0.70, 0.8),
+}
+_OTHER_RGBA = (0.3, 0.3, 0.3, 0.8)
+
+
+def reason_rgba(name: str) -> tuple[float, float, float, float]:
+    """Colour of a rejection reason (grey for reasons this version does not know)."""
+    return REASON_RGBA.get(name, _OTHER_RGBA)
+
+
+_SCHEMAS: dict[str, Any] = {}
+
+
+def schema_of(name: str) -> tuple[str, bytes]:
+    """Encoding and data of the well-known schema ``name`` (e.g.
+    ``"foxglove.PointCloud"``)."""
+    if name not in _SCHEMAS:
+        cls = getattr(fm, name.removeprefix("foxglove."))
+        _SCHEMAS[name] = cls.get_schema()
+    s = _SCHEMAS[name]
+    return s.encoding, bytes(s.data)
+
+
+def _stamp(t_ns: int) -> Any:
+    return fm.Timestamp(t_ns // 1_000_000_000, t_ns % 1_000_000_000)
+
+
+def quaternions_xyzw(R: ArrayLike) -> Array:
+    """Unit quaternions ``q_xyzw`` ``(k, 4)`` of rotation matrices ``(k, 3, 3)``
+    (Shepperd's method: the largest of w, x, y, z is found first, so every branch is
+    well conditioned)."""
+    R = np.asarray(R, dtype=np.float64).reshape(-1, 3, 3)  # (k, 3, 3)
+    tr = np.trace(R, axis1=1, axis2=2)  # (k,)
+    d = np.stack([R[:, 0, 0], R[:, 1, 1], R[:, 2, 2], tr], axis=1)  # (k, 4)
+    best = np.argmax(d, axis=1)  # 0..2: x, y or z largest; 3: w largest
+    q = np.empty((len(R), 4))  # x, y, z, w
+    for i in range(3):  # loop over the 3 axis cases, not over rotations
+        sel = best == i
+        if not sel.any():
+            continue
+        j, k = (i + 1) % 3, (i + 2) % 3
+        Rs = R[sel]
+        s = np.sqrt(
+            np.maximum(
+                1.0 + 2.0 * Rs[:, i, i] - Rs[:, 0, 0] - Rs[:, 1, 1] - Rs[:, 2, 2] + 0.0,
+                1e-300,
+            )
+        )
+        qs = np.empty((len(Rs), 4))
+        qs[:, i] = 0.5 * s
+        qs[:, j] = 0.5 * (Rs[:, j, i] + Rs[:, i, j]) / s
+        qs[:, k] = 0.5 * (Rs[:, k, i] + Rs[:, i, k]) / s
+        qs[:, 3] = 0.5 * (Rs[:, k, j] - Rs[:, j, k]) / s
+        q[sel] = qs
+    sel = best == 3
+    if sel.any():
+        Rs = R[sel]
+        s = np.sqrt(np.maximum(1.0 + tr[sel], 1e-300))
+        q[sel, 3] = 0.5 * s
+        q[sel, 0] = 0.5 * (Rs[:, 2, 1] - Rs[:, 1, 2]) / s
+        q[sel, 1] = 0.5 * (Rs[:, 0, 2] - Rs[:, 2, 0]) / s
+        q[sel, 2] = 0.5 * (Rs[:, 1, 0] - Rs[:, 0, 1]) / s
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
+def _pq(T: ArrayLike) -> tuple[list[list[float]], list[list[float]]]:
+    """Positions ``(k, 3)`` and quaternions ``q_xyzw`` ``(k, 4)`` of ``(k, 4, 4)``."""
+    T = np.asarray(T, dtype=np.float64).reshape(-1, 4, 4)  # (k, 4, 4)
+    if len(T) == 0:
+        return [], []
+    return T[:, :3, 3].tolist(), quaternions_xyzw(T[:, :3, :3]).tolist()
+
+
+def _poses(T: ArrayLike) -> list[Any]:
+    """Foxglove poses of transforms ``(k, 4, 4)``."""
+    ps, qs = _pq(T)
+    return [
+        fm.Pose(
+            position=fm.Vector3(x=p[0], y=p[1], z=p[2]),
+            orientation=fm.Quaternion(x=q[0], y=q[1], z=q[2], w=q[3]),
+        )
+        for p, q in zip(ps, qs, strict=True)
+    ]
+
+
+def point_cloud(
+    points: ArrayLike,
+    frame_id: str,
+    t_ns: int,
+    *,
+    rgba: ArrayLike | None = None,
+    T_frame_points: ArrayLike | None = None,
+) -> tuple[str, bytes]:
+    """A ``foxglove.PointCloud`` of float32 x, y, z and optional uint8 colours.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+    frame_id : str
+    t_ns : int
+        Timestamp (ns since the epoch).
+    rgba : (4,) or (n, 4) float in 0..1, optional
+    T_frame_points : (4, 4) float, optional
+        Pose of the points' origin in ``frame_id``.
+    """
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)  # (n, 3)
+    F = fm.PackedElementFieldNumericType
+    fields = [
+        fm.PackedElementField(name=axis, offset=4 * i, type=F.Float32)
+        for i, axis in enumerate("xyz")
+    ]
+    if rgba is None:
+        data = p.astype("<f4").tobytes()
+        stride = 12
+    else:
+        c = np.broadcast_to(np.asarray(rgba, dtype=np.float64), (len(p), 4))
+        rec = np.empty(len(p), dtype=[("xyz", "<f4", 3), ("rgba", "u1", 4)])
+        rec["xyz"] = p
+        rec["rgba"] = np.clip(np.round(c * 255.0), 0, 255).astype(np.uint8)
+        data = rec.tobytes()
+        stride = 16
+        fields += [
+            fm.PackedElementField(name=ch, offset=12 + i, type=F.Uint8)
+            for i, ch in enumerate(("red", "green", "blue", "alpha"))
+        ]
+    pose = _poses(np.eye(4) if T_frame_points is None else T_frame_points)[0]
+    msg = fm.PointCloud(
+        timestamp=_stamp(t_ns),
+        frame_id=frame_id,
+        pose=pose,
+        point_stride=stride,
+        fields=fields,
+        data=data,
+    )
+    return "foxglove.PointCloud", msg.encode()
+
+
+def frame_transform(
+    T_parent_child: ArrayLike, parent: str, child: str, t_ns: int
+) -> tuple[str, bytes]:
+    """A ``foxglove.FrameTransform``: ``T_parent_child`` (4, 4)."""
+    (p,), (q,) = _pq(T_parent_child)
+    msg = fm.FrameTransform(
+        timestamp=_stamp(t_ns),
+        parent_frame_id=parent,
+        child_frame_id=child,
+        translation=fm.Vector3(x=p[0], y=p[1], z=p[2]),
+        rotation=fm.Quaternion(x=q[0], y=q[1], z=q[2], w=q[3]),
+    )
+    return "foxglove.FrameTransform", msg.encode()
+
+
+def pose_in_frame(T: ArrayLike, frame_id: str, t_ns: int) -> tuple[str, bytes]:
+    """A ``foxglove.PoseInFrame`` of one transform (4, 4)."""
+    msg = fm.PoseInFrame(timestamp=_stamp(t_ns), frame_id=frame_id, pose=_poses(T)[0])
+    return "foxglove.PoseInFrame", msg.encode()
+
+
+def poses_in_frame(T: ArrayLike, frame_id: str, t_ns: int) -> tuple[str, bytes]:
+    """A ``foxglove.PosesInFrame`` of transforms ``(k, 4, 4)``."""
+    msg = fm.PosesInFrame(timestamp=_stamp(t_ns), frame_id=frame_id, poses=_poses(T))
+    return "foxglove.PosesInFrame", msg.encode()
+
+
+def _color(rgba: tuple[float, ...]) -> Any:
+    return fm.Color(r=rgba[0], g=rgba[1], b=rgba[2], a=rgba[3])
+
+
+def cube(T: ArrayLike, size: ArrayLike, rgba: tuple[float, ...]) -> Any:
+    """A cube primitive at pose ``T`` (4, 4) with full extents ``size`` (3,)."""
+    s = np.asarray(size, dtype=np.float64).tolist()
+    return fm.CubePrimitive(
+        pose=_poses(T)[0], size=fm.Vector3(x=s[0], y=s[1], z=s[2]), color=_color(rgba)
+    )
+
+
+def spheres(centers: ArrayLike, radii: ArrayLike, rgba: tuple[float, ...]) -> list[Any]:
+    """Sphere primitives at ``centers`` (k, 3) with ``radii`` (k,)."""
+    c = np.asarray(centers, dtype=np.float64).reshape(-1, 3)  # (k, 3)
+    r = np.asarray(radii, dtype=np.float64).reshape(-1)
+    T = np.broadcast_to(np.eye(4), (len(c), 4, 4)).copy()  # (k, 4, 4)
+    T[:, :3, 3] = c
+    color = _color(rgba)
+    return [
+        fm.SpherePrimitive(
+            pose=pose, size=fm.Vector3(x=2 * ri, y=2 * ri, z=2 * ri), color=color
+        )
+        for pose, ri in zip(_poses(T), r.tolist(), strict=True)
+    ]
+
+
+def sphere(center: ArrayLike, radius: float, rgba: tuple[float, ...]) -> Any:
+    """One sphere primitive."""
+    return spheres(np.asarray(center).reshape(1, 3), [radius], rgba)[0]
+
+
+def scene_update(
+    entities: list[tuple[str, list[Any], list[Any]]], frame_id: str, t_ns: int
+) -> tuple[str, bytes]:
+    """A ``foxglove.SceneUpdate`` of entities ``(id, cubes, spheres)``."""
+    stamp = _stamp(t_ns)
+    msg = fm.SceneUpdate(
+        entities=[
+            fm.SceneEntity(
+                timestamp=stamp,
+                frame_id=frame_id,
+                id=eid,
+                frame_locked=False,
+                cubes=cubes,
+                spheres=sph,
+            )
+            for eid, cubes, sph in entities
+        ]
+    )
+    return "foxglove.SceneUpdate", msg.encode()

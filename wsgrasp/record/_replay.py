@@ -1,0 +1,302 @@
+"""Replaying a run: re-plan its inputs and compare the results bit for bit."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from wsgrasp.errors import RecordingError, WsgraspError
+from wsgrasp.record._reader import Run, open_run
+
+if TYPE_CHECKING:
+    from wsgrasp.planning.result import PlanResult
+    from wsgrasp.spec import PipelineSpec
+
+__all__ = ["ReplayReport", "compare_results", "replay_run"]
+
+
+@dataclass
+class ReplayReport:
+    """How a replay compares with the recorded run.
+
+    Attributes
+    ----------
+    identical : bool
+        Every field of the result (poses, scores, every candidate, contacts) is
+        equal bit for bit; timings are not compared.
+    same_spec : bool
+        Replayed with the recorded spec (no ``--spec``).
+    differences : list of str
+        Names of the result fields that differ.
+    recorded, replayed : dict
+        ``found``, ``score``, ``candidates``, ``feasible``, ``histogram``, pose.
+    pose_delta : dict or None
+        ``translation_m`` and ``angle_deg`` between the chosen poses, when both
+        runs found one.
+    record_path : Path or None
+        Where the replay was recorded.
+    """
+
+    identical: bool
+    same_spec: bool
+    differences: list[str]
+    recorded: dict[str, Any]
+    replayed: dict[str, Any]
+    pose_delta: dict[str, float] | None
+    record_path: Path | None = None
+    notes: list[str] = field(default_factory=list)
+
+    def to_json(self) -> dict[str, Any]:
+        """Plain data: what ``wsgrasp replay --json`` prints."""
+        hist = {
+            k: {
+                "recorded": self.recorded["histogram"].get(k, 0),
+                "replayed": self.replayed["histogram"].get(k, 0),
+            }
+            for k in dict.fromkeys(
+                [*self.recorded["histogram"], *self.replayed["histogram"]]
+            )
+        }
+        return {
+            "identical": self.identical,
+            "same_spec": self.same_spec,
+            "differences": self.differences,
+            "recorded": self.recorded,
+            "replayed": self.replayed,
+            "pose_delta": self.pose_delta,
+            "score_delta": _delta(self.recorded["score"], self.replayed["score"]),
+            "histogram": hist,
+            "record": None if self.record_path is None else str(self.record_path),
+            "notes": self.notes,
+        }
+
+
+def _delta(a: float | None, b: float | None) -> float | None:
+    if a is None or b is None:
+        return None
+    return float(b) - float(a)
+
+
+# -- bit-for-bit comparison -----------------------------------------------------------
+def _canon(a: Any) -> np.ndarray[Any, Any]:
+    x = np.asarray(a)
+    if x.dtype.kind == "f":
+        return x.astype("<f8")
+    if x.dtype.kind in "iu":
+        return x.astype("<i8")
+    if x.dtype.kind == "b":
+        return x.astype("|b1")
+    return x
+
+
+def _same(a: Any, b: Any) -> bool:
+    """Bit-for-bit equality of arrays, floats, dicts and lists (NaN equals NaN)."""
+    if a is None or b is None:
+        return a is None and b is None
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
+    if isinstance(a, (str, bool)) or isinstance(b, (str, bool)):
+        return bool(a == b) and type(a) is type(b)
+    x, y = _canon(a), _canon(b)
+    return x.shape == y.shape and x.dtype == y.dtype and x.tobytes() == y.tobytes()
+
+
+_COMPARED = (
+    "found",
+    "gripper",
+    "T_world_ee",
+    "T_world_gwc",
+    "T_world_tcp",
+    "pregrasp",
+    "closed",
+    "score",
+    "score_terms",
+    "best_index",
+    "rejections",
+    "hint",
+    "T_world_object",
+    "object_extents",
+)
+_CANDIDATE_FIELDS = (
+    "T_world_gwc",
+    "T_world_ee",
+    "sample",
+    "theta",
+    "reason",
+    "contacts",
+    "score",
+    "terms",
+)
+
+
+def compare_results(a: PlanResult, b: PlanResult) -> list[str]:
+    """Names of the fields in which two results differ, bit for bit (timings and
+    ``info`` are not compared). An empty list means identical."""
+    diff = [f for f in _COMPARED if not _same(getattr(a, f), getattr(b, f))]
+    for f in _CANDIDATE_FIELDS:
+        if not _same(getattr(a.candidates, f), getattr(b.candidates, f)):
+            diff.append(f"candidates.{f}")
+    ca = [(c.finger, c.points, c.spheres) for c in a.contacts]
+    cb = [(c.finger, c.points, c.spheres) for c in b.contacts]
+    if not _same(ca, cb):
+        diff.append("contacts")
+    aa = [(x.index, x.T_world_ee, x.score, x.terms) for x in a.alternatives]
+    ab = [(x.index, x.T_world_ee, x.score, x.terms) for x in b.alternatives]
+    if not _same(aa, ab):
+        diff.append("alternatives")
+    return diff
+
+
+def _pose_delta(Ta: Any, Tb: Any) -> dict[str, float] | None:
+    if Ta is None or Tb is None:
+        return None
+    A = np.asarray(Ta, dtype=np.float64)
+    B = np.asarray(Tb, dtype=np.float64)
+    cos = (np.trace(A[:3, :3].T @ B[:3, :3]) - 1.0) / 2.0
+    return {
+        "translation_m": float(np.linalg.norm(B[:3, 3] - A[:3, 3])),
+        "angle_deg": float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))),
+    }
+
+
+def _outline(r: PlanResult | None, error: dict[str, Any] | None) -> dict[str, Any]:
+    if r is None:
+        return {
+            "found": False,
+            "score": None,
+            "candidates": 0,
+            "feasible": 0,
+            "histogram": {},
+            "T_world_ee": None,
+            "error": error,
+        }
+    hist = r.candidates.histogram() if len(r.candidates) else dict(r.rejections)
+    score = None if r.score is None or not math.isfinite(r.score) else float(r.score)
+    return {
+        "found": bool(r.found),
+        "score": score,
+        "candidates": len(r.candidates),
+        "feasible": int(r.candidates.feasible.sum()),
+        "histogram": {k: int(v) for k, v in hist.items()},
+        "T_world_ee": None
+        if r.T_world_ee is None
+        else np.asarray(r.T_world_ee).tolist(),
+        "error": error,
+    }
+
+
+# -- replay ---------------------------------------------------------------------
+def replay_run(
+    run: Run | str | Path,
+    *,
+    spec: PipelineSpec | str | Path | None = None,
+    record: str | Path | None = None,
+    force: bool = False,
+) -> ReplayReport:
+    """Re-plan a recorded run's inputs and compare with its recorded result.
+
+    Parameters
+    ----------
+    run
+        A :class:`Run` or the path of a run file.
+    spec
+        Re-plan with this spec instead of the recorded one. The recorded gripper
+        model is used when the spec names the same gripper, so the gripper plugin
+        need not be installed.
+    record
+        Record the replay to this new file.
+    force
+        Replace ``record`` if it exists.
+
+    Raises
+    ------
+    RecordingError
+        The run lacks what a replay needs (inputs, spec, gripper model).
+    """
+    from wsgrasp.record._writer import RunRecorder, check_record_path
+
+    if not isinstance(run, Run):
+        run = open_run(run)
+    if record is not None:
+        check_record_path(record, force=force)
+        if Path(record).resolve() == run.path.resolve():
+            raise RecordingError(
+                f"{record}: is the run being replayed; a replay never overwrites it",
+                hint="give --record a new path",
+            )
+    try:
+        from wsgrasp.api import Pipeline
+    except ImportError as exc:  # pragma: no cover - the planner is part of wsgrasp
+        raise RecordingError(f"replay needs the planner (wsgrasp.api): {exc}") from None
+
+    recorded_spec = run.spec
+    gripper = run.gripper
+    scene = run.scene
+    notes: list[str] = []
+    if spec is None:
+        use_spec = recorded_spec
+    elif isinstance(spec, (str, Path)):
+        from wsgrasp.spec import load_spec
+
+        use_spec = load_spec(spec)
+    else:
+        use_spec = spec
+    same_spec = spec is None
+    model = gripper if use_spec.gripper == recorded_spec.gripper else None
+    if model is None:
+        notes.append(
+            f"the spec names gripper {use_spec.gripper!r}, the run used "
+            f"{recorded_spec.gripper!r}: the new spec's gripper is built"
+        )
+    if run.truncated and run.result_data is None and run.error is None:
+        notes.append("the run is truncated before its result: nothing to compare")
+
+    observers: list[Any] = []
+    recorder = None
+    if record is not None:
+        recorder = RunRecorder(record, force=force)
+        observers.append(recorder)
+    new: PlanResult | None = None
+    new_error: dict[str, Any] | None = None
+    try:
+        new = Pipeline(use_spec, gripper=model).plan(scene, observers=observers)
+    except WsgraspError as exc:
+        new_error = {"type": type(exc).__name__, "message": exc.message}
+    finally:
+        if recorder is not None:
+            recorder.close()
+
+    old = run.result
+    old_error = (
+        None
+        if run.error is None
+        else {"type": run.error.get("type"), "message": run.error.get("message")}
+    )
+    if old is not None and new is not None:
+        differences = compare_results(old, new)
+    elif old is None and new is None and old_error is not None:
+        differences = [] if old_error == new_error else ["error"]
+    else:
+        differences = ["result"]
+    if new_error is not None and old_error is None:
+        notes.append(f"the replay failed: {new_error['type']}: {new_error['message']}")
+    identical = not differences and (old is not None or old_error is not None)
+    return ReplayReport(
+        identical=identical,
+        same_spec=same_spec,
+        differences=differences,
+        recorded=_outline(old, old_error),
+        replayed=_outline(new, new_error),
+        pose_delta=_pose_delta(
+            None if old is None else old.T_world_ee,
+            None if new is None else new.T_world_ee,
+        ),
+        record_path=None if record is None else Path(record),
+        notes=notes,
+    )

@@ -1,0 +1,130 @@
+"""What ``wsgrasp inspect`` shows of a run, as plain data."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from wsgrasp.record._reader import Run
+
+__all__ = ["summarize_run", "histogram"]
+
+
+def histogram(run: Run) -> tuple[int, int, dict[str, int]]:
+    """``(candidates, feasible, rejections)`` of a run; rejections excludes
+    ``feasible``, so ``feasible + sum(rejections.values()) == candidates``."""
+    cs = run.candidates
+    if cs is not None:
+        hist = cs.histogram()
+        # codes past the known reasons (a newer recorder) are counted too
+        extra = int((np.asarray(cs.reason) >= len(hist)).sum())
+        feasible = hist.pop("feasible")
+        if extra:
+            hist["unknown"] = extra
+        return len(cs), feasible, hist
+    if run.result_data is not None:
+        rej = {
+            k: int(v)
+            for k, v in (run.result_data.get("rejections") or {}).items()
+            if k != "feasible"
+        }
+        feasible = int((run.result_data.get("rejections") or {}).get("feasible", 0))
+        return feasible + sum(rej.values()), feasible, rej
+    return 0, 0, {}
+
+
+def _top(run: Run, k: int) -> list[dict[str, Any]]:
+    cs = run.candidates
+    if cs is None or len(cs) == 0:
+        return []
+    from wsgrasp.planning.result import REASONS
+
+    score = np.asarray(cs.score, dtype=np.float64)
+    feasible = np.flatnonzero(np.asarray(cs.reason) == 0)
+    order = feasible[np.argsort(-score[feasible], kind="stable")][:k]
+    out = []
+    for i in order.tolist():
+        out.append(
+            {
+                "index": i,
+                "score": float(score[i]),
+                "terms": {n: float(np.asarray(t)[i]) for n, t in cs.terms.items()},
+                "sample": int(np.asarray(cs.sample)[i]),
+                "theta_deg": float(np.degrees(np.asarray(cs.theta)[i])),
+                "contacts": np.asarray(cs.contacts)[i].tolist(),
+                "position": np.asarray(cs.T_world_ee)[i, :3, 3].tolist(),
+                "reason": REASONS[int(np.asarray(cs.reason)[i])],
+            }
+        )
+    return out
+
+
+def summarize_run(run: Run, *, top_k: int = 5) -> dict[str, Any]:
+    """Inputs, versions, timings, the rejection histogram, the top-k candidates and
+    the result of a run, as JSON-ready data.
+
+    Always has ``found``, ``candidates``, ``feasible``, ``rejections`` and
+    ``truncated``, also for a truncated run.
+    """
+    n, feasible, rejections = histogram(run)
+    meta = run.metadata.get("wsgrasp", {})
+    res = run.result_data or {}
+    inputs: dict[str, Any] | None = None
+    if run.inputs is not None:
+        inputs = {
+            "views": [
+                {
+                    "name": v.get("name", ""),
+                    "points": int(np.asarray(v["points"]).shape[0]),
+                    "T_world_camera": np.asarray(v["T_world_camera"]).tolist(),
+                }
+                for v in run.inputs["views"]
+            ],
+            "points": int(np.asarray(run.inputs["points"]).shape[0]),
+            "dropped_nonfinite": int(run.inputs.get("dropped_nonfinite", 0)),
+        }
+
+    def mat(key: str) -> Any:
+        v = res.get(key)
+        return None if v is None else np.asarray(v).tolist()
+
+    return {
+        "path": str(run.path),
+        "status": run.status,
+        "found": bool(res.get("found", False)),
+        "candidates": n,
+        "feasible": feasible,
+        "rejections": rejections,
+        "truncated": run.truncated,
+        "truncated_at": run.truncated_at,
+        "missing": run.missing,
+        "error": run.error,
+        "gripper": meta.get("gripper"),
+        "format_version": run.format_version,
+        "versions": {
+            "wsgrasp": run.wsgrasp_version,
+            "python": meta.get("python"),
+            "numpy": meta.get("numpy"),
+            "platform": meta.get("platform"),
+            "plugins": [
+                {k: p.get(k) for k in ("name", "distribution", "version")}
+                for p in run.plugins
+            ],
+        },
+        "seed": None if "seed" not in meta else int(meta["seed"]),
+        "created_utc": meta.get("created_utc"),
+        "spec": run.spec_data,
+        "inputs": inputs,
+        "timing_ms": run.timing_ms,
+        "score": res.get("score"),
+        "score_terms": res.get("score_terms", {}),
+        "T_world_ee": mat("T_world_ee"),
+        "T_world_tcp": mat("T_world_tcp"),
+        "hint": res.get("hint", ""),
+        "top": _top(run, top_k),
+        "topics": {
+            t: {"schema": s, "messages": c} for t, (s, c) in run.topics().items()
+        },
+        "attachments": {k: len(v) for k, v in run.attachments.items()},
+    }

@@ -1,0 +1,563 @@
+"""The MCAP recorder: a plan observer that writes every stage as it ends.
+
+Layout of a run file (``FORMAT_VERSION`` 1):
+
+- header profile ``wsgrasp``; metadata ``wsgrasp`` (format and package versions,
+  platform, seed, gripper), ``spec`` (the resolved spec as JSON), ``plugins``
+  (every plugin's distribution and version) and, last, ``run_end``;
+- attachments: ``gripper/model.npz`` (the built model, exact arrays),
+  ``gripper/description.json`` and, when found, the gripper YAML and URDF;
+- full-fidelity channels (``/wsgrasp/...``, schema ``wsgrasp.Record``, see
+  :mod:`._codec`) and channels in Foxglove's well-known schemas for looking at the
+  run.
+
+The inputs are written and flushed in ``on_start``, before any processing, and each
+stage is flushed (one zstd chunk) when it ends: a crash leaves a file that
+:func:`~wsgrasp.record.open_run` reads up to the last finished stage.
+"""
+
+from __future__ import annotations
+
+import json
+import platform
+import sys
+import time
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import IO, TYPE_CHECKING, Any
+
+import numpy as np
+
+from wsgrasp.errors import RecordingError
+from wsgrasp.record import _foxglove as fx
+from wsgrasp.record._codec import FORMAT_VERSION, PROFILE, TOPICS, dumps
+from wsgrasp.record._mcapio import ChunkWriter
+from wsgrasp.record._proto import DESCRIPTOR_SET, SCHEMA_NAME
+
+if TYPE_CHECKING:
+    from wsgrasp.gripper.model import GripperModel
+    from wsgrasp.perception.types import Scene
+    from wsgrasp.planning.result import PlanResult
+    from wsgrasp.spec import PipelineSpec
+
+__all__ = ["RunRecorder", "default_run_path"]
+
+
+def default_run_path(
+    spec: PipelineSpec, gripper_name: str, *, now: datetime | None = None
+) -> Path:
+    """Where ``plan`` records by default:
+    ``<spec.record.dir>/<UTC time>-<gripper>.mcap``.
+
+    The time has microseconds, so two runs in one second get two files.
+    """
+    t = (now or datetime.now(timezone.utc)).astimezone(timezone.utc)
+    stamp = t.strftime("%Y%m%dT%H%M%S.%fZ")
+    safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in gripper_name)
+    return Path(spec.record.dir) / f"{stamp}-{safe or 'gripper'}.mcap"
+
+
+def check_record_path(path: str | Path, *, force: bool = False) -> Path:
+    """Refuse to overwrite an existing recording unless ``force``.
+
+    Raises
+    ------
+    RecordingError
+        ``path`` exists (and ``force`` is False), or is a directory.
+    """
+    p = Path(path)
+    if p.is_dir():
+        raise RecordingError(
+            f"{p}: is a directory, not a recording file",
+            hint="give a file path ending in .mcap",
+        )
+    if p.exists() and not force:
+        raise RecordingError(
+            f"{p}: a recording already exists there; wsgrasp never overwrites one",
+            hint="choose another path, or pass --force to replace it",
+        )
+    return p
+
+
+class RunRecorder:
+    """Record one plan to an MCAP file; pass it to ``Pipeline.plan(observers=...)``.
+
+    Parameters
+    ----------
+    path
+        The ``.mcap`` file to write. Its directory is created.
+    force
+        Replace an existing file. Without it an existing file is an error, raised
+        here, before the plan starts.
+
+    Attributes
+    ----------
+    path : Path
+    overhead_ms : float
+        Time spent inside the recorder so far.
+    """
+
+    def __init__(self, path: str | Path, *, force: bool = False) -> None:
+        self.path = check_record_path(path, force=force)
+        self.force = force
+        self.overhead_ms = 0.0
+        self._writer: ChunkWriter | None = None
+        self._stream: IO[bytes] | None = None
+        self._schemas: dict[str, int] = {}
+        self._channels: dict[str, int] = {}
+        self._gripper: GripperModel | None = None
+        self._spec: PipelineSpec | None = None
+        self._candidates: Any = None
+        self._stages_written: list[str] = []
+        self._finished = False
+
+    # -- PlanObserver ------------------------------------------------------------
+    def on_start(self, spec: PipelineSpec, gripper: GripperModel, scene: Scene) -> None:
+        """Write metadata, the inputs and the gripper model, and flush."""
+        t0 = time.perf_counter()
+        self._spec = spec
+        self._gripper = gripper
+        self._open()
+        w = self._w
+        w.add_metadata("wsgrasp", _run_metadata(spec, gripper))
+        w.add_metadata("spec", _spec_metadata(spec))
+        w.add_metadata("plugins", _plugins_metadata())
+        now = time.time_ns()
+        self._json("inputs", _inputs_record(scene), now)
+        self._foxglove_inputs(scene, now)
+        self._w.flush()
+        for name, media, data in _gripper_attachments(spec, gripper):
+            w.add_attachment(now, name, media, data)
+        self._w.flush()
+        self.overhead_ms += (time.perf_counter() - t0) * 1e3
+
+    def on_stage(self, stage: str, data: dict[str, Any]) -> None:
+        """Write one stage's data (full fidelity and Foxglove views) and flush."""
+        if self._writer is None:
+            return
+        t0 = time.perf_counter()
+        now = time.time_ns()
+        topic_key = stage if stage in TOPICS else None
+        if topic_key is None:
+            self._json_topic(f"/wsgrasp/stage/{stage}", data, now)
+        else:
+            self._json(topic_key, data, now)
+        try:
+            getattr(self, f"_fox_{stage}", lambda d, t: None)(data, now)
+        except Exception as exc:  # noqa: BLE001 - views are a convenience
+            self._json_topic(
+                "/wsgrasp/warnings", {"stage": stage, "error": repr(exc)}, now
+            )
+        if stage == "candidates":
+            self._candidates = data.get("candidates")
+        self._stages_written.append(stage)
+        self._w.flush()
+        self.overhead_ms += (time.perf_counter() - t0) * 1e3
+
+    def on_result(self, result: PlanResult) -> None:
+        """Write the result, the chosen grasp's Foxglove views, and finish the file."""
+        if self._writer is None:
+            return
+        t0 = time.perf_counter()
+        now = time.time_ns()
+        record = _result_record(result, self._candidates)
+        self._json("result", record, now)
+        try:
+            self._fox_result(result, now)
+        except Exception as exc:  # noqa: BLE001 - views are a convenience
+            self._json_topic(
+                "/wsgrasp/warnings", {"stage": "result", "error": repr(exc)}, now
+            )
+        self.overhead_ms += (time.perf_counter() - t0) * 1e3
+        self._finish("ok")
+
+    def on_error(self, error: BaseException) -> None:
+        """Write what stopped the plan, and finish the file."""
+        if self._writer is None:
+            return
+        now = time.time_ns()
+        record = {
+            "type": type(error).__name__,
+            "message": getattr(error, "message", str(error)),
+            "hint": getattr(error, "hint", None),
+            "stages": list(self._stages_written),
+        }
+        self._json("error", record, now)
+        self._finish("error")
+
+    def close(self) -> None:
+        """Finish the file if the plan did not (safe to call twice)."""
+        if self._writer is not None and not self._finished:
+            self._finish("closed")
+
+    def __enter__(self) -> RunRecorder:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- plumbing ----------------------------------------------------------------
+    @property
+    def _w(self) -> ChunkWriter:
+        assert self._writer is not None
+        return self._writer
+
+    def _open(self) -> None:
+        if self._writer is not None:
+            raise RecordingError(
+                f"{self.path}: this recorder already recorded a run",
+                hint="make one RunRecorder per plan",
+            )
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            raw = open(self.path, "wb" if self.force else "xb")  # noqa: SIM115
+        except FileExistsError:
+            raise RecordingError(
+                f"{self.path}: a recording already exists there; wsgrasp never "
+                "overwrites one",
+                hint="choose another path, or pass --force to replace it",
+            ) from None
+        except OSError as exc:
+            raise RecordingError(
+                f"{self.path}: cannot create the recording: {exc.strerror}",
+                hint="check the directory exists and is writable, or use --no-record",
+            ) from None
+        self._stream = raw
+        from wsgrasp import __version__
+
+        self._writer = ChunkWriter(raw)
+        self._writer.start(profile=PROFILE, library=f"wsgrasp {__version__}")
+
+    def _finish(self, status: str) -> None:
+        t0 = time.perf_counter()
+        w = self._w
+        w.add_metadata(
+            "run_end",
+            {
+                "status": status,
+                "stages": ",".join(self._stages_written),
+                "finished_utc": datetime.now(timezone.utc).isoformat(),
+                "recorder_ms": f"{self.overhead_ms:.3f}",
+            },
+        )
+        w.finish()
+        assert self._stream is not None
+        self._stream.close()
+        self._finished = True
+        self.overhead_ms += (time.perf_counter() - t0) * 1e3
+
+    def _schema_id(self, name: str) -> int:
+        sid = self._schemas.get(name)
+        if sid is None:
+            if name.startswith("foxglove."):
+                encoding, data = fx.schema_of(name)
+            else:
+                encoding, data = "protobuf", DESCRIPTOR_SET
+            sid = self._w.register_schema(name=name, encoding=encoding, data=data)
+            self._schemas[name] = sid
+        return sid
+
+    def _channel_id(self, topic: str, schema: str) -> int:
+        cid = self._channels.get(topic)
+        if cid is None:
+            cid = self._w.register_channel(
+                topic=topic,
+                message_encoding="protobuf",
+                schema_id=self._schema_id(schema),
+                metadata={"wsgrasp_format": str(FORMAT_VERSION)},
+            )
+            self._channels[topic] = cid
+        return cid
+
+    def _put(self, topic: str, schema: str, data: bytes, t_ns: int) -> None:
+        cid = self._channel_id(topic, schema)
+        self._w.add_message(cid, t_ns, data)
+
+    def _json(self, key: str, value: Any, t_ns: int) -> None:
+        self._json_topic(TOPICS[key], value, t_ns)
+
+    def _json_topic(self, topic: str, value: Any, t_ns: int) -> None:
+        kind = topic.removeprefix("/wsgrasp/")
+        self._put(topic, SCHEMA_NAME, dumps(value, kind), t_ns)
+
+    def _fox(self, topic: str, msg: tuple[str, bytes], t_ns: int) -> None:
+        self._put(topic, msg[0], msg[1], t_ns)
+
+    # -- Foxglove views of each stage ---------------------------------------------
+    def _foxglove_inputs(self, scene: Scene, t: int) -> None:
+        for i, view in enumerate(scene.views):
+            frame = f"camera{i}"
+            self._fox(
+                "/tf", fx.frame_transform(view.T_world_camera, "world", frame, t), t
+            )
+            self._fox(f"/inputs/view{i}", fx.point_cloud(view.points, frame, t), t)
+
+    def _fox_preprocess(self, d: dict[str, Any], t: int) -> None:
+        if "points" in d:
+            self._fox(
+                "/scene/downsampled",
+                fx.point_cloud(d["points"], "world", t, rgba=(0.7, 0.7, 0.7, 1.0)),
+                t,
+            )
+
+    def _fox_segmentation(self, d: dict[str, Any], t: int) -> None:
+        if d.get("table_points") is not None:
+            pc = fx.point_cloud(d["table_points"], "world", t, rgba=(0.6, 0.5, 0.4, 1))
+            self._fox("/scene/table_points", pc, t)
+        if d.get("object_points") is not None:
+            pc = fx.point_cloud(d["object_points"], "world", t, rgba=(0.1, 0.4, 0.9, 1))
+            self._fox("/scene/object", pc, t)
+        obstacles = [np.asarray(o).reshape(-1, 3) for o in d.get("obstacles") or []]
+        if obstacles:
+            pts = np.concatenate(obstacles)  # (k, 3)
+            pc = fx.point_cloud(pts, "world", t, rgba=(0.9, 0.5, 0.1, 1.0))
+            self._fox("/scene/obstacles", pc, t)
+
+    def _fox_object_frame(self, d: dict[str, Any], t: int) -> None:
+        ents: list[tuple[str, list[Any], list[Any]]] = []
+        if d.get("T_world_object") is not None:
+            T = np.asarray(d["T_world_object"])
+            self._fox("/tf", fx.frame_transform(T, "world", "object", t), t)
+            self._fox("/object/frame", fx.pose_in_frame(T, "world", t), t)
+            if d.get("extents") is not None:
+                ents.append(
+                    (
+                        "object_box",
+                        [fx.cube(T, d["extents"], (0.1, 0.4, 0.9, 0.15))],
+                        [],
+                    )
+                )
+        if d.get("samples_world") is not None:
+            pc = fx.point_cloud(
+                d["samples_world"], "world", t, rgba=(1.0, 0.85, 0.1, 1)
+            )
+            self._fox("/object/samples", pc, t)
+        if d.get("T_world_table") is not None and self._spec is not None:
+            T = np.asarray(d["T_world_table"])
+            self._fox("/tf", fx.frame_transform(T, "world", "table", t), t)
+            a, b, c = self._spec.table.semi_axes
+            T_centre = T.copy()
+            T_centre[:3, 3] = T[:3, :3] @ np.array([0.0, 0.0, -c]) + T[:3, 3]
+            ents.append(
+                (
+                    "table_se",
+                    [fx.cube(T_centre, (2 * a, 2 * b, 2 * c), (0.6, 0.5, 0.4, 0.3))],
+                    [],
+                )
+            )
+        if ents:
+            self._fox("/scene/shapes", fx.scene_update(ents, "world", t), t)
+
+    def _fox_candidates(self, d: dict[str, Any], t: int) -> None:
+        from wsgrasp.planning.result import REASONS
+
+        cs = d.get("candidates")
+        if cs is None or len(cs) == 0:
+            return
+        reason = np.asarray(cs.reason)
+        for code, name in enumerate(REASONS):
+            sel = reason == code
+            if sel.any():
+                msg = fx.poses_in_frame(np.asarray(cs.T_world_ee)[sel], "world", t)
+                self._fox(f"/candidates/{name}", msg, t)
+        colors = np.array([fx.reason_rgba(n) for n in REASONS])  # (R, 4)
+        code = np.clip(reason, 0, len(REASONS) - 1)
+        pts = np.asarray(cs.T_world_gwc)[:, :3, 3]  # (C, 3)
+        self._fox(
+            "/candidates/points", fx.point_cloud(pts, "world", t, rgba=colors[code]), t
+        )
+
+    def _fox_result(self, result: PlanResult, t: int) -> None:
+        g = self._gripper
+        if not result.found or result.T_world_ee is None or g is None:
+            return
+        T = np.asarray(result.T_world_ee)
+        self._fox("/grasp/pose", fx.pose_in_frame(T, "world", t), t)
+        self._fox("/tf", fx.frame_transform(T, "world", "gripper", t), t)
+        self._fox(
+            "/grasp/gripper_cloud",
+            fx.point_cloud(
+                g.cloud, "world", t, rgba=(0.4, 0.4, 0.45, 1.0), T_frame_points=T
+            ),
+            t,
+        )
+        body = []
+        for c, s in zip(
+            np.asarray(g.se_centers), np.asarray(g.se_semi_axes), strict=True
+        ):
+            Tc = T.copy()
+            Tc[:3, 3] = T[:3, :3] @ c + T[:3, 3]
+            body.append(fx.cube(Tc, 2 * s, (0.5, 0.5, 0.55, 0.35)))
+        centers_world = np.asarray(g.sphere_centers) @ T[:3, :3].T + T[:3, 3]  # (S, 3)
+        held = np.zeros(len(centers_world), dtype=bool)
+        for contact in result.contacts:
+            held[np.asarray(contact.spheres, dtype=np.int64)] = True
+        ents = [
+            ("gripper_body", body, []),
+            (
+                "workspace_spheres",
+                [],
+                fx.spheres(
+                    centers_world[~held],
+                    np.asarray(g.sphere_radii)[~held],
+                    (0.3, 0.6, 1.0, 0.15),
+                ),
+            ),
+            (
+                "holding_spheres",
+                [],
+                fx.spheres(
+                    centers_world[held],
+                    np.asarray(g.sphere_radii)[held],
+                    (0.1, 0.9, 0.2, 0.6),
+                ),
+            ),
+        ]
+        self._fox("/grasp/gripper", fx.scene_update(ents, "world", t), t)
+        pts = [np.asarray(c.points).reshape(-1, 3) for c in result.contacts]
+        if pts:
+            self._fox(
+                "/grasp/contacts",
+                fx.point_cloud(
+                    np.concatenate(pts), "world", t, rgba=(0.1, 0.9, 0.2, 1.0)
+                ),
+                t,
+            )
+
+
+# -- records -----------------------------------------------------------------------
+def _run_metadata(spec: PipelineSpec, gripper: GripperModel) -> dict[str, str]:
+    from wsgrasp import __version__
+
+    return {
+        "format_version": str(FORMAT_VERSION),
+        "wsgrasp_version": __version__,
+        "created_utc": datetime.now(timezone.utc).isoformat(),
+        "gripper": gripper.name,
+        "gripper_hash": gripper.source_hash,
+        "seed": str(spec.seed),
+        "python": platform.python_version(),
+        "platform": platform.platform(),
+        "numpy": np.__version__,
+        "command": " ".join(sys.argv[:1] + sys.argv[1:])[:2000],
+    }
+
+
+def _spec_metadata(spec: PipelineSpec) -> dict[str, str]:
+    return {
+        "json": json.dumps(spec.model_dump(mode="json"), sort_keys=True),
+        "source": "" if spec.source is None else str(spec.source),
+    }
+
+
+def _plugins_metadata() -> dict[str, str]:
+    try:
+        from wsgrasp.plugins import get_registry
+
+        summary = get_registry().plugin_summary()
+    except Exception as exc:  # noqa: BLE001 - recorded, not fatal
+        return {"error": repr(exc)}
+    return {
+        f"{p['distribution']}:{p['name']}": json.dumps(p, sort_keys=True)
+        for p in summary
+    }
+
+
+def _inputs_record(scene: Scene) -> dict[str, Any]:
+    """The inputs, exact. The merged points are stored once more unless they are
+    the views' points as they are (one cloud given in the world frame)."""
+    views = scene.views
+    points: Any = scene.points
+    if (
+        len(views) == 1
+        and np.array_equal(views[0].T_world_camera, np.eye(4))
+        and _same_bits(views[0].points, scene.points)
+    ):
+        points = "views[0].points"
+    return {
+        "views": [
+            {"name": v.name, "points": v.points, "T_world_camera": v.T_world_camera}
+            for v in views
+        ],
+        "points": points,
+        "dropped_nonfinite": int(scene.dropped_nonfinite),
+    }
+
+
+def _same_bits(a: Any, b: Any) -> bool:
+    """Bitwise equality of two float64 arrays (``-0.0`` differs from ``0.0``)."""
+    x = np.ascontiguousarray(a, dtype=np.float64)
+    y = np.ascontiguousarray(b, dtype=np.float64)
+    return x.shape == y.shape and np.array_equal(x.view(np.int64), y.view(np.int64))
+
+
+def _result_record(result: PlanResult, stage_candidates: Any) -> dict[str, Any]:
+    from dataclasses import fields
+
+    record: dict[str, Any] = {}
+    for f in fields(result):
+        value = getattr(result, f.name)
+        if f.name == "candidates" and value is stage_candidates and value is not None:
+            value = "stage:candidates"  # the same object, already recorded
+        record[f.name] = value
+    return record
+
+
+def _gripper_attachments(
+    spec: PipelineSpec, gripper: GripperModel
+) -> list[tuple[str, str, bytes]]:
+    out = [
+        ("gripper/model.npz", "application/x-npz", gripper.to_bytes()),
+        (
+            "gripper/description.json",
+            "application/json",
+            json.dumps(gripper.description, sort_keys=True, default=str).encode(),
+        ),
+    ]
+    yaml_path = _gripper_yaml(spec)
+    if yaml_path is not None:
+        try:
+            out.append(
+                (
+                    f"gripper/{yaml_path.name}",
+                    "application/yaml",
+                    yaml_path.read_bytes(),
+                )
+            )
+            urdf = gripper.description.get("urdf")
+            if urdf:
+                urdf_path = (yaml_path.parent / urdf).resolve()
+                if urdf_path.is_file():
+                    out.append(
+                        (
+                            f"gripper/{urdf_path.name}",
+                            "application/xml",
+                            urdf_path.read_bytes(),
+                        )
+                    )
+        except OSError:
+            pass
+    return out
+
+
+def _gripper_yaml(spec: PipelineSpec) -> Path | None:
+    """The gripper YAML the spec names, when there is one on disk."""
+    name = spec.gripper
+    candidates: list[Path] = []
+    if name.endswith((".yaml", ".yml")) or "/" in name:
+        candidates.append(Path(name))
+        if spec.source is not None:
+            candidates.append(Path(spec.source).parent / name)
+    else:
+        try:
+            from wsgrasp.plugins import get_registry
+
+            obj = get_registry().get("grippers", name).obj
+        except Exception:  # noqa: BLE001 - an attachment is a convenience
+            return None
+        if isinstance(obj, (str, Path)):
+            candidates.append(Path(obj))
+    for c in candidates:
+        if c.is_file():
+            return c
+    return None
