@@ -30,13 +30,21 @@ def farthest_point_indices(points: ArrayLike, count: int, start: int = 0) -> NDA
     n = p.shape[0]
     if not 1 <= count <= n:
         raise ValueError(f"count must be in [1, {n}], got {count}")
+    x, y, z = (np.ascontiguousarray(p[:, k]) for k in range(3))  # 3 x (n,)
     picked = np.empty(count, dtype=np.int64)
-    picked[0] = start
-    d2 = np.sum((p - p[start]) ** 2, axis=1)  # (n,) squared distance to picked set
-    for i in range(1, count):
-        nxt = int(np.argmax(d2))
+    d2 = np.full(n, np.inf)  # squared distance to the picked set
+    tmp, acc = np.empty(n), np.empty(n)
+    nxt = start
+    for i in range(count):
         picked[i] = nxt
-        np.minimum(d2, np.sum((p - p[nxt]) ** 2, axis=1), out=d2)
+        np.subtract(x, x[nxt], out=tmp)
+        np.multiply(tmp, tmp, out=acc)
+        np.subtract(y, y[nxt], out=tmp)
+        acc += tmp * tmp
+        np.subtract(z, z[nxt], out=tmp)
+        acc += tmp * tmp
+        np.minimum(d2, acc, out=d2)
+        nxt = int(np.argmax(d2))
     return picked
 
 

@@ -27,7 +27,7 @@ MIN_SEMI_AXIS = 1e-3
 #: SE fitting: cost of a m³ of finger workspace swallowed, relative to a m³ of air
 WORKSPACE_WEIGHT = 4.0
 #: SE fitting: workspace points kept for intrusion estimates
-WORKSPACE_SUBSAMPLE = 20000
+WORKSPACE_SUBSAMPLE = 5000
 
 
 @dataclass

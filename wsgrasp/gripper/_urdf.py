@@ -191,17 +191,25 @@ class Kinematics:
         return np.stack([np.broadcast_to(c, shape) for c in cols], axis=-1)
 
     def chain_poses(self, base: str, tip: str, masters: Mapping[str, Any]) -> Array:
-        """``T_base_tip`` for (a batch of) actuated-joint values; ``(..., 4, 4)``."""
+        """``T_base_tip`` for (a batch of) actuated-joint values.
+
+        Returns
+        -------
+        (..., 4, 4) float
+            The batch shape is that of the values in ``masters`` broadcast together.
+        """
+        batch = np.broadcast_shapes(*(np.shape(v) for v in masters.values()))
         chain = self.chain(base, tip)
         if not chain:
-            return np.eye(4)
+            return np.broadcast_to(np.eye(4), (*batch, 4, 4)).copy()
         q = self.joint_positions(chain, masters)  # (..., J)
-        return chain_forward_kinematics(
+        T = chain_forward_kinematics(
             np.stack([j.origin for j in chain]),
             np.stack([j.axis for j in chain]),
             np.array([j.kind for j in chain]),
             q,
         )
+        return np.broadcast_to(T, (*batch, 4, 4)).copy()
 
     def link_poses(self, base: str, masters: Mapping[str, float]) -> dict[str, Array]:
         """``T_base_link`` of every link below ``base`` at one configuration."""

@@ -28,7 +28,7 @@ MIN_PAD_TRAVEL = 1e-4
 #: the largest gap-closing radius (voxels) applied before giving up on closing more
 MAX_CLOSING_VOXELS = 6
 #: candidates whose exact coverage gain is evaluated together in the greedy loop
-GAIN_BATCH = 256
+GAIN_BATCH = 128
 
 
 @dataclass
@@ -242,8 +242,13 @@ def fill_spheres(
     off, norm = off[order], norm[order]  # (M, 3), (M,)
     off_flat = off @ strides  # (M,)
     n_in = np.searchsorted(norm, radii + 1e-9, side="right")  # (C,) voxels covered
-    uncovered = ws.occupied.reshape(-1).copy()  # (V,)
-    total = int(uncovered.sum())
+    # flat occupancy, padded so that stencil offsets beyond a candidate's own
+    # radius (masked out below) never index outside it
+    pad = int(np.abs(off_flat).max())
+    uncovered = np.zeros(ws.occupied.size + 2 * pad, dtype=bool)  # (V + 2 pad,)
+    uncovered[pad : -pad or None] = ws.occupied.reshape(-1)
+    cand_flat = cand_flat + pad
+    total = int(np.count_nonzero(uncovered))
     bound = n_in.astype(np.int64)  # upper bounds of the gains
     chosen: list[int] = []
     available = np.ones(C, dtype=bool)
@@ -260,9 +265,8 @@ def fill_spheres(
             top = np.argpartition(-masked, k - 1)[:k]  # (k,)
             m = int(n_in[top].max())
             ids = cand_flat[top, None] + off_flat[None, :m]  # (k, m)
-            np.clip(ids, 0, uncovered.size - 1, out=ids)  # beyond n_in: masked
             inside = np.arange(m)[None, :] < n_in[top, None]  # (k, m)
-            gains = np.sum(uncovered[ids] & inside, axis=1)  # (k,)
+            gains = np.count_nonzero(uncovered[ids] & inside, axis=1)  # (k,)
             bound[top] = gains
             rest = masked.copy()
             rest[top] = -1
@@ -275,7 +279,7 @@ def fill_spheres(
         uncovered[cand_flat[pick] + off_flat[: n_in[pick]]] = False
         min_d = np.minimum(min_d, np.linalg.norm(centres_m - centres_m[pick], axis=1))
     sel = np.array(chosen)
-    covered = total - int(uncovered.sum())
+    covered = total - int(np.count_nonzero(uncovered))
     return SphereFill(
         centers=centres_m[sel],
         radii=radii[sel] * v,

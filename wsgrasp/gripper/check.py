@@ -1,0 +1,458 @@
+"""``wsgrasp gripper check``: what an engineer needs to trust a gripper model.
+
+:func:`check_gripper` builds (or loads) the model and reports, per finger, the
+workspace volume and how much of it the spheres cover; whether the pads close
+towards and face the other fingers; the fraction of the gripper cloud inside the
+body superellipsoids; superellipsoids that swallow part of a finger's workspace;
+joints that move nothing; fingers whose workspace stays away from every other
+finger's; an implausible overall size. Each problem names the YAML field to change.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from wsgrasp.geometry import points_in_superellipsoids
+from wsgrasp.gripper.model import GripperModel
+
+__all__ = ["CheckReport", "Problem", "check_gripper"]
+
+Array = NDArray[np.float64]
+
+#: sphere coverage of a finger's workspace below this is reported
+MIN_COVERAGE = 0.3
+#: cloud fraction inside the body superellipsoids below this is an error
+MIN_CLOUD_INSIDE = 0.98
+#: a superellipsoid holding more than this fraction of a finger workspace: warning
+INTRUSION_WARN = 0.10
+#: ... and more than this: error (object points there reject every grasp)
+INTRUSION_ERROR = 0.35
+#: a joint that moves no geometry by more than this (m) moves nothing
+MIN_MOTION = 1e-4
+#: a pad normal within this cosine of the direction to the others faces them
+FACING_COS = 0.3
+#: plausible gripper sizes (m)
+SIZE_RANGE = (0.01, 1.0)
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One thing wrong (``error``) or suspicious (``warning``) with a gripper."""
+
+    severity: Literal["error", "warning"]
+    field: str
+    message: str
+    fix: str
+
+
+@dataclass
+class CheckReport:
+    """The result of :func:`check_gripper`.
+
+    Attributes
+    ----------
+    fingers : list of dict
+        Per finger: name, workspace_volume_m3, covered_fraction, spheres,
+        pad_closes_mm (how much nearer the others the pad gets when closing),
+        pad_facing_deg (angle between pad normal and the direction to the others).
+    intrusions : list of dict
+        Superellipsoid index, finger, fraction of that finger's workspace inside.
+    """
+
+    name: str
+    model: GripperModel
+    size_m: float
+    fingers: list[dict[str, Any]] = field(default_factory=list)
+    cloud_inside_se: float = 1.0
+    intrusions: list[dict[str, Any]] = field(default_factory=list)
+    idle_joints: list[str] = field(default_factory=list)
+    problems: list[Problem] = field(default_factory=list)
+
+    @property
+    def errors(self) -> list[Problem]:
+        return [p for p in self.problems if p.severity == "error"]
+
+    @property
+    def warnings(self) -> list[Problem]:
+        return [p for p in self.problems if p.severity == "warning"]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "name": self.name,
+            "size_m": self.size_m,
+            "max_opening_m": self.model.max_opening,
+            "fingers": self.fingers,
+            "cloud_inside_se": self.cloud_inside_se,
+            "intrusions": self.intrusions,
+            "idle_joints": self.idle_joints,
+            "problems": [p.__dict__ for p in self.problems],
+        }
+
+    def format(self) -> str:
+        """The report as plain text, one finger or problem a line."""
+        m = self.model
+        lines = [
+            f"gripper {self.name}: {m.num_fingers} finger(s), "
+            f"{len(m.se_centers)} superellipsoids, {len(m.cloud)} cloud points, "
+            f"{self.size_m * 1000:.0f} mm across, max opening "
+            f"{m.max_opening * 1000:.0f} mm"
+        ]
+        for f in self.fingers:
+            facing = (
+                f", pad faces the others at {f['pad_facing_deg']:.0f} deg"
+                if f.get("pad_facing_deg") is not None
+                else ""
+            )
+            closes = (
+                f", closing brings the pad {f['pad_closes_mm']:+.1f} mm nearer"
+                if f.get("pad_closes_mm") is not None
+                else ""
+            )
+            lines.append(
+                f"  finger {f['name']}: workspace {f['workspace_volume_m3'] * 1e6:.1f}"
+                f" cm3, {f['spheres']} spheres cover {f['covered_fraction']:.0%}"
+                f"{closes}{facing}"
+            )
+        lines.append(
+            f"  cloud inside the body superellipsoids: {self.cloud_inside_se:.1%}"
+        )
+        for s in self.intrusions:
+            lines.append(
+                f"  superellipsoid {s['ellipsoid']} holds {s['fraction']:.0%} of "
+                f"finger {s['finger']}'s workspace"
+            )
+        if not self.problems:
+            lines.append("no problems found")
+        for p in self.problems:
+            lines.append(f"{p.severity}: {p.message} [field: {p.field}] fix: {p.fix}")
+        return "\n".join(lines)
+
+
+def _pad_frame(
+    kin: Any, base: str, link: str, posture: dict[str, float]
+) -> NDArray[np.float64]:
+    return np.asarray(kin.chain_poses(base, link, posture))
+
+
+def check_gripper(
+    name_or_path: str | Path,
+    *,
+    registry: Any | None = None,
+    cache_dir: str | Path | None = None,
+    rebuild: bool = False,
+    progress: Any | None = None,
+) -> CheckReport:
+    """Build (or load from the cache) a gripper and check it.
+
+    Parameters
+    ----------
+    name_or_path
+        A registered gripper name or a gripper YAML.
+    registry, cache_dir, rebuild, progress
+        As for :func:`wsgrasp.gripper.load_gripper`.
+
+    Raises
+    ------
+    WsgraspError
+        When the model cannot be built at all (the error names the field).
+    """
+    from wsgrasp.gripper import load_gripper, resolve_gripper
+
+    model = load_gripper(
+        name_or_path,
+        registry=registry,
+        cache_dir=cache_dir,
+        rebuild=rebuild,
+        progress=progress,
+    )
+    resolved = resolve_gripper(name_or_path, registry)
+    extent = model.cloud.max(axis=0) - model.cloud.min(axis=0)
+    report = CheckReport(model.name, model, float(np.max(extent)))
+    report.cloud_inside_se = float(model.stats.get("cloud_inside_se", 1.0))
+    for f, stats in zip(
+        model.finger_names, model.stats.get("fingers", []), strict=False
+    ):
+        report.fingers.append(
+            {
+                "name": f,
+                "workspace_volume_m3": float(stats.get("workspace_volume_m3", 0.0)),
+                "covered_fraction": float(stats.get("covered_fraction", 0.0)),
+                "spheres": int(np.sum(model.sphere_finger == len(report.fingers))),
+            }
+        )
+    _check_size(report)
+    _check_cloud(report)
+    if isinstance(resolved, GripperModel):
+        return report  # registered as a built model: no URDF to look into
+    desc, base_dir = resolved
+    _check_kinematics(report, desc, base_dir)
+    return report
+
+
+def _add(report: CheckReport, *args: Any) -> None:
+    report.problems.append(Problem(*args))
+
+
+def _check_size(report: CheckReport) -> None:
+    lo, hi = SIZE_RANGE
+    if report.size_m > hi:
+        _add(
+            report,
+            "error",
+            "urdf",
+            f"the gripper is {report.size_m:.2f} m across; a URDF in millimetres?",
+            "URDF lengths are metres: scale the meshes (<mesh scale='0.001 0.001 "
+            "0.001'>) or rescaffold with --mesh-units mm",
+        )
+    elif report.size_m < lo:
+        _add(
+            report,
+            "error",
+            "urdf",
+            f"the gripper is only {report.size_m * 1000:.1f} mm across",
+            "check the <mesh scale> values in the URDF",
+        )
+    for f in report.fingers:
+        if f["covered_fraction"] < MIN_COVERAGE:
+            _add(
+                report,
+                "warning",
+                "spheres_per_finger",
+                f"finger {f['name']}'s spheres cover only {f['covered_fraction']:.0%} "
+                "of its workspace, so grasps there are missed",
+                "raise spheres_per_finger (or lower min_sphere_radius)",
+            )
+
+
+def _check_cloud(report: CheckReport) -> None:
+    if report.cloud_inside_se < MIN_CLOUD_INSIDE:
+        _add(
+            report,
+            "error",
+            "ellipsoids",
+            f"only {report.cloud_inside_se:.1%} of the gripper cloud is inside the "
+            "body superellipsoids, so collisions with those parts go unseen",
+            "remove ellipsoids.given to fit them, or enlarge the given ones",
+        )
+
+
+def _check_kinematics(report: CheckReport, desc: Any, base_dir: Path) -> None:
+    from scipy.spatial import cKDTree
+
+    from wsgrasp.gripper._build import urdf_path
+    from wsgrasp.gripper._urdf import load_kinematics
+    from wsgrasp.gripper._workspace import sample_workspace
+
+    model = report.model
+    kin = load_kinematics(urdf_path(desc, base_dir), desc.name)
+    base = desc.base_link
+    pre = dict(desc.pregrasp)
+    closed = dict(desc.closed)
+
+    # -- workspaces: superellipsoid intrusions, reach between fingers --------------
+    voxels = []
+    for finger in desc.fingers:
+        ws = sample_workspace(kin, desc, finger)
+        voxels.append(ws.centers(np.argwhere(ws.occupied)))  # (W, 3)
+    for i, e in enumerate(model.se_centers):
+        for finger, pts in zip(desc.fingers, voxels, strict=True):
+            inside = points_in_superellipsoids(
+                pts, e[None], model.se_semi_axes[i][None], model.se_exponent
+            )
+            frac = float(np.mean(inside))
+            if frac > INTRUSION_WARN:
+                report.intrusions.append(
+                    {"ellipsoid": i, "finger": finger.name, "fraction": round(frac, 3)}
+                )
+                _add(
+                    report,
+                    "error" if frac > INTRUSION_ERROR else "warning",
+                    "ellipsoids",
+                    f"body superellipsoid {i} (centre "
+                    f"{np.round(e * 1000).astype(int).tolist()} mm) holds {frac:.0%} "
+                    f"of finger {finger.name}'s workspace: object points there "
+                    "reject the grasp",
+                    "raise ellipsoids.count so links are fitted apart, or give "
+                    "ellipsoids.given by hand",
+                )
+    if len(voxels) > 1:
+        for k, finger in enumerate(desc.fingers):
+            others = np.concatenate([v for j, v in enumerate(voxels) if j != k])
+            gap = float(cKDTree(others).query(voxels[k])[0].min())
+            if gap > 3 * desc.workspace_voxel + 1e-9:
+                _add(
+                    report,
+                    "warning",
+                    f"fingers[{finger.name}]",
+                    f"finger {finger.name} (pad link {finger.pad.link!r}) cannot "
+                    f"touch another finger's workspace: it stays {gap * 1000:.0f} mm "
+                    "away, so objects thinner than that cannot be held",
+                    "check its joints and joint limits in the URDF, and that "
+                    f"fingers[{finger.name}].joints lists every joint that closes it",
+                )
+
+    # -- pads: do they close towards and face the other fingers? -------------------
+    if len(desc.fingers) > 1:
+        frames_open = [_pad_frame(kin, base, f.pad.link, pre) for f in desc.fingers]
+        frames_closed = [
+            _pad_frame(kin, base, f.pad.link, {**pre, **closed}) for f in desc.fingers
+        ]
+
+        def centre(T: Array, f: Any) -> Array:
+            return T[:3, :3] @ np.asarray(f.pad.center) + T[:3, 3]
+
+        p_open = np.array(
+            [centre(T, f) for T, f in zip(frames_open, desc.fingers, strict=True)]
+        )
+        p_closed = np.array(
+            [centre(T, f) for T, f in zip(frames_closed, desc.fingers, strict=True)]
+        )
+        boxes = _link_centres(kin, [f.pad.link for f in desc.fingers])
+        for k, f in enumerate(desc.fingers):
+            rest = [j for j in range(len(desc.fingers)) if j != k]
+            d_open = np.linalg.norm(p_open[k] - p_open[rest].mean(axis=0))
+            to_c = p_closed[rest].mean(axis=0) - p_closed[k]
+            d_closed = np.linalg.norm(to_c)
+            nearer = float(d_open - d_closed)
+            report.fingers[k]["pad_closes_mm"] = round(nearer * 1000, 1)
+            if nearer < 1e-3:
+                _add(
+                    report,
+                    "error",
+                    "closed",
+                    f"finger {f.name}'s pad does not get nearer the other fingers "
+                    f"from pregrasp to closed ({d_open * 1000:.0f} -> "
+                    f"{d_closed * 1000:.0f} mm)",
+                    "swap the values of pregrasp and closed for the joints "
+                    f"{f.joints}, or fix the joint axes in the URDF",
+                )
+            normal = _pad_normal(f, boxes.get(f.pad.link))
+            if normal is None or d_closed < 1e-9:
+                report.fingers[k]["pad_facing_deg"] = None
+                continue
+            n_base = frames_closed[k][:3, :3] @ normal
+            cos = float(n_base @ (to_c / d_closed))
+            deg = float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
+            report.fingers[k]["pad_facing_deg"] = round(deg, 1)
+            if cos < FACING_COS:
+                _add(
+                    report,
+                    "warning",
+                    f"fingers[{f.name}].pad",
+                    f"finger {f.name}'s pad on {f.pad.link!r} faces {deg:.0f} deg "
+                    "away from the other fingers when closed: it is not on the inner "
+                    "face",
+                    f"move fingers[{f.name}].pad.center to the face of "
+                    f"{f.pad.link!r} that points at the other fingertips",
+                )
+
+    # -- joints that move nothing, joints left out ---------------------------------
+    listed = {kin.master(j) for f in desc.fingers for j in f.joints}
+    below = set(kin.subtree(base))
+    geo = [link for link in below if kin.shapes.get(link)]
+    ref = _geometry_points(kin, base, geo, pre)
+    for j in kin.actuated():
+        if kin.joints[j].child not in below:
+            continue
+        lo, hi = kin.joints[j].lower, kin.joints[j].upper
+        a = _geometry_points(kin, base, geo, {**pre, j: lo})
+        b = _geometry_points(kin, base, geo, {**pre, j: hi})
+        motion = float(max(np.abs(a - ref).max(), np.abs(b - ref).max()))
+        where = next(
+            (f.name for f in desc.fingers if j in {kin.master(x) for x in f.joints}),
+            None,
+        )
+        if motion < MIN_MOTION:
+            report.idle_joints.append(j)
+            _add(
+                report,
+                "warning",
+                f"fingers[{where}].joints" if where else "pregrasp",
+                f"joint {j!r} moves nothing: no link with geometry moves when it "
+                f"goes from {lo:g} to {hi:g}",
+                "remove it from the finger's joints, or give its child link "
+                f"{kin.joints[j].child!r} collision geometry",
+            )
+        elif j not in listed and j not in desc.pregrasp:
+            _add(
+                report,
+                "warning",
+                "pregrasp",
+                f"actuated joint {j!r} is in no finger and not set in pregrasp: it "
+                "is held at 0 (clipped into its limits)",
+                f"set pregrasp.{j} (and closed.{j}) to the posture you grasp with",
+            )
+
+    # -- axes ---------------------------------------------------------------------
+    approach = model.approach_axis
+    tips = model.sphere_centers.mean(axis=0)
+    if float(tips @ approach) <= 0.0:
+        _add(
+            report,
+            "error",
+            "approach_axis",
+            "the finger workspaces lie behind the base along approach_axis "
+            f"{np.round(approach, 3).tolist()}",
+            "flip approach_axis: it points from the base towards the fingertips",
+        )
+    if len(desc.fingers) > 1:
+        spread = model.sphere_centers - tips
+        spread -= np.outer(spread @ approach, approach)
+        w, v = np.linalg.eigh(spread.T @ spread)
+        main = v[:, -1]
+        cos = abs(float(main @ model.closing_axis))
+        if cos < 0.5 and w[-1] > 2.0 * w[-2]:
+            _add(
+                report,
+                "warning",
+                "closing_axis",
+                "the finger workspaces are spread along "
+                f"{np.round(main, 2).tolist()}, not along closing_axis "
+                f"{np.round(model.closing_axis, 3).tolist()}",
+                "set closing_axis to the direction across which the fingers close",
+            )
+
+
+def _link_centres(kin: Any, links: list[str]) -> dict[str, Array]:
+    from wsgrasp.gripper._urdf import shape_mesh
+
+    out = {}
+    for link in links:
+        shapes = kin.shapes.get(link, [])
+        if shapes:
+            v = np.concatenate([np.asarray(shape_mesh(s).vertices) for s in shapes])
+            out[link] = 0.5 * (v.min(axis=0) + v.max(axis=0))
+    return out
+
+
+def _pad_normal(finger: Any, link_centre: Array | None) -> Array | None:
+    """The pad's outward normal in its link frame: its thinnest axis, pointing
+    away from the link geometry's centre; None when it cannot be told."""
+    size = np.asarray(finger.pad.size, dtype=np.float64)
+    order = np.argsort(size)
+    if size[order[0]] >= 0.8 * size[order[1]]:
+        return None  # no clearly thinnest axis
+    k = int(order[0])
+    c = np.asarray(finger.pad.center, dtype=np.float64)
+    ref = link_centre if link_centre is not None else np.zeros(3)
+    off = c[k] - ref[k]
+    if abs(off) < 1e-6:
+        return None
+    n = np.zeros(3)
+    n[k] = np.sign(off)
+    return n
+
+
+def _geometry_points(
+    kin: Any, base: str, links: list[str], posture: dict[str, float]
+) -> Array:
+    """Each link's origin and unit offsets along its axes, in the base frame, as a
+    cheap stand-in for its geometry: ``(4 L, 3)``."""
+    poses = kin.link_poses(base, posture)
+    probe = np.vstack([np.zeros(3), 0.05 * np.eye(3)])  # (4, 3)
+    return np.concatenate([probe @ poses[k][:3, :3].T + poses[k][:3, 3] for k in links])
