@@ -1,1 +1,51 @@
-"""Scene processing: cloud I/O, view merging, downsampling, object frame, sampling."""
+"""Scene processing: cloud I/O, view merging, downsampling, segmentation helpers,
+object frame, box sampling, table superellipsoid, synthetic scenes.
+
+Modules: ``io`` (loading and writing clouds and scenes), ``process`` (downsampling,
+RANSAC plane, DBSCAN, target selection), ``frame`` (object and table frames, box
+samples, normals), ``synth`` (rendering objects on a table from virtual depth
+cameras), ``types`` (View, Scene, Plane, Segmentation, Segmenter).
+"""
+
+from wsgrasp.perception.frame import (
+    ObjectFrame,
+    estimate_normals,
+    grid_shape,
+    object_frame,
+    sample_box,
+    table_frame,
+    table_superellipsoid,
+)
+from wsgrasp.perception.io import (
+    load_cloud,
+    load_scene,
+    save_cloud,
+    scene_from_arrays,
+    write_scene_yaml,
+)
+from wsgrasp.perception.process import crop, downsample, select_target, thin
+from wsgrasp.perception.types import Plane, Scene, Segmentation, Segmenter, View
+
+__all__ = [
+    "ObjectFrame",
+    "Plane",
+    "Scene",
+    "Segmentation",
+    "Segmenter",
+    "View",
+    "crop",
+    "downsample",
+    "estimate_normals",
+    "grid_shape",
+    "load_cloud",
+    "load_scene",
+    "object_frame",
+    "sample_box",
+    "save_cloud",
+    "scene_from_arrays",
+    "select_target",
+    "table_frame",
+    "table_superellipsoid",
+    "thin",
+    "write_scene_yaml",
+]

@@ -371,11 +371,17 @@ def _merge(views: list[View], *, icp: bool, icp_distance: float) -> Scene:
     if icp and len(views) > 1:
         refine_views_icp(views, max_distance=icp_distance)
     # (N, 3) world-frame points of every view
-    merged = np.concatenate(
-        [transform_points(v.T_world_camera, v.points) for v in views], axis=0
-    )
+    merged = np.concatenate([_to_world(v) for v in views], axis=0)
     check_units(merged, name=" + ".join(v.name for v in views) or "points")
     return Scene(views=views, points=merged, dropped_nonfinite=dropped)
+
+
+def _to_world(view: View) -> Array:
+    T = np.asarray(view.T_world_camera, dtype=np.float64)
+    if np.array_equal(T, np.eye(4)):
+        return view.points
+    # p_world = R p + t, (n, 3)
+    return view.points @ T[:3, :3].T + T[:3, 3]
 
 
 def check_units(points: Array, name: str = "points") -> None:
@@ -386,6 +392,8 @@ def check_units(points: Array, name: str = "points") -> None:
     """
     if points.shape[0] == 0:
         return
+    if float(np.max(points.max(axis=0) - points.min(axis=0))) <= MAX_SCENE_EXTENT:
+        return  # the plain extent is small enough: no need for percentiles
     lo, hi = np.percentile(points, [0.5, 99.5], axis=0)
     extent = float(np.max(hi - lo))
     if extent > MAX_SCENE_EXTENT:
