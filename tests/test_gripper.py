@@ -214,3 +214,90 @@ def test_cli_grippers_show_writes_a_png(models, gripper_cache, tmp_path, monkeyp
     assert main(["grippers", "show", "franka_hand", "-o", str(out)]) == 0
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert main(["grippers", "show", "no_such_gripper", "-o", str(out)]) == 2
+
+
+def test_given_superellipsoids_are_used_as_is(tmp_path):
+    yaml = _copy_franka(tmp_path)
+    given = (
+        "ellipsoids:\n  count: 2\n  exponent: 10.0\n  given:\n"
+        "    - {center: [0, 0, 0.0225], semi_axes: [0.025, 0.11, 0.045]}\n"
+        "    - {center: [-0.01, 0, -0.02], semi_axes: [0.05, 0.04, 0.02]}\n"
+    )
+    _edit_text(yaml, "ellipsoids: {count: 5, exponent: 10.0}\n", given)
+    m = load_gripper(str(yaml), cache_dir=tmp_path / "cache")
+    assert_allclose(m.se_centers, [[0, 0, 0.0225], [-0.01, 0, -0.02]], atol=0)
+    assert_allclose(m.se_semi_axes, [[0.025, 0.11, 0.045], [0.05, 0.04, 0.02]])
+    assert m.stats["ellipsoids_fitted"] is False
+    # the fingers and camera are outside these two: part of the cloud is not held
+    assert 0.2 < m.stats["cloud_inside_se"] < 0.95
+
+
+def _edit_text(path: Path, old: str, new: str) -> None:
+    text = path.read_text()
+    assert old in text, old
+    path.write_text(text.replace(old, new))
+
+
+MESH_URDF = """<?xml version="1.0"?>
+<robot name="mesh_jaw">
+  <link name="base">
+    <collision><geometry>
+      <mesh filename="package://mesh_jaw/meshes/palm.stl" scale="2 1 1"/>
+    </geometry></collision>
+  </link>
+  <link name="finger">
+    <collision><origin xyz="0 0 0.05"/><geometry>
+      <mesh filename="meshes/palm.stl" scale="0.5 0.5 1"/>
+    </geometry></collision>
+  </link>
+  <joint name="slide" type="prismatic">
+    <parent link="base"/><child link="finger"/>
+    <origin xyz="0 0 0.02"/><axis xyz="0 1 0"/>
+    <limit lower="0" upper="0.03" effort="1" velocity="1"/>
+  </joint>
+</robot>
+"""
+
+MESH_YAML = """version: 1
+name: mesh_jaw
+urdf: mesh_jaw.urdf
+base_link: base
+tool_frame: {link: base, xyz: [0, 0, 0.08]}
+approach_axis: [0, 0, 1]
+closing_axis: [0, 1, 0]
+fingers:
+  - name: only
+    joints: [slide]
+    pad: {link: finger, center: [0, 0, 0.06], size: [0.008, 0.0, 0.008], samples: 5}
+joint_samples: 16
+spheres_per_finger: 4
+workspace_voxel: 0.002
+ellipsoids: {count: 2}
+cloud_points: 100
+pregrasp: {slide: 0.03}
+closed: {slide: 0.0}
+"""
+
+
+def test_mesh_geometry_is_loaded_scaled_and_hashed(tmp_path):
+    import trimesh
+
+    folder = tmp_path / "mesh_jaw"
+    (folder / "meshes").mkdir(parents=True)
+    trimesh.creation.box(extents=(0.04, 0.02, 0.02)).export(folder / "meshes/palm.stl")
+    (folder / "mesh_jaw.urdf").write_text(MESH_URDF)
+    (folder / "mesh_jaw.yaml").write_text(MESH_YAML)
+    cache = tmp_path / "cache"
+    m = load_gripper(str(folder / "mesh_jaw.yaml"), cache_dir=cache)
+    assert m.cloud.shape == (100, 3) and m.spheres_per_finger == [4]
+    # base mesh scaled x2 along x: the cloud spans 80 mm in x
+    assert_allclose(np.ptp(m.cloud[:, 0]), 0.08, atol=1e-6)
+    # the finger (scaled 0.5 in y) at the open posture, 30 mm along y
+    assert_allclose(m.cloud[:, 1].max(), 0.03 + 0.005, atol=1e-6)
+    assert m.stats["cloud_inside_se"] >= 0.99
+    # new mesh bytes: a new hash and a rebuild
+    trimesh.creation.box(extents=(0.05, 0.02, 0.02)).export(folder / "meshes/palm.stl")
+    again = load_gripper(str(folder / "mesh_jaw.yaml"), cache_dir=cache)
+    assert again.stats["cache"] == "miss"
+    assert again.source_hash != m.source_hash
+    assert_allclose(np.ptp(again.cloud[:, 0]), 0.10, atol=1e-6)
