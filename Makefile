@@ -30,6 +30,12 @@ lint: $(STAMP)
 test: $(STAMP) lint
 	$(BIN)/python -m pytest -q -m "not slow"
 
+eval: $(STAMP)
+	$(BIN)/python -m pip install -q -e '.[sim]'
+	$(BIN)/wsgrasp eval --gripper franka_hand --gripper allegro_right --objects paper13 \
+		--trials 10 --seed 0 --json-out eval-results/paper13.json \
+		--md-out eval-results/paper13.md
+
 bench: $(STAMP)
 	$(BIN)/wsgrasp bench
 
@@ -37,4 +43,4 @@ schema: $(STAMP)
 	$(BIN)/wsgrasp schema
 
 clean:
-	rm -rf $(VENV) demo runs .pytest_cache .mypy_cache .ruff_cache
+	rm -rf $(VENV) demo runs eval-results .pytest_cache .mypy_cache .ruff_cache

@@ -1,0 +1,448 @@
+"""Objects for the grasp trials: the ``paper13`` set, generated in code, and meshes.
+
+An object is a rigid body made of convex parts (MuJoCo collides convex shapes):
+primitives (box, cylinder, capsule, sphere, ellipsoid) and convex hulls. The same
+parts, as triangle meshes, are what the virtual depth cameras see. Hollow things
+(mug, bin, cup, pot) are walls made of convex segments, so fingers can go inside.
+
+``paper13`` models the 13 objects of Sorour et al. (IROS 2019), Table II, with
+plausible sizes and masses (metres, kilograms); the paper chose them "within the
+grasping volume dimensions of each gripper", and notes some were too big (thermos
+and cookies package for the Franka hand) or too low (banana, dish brush for the
+Allegro hand).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from wsgrasp.errors import InputError
+from wsgrasp.sim._xml import attrs, fmt, pose_attrs
+
+__all__ = [
+    "OBJECT_SETS",
+    "Part",
+    "SimObject",
+    "load_objects",
+    "object_from_mesh",
+    "paper13",
+]
+
+Array = NDArray[np.float64]
+
+#: collision bits of objects and the table: they touch everything
+OBJECT_CONTYPE, OBJECT_CONAFFINITY = 1, 3
+
+
+def _T(xyz: tuple[float, float, float] = (0, 0, 0), R: Array | None = None) -> Array:
+    T = np.eye(4)
+    T[:3, 3] = xyz
+    if R is not None:
+        T[:3, :3] = R
+    return T
+
+
+def _rot(axis: str, angle: float) -> Array:
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_euler(axis, angle).as_matrix()
+
+
+@dataclass
+class Part:
+    """One convex piece of an object, in the object's frame.
+
+    Attributes
+    ----------
+    kind : str
+        box (size = full extents), cylinder (radius, height), capsule (radius,
+        length of the straight part), sphere (radius), ellipsoid (semi-axes) or
+        hull (``vertices``); cylinders and capsules run along their z.
+    size : tuple of float
+    T_object_part : (4, 4) float
+    vertices : (n, 3) float, for hulls
+    """
+
+    kind: str
+    size: tuple[float, ...] = ()
+    T_object_part: Array = field(default_factory=lambda: np.eye(4))
+    vertices: Array | None = None
+
+    def to_trimesh(self) -> Any:
+        """The part as a closed triangle mesh in the object frame."""
+        import trimesh
+
+        if self.kind == "box":
+            m = trimesh.creation.box(extents=self.size)
+        elif self.kind == "cylinder":
+            m = trimesh.creation.cylinder(
+                radius=self.size[0], height=self.size[1], sections=32
+            )
+        elif self.kind == "capsule":
+            m = trimesh.creation.capsule(
+                radius=self.size[0], height=self.size[1], count=[16, 16]
+            )
+        elif self.kind == "sphere":
+            m = trimesh.creation.icosphere(subdivisions=2, radius=self.size[0])
+        elif self.kind == "ellipsoid":
+            m = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
+            m.apply_scale(self.size)
+        elif self.kind == "hull":
+            m = trimesh.Trimesh(vertices=self.vertices).convex_hull
+        else:  # pragma: no cover - parts are built in this module
+            raise ValueError(self.kind)
+        m.apply_transform(self.T_object_part)
+        return m
+
+    def to_mjcf(self, name: str, assets: list[str]) -> tuple[str, str]:
+        """``(type and size attributes, pose attributes)`` of the MJCF geom."""
+        pose = pose_attrs(self.T_object_part)
+        if self.kind == "box":
+            return attrs(type="box", size=np.asarray(self.size) / 2.0), pose
+        if self.kind == "cylinder":
+            return attrs(type="cylinder", size=(self.size[0], self.size[1] / 2)), pose
+        if self.kind == "capsule":
+            return attrs(type="capsule", size=(self.size[0], self.size[1] / 2)), pose
+        if self.kind == "sphere":
+            return attrs(type="sphere", size=self.size[0]), pose
+        if self.kind == "ellipsoid":
+            return attrs(type="ellipsoid", size=self.size), pose
+        assert self.vertices is not None
+        vertex = fmt(np.asarray(self.vertices).reshape(-1))  # (3n,)
+        assets.append(f'<mesh name="{name}" vertex="{vertex}"/>')
+        return attrs(type="mesh", mesh=name), pose
+
+
+@dataclass
+class SimObject:
+    """A rigid object: convex parts, a mass and a friction coefficient.
+
+    Attributes
+    ----------
+    name : str
+    parts : list of Part
+    mass : float
+        kg, spread uniformly over the parts' volume.
+    friction : float
+        Sliding friction of every contact with the object.
+    render_mesh : trimesh.Trimesh or None
+        What the cameras see; the union of the parts when None.
+    """
+
+    name: str
+    parts: list[Part]
+    mass: float
+    friction: float = 0.8
+    render_mesh: Any = None
+
+    def mesh(self) -> Any:
+        """The object's surface as one triangle mesh (object frame)."""
+        import trimesh
+
+        if self.render_mesh is not None:
+            return self.render_mesh
+        return trimesh.util.concatenate([p.to_trimesh() for p in self.parts])
+
+    def inertial(self) -> tuple[Array, Array]:
+        """Centre of mass ``(3,)`` and inertia ``(3, 3)`` about it, for uniform
+        density over the parts (overlaps counted twice)."""
+        import trimesh
+
+        hulls: Any = trimesh.util.concatenate([p.to_trimesh() for p in self.parts])
+        volume = float(hulls.volume)
+        hulls.density = self.mass / volume
+        return (
+            np.asarray(hulls.center_mass, dtype=np.float64),
+            np.asarray(hulls.moment_inertia, dtype=np.float64),
+        )
+
+    def size(self) -> Array:
+        """Extents ``(3,)`` of the object's axis-aligned box in its frame."""
+        return np.asarray(self.mesh().extents, dtype=np.float64)
+
+
+# --------------------------------------------------------------------------------
+# building blocks
+# --------------------------------------------------------------------------------
+def _wall(
+    r_bottom: float,
+    r_top: float,
+    height: float,
+    thickness: float,
+    segments: int = 16,
+    z0: float = 0.0,
+    arc: tuple[float, float] = (0.0, 2.0 * np.pi),
+) -> list[Part]:
+    """A round wall (cylinder or frustum shell) as convex segments, base at z0."""
+    parts = []
+    edges = np.linspace(arc[0], arc[1], segments + 1)
+    for a0, a1 in zip(edges[:-1], edges[1:], strict=True):
+        ang = np.array([a0, a1])
+        pts = []
+        for r, z in ((r_bottom, z0), (r_top, z0 + height)):
+            for rr in (r, r - thickness):
+                pts.append(np.stack([rr * np.cos(ang), rr * np.sin(ang), [z, z]], 1))
+        parts.append(Part("hull", vertices=np.concatenate(pts)))  # (8, 3)
+    return parts
+
+
+def _disk(radius: float, height: float, z0: float = 0.0) -> Part:
+    return Part("cylinder", (radius, height), _T((0, 0, z0 + height / 2)))
+
+
+def _box_wall(
+    size: tuple[float, float, float], thickness: float, bottom: float
+) -> list[Part]:
+    """An open-top box: a bottom plate and four walls, base at z = 0."""
+    x, y, z = size
+    t = thickness
+    return [
+        Part("box", (x, y, bottom), _T((0, 0, bottom / 2))),
+        Part("box", (t, y, z), _T((x / 2 - t / 2, 0, z / 2))),
+        Part("box", (t, y, z), _T((-x / 2 + t / 2, 0, z / 2))),
+        Part("box", (x - 2 * t, t, z), _T((0, y / 2 - t / 2, z / 2))),
+        Part("box", (x - 2 * t, t, z), _T((0, -y / 2 + t / 2, z / 2))),
+    ]
+
+
+# --------------------------------------------------------------------------------
+# paper13
+# --------------------------------------------------------------------------------
+def _storage_bin() -> SimObject:
+    # a small open plastic bin, 14 x 10 x 7.5 cm, 3 mm walls
+    return SimObject("storage_bin", _box_wall((0.14, 0.10, 0.075), 0.003, 0.003), 0.12)
+
+
+def _mug() -> SimObject:
+    r, h = 0.04, 0.095
+    parts = [_disk(r - 0.001, 0.008)] + _wall(r, r, h, 0.005, 16)
+    # handle: three bars in the x-z plane outside the wall at +x
+    parts += [
+        Part("box", (0.012, 0.012, 0.06), _T((r + 0.024, 0, 0.05))),
+        Part("box", (0.032, 0.012, 0.012), _T((r + 0.012, 0, 0.074))),
+        Part("box", (0.032, 0.012, 0.012), _T((r + 0.012, 0, 0.026))),
+    ]
+    return SimObject("mug", parts, 0.30)
+
+
+def _thermos() -> SimObject:
+    parts = [
+        Part("cylinder", (0.035, 0.20), _T((0, 0, 0.10))),
+        Part("cylinder", (0.028, 0.04), _T((0, 0, 0.22))),
+    ]
+    return SimObject("thermos", parts, 0.45)
+
+
+def _realsense_box() -> SimObject:
+    return SimObject(
+        "realsense_box", [Part("box", (0.135, 0.095, 0.06), _T((0, 0, 0.03)))], 0.25
+    )
+
+
+def _cookies_package() -> SimObject:
+    # a roll of biscuits in a wrapper: a 21 cm long cylinder of 6.5 cm diameter
+    return SimObject(
+        "cookies_package",
+        [Part("cylinder", (0.0325, 0.21), _T((0, 0, 0.0325), _rot("y", np.pi / 2)))],
+        0.25,
+    )
+
+
+def _plant_pot() -> SimObject:
+    rb, rt, h = 0.032, 0.042, 0.085
+    parts = [_disk(rb - 0.001, 0.01)] + _wall(rb, rt, h, 0.005, 16)
+    return SimObject("plant_pot", parts, 0.20)
+
+
+def _plastic_cup() -> SimObject:
+    rb, rt, h = 0.027, 0.038, 0.10
+    parts = [_disk(rb - 0.001, 0.003)] + _wall(rb, rt, h, 0.002, 16)
+    return SimObject("plastic_cup", parts, 0.03)
+
+
+def _tooth_paste() -> SimObject:
+    # toothpaste in its carton
+    return SimObject(
+        "tooth_paste", [Part("box", (0.19, 0.045, 0.04), _T((0, 0, 0.02)))], 0.13
+    )
+
+
+def _toilet_paper_roll() -> SimObject:
+    parts = _wall(0.055, 0.055, 0.10, 0.035, 16)
+    return SimObject("toilet_paper_roll", parts, 0.12)
+
+
+def _doll() -> SimObject:
+    # a small soft doll sitting: torso, head, arms, legs (ellipsoids, capsules)
+    parts = [
+        Part("ellipsoid", (0.035, 0.025, 0.045), _T((0, 0, 0.065))),
+        Part("sphere", (0.03,), _T((0, 0, 0.135))),
+        Part("capsule", (0.011, 0.05), _T((0, 0.045, 0.075), _rot("x", 0.4))),
+        Part("capsule", (0.011, 0.05), _T((0, -0.045, 0.075), _rot("x", -0.4))),
+        Part("capsule", (0.013, 0.06), _T((0.04, 0.016, 0.015), _rot("y", np.pi / 2))),
+        Part("capsule", (0.013, 0.06), _T((0.04, -0.016, 0.015), _rot("y", np.pi / 2))),
+    ]
+    return SimObject("doll", parts, 0.15)
+
+
+def _dish_brush() -> SimObject:
+    parts = [
+        Part("box", (0.17, 0.022, 0.016), _T((0.0, 0, 0.008))),
+        Part("cylinder", (0.028, 0.045), _T((0.105, 0, 0.0225))),
+    ]
+    return SimObject("dish_brush", parts, 0.09)
+
+
+def _banana() -> SimObject:
+    # five capsules along an arc of radius 12 cm, thickness 3.6 cm
+    parts = []
+    R, r = 0.12, 0.018
+    angles = np.linspace(-0.65, 0.65, 6)
+    for a0, a1 in zip(angles[:-1], angles[1:], strict=True):
+        p0 = np.array([R * np.sin(a0), 0.0, R - R * np.cos(a0)])
+        p1 = np.array([R * np.sin(a1), 0.0, R - R * np.cos(a1)])
+        mid, d = (p0 + p1) / 2, p1 - p0
+        length = float(np.linalg.norm(d))
+        z = d / length
+        x = np.cross([0.0, 1.0, 0.0], z)
+        Rm = np.stack([x, np.cross(z, x), z], axis=1)
+        rr = r * (0.75 + 0.25 * np.cos(2.2 * (a0 + a1) / 2))  # thinner ends
+        parts.append(Part("capsule", (rr, length), _T(tuple(mid), Rm)))
+    return SimObject("banana", parts, 0.15)
+
+
+def _sprayer() -> SimObject:
+    parts = [
+        Part("box", (0.09, 0.055, 0.15), _T((0, 0, 0.075))),
+        Part("cylinder", (0.015, 0.035), _T((0, 0, 0.1675))),
+        Part("box", (0.07, 0.03, 0.035), _T((0.015, 0, 0.2025))),
+        Part("box", (0.012, 0.02, 0.04), _T((0.035, 0, 0.165))),
+    ]
+    return SimObject("sprayer", parts, 0.35)
+
+
+#: name → builder, in the order of the paper's Table II
+PAPER13: dict[str, Callable[[], SimObject]] = {
+    "storage_bin": _storage_bin,
+    "mug": _mug,
+    "thermos": _thermos,
+    "realsense_box": _realsense_box,
+    "cookies_package": _cookies_package,
+    "plant_pot": _plant_pot,
+    "plastic_cup": _plastic_cup,
+    "tooth_paste": _tooth_paste,
+    "toilet_paper_roll": _toilet_paper_roll,
+    "doll": _doll,
+    "dish_brush": _dish_brush,
+    "banana": _banana,
+    "sprayer": _sprayer,
+}
+
+
+def paper13() -> list[SimObject]:
+    """The 13 objects of the paper's Table II."""
+    return [build() for build in PAPER13.values()]
+
+
+#: named object sets
+OBJECT_SETS: dict[str, Callable[[], list[SimObject]]] = {"paper13": paper13}
+
+
+def object_from_mesh(
+    path: str | Path, *, mass: float = 0.2, friction: float = 0.8
+) -> SimObject:
+    """An object from a mesh file (OBJ/STL/PLY, metres).
+
+    The mesh must be watertight and enclose a volume; it collides as its convex
+    hull (MuJoCo's model of a mesh) and is seen by the cameras as it is.
+
+    Raises
+    ------
+    InputError
+        The file is missing, not a mesh, open, or without volume.
+    """
+    import trimesh
+
+    p = Path(path)
+    if not p.exists():
+        raise InputError(
+            f"object mesh {str(p)!r} does not exist",
+            hint=f"pass a named set ({', '.join(OBJECT_SETS)}) or OBJ/STL/PLY files",
+        )
+    try:
+        mesh = trimesh.load(p, force="mesh")
+    except Exception as exc:  # noqa: BLE001 - any reader failure
+        raise InputError(f"object mesh {str(p)!r} cannot be read: {exc}") from None
+    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+        raise InputError(
+            f"object mesh {str(p)!r} has no triangles",
+            hint="export the object as a triangle mesh",
+        )
+    if not mesh.is_watertight:
+        raise InputError(
+            f"object mesh {str(p)!r} is not watertight ({len(mesh.faces)} faces, "
+            "open edges): its mass and inside are undefined",
+            hint="close the holes (e.g. trimesh.repair.fill_holes, or Blender's "
+            "3D-print toolbox) and export it again",
+        )
+    if not mesh.is_volume or float(mesh.volume) <= 1e-9:
+        raise InputError(
+            f"object mesh {str(p)!r} encloses no volume "
+            f"(volume {float(mesh.volume):.3g} m³)",
+            hint="check the face orientation (normals outwards) and the units (metres)",
+        )
+    if float(np.max(mesh.extents)) > 1.0:
+        raise InputError(
+            f"object mesh {str(p)!r} is {np.max(mesh.extents):.4g} m across; "
+            "probably millimetres",
+            hint="scale the mesh to metres (divide by 1000)",
+        )
+    if mass <= 0 or friction <= 0:
+        raise InputError(
+            f"--mass {mass} and --friction {friction} must be positive",
+            hint="e.g. --mass 0.2 --friction 0.8",
+        )
+    mesh = mesh.copy()
+    lo = mesh.bounds[0]
+    mesh.apply_translation([-mesh.centroid[0], -mesh.centroid[1], -lo[2]])
+    hull = np.asarray(mesh.convex_hull.vertices, dtype=np.float64)
+    return SimObject(
+        p.stem, [Part("hull", vertices=hull)], mass, friction, render_mesh=mesh
+    )
+
+
+def load_objects(
+    names: list[str], *, mass: float | None = None, friction: float | None = None
+) -> list[SimObject]:
+    """Objects from set names (``paper13``) and mesh files, in the given order.
+
+    ``mass`` and ``friction`` override the objects' own values when given.
+    """
+    out: list[SimObject] = []
+    for name in names:
+        if name in OBJECT_SETS:
+            out.extend(OBJECT_SETS[name]())
+        elif name in PAPER13:
+            out.append(PAPER13[name]())
+        else:
+            out.append(
+                object_from_mesh(
+                    name,
+                    mass=0.2 if mass is None else mass,
+                    friction=0.8 if friction is None else friction,
+                )
+            )
+    if not out:
+        raise InputError("no objects given", hint="pass --objects paper13")
+    for o in out:
+        if mass is not None:
+            o.mass = mass
+        if friction is not None:
+            o.friction = friction
+    return out

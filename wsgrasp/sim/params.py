@@ -1,0 +1,102 @@
+"""Physical parameters of the grasp trials, in one place.
+
+They are the same for every object and every gripper; nothing is tuned per object.
+Units are SI. Values and why:
+
+Simulation
+    ``timestep`` 2 ms with MuJoCo's ``implicitfast`` integrator, elliptic friction
+    cones and ``impratio`` 10 (MuJoCo's recommendation against slip in grasping).
+
+Contacts
+    Every contact with the object uses the object's parameters (the object's geoms
+    have the higher ``priority``): sliding friction ``friction`` (0.8 by default,
+    rubber pad on cardboard/plastic), torsional friction ``torsional_friction``
+    (m), ``condim`` 4, MuJoCo's default ``solref`` (0.02 s, damping ratio 1) and
+    ``solimp`` (0.9, 0.95, 1 mm). Gripper geoms do not collide with each other.
+
+Masses
+    The object's mass is given per object (``paper13`` lists plausible masses;
+    ``--mass`` for mesh files) and spread uniformly over its volume. Gripper links
+    without a URDF ``<inertial>`` get ``gripper_density`` (kg/m³) over their
+    collision geometry. The gripper is gravity-compensated, as an arm holding it
+    would be.
+
+Gripper drive
+    The gripper's base body is free (6 DoF) and pulled towards a moving target (a
+    MuJoCo mocap body) by a weld equality with time constant ``drive_timeconst``:
+    a stiff spring-damper, like an arm's Cartesian impedance controller. The
+    target moves along straight lines at ``approach_speed`` and ``lift_speed``;
+    the gripper follows, and is stopped by what it hits instead of passing
+    through it.
+
+Finger drive
+    Each actuated finger joint has a position actuator (gain ``kp_prismatic``
+    N/m or ``kp_revolute`` N·m/rad, force limited by the URDF's ``effort``),
+    joint damping ``damping_prismatic`` / ``damping_revolute`` and armature
+    ``armature_prismatic`` / ``armature_revolute``. URDF ``<mimic>`` joints are
+    coupled to their master by a joint equality ``q = offset + multiplier *
+    q_master``. Closing ramps the targets from the YAML's ``pregrasp`` to its
+    ``closed`` posture over ``close_time``.
+
+Protocol
+    The object is dropped from ``drop_height`` above the table at a random
+    orientation and position (within ``drop_radius`` of the table centre) and
+    settles with extra damping ``settle_damping`` on its free joint (removed for
+    the grasp). The gripper starts ``standoff`` back along its approach axis,
+    approaches, closes, lifts ``lift_height`` and holds for ``hold_time``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any
+
+__all__ = ["SimParams"]
+
+
+@dataclass(frozen=True)
+class SimParams:
+    """Everything physical about a trial; see the module docstring."""
+
+    timestep: float = 0.002
+    impratio: float = 10.0
+    # table: a 2 cm slab whose top is z = 0, as rendered by ``scene synth``
+    table_size: float = 0.6
+    # object contacts
+    friction: float = 0.8
+    torsional_friction: float = 0.005
+    rolling_friction: float = 0.0001
+    object_mass: float = 0.2
+    # gripper
+    gripper_density: float = 1000.0
+    gripper_friction: float = 0.8
+    drive_timeconst: float = 0.01
+    kp_prismatic: float = 2000.0
+    kp_revolute: float = 2.0
+    damping_prismatic: float = 20.0
+    damping_revolute: float = 0.05
+    armature_prismatic: float = 0.05
+    armature_revolute: float = 0.001
+    # protocol
+    drop_height: float = 0.01
+    drop_radius: float = 0.05
+    settle_time: float = 3.0
+    settle_damping: float = 0.05
+    standoff: float = 0.10
+    approach_speed: float = 0.10
+    close_time: float = 0.6
+    close_wait: float = 0.4
+    lift_height: float = 0.20
+    lift_speed: float = 0.20
+    hold_time: float = 10.0
+    # classification thresholds
+    displaced_distance: float = 0.02
+    displaced_angle_deg: float = 20.0
+    blocked_distance: float = 0.01
+    lifted_fraction: float = 0.5
+    # rendering (the camera model of ``scene synth``)
+    views: int = 3
+    depth_noise: float = 0.001
+
+    def to_json(self) -> dict[str, Any]:
+        return asdict(self)

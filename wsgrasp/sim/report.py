@@ -1,0 +1,225 @@
+"""The evaluation report: Table II of the paper, for wsgrasp, as data, rich and
+Markdown.
+
+Plan time (ET in the paper) is the planner's own time per plan (``timing_ms
+["total"]``: preprocessing, segmentation, object frame, search), median over the
+trials; rendering and physics are not included, as in the paper.
+"""
+
+from __future__ import annotations
+
+import statistics
+from collections.abc import Sequence
+from typing import Any
+
+from wsgrasp.sim.trial import OUTCOMES
+
+__all__ = ["PAPER_TABLE2", "build_report", "report_markdown", "report_table"]
+
+#: Sorour et al. (2019), Table II: object → gripper → (plan time s, success rate)
+PAPER_TABLE2: dict[str, dict[str, tuple[float, float]]] = {
+    "storage_bin": {"allegro_right": (1.77, 0.8), "franka_hand": (0.39, 1.0)},
+    "mug": {"allegro_right": (1.07, 0.9), "franka_hand": (0.23, 0.8)},
+    "thermos": {"allegro_right": (1.61, 0.4), "franka_hand": (0.33, 0.0)},
+    "realsense_box": {"allegro_right": (1.39, 1.0), "franka_hand": (0.41, 0.9)},
+    "cookies_package": {"allegro_right": (1.24, 0.8), "franka_hand": (0.62, 0.4)},
+    "plant_pot": {"allegro_right": (1.43, 1.0), "franka_hand": (0.36, 0.8)},
+    "plastic_cup": {"allegro_right": (0.31, 0.4), "franka_hand": (0.31, 0.0)},
+    "tooth_paste": {"allegro_right": (1.64, 0.6), "franka_hand": (0.24, 1.0)},
+    "toilet_paper_roll": {"allegro_right": (1.09, 1.0), "franka_hand": (0.26, 1.0)},
+    "doll": {"allegro_right": (1.18, 0.4), "franka_hand": (0.37, 0.4)},
+    "dish_brush": {"allegro_right": (0.99, 0.2), "franka_hand": (0.29, 0.8)},
+    "banana": {"allegro_right": (1.53, 0.2), "franka_hand": (0.27, 1.0)},
+    "sprayer": {"allegro_right": (0.58, 0.8), "franka_hand": (0.25, 0.4)},
+}
+PAPER_AVERAGE = {"allegro_right": (1.22, 0.65), "franka_hand": (0.34, 0.65)}
+FAILURES = OUTCOMES[1:]
+
+
+def _median(values: Sequence[float | None]) -> float | None:
+    vals = [v for v in values if v is not None]
+    return float(statistics.median(vals)) if vals else None
+
+
+def _summary(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    n = len(records)
+    ok = sum(r["outcome"] == "success" for r in records)
+    return {
+        "trials": n,
+        "successes": ok,
+        "success_rate": ok / n if n else 0.0,
+        "plan_ms_median": _median([r.get("plan_ms") for r in records]),
+        "failures": {k: sum(r["outcome"] == k for r in records) for k in FAILURES},
+    }
+
+
+def build_report(
+    records: Sequence[dict[str, Any]],
+    *,
+    primary: str = "default",
+    meta: dict[str, Any] | None = None,
+) -> dict[str, Any]:
+    """The report as plain data (what ``wsgrasp eval --json`` prints).
+
+    Top-level ``success_rate``, ``trials`` and ``plan_ms_median`` are over the
+    ``primary`` spec's trials (every gripper); ``results`` has one entry per
+    gripper × spec with per-object rows.
+    """
+    groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
+    for r in records:
+        groups.setdefault((r["gripper"], r["spec"]), []).append(r)
+    results = []
+    for (gripper, spec), recs in groups.items():
+        objects: dict[str, list[dict[str, Any]]] = {}
+        for r in recs:
+            objects.setdefault(r["object"], []).append(r)
+        rows = []
+        for name, orecs in objects.items():
+            row = {"object": name, **_summary(orecs)}
+            paper = PAPER_TABLE2.get(name, {}).get(gripper)
+            if paper is not None:
+                row["paper"] = {"plan_s": paper[0], "success_rate": paper[1]}
+            rows.append(row)
+        results.append(
+            {"gripper": gripper, "spec": spec, **_summary(recs), "objects": rows}
+        )
+    main = [r for r in records if r["spec"] == primary] or list(records)
+    out = {
+        "version": 1,
+        **(meta or {}),
+        "primary_spec": primary,
+        **_summary(main),
+        "results": results,
+        "trial_records": list(records),
+    }
+    return out
+
+
+# --------------------------------------------------------------------------------
+def _pct(x: float | None) -> str:
+    return "–" if x is None else f"{100 * x:.0f} %"
+
+
+def _sec(ms: float | None) -> str:
+    return "–" if ms is None else f"{ms / 1e3:.2f} s"
+
+
+def _columns(report: dict[str, Any]) -> list[dict[str, Any]]:
+    order = {"franka_hand": 0, "allegro_right": 1}
+    return sorted(
+        report["results"],
+        key=lambda r: (
+            order.get(r["gripper"], 9),
+            r["gripper"],
+            r["spec"] != "default",
+        ),
+    )
+
+
+def _table_rows(
+    report: dict[str, Any], gripper: str
+) -> tuple[list[str], list[list[str]]]:
+    """One gripper's Table II: a row per object, ET and SR per spec, then the
+    paper's figures where it has them."""
+    cols = [c for c in _columns(report) if c["gripper"] == gripper]
+    header = ["object"]
+    for c in cols:
+        header += [f"{c['spec']} ET", f"{c['spec']} SR"]
+    paper = gripper in PAPER_AVERAGE
+    if paper:
+        header += ["IROS'19 ET", "IROS'19 SR"]
+    names = list(dict.fromkeys(o["object"] for c in cols for o in c["objects"]))
+    rows = []
+    for name in names:
+        row = [name]
+        for c in cols:
+            o = next((o for o in c["objects"] if o["object"] == name), None)
+            row += (
+                [_sec(o["plan_ms_median"]), _pct(o["success_rate"])]
+                if o
+                else ["–", "–"]
+            )
+        if paper:
+            p = PAPER_TABLE2.get(name, {}).get(gripper)
+            row += [f"{p[0]:.2f} s", _pct(p[1])] if p else ["–", "–"]
+        rows.append(row)
+    total = ["all"]
+    for c in cols:
+        total += [_sec(c["plan_ms_median"]), _pct(c["success_rate"])]
+    if paper:
+        p = PAPER_AVERAGE[gripper]
+        total += [f"{p[0]:.2f} s", _pct(p[1])]
+    rows.append(total)
+    return header, rows
+
+
+def _grippers(report: dict[str, Any]) -> list[str]:
+    return list(dict.fromkeys(c["gripper"] for c in _columns(report)))
+
+
+def _failure_rows(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
+    header = ["gripper", "spec", "trials", "success", *FAILURES]
+    rows = [
+        [
+            c["gripper"],
+            c["spec"],
+            str(c["trials"]),
+            str(c["successes"]),
+            *[str(c["failures"][k]) for k in FAILURES],
+        ]
+        for c in _columns(report)
+    ]
+    return header, rows
+
+
+def report_table(report: dict[str, Any]) -> list[Any]:
+    """Rich renderables: the per-object table and the failure classes."""
+    from rich.table import Table
+
+    out: list[Any] = []
+    for gripper in _grippers(report):
+        header, rows = _table_rows(report, gripper)
+        t = Table(title=f"{gripper}: median plan time (ET) and success rate (SR)")
+        for i, h in enumerate(header):
+            t.add_column(h, justify="left" if i == 0 else "right")
+        for i, row in enumerate(rows):
+            t.add_row(*row, end_section=i == len(rows) - 2)
+        out.append(t)
+    fh, frows = _failure_rows(report)
+    f = Table(title="Outcomes")
+    for i, h in enumerate(fh):
+        f.add_column(h, justify="left" if i < 2 else "right")
+    for row in frows:
+        f.add_row(*row)
+    return [*out, f]
+
+
+def report_markdown(report: dict[str, Any]) -> str:
+    """The report as Markdown: the Table II analogue and the outcome counts."""
+    lines: list[str] = []
+    for gripper in _grippers(report):
+        header, rows = _table_rows(report, gripper)
+        lines += [
+            f"**{gripper}**",
+            "",
+            "| " + " | ".join(header) + " |",
+            "|" + "|".join(["---"] + ["---:"] * (len(header) - 1)) + "|",
+        ]
+        for i, row in enumerate(rows):
+            cells = [f"**{c}**" for c in row] if i == len(rows) - 1 else row
+            lines.append("| " + " | ".join(cells) + " |")
+        lines.append("")
+    fh, frows = _failure_rows(report)
+    lines += [
+        "| " + " | ".join(fh) + " |",
+        "|" + "|".join(["---", "---"] + ["---:"] * (len(fh) - 2)) + "|",
+    ]
+    lines += ["| " + " | ".join(r) + " |" for r in frows]
+    meta = [
+        f"{k}: {report[k]}"
+        for k in ("objects", "trials_per_object", "seed", "wall_s", "workers")
+        if k in report
+    ]
+    if meta:
+        lines += ["", "; ".join(meta)]
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,320 @@
+"""Running many trials: tasks, seeds, worker processes, the progress bar.
+
+A *task* is one (object, trial index): the object is dropped and rendered once,
+then every gripper × spec plans on the same views and executes its grasp, so the
+grippers and specs are compared on identical scenes. Two specs that plan the same
+pose share one execution (MuJoCo is deterministic). Tasks run in worker processes
+(``concurrent.futures.ProcessPoolExecutor``, spawned, one thread each); each worker
+keeps its pipelines, grippers and compiled MuJoCo models between tasks.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+import zlib
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from wsgrasp.sim.objects import SimObject
+from wsgrasp.sim.params import SimParams
+
+__all__ = ["EvalConfig", "SpecEntry", "Task", "run_eval", "run_task", "task_seed"]
+
+
+@dataclass(frozen=True)
+class SpecEntry:
+    """A pipeline spec to evaluate for one gripper: a label and the spec's data."""
+
+    gripper: str
+    label: str
+    spec: dict[str, Any]
+    source: str = ""
+
+
+@dataclass
+class EvalConfig:
+    """What to evaluate: objects × trials, each with every spec entry."""
+
+    objects: list[SimObject]
+    specs: list[SpecEntry]
+    trials: int = 10
+    seed: int = 0
+    params: SimParams = field(default_factory=SimParams)
+    workers: int = 0
+    record_dir: Path | None = None
+
+
+@dataclass
+class Task:
+    object: SimObject
+    trial: int
+    seed: int
+    specs: list[SpecEntry]
+    params: SimParams
+    record_dir: str | None = None
+
+
+def task_seed(seed: int, object_name: str, trial: int) -> list[int]:
+    """The seed sequence of one trial: stable across runs, object order and
+    processes."""
+    return [int(seed), zlib.crc32(object_name.encode()), int(trial)]
+
+
+# --------------------------------------------------------------------------------
+# inside a worker
+# --------------------------------------------------------------------------------
+_CACHE: dict[Any, Any] = {}
+
+
+def _cached(key: Any, make: Callable[[], Any]) -> Any:
+    if key not in _CACHE:
+        _CACHE[key] = make()
+    return _CACHE[key]
+
+
+def _pipeline(entry: SpecEntry) -> Any:
+    from wsgrasp.api import Pipeline
+    from wsgrasp.spec import load_spec
+
+    key = ("pipeline", entry.gripper, entry.label, repr(sorted(entry.spec.items())))
+    return _cached(key, lambda: Pipeline(load_spec(entry.spec)))
+
+
+def _object_key(obj: SimObject) -> tuple[str, float, float, int]:
+    return (obj.name, obj.mass, obj.friction, len(obj.parts))
+
+
+def run_task(task: Task) -> list[dict[str, Any]]:
+    """One (object, trial) with every spec; returns one record per spec."""
+    from wsgrasp.errors import WsgraspError
+    from wsgrasp.perception.io import scene_from_arrays
+    from wsgrasp.sim.gripper import load_sim_gripper
+    from wsgrasp.sim.scene import build_scene
+    from wsgrasp.sim.trial import execute_grasp, render_views, settle_object
+
+    p = task.params
+    obj = task.object
+    okey = _object_key(obj)
+    rng = np.random.default_rng(task_seed(task.seed, obj.name, task.trial))
+    bare = _cached(("bare", okey, p), lambda: build_scene(obj, None, p))
+    t0 = time.perf_counter()
+    settled = settle_object(bare, obj, rng, p)
+    views = render_views(obj, settled.T_world_object, rng, p)
+    scene = scene_from_arrays([(v.points, v.T_world_camera) for v in views])
+    prep_s = time.perf_counter() - t0
+    records: list[dict[str, Any]] = []
+    executed: dict[tuple[str, bytes], Any] = {}
+    for entry in task.specs:
+        rec: dict[str, Any] = {
+            "object": obj.name,
+            "trial": task.trial,
+            "gripper": entry.gripper,
+            "spec": entry.label,
+            "drops": settled.drops,
+            "scene_s": prep_s,
+        }
+        observers = []
+        if task.record_dir:
+            from wsgrasp.record import RunRecorder
+
+            path = Path(task.record_dir) / (
+                f"{entry.gripper}-{entry.label}-{obj.name}-{task.trial:03d}.mcap"
+            )
+            observers.append(RunRecorder(path, force=True))
+            rec["record"] = str(path)
+        try:
+            result = _pipeline(entry).plan(scene, observers=observers)
+        except WsgraspError as exc:
+            rec.update(outcome="no_grasp", found=False, plan_ms=None, hint=str(exc))
+            records.append(rec)
+            continue
+        rec["plan_ms"] = float(result.timing_ms.get("total", float("nan")))
+        rec["found"] = bool(result.found)
+        if not result.found or result.T_world_ee is None:
+            rec.update(outcome="no_grasp", hint=result.hint)
+            records.append(rec)
+            continue
+        T = np.asarray(result.T_world_ee, dtype=np.float64)
+        key = (entry.gripper, np.round(T, 9).tobytes())
+        t1 = time.perf_counter()
+        if key not in executed:
+            sim_gripper = _cached(
+                ("gripper", entry.gripper, p),
+                lambda: load_sim_gripper(entry.gripper, p),
+            )
+            world = _cached(
+                ("scene", okey, entry.gripper, p),
+                lambda: build_scene(obj, sim_gripper, p),
+            )
+            executed[key] = execute_grasp(world, settled.T_world_object, T, p)
+        ex = executed[key]
+        rec.update(
+            outcome=ex.outcome,
+            metrics=ex.metrics,
+            exec_s=time.perf_counter() - t1,
+            T_world_ee=T.tolist(),
+        )
+        records.append(rec)
+    return records
+
+
+def _init_worker() -> None:
+    import warnings
+
+    warnings.filterwarnings("ignore")
+
+
+# --------------------------------------------------------------------------------
+# the parent
+# --------------------------------------------------------------------------------
+_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def run_eval(
+    config: EvalConfig,
+    *,
+    progress: bool = True,
+    on_record: Callable[[dict[str, Any]], None] | None = None,
+) -> tuple[list[dict[str, Any]], float]:
+    """Run every task of ``config``; returns the trial records (in task order) and
+    the wall-clock seconds.
+
+    ``workers`` 0 means one per CPU core; 1 runs in this process (no pool).
+    """
+    from wsgrasp.sim._mujoco import require_mujoco
+
+    require_mujoco()
+    tasks = [
+        Task(
+            object=obj,
+            trial=t,
+            seed=config.seed,
+            specs=config.specs,
+            params=config.params,
+            record_dir=str(config.record_dir) if config.record_dir else None,
+        )
+        for obj in config.objects
+        for t in range(config.trials)
+    ]
+    workers = config.workers or (os.cpu_count() or 1)
+    workers = max(1, min(workers, len(tasks)))
+    start = time.perf_counter()
+    results: list[list[dict[str, Any]] | None] = [None] * len(tasks)
+    with _progress(progress, len(tasks)) as advance:
+        if workers == 1:
+            for i, task in enumerate(tasks):
+                recs = run_task(task)
+                results[i] = recs
+                _emit(recs, on_record)
+                advance(recs)
+        else:
+            _run_pool(tasks, workers, results, advance, on_record)
+    wall = time.perf_counter() - start
+    return [r for rs in results for r in (rs or [])], wall
+
+
+def _emit(
+    records: Sequence[dict[str, Any]] | None,
+    on_record: Callable[[dict[str, Any]], None] | None,
+) -> None:
+    if on_record is not None and records:
+        for r in records:
+            on_record(r)
+
+
+def _run_pool(
+    tasks: list[Task],
+    workers: int,
+    results: list[list[dict[str, Any]] | None],
+    advance: Callable[[list[dict[str, Any]]], None],
+    on_record: Callable[[dict[str, Any]], None] | None,
+) -> None:
+    import multiprocessing
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
+    saved = {k: os.environ.get(k) for k in _THREAD_VARS}
+    for k in _THREAD_VARS:  # one thread per worker: the workers are the parallelism
+        os.environ[k] = "1"
+    try:
+        ctx = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(
+            workers, mp_context=ctx, initializer=_init_worker
+        ) as ex:
+            pending = {ex.submit(run_task, t): i for i, t in enumerate(tasks)}
+            try:
+                while pending:
+                    done, _ = wait(pending, return_when=FIRST_COMPLETED)
+                    for fut in done:
+                        i = pending.pop(fut)
+                        recs = fut.result()
+                        results[i] = recs
+                        _emit(recs, on_record)
+                        advance(recs)
+            except BaseException:
+                for fut in pending:
+                    fut.cancel()
+                raise
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+class _progress:
+    """A rich progress bar over tasks (a no-op when disabled)."""
+
+    def __init__(self, enabled: bool, total: int) -> None:
+        self.enabled = enabled
+        self.total = total
+        self.successes = 0
+        self.trials = 0
+        self._bar: Any = None
+        self._task: Any = None
+
+    def __enter__(self) -> Callable[[list[dict[str, Any]]], None]:
+        if self.enabled:
+            from rich.console import Console
+            from rich.progress import (
+                BarColumn,
+                MofNCompleteColumn,
+                Progress,
+                TextColumn,
+                TimeElapsedColumn,
+                TimeRemainingColumn,
+            )
+
+            self._bar = Progress(
+                TextColumn("[bold]trials"),
+                BarColumn(),
+                MofNCompleteColumn(),
+                TextColumn("{task.fields[status]}"),
+                TimeElapsedColumn(),
+                TimeRemainingColumn(),
+                console=Console(stderr=True),
+                transient=False,
+            )
+            self._bar.__enter__()
+            self._task = self._bar.add_task("eval", total=self.total, status="")
+        return self._advance
+
+    def _advance(self, records: list[dict[str, Any]]) -> None:
+        self.trials += len(records)
+        self.successes += sum(r.get("outcome") == "success" for r in records)
+        if self._bar is not None:
+            last = records[0]["object"] if records else ""
+            self._bar.update(
+                self._task,
+                advance=1,
+                status=f"{self.successes}/{self.trials} grasps held · {last}",
+            )
+
+    def __exit__(self, *exc: object) -> None:
+        if self._bar is not None:
+            self._bar.__exit__(None, None, None)

@@ -1,0 +1,275 @@
+"""One grasp trial, as in the paper's experiments (Sorour et al. 2019, Sec. V).
+
+1. **Drop.** The object is dropped at a random (seeded) orientation and position
+   onto the table and left to settle.
+2. **Look.** Three noisy depth views of the settled scene are rendered with the
+   camera model of ``scene synth``; the planner gets only these views.
+3. **Plan.** The pipeline plans a grasp: the pose of the gripper's base link.
+4. **Approach.** The gripper starts ``standoff`` back along its approach axis in
+   the pregrasp posture and is driven in a straight line to the planned pose.
+5. **Close.** Position actuators close the fingers towards the YAML's ``closed``
+   posture.
+6. **Lift and hold.** The gripper is driven 20 cm up and held there for 10 s.
+
+Outcomes: ``success`` (object held off the table at the end),
+``no_grasp`` (the planner found none), ``approach_collision`` (the object was
+pushed more than ``displaced_distance``/``displaced_angle_deg`` or the gripper was
+blocked before closing, and the grasp then failed), ``slipped_lifting`` (not held
+after the lift) and ``dropped_holding`` (held after the lift, lost during the hold).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from wsgrasp.sim._mujoco import require_mujoco
+from wsgrasp.sim.objects import SimObject
+from wsgrasp.sim.params import SimParams
+from wsgrasp.sim.scene import SimScene
+
+__all__ = [
+    "OUTCOMES",
+    "Execution",
+    "Settled",
+    "execute_grasp",
+    "render_views",
+    "settle_object",
+]
+
+Array = NDArray[np.float64]
+
+#: trial outcomes, success first, then the failure classes in protocol order
+OUTCOMES = (
+    "success",
+    "no_grasp",
+    "approach_collision",
+    "slipped_lifting",
+    "dropped_holding",
+)
+
+
+@dataclass
+class Settled:
+    """The object at rest on the table.
+
+    Attributes
+    ----------
+    T_world_object : (4, 4) float
+    drops : int
+        Drops needed (an object that rolls off the table is dropped again).
+    settle_s : float
+        Simulated seconds until it came to rest.
+    """
+
+    T_world_object: Array
+    drops: int
+    settle_s: float
+
+
+def _pose_to_qpos(T: Array) -> Array:
+    from wsgrasp.sim._xml import quat_wxyz
+
+    return np.concatenate([T[:3, 3], quat_wxyz(T[:3, :3])])
+
+
+def _qpos_to_pose(q: Array) -> Array:
+    from scipy.spatial.transform import Rotation
+
+    T = np.eye(4)
+    T[:3, 3] = q[:3]
+    T[:3, :3] = Rotation.from_quat([q[4], q[5], q[6], q[3]]).as_matrix()
+    return T
+
+
+def settle_object(
+    scene: SimScene, obj: SimObject, rng: np.random.Generator, p: SimParams
+) -> Settled:
+    """Drop ``obj`` at a random pose in ``scene`` (table and object only) and let
+    it come to rest; returns its pose."""
+    mujoco = require_mujoco()
+    from scipy.spatial.transform import Rotation
+
+    m, d = scene.model, scene.data
+    verts = np.asarray(obj.mesh().vertices, dtype=np.float64)  # (n, 3) object frame
+    steps = max(1, int(round(0.05 / p.timestep)))
+    limit = p.table_size / 2.0 - 0.03
+    for drop in range(1, 11):
+        mujoco.mj_resetData(m, d)
+        R = Rotation.random(random_state=rng).as_matrix()
+        xy = rng.uniform(-p.drop_radius, p.drop_radius, 2)
+        z = -float((verts @ R.T)[:, 2].min()) + p.drop_height
+        T = np.eye(4)
+        T[:3, :3] = R
+        T[:3, 3] = [xy[0], xy[1], z]
+        d.qpos[scene.object_qpos] = _pose_to_qpos(T)
+        m.dof_damping[scene.object_dof] = p.settle_damping
+        t = 0.0
+        while t < p.settle_time:
+            mujoco.mj_step(m, d, nstep=steps)
+            t += steps * p.timestep
+            v = d.qvel[scene.object_dof]
+            if (
+                t > 0.3
+                and np.linalg.norm(v[:3]) < 2e-3
+                and np.linalg.norm(v[3:]) < 2e-2
+            ):
+                break
+        m.dof_damping[scene.object_dof] = 0.0
+        T = _qpos_to_pose(d.qpos[scene.object_qpos].copy())
+        if abs(T[0, 3]) < limit and abs(T[1, 3]) < limit and T[2, 3] > 0.0:
+            return Settled(T_world_object=T, drops=drop, settle_s=t)
+    from wsgrasp.errors import SimulationError
+
+    raise SimulationError(
+        f"object {obj.name!r} did not come to rest on the table in 10 drops",
+        hint="check the object's size (metres) and shape",
+    )
+
+
+def render_views(
+    obj: SimObject, T_world_object: Array, rng: np.random.Generator, p: SimParams
+) -> list[Any]:
+    """The three noisy depth views of ``scene synth``'s camera model, aimed at the
+    table centre; returns ``View`` objects (points in camera frames)."""
+    from wsgrasp.perception.synth import default_cameras, render_scene
+
+    cams = default_cameras(p.views, target=(0.0, 0.0, 0.05), rng=rng)
+    return render_scene(
+        [(obj.mesh(), T_world_object)], p.table_size, cams, p.depth_noise, rng
+    )
+
+
+@dataclass
+class Execution:
+    """What happened when the planned grasp was executed.
+
+    Attributes
+    ----------
+    outcome : str
+        One of :data:`OUTCOMES` (never ``no_grasp``).
+    metrics : dict
+        ``displacement`` (m) and ``rotation_deg`` of the object during the
+        approach, ``blocked`` (m, gripper's lag behind its target at the planned
+        pose), ``rise_after_lift`` and ``rise_after_hold`` (m, object height gain),
+        ``contact_after_lift``/``contact_after_hold`` (object touching the
+        gripper), ``sim_s`` (simulated seconds).
+    """
+
+    outcome: str
+    metrics: dict[str, Any] = field(default_factory=dict)
+
+
+def _contacts(scene: SimScene) -> tuple[bool, bool]:
+    """(object touches the gripper, object touches the table)."""
+    m, d = scene.model, scene.data
+    n = d.ncon
+    if n == 0:
+        return False, False
+    geoms = np.asarray(d.contact.geom[:n])  # (n, 2)
+    bodies = m.geom_bodyid[geoms]  # (n, 2)
+    has_obj = (bodies == scene.object_body).any(axis=1)
+    other = np.where(bodies[:, 0] == scene.object_body, bodies[:, 1], bodies[:, 0])
+    other_geom = np.where(bodies[:, 0] == scene.object_body, geoms[:, 1], geoms[:, 0])
+    grip = bool((has_obj & np.isin(other, scene.gripper_bodies)).any())
+    table = bool((has_obj & (other_geom == scene.table_geom)).any())
+    return grip, table
+
+
+def _angle_deg(Ra: Array, Rb: Array) -> float:
+    c = (np.trace(Ra.T @ Rb) - 1.0) / 2.0
+    return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
+
+
+def execute_grasp(
+    scene: SimScene, T_world_object: Array, T_world_base: Array, p: SimParams
+) -> Execution:
+    """Run steps 4–6 of the protocol for a planned base pose ``(4, 4)``."""
+    mujoco = require_mujoco()
+    g = scene.gripper
+    assert g is not None and scene.gripper_qpos is not None
+    m, d = scene.model, scene.data
+    mujoco.mj_resetData(m, d)
+    m.dof_damping[scene.object_dof] = 0.0
+    d.qpos[scene.object_qpos] = _pose_to_qpos(T_world_object)
+    T_goal = T_world_base @ np.linalg.inv(g.T_root_base)  # root pose at the grasp
+    approach = T_world_base[:3, :3] @ g.approach_axis  # (3,) world
+    T_start = T_goal.copy()
+    T_start[:3, 3] -= p.standoff * approach
+    q_start = _pose_to_qpos(T_start)
+    d.qpos[scene.gripper_qpos] = q_start
+    d.mocap_pos[scene.mocap] = q_start[:3]
+    d.mocap_quat[scene.mocap] = q_start[3:]
+    for jn, v in g.qpos_pregrasp.items():
+        d.qpos[scene.joint_qpos[jn]] = v
+    d.ctrl[:] = g.pregrasp
+    mujoco.mj_forward(m, d)
+    z0 = float(d.xpos[scene.object_body][2])
+    p0 = d.xpos[scene.object_body].copy()
+    R0 = d.xmat[scene.object_body].reshape(3, 3).copy()
+    dt = p.timestep
+
+    def move(start: Array, goal: Array, speed: float) -> None:
+        dist = float(np.linalg.norm(goal - start))
+        n = max(1, int(np.ceil(dist / speed / dt)))
+        for i in range(1, n + 1):
+            d.mocap_pos[scene.mocap] = start + (goal - start) * (i / n)
+            mujoco.mj_step(m, d)
+
+    def wait(seconds: float) -> None:
+        mujoco.mj_step(m, d, nstep=max(1, int(round(seconds / dt))))
+
+    # 4. approach
+    move(T_start[:3, 3], T_goal[:3, 3], p.approach_speed)
+    wait(0.1)
+    root = d.qpos[scene.gripper_qpos][:3]
+    blocked = float(np.linalg.norm(root - T_goal[:3, 3]))
+    disp = float(np.linalg.norm(d.xpos[scene.object_body] - p0))
+    rot = _angle_deg(R0, d.xmat[scene.object_body].reshape(3, 3))
+    collided = (
+        disp > p.displaced_distance
+        or rot > p.displaced_angle_deg
+        or blocked > p.blocked_distance
+    )
+    # 5. close: ramp the targets, then let the grip build up
+    n = max(1, int(round(p.close_time / dt)))
+    for i in range(1, n + 1):
+        d.ctrl[:] = g.pregrasp + (g.closed - g.pregrasp) * (i / n)
+        mujoco.mj_step(m, d)
+    wait(p.close_wait)
+    # 6. lift, then hold
+    top = T_goal[:3, 3] + np.array([0.0, 0.0, p.lift_height])
+    move(T_goal[:3, 3], top, p.lift_speed)
+    wait(0.2)
+    grip, table = _contacts(scene)
+    rise_lift = float(d.xpos[scene.object_body][2]) - z0
+    lifted = grip and not table and rise_lift > p.lifted_fraction * p.lift_height
+    wait(p.hold_time)
+    grip2, table2 = _contacts(scene)
+    rise_hold = float(d.xpos[scene.object_body][2]) - z0
+    held = grip2 and not table2 and rise_hold > p.lifted_fraction * p.lift_height
+    if held:
+        outcome = "success"
+    elif collided:
+        outcome = "approach_collision"
+    elif not lifted:
+        outcome = "slipped_lifting"
+    else:
+        outcome = "dropped_holding"
+    return Execution(
+        outcome,
+        {
+            "displacement": disp,
+            "rotation_deg": rot,
+            "blocked": blocked,
+            "approach_flagged": bool(collided),
+            "rise_after_lift": rise_lift,
+            "rise_after_hold": rise_hold,
+            "contact_after_lift": bool(grip),
+            "contact_after_hold": bool(grip2),
+            "sim_s": float(d.time),
+        },
+    )
