@@ -12,6 +12,7 @@ from numpy.typing import NDArray
 
 from wsgrasp.errors import GripperError
 from wsgrasp.geometry import (
+    JOINT_FIXED,
     points_in_superellipsoids,
     rot_x,
     rot_y,
@@ -70,7 +71,7 @@ def _check_names(kin: Kinematics, desc: GripperDescription) -> dict[str, float]:
                     f"of {kin.master(joint)!r}",
                     hint=f"set {kin.master(joint)!r} instead; mimics follow it",
                 )
-            if j.kind != 0 and not j.lower - 1e-9 <= value <= j.upper + 1e-9:
+            if j.kind != JOINT_FIXED and not j.lower - 1e-9 <= value <= j.upper + 1e-9:
                 raise GripperError(
                     f"gripper {desc.name!r}: {field}.{joint} is {value}, outside the "
                     f"joint's limits [{j.lower}, {j.upper}]",

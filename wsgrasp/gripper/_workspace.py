@@ -17,7 +17,12 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from wsgrasp.errors import GripperError
-from wsgrasp.geometry import box_grid_points, grid_configurations, transform_points
+from wsgrasp.geometry import (
+    JOINT_FIXED,
+    box_grid_points,
+    grid_configurations,
+    transform_points,
+)
 from wsgrasp.gripper._urdf import Kinematics
 from wsgrasp.spec import FingerDescription, GripperDescription
 
@@ -94,12 +99,12 @@ def finger_joints(
             f"below base_link {desc.base_link!r} in the URDF",
             hint="choose a pad link that the base link carries",
         ) from None
-    on_chain = {kin.master(j.name) for j in chain if j.kind != 0}
+    on_chain = {kin.master(j.name) for j in chain if j.kind != JOINT_FIXED}
     masters: list[str] = []
     for name in finger.joints:
         kin.check_joint(name, desc.name, f"{where}.joints")
         m = kin.master(name)
-        if kin.joints[m].kind == 0:
+        if kin.joints[m].kind == JOINT_FIXED:
             raise GripperError(
                 f"gripper {desc.name!r}: {where}.joints lists {name!r}, a fixed "
                 "joint, which cannot move the pad",
