@@ -115,13 +115,14 @@ def load_gripper(
     -------
     GripperModel
         ``stats["cache"]`` is ``"hit"`` (with ``stats["load_s"]``), ``"miss"`` or
-        ``"off"`` (cache not writable); ``stats["build_s"]`` is the build time.
+        ``"off"`` (cache not writable); ``stats["build_s"]`` is the build time,
+        ``stats["load_s"]`` the whole call on a hit (resolve, hash, read).
     """
+    t0 = time.perf_counter()
     resolved = resolve_gripper(name_or_path, registry)
     if isinstance(resolved, GripperModel):
         return resolved
     desc, base_dir = resolved
-    t0 = time.perf_counter()
     key = source_hash(desc, base_dir)
     directory = default_cache_dir(cache_dir)
     path = directory / f"{desc.name}-{key[:24]}.npz"
