@@ -1,0 +1,569 @@
+"""ROS 2 bags (MCAP) as planner input: ``sensor_msgs/msg/PointCloud2`` clouds with
+their camera poses from ``/tf`` and ``/tf_static``.
+
+::
+
+    scene = read_bag_scene("capture.mcap", "/camera/points", frame="world")
+
+The latest cloud on each topic is used, or the latest at or before ``at``. The
+camera pose is the transform from ``frame`` (by default the root of the cloud's
+transform tree, or the cloud's own frame when the bag has no transforms) to the
+cloud's ``header.frame_id``, at the cloud's time.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from wsgrasp.errors import InputError
+
+__all__ = [
+    "POINTCLOUD2",
+    "TF_MESSAGE",
+    "BagCloud",
+    "bag_topics",
+    "is_mcap",
+    "read_bag_clouds",
+    "read_bag_scene",
+    "write_cloud_bag",
+]
+
+Array = NDArray[np.float64]
+
+POINTCLOUD2 = "sensor_msgs/msg/PointCloud2"
+TF_MESSAGE = "tf2_msgs/msg/TFMessage"
+TF_TOPICS = ("/tf", "/tf_static")
+
+# PointField datatypes → numpy scalar types
+_POINTFIELD_DTYPES = {
+    1: "i1",
+    2: "u1",
+    3: "i2",
+    4: "u2",
+    5: "i4",
+    6: "u4",
+    7: "f4",
+    8: "f8",
+}
+
+
+@dataclass
+class BagCloud:
+    """One PointCloud2 message, decoded.
+
+    Attributes
+    ----------
+    topic, frame_id : str
+    stamp_ns : int
+        ``header.stamp`` (ns); the log time when the stamp is zero.
+    points : (n, 3) float
+        x, y, z in ``frame_id`` (float64; NaN points kept).
+    """
+
+    topic: str
+    frame_id: str
+    stamp_ns: int
+    points: Array
+
+
+def is_mcap(path: str | Path) -> bool:
+    """Whether ``path`` starts with the MCAP magic."""
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(8) == b"\x89MCAP0\r\n"
+    except OSError:
+        return False
+
+
+def _open(path: str | Path) -> Path:
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"{p}: no such bag file", hint="check the path")
+    if not is_mcap(p):
+        raise InputError(
+            f"{p}: not an MCAP file",
+            hint="give a ROS 2 bag recorded in MCAP (ros2 bag record -s mcap); "
+            "convert a .db3 bag with `ros2 bag convert`",
+        )
+    return p
+
+
+def _messages(
+    p: Path, topics: Sequence[str] | None = None
+) -> list[tuple[Any, Any, Any]]:
+    """``(schema, channel, message)`` of every message on ``topics`` (all when None),
+    in log-time order. Reads a bag without a summary (cut short) too."""
+    from mcap.exceptions import McapError
+    from mcap.reader import NonSeekingReader, make_reader
+
+    wanted = None if topics is None else set(topics)
+    try:
+        with open(p, "rb") as fh:
+            reader = make_reader(fh)
+            try:
+                summary = reader.get_summary()
+            except McapError:
+                summary = None
+            if summary is None:
+                fh.seek(0)
+                reader = NonSeekingReader(fh)
+            out = []
+            try:
+                for schema, channel, message in reader.iter_messages(
+                    topics=None if wanted is None else list(wanted)
+                ):
+                    out.append((schema, channel, message))
+            except (McapError, EOFError, ValueError) as exc:
+                if not out:
+                    raise
+                _ = exc  # a bag cut short: use what was read
+    except (McapError, OSError, ValueError) as exc:
+        raise InputError(
+            f"{p}: cannot read the bag: {exc}", hint="check the file is a complete MCAP"
+        ) from None
+    out.sort(key=lambda m: m[2].log_time)
+    return out
+
+
+def bag_topics(path: str | Path) -> dict[str, str]:
+    """Topic → message type of every channel in a bag."""
+    p = _open(path)
+    from mcap.reader import make_reader
+
+    with open(p, "rb") as fh:
+        try:
+            summary = make_reader(fh).get_summary()
+        except Exception:  # noqa: BLE001 - no summary: scan the messages
+            summary = None
+    if summary is not None:
+        return {
+            ch.topic: summary.schemas[ch.schema_id].name
+            if ch.schema_id in summary.schemas
+            else ""
+            for ch in summary.channels.values()
+        }
+    return {ch.topic: "" if s is None else s.name for s, ch, _ in _messages(p)}
+
+
+def _decode(schema: Any, channel: Any, message: Any) -> Any:
+    decoder = _DECODERS.decoder_for(channel.message_encoding, schema)
+    if decoder is None:
+        raise InputError(
+            f"topic {channel.topic!r} is not ROS 2 (encoding "
+            f"{channel.message_encoding!r}, schema "
+            f"{'none' if schema is None else schema.encoding!r})",
+            hint="give a ROS 2 bag (cdr messages with ros2msg schemas)",
+        )
+    return decoder(message.data)
+
+
+class _Decoders:
+    def __init__(self) -> None:
+        self._factory: Any = None
+
+    def decoder_for(self, encoding: str, schema: Any) -> Any:
+        if self._factory is None:
+            from mcap_ros2.decoder import DecoderFactory
+
+            self._factory = DecoderFactory()
+        return self._factory.decoder_for(encoding, schema)
+
+
+_DECODERS = _Decoders()
+
+
+def pointcloud2_xyz(msg: Any, topic: str = "") -> Array:
+    """``(n, 3)`` float64 x, y, z of a decoded ``PointCloud2`` (row padding and
+    either byte order handled).
+
+    Raises
+    ------
+    InputError
+        The cloud has no x, y or z field, or they are not numbers.
+    """
+    fields = {f.name: f for f in msg.fields}
+    missing = [a for a in "xyz" if a not in fields]
+    if missing:
+        found = ", ".join(
+            f"{f.name}:{_POINTFIELD_DTYPES.get(f.datatype, '?')}" for f in msg.fields
+        )
+        raise InputError(
+            f"PointCloud2 on {topic or 'the topic'} has no {'/'.join(missing)} "
+            f"field; its fields are: {found or 'none'}",
+            hint="plan on a cloud of 3D points (x, y, z fields), e.g. the "
+            "camera's points topic rather than a depth image or a 2D scan",
+        )
+    order = ">" if msg.is_bigendian else "<"
+    names, formats, offsets = [], [], []
+    for a in "xyz":
+        f = fields[a]
+        if f.datatype not in _POINTFIELD_DTYPES:
+            raise InputError(
+                f"PointCloud2 on {topic}: field {a} has unknown datatype {f.datatype}",
+                hint="x, y and z must be numbers (PointField datatypes 1..8)",
+            )
+        names.append(a)
+        formats.append(order + _POINTFIELD_DTYPES[f.datatype])
+        offsets.append(f.offset)
+    n = int(msg.width) * int(msg.height)
+    step = int(msg.point_step)
+    data = bytes(msg.data)
+    row = int(msg.row_step) if msg.row_step else step * int(msg.width)
+    if n == 0:
+        return np.zeros((0, 3))
+    if len(data) < row * (int(msg.height) - 1) + step * int(msg.width):
+        raise InputError(
+            f"PointCloud2 on {topic}: data has {len(data)} bytes, fewer than "
+            f"{msg.height} rows × {msg.width} points × {step} bytes",
+            hint="the message is malformed; re-record the bag",
+        )
+    dtype = np.dtype(
+        {"names": names, "formats": formats, "offsets": offsets, "itemsize": step}
+    )
+    rows = []
+    for r in range(int(msg.height)):  # rows may be padded: one view per row
+        start = r * row
+        rows.append(
+            np.frombuffer(data, dtype=dtype, count=int(msg.width), offset=start)
+        )
+    rec = np.concatenate(rows) if len(rows) > 1 else rows[0]
+    # (n, 3) float64 points
+    return np.stack([rec[a].astype(np.float64) for a in "xyz"], axis=1)
+
+
+def _stamp(msg: Any, log_time: int) -> int:
+    try:
+        s = int(msg.header.stamp.sec) * 1_000_000_000 + int(msg.header.stamp.nanosec)
+    except AttributeError:
+        s = 0
+    return s or int(log_time)
+
+
+def read_bag_clouds(
+    path: str | Path, topics: str | Sequence[str], *, at: float | None = None
+) -> list[BagCloud]:
+    """The latest cloud (at or before ``at``) on each topic.
+
+    Parameters
+    ----------
+    path
+        A ROS 2 bag in MCAP.
+    topics
+        One or more ``sensor_msgs/msg/PointCloud2`` topics.
+    at
+        Seconds since the bag's first message, or a UNIX time in seconds
+        (values above 1e9); the latest message by default.
+    """
+    p = _open(path)
+    tlist = [topics] if isinstance(topics, str) else list(topics)
+    msgs = _messages(p, tlist)
+    available = None
+    out = []
+    t_limit: int | None = None
+    if at is not None:
+        if at > 1e9:
+            t_limit = int(at * 1e9)
+        else:
+            first = _messages_first_time(p)
+            t_limit = first + int(at * 1e9)
+    for topic in tlist:
+        on_topic = [m for m in msgs if m[1].topic == topic]
+        if not on_topic:
+            available = available or bag_topics(p)
+            listing = ", ".join(f"{t} ({ty})" for t, ty in sorted(available.items()))
+            raise InputError(
+                f"{p}: has no messages on topic {topic!r}; its topics are: "
+                f"{listing or 'none'}",
+                hint="pass --topic with one of the PointCloud2 topics above",
+            )
+        schema = on_topic[0][0]
+        if schema is None or schema.name != POINTCLOUD2:
+            raise InputError(
+                f"{p}: topic {topic!r} carries "
+                f"{'untyped messages' if schema is None else schema.name}, not "
+                f"{POINTCLOUD2}",
+                hint="pass --topic with a PointCloud2 topic",
+            )
+        if t_limit is not None:
+            on_topic = [m for m in on_topic if m[2].log_time <= t_limit]
+            if not on_topic:
+                raise InputError(
+                    f"{p}: no cloud on {topic!r} at or before --at {at}",
+                    hint="give a later time, in seconds since the bag's start",
+                )
+        schema, channel, message = on_topic[-1]
+        msg = _decode(schema, channel, message)
+        out.append(
+            BagCloud(
+                topic=topic,
+                frame_id=str(msg.header.frame_id),
+                stamp_ns=_stamp(msg, message.log_time),
+                points=pointcloud2_xyz(msg, topic),
+            )
+        )
+    return out
+
+
+def _messages_first_time(p: Path) -> int:
+    msgs = _messages(p)
+    return int(msgs[0][2].log_time) if msgs else 0
+
+
+# -- transforms ---------------------------------------------------------------------
+def _tf_edges(p: Path, t_ns: int) -> dict[str, tuple[str, Array]]:
+    """child → (parent, T_parent_child): static transforms, and the latest dynamic
+    one at or before ``t_ns`` (the earliest after it when none is before)."""
+    from scipy.spatial.transform import Rotation
+
+    edges: dict[str, tuple[str, Array, int, bool]] = {}
+    for schema, channel, message in _messages(p, TF_TOPICS):
+        if schema is None or schema.name != TF_MESSAGE:
+            continue
+        static = channel.topic == "/tf_static"
+        msg = _decode(schema, channel, message)
+        for tr in msg.transforms:
+            stamp = _stamp(tr, message.log_time)
+            child = str(tr.child_frame_id).lstrip("/")
+            parent = str(tr.header.frame_id).lstrip("/")
+            q = tr.transform.rotation
+            v = tr.transform.translation
+            T = np.eye(4)
+            T[:3, :3] = Rotation.from_quat([q.x, q.y, q.z, q.w]).as_matrix()
+            T[:3, 3] = [v.x, v.y, v.z]
+            old = edges.get(child)
+            if old is None or static:
+                edges[child] = (parent, T, stamp, static)
+                continue
+            if old[3]:
+                continue  # a static transform wins
+            old_ok, new_ok = old[2] <= t_ns, stamp <= t_ns
+            better = (new_ok and (not old_ok or stamp >= old[2])) or (
+                not new_ok and not old_ok and stamp < old[2]
+            )
+            if better:
+                edges[child] = (parent, T, stamp, static)
+    return {c: (e[0], e[1]) for c, e in edges.items()}
+
+
+def _chain(edges: dict[str, tuple[str, Array]], frame: str) -> list[str]:
+    chain = [frame]
+    while chain[-1] in edges and len(chain) < 256:
+        chain.append(edges[chain[-1]][0])
+    return chain
+
+
+def _T_root(edges: dict[str, tuple[str, Array]], frame: str) -> Array:
+    """``T_root_frame`` up the tree."""
+    T = np.eye(4)
+    f = frame
+    while f in edges:
+        parent, T_parent_f = edges[f]
+        T = T_parent_f @ T
+        f = parent
+    return T
+
+
+def camera_pose(
+    edges: dict[str, tuple[str, Array]], target: str | None, cloud_frame: str
+) -> tuple[str, Array]:
+    """``(world frame name, T_world_camera)`` for a cloud in ``cloud_frame``."""
+    cloud_frame = cloud_frame.lstrip("/")
+    up = _chain(edges, cloud_frame)
+    root = up[-1]
+    if target is None:
+        return root, _T_root(edges, cloud_frame)
+    target = target.lstrip("/")
+    if target == cloud_frame:
+        return target, np.eye(4)
+    if target not in _chain(edges, target) or _chain(edges, target)[-1] != root:
+        known = sorted(set(edges) | {e[0] for e in edges.values()})
+        raise InputError(
+            f"no transform from {target!r} to the cloud's frame {cloud_frame!r} in "
+            f"/tf or /tf_static; frames in the bag: {', '.join(known) or 'none'}",
+            hint="pass --frame with a frame connected to the cloud's, or leave it "
+            "out to use the root of the cloud's transform tree",
+        )
+    T_root_target = _T_root(edges, target)
+    T_root_cloud = _T_root(edges, cloud_frame)
+    return target, np.linalg.inv(T_root_target) @ T_root_cloud
+
+
+def read_bag_scene(
+    path: str | Path,
+    topic: str | Sequence[str],
+    frame: str | None = None,
+    at: float | None = None,
+) -> Any:
+    """Read a ROS 2 bag's latest cloud(s) as a planner ``Scene``.
+
+    Parameters
+    ----------
+    path
+        A ROS 2 bag in MCAP.
+    topic
+        A ``sensor_msgs/msg/PointCloud2`` topic, or several (one view each).
+    frame
+        The world frame of the plan. By default the root of the clouds' transform
+        tree, or the cloud's own frame when the bag has no ``/tf``.
+    at
+        Seconds since the bag's first message (or a UNIX time); latest by default.
+
+    Returns
+    -------
+    Scene
+        One view per topic, ``T_world_camera`` from the transforms.
+
+    Raises
+    ------
+    InputError
+        Missing file, not MCAP, no such topic (the bag's topics are listed), not a
+        PointCloud2, no x/y/z fields (the fields found are listed), or no transform
+        to ``frame``.
+    """
+    from wsgrasp.perception.io import scene_from_arrays
+
+    p = _open(path)
+    clouds = read_bag_clouds(p, topic, at=at)
+    t_ref = max(c.stamp_ns for c in clouds)
+    edges = _tf_edges(p, t_ref)
+    views = []
+    worlds = set()
+    for c in clouds:
+        world, T = camera_pose(edges, frame, c.frame_id)
+        worlds.add(world)
+        views.append((c.points, T))
+    if len(worlds) > 1:
+        raise InputError(
+            f"the clouds' frames are not connected by /tf: roots {sorted(worlds)}",
+            hint="pass --frame with a frame every cloud's frame is connected to",
+        )
+    scene = scene_from_arrays(views)
+    for v, c in zip(scene.views, clouds, strict=True):
+        v.name = f"{c.topic} ({c.frame_id})"
+    return scene
+
+
+# -- writing (tests, examples) ---------------------------------------------------
+_HEADER = "builtin_interfaces/Time stamp\nstring frame_id\n"
+_TIME = "int32 sec\nuint32 nanosec\n"
+_SEP = "=" * 80 + "\n"
+POINTCLOUD2_DEF = (
+    "std_msgs/Header header\nuint32 height\nuint32 width\n"
+    "sensor_msgs/PointField[] fields\nbool is_bigendian\nuint32 point_step\n"
+    "uint32 row_step\nuint8[] data\nbool is_dense\n"
+    + _SEP
+    + "MSG: std_msgs/Header\n"
+    + _HEADER
+    + _SEP
+    + "MSG: builtin_interfaces/Time\n"
+    + _TIME
+    + _SEP
+    + "MSG: sensor_msgs/PointField\n"
+    "uint8 INT8=1\nuint8 UINT8=2\nuint8 INT16=3\nuint8 UINT16=4\nuint8 INT32=5\n"
+    "uint8 UINT32=6\nuint8 FLOAT32=7\nuint8 FLOAT64=8\n"
+    "string name\nuint32 offset\nuint8 datatype\nuint32 count\n"
+)
+TF_MESSAGE_DEF = (
+    "geometry_msgs/TransformStamped[] transforms\n"
+    + _SEP
+    + "MSG: geometry_msgs/TransformStamped\n"
+    "std_msgs/Header header\nstring child_frame_id\ngeometry_msgs/Transform transform\n"
+    + _SEP
+    + "MSG: std_msgs/Header\n"
+    + _HEADER
+    + _SEP
+    + "MSG: builtin_interfaces/Time\n"
+    + _TIME
+    + _SEP
+    + "MSG: geometry_msgs/Transform\n"
+    "geometry_msgs/Vector3 translation\ngeometry_msgs/Quaternion rotation\n"
+    + _SEP
+    + "MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n"
+    + _SEP
+    + "MSG: geometry_msgs/Quaternion\n"
+    "float64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1\n"
+)
+
+
+def _time(t_ns: int) -> dict[str, int]:
+    return {"sec": t_ns // 1_000_000_000, "nanosec": t_ns % 1_000_000_000}
+
+
+def write_cloud_bag(
+    path: str | Path,
+    clouds: Sequence[tuple[str, str, Any, int]],
+    transforms: Sequence[tuple[str, str, str, Any, int]] = (),
+    *,
+    fields: Sequence[str] = ("x", "y", "z"),
+) -> Path:
+    """Write a ROS 2 bag (MCAP) of PointCloud2 clouds and transforms.
+
+    Parameters
+    ----------
+    clouds
+        ``(topic, frame_id, points (n, 3), t_ns)``; points stored as float32.
+    transforms
+        ``(topic, parent, child, T_parent_child (4, 4), t_ns)`` with topic ``/tf``
+        or ``/tf_static``.
+    fields
+        Names of the three float32 fields (to write clouds without x/y/z).
+    """
+    from mcap_ros2.writer import Writer
+    from scipy.spatial.transform import Rotation
+
+    out = Path(path)
+    with open(out, "wb") as fh:
+        w = Writer(fh)
+        pc_schema = w.register_msgdef(POINTCLOUD2, POINTCLOUD2_DEF)
+        tf_schema = w.register_msgdef(TF_MESSAGE, TF_MESSAGE_DEF)
+        events: list[tuple[int, int, Any]] = []
+        for i, (topic, frame_id, pts, t) in enumerate(clouds):
+            events.append((t, i, ("cloud", topic, frame_id, pts)))
+        for i, (topic, parent, child, T, t) in enumerate(transforms):
+            events.append((t, len(clouds) + i, ("tf", topic, parent, child, T)))
+        for t, _, ev in sorted(events, key=lambda e: (e[0], e[1])):
+            if ev[0] == "cloud":
+                _, topic, frame_id, pts = ev
+                p32 = np.ascontiguousarray(np.asarray(pts, dtype="<f4").reshape(-1, 3))
+                msg = {
+                    "header": {"stamp": _time(t), "frame_id": frame_id},
+                    "height": 1,
+                    "width": len(p32),
+                    "fields": [
+                        {"name": n, "offset": 4 * k, "datatype": 7, "count": 1}
+                        for k, n in enumerate(fields)
+                    ],
+                    "is_bigendian": False,
+                    "point_step": 12,
+                    "row_step": 12 * len(p32),
+                    "data": p32.tobytes(),
+                    "is_dense": bool(np.isfinite(p32).all()),
+                }
+                w.write_message(topic, pc_schema, msg, log_time=t, publish_time=t)
+            else:
+                _, topic, parent, child, T = ev
+                T = np.asarray(T, dtype=np.float64)
+                q = Rotation.from_matrix(T[:3, :3]).as_quat()
+                msg = {
+                    "transforms": [
+                        {
+                            "header": {"stamp": _time(t), "frame_id": parent},
+                            "child_frame_id": child,
+                            "transform": {
+                                "translation": dict(
+                                    zip("xyz", T[:3, 3].tolist(), strict=True)
+                                ),
+                                "rotation": dict(zip("xyzw", q.tolist(), strict=True)),
+                            },
+                        }
+                    ]
+                }
+                w.write_message(topic, tf_schema, msg, log_time=t, publish_time=t)
+        w.finish()
+    return out
