@@ -6,10 +6,8 @@ table collision (gripper cloud inside the table superellipsoid), object collisio
 objects inside a body superellipsoid), and a finger with no object point inside any
 of its workspace spheres. Later checks run only on the survivors of earlier ones.
 
-Cost does not grow with the number of spheres: per finger, a point lies inside some
-sphere ``(c, r)`` exactly when its nearest neighbour among the lifted centres
-``(c, sqrt(R² - r²))`` (``R`` the finger's largest radius) lies closer than ``R``
-to ``(p, 0)``, so one KD-tree query per point and finger answers it.
+The finger check's cost does not grow with the number of spheres: see
+``wsgrasp.planning.spheres``.
 """
 
 from __future__ import annotations
@@ -18,13 +16,13 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial import cKDTree
 
 from wsgrasp.geometry import (
     coordinates_in_superellipsoids,
     invert_transforms,
 )
 from wsgrasp.gripper.model import GripperModel
+from wsgrasp.planning.spheres import FingerSpheres
 
 __all__ = ["FingerSpheres", "Evaluation", "evaluate_candidates", "TableSE"]
 
@@ -51,50 +49,6 @@ class TableSE:
     center: Array
     semi_axes: Array
     exponent: float
-
-
-class FingerSpheres:
-    """Exact point-in-sphere queries per finger, at a cost independent of the
-    number of spheres (a KD-tree over lifted centres per finger)."""
-
-    def __init__(self, gripper: GripperModel) -> None:
-        self.num_fingers = gripper.num_fingers
-        self._fingers = []
-        for f in range(self.num_fingers):
-            sel = gripper.sphere_finger == f
-            centers = gripper.sphere_centers[sel]  # (nsp, 3)
-            radii = gripper.sphere_radii[sel]  # (nsp,)
-            R = float(radii.max())
-            lifted = np.hstack([centers, np.sqrt(R * R - radii * radii)[:, None]])
-            lo = (centers - radii[:, None]).min(axis=0)
-            hi = (centers + radii[:, None]).max(axis=0)
-            self._fingers.append((cKDTree(lifted), centers, radii, R, lo, hi))
-
-    def holding(self, points: Array) -> NDArray[np.bool_]:
-        """Which finger's spheres hold each point.
-
-        Parameters
-        ----------
-        points : (n, 3) float
-            In the gripper frame.
-
-        Returns
-        -------
-        (n, nf) bool
-        """
-        out = np.zeros((len(points), self.num_fingers), dtype=bool)
-        for f, (tree, centers, radii, R, lo, hi) in enumerate(self._fingers):
-            idx = np.flatnonzero(np.all((points > lo) & (points < hi), axis=1))
-            if idx.size == 0:
-                continue
-            query = np.hstack([points[idx], np.zeros((idx.size, 1))])  # (k, 4)
-            _, nearest = tree.query(query, k=1, distance_upper_bound=R)
-            found = nearest < len(centers)
-            idx, nearest = idx[found], nearest[found]
-            # exact test against the sphere nearest in power distance
-            d2 = np.sum((points[idx] - centers[nearest]) ** 2, axis=-1)
-            out[idx[d2 < radii[nearest] * radii[nearest]], f] = True
-        return out
 
 
 @dataclass
