@@ -49,6 +49,12 @@ def eval_command(
     friction: float | None = typer.Option(
         None, "--friction", help="Object friction coefficient, overriding defaults."
     ),
+    drop: str = typer.Option(
+        "natural",
+        "--drop",
+        help="natural: objects put down upright as modelled (random position, "
+        "yaw, tilt up to 15°); random: any orientation.",
+    ),
     workers: int = typer.Option(
         0, "--workers", "-j", min=0, help="Processes (0: one per CPU core)."
     ),
@@ -66,6 +72,7 @@ def eval_command(
 ) -> None:
     """Grasp trials in MuJoCo: drop, look (3 depth views), plan, approach, close,
     lift 20 cm, hold 10 s; success rate and plan time per object and gripper."""
+    from wsgrasp.errors import InputError
     from wsgrasp.sim import (
         EvalConfig,
         SimParams,
@@ -80,7 +87,12 @@ def eval_command(
     )
 
     require_mujoco()
-    params = SimParams()
+    if drop not in ("natural", "random"):
+        raise InputError(
+            f"--drop {drop!r} is unknown, expected natural or random",
+            hint="pass --drop natural",
+        )
+    params = SimParams(drop_pose=drop)
     objs = load_objects(list(objects), mass=mass, friction=friction)
     for g in grippers:  # fail early: unknown gripper, URDF, no closed posture
         load_sim_gripper(g, params)

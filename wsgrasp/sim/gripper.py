@@ -7,8 +7,8 @@ to mimic joints does not depend on the MuJoCo version: each becomes a joint
 equality ``q = offset + multiplier * q_master``. Every other movable joint gets a
 position actuator (gains in :class:`~wsgrasp.sim.params.SimParams`).
 
-The gripper's root body carries a free joint; :mod:`wsgrasp.sim.scene` welds it to
-a mocap target that the trial moves.
+:mod:`wsgrasp.sim.scene` mounts the root body on a 6-DoF drive that the trial
+moves.
 """
 
 from __future__ import annotations
@@ -57,11 +57,11 @@ class SimGripper:
     ----------
     name : str
     body_xml : str
-        The ``<body>`` tree rooted at the URDF's root link (free joint included).
+        The ``<body>`` tree rooted at the URDF's root link.
     asset_xml, equality_xml, actuator_xml : str
         What the body needs in ``<asset>``, ``<equality>``, ``<actuator>``.
     root_body : str
-        MJCF name of the root body (welded to the trial's target).
+        MJCF name of the root body (carried by the trial's drive).
     T_root_base : (4, 4) float
         The YAML's ``base_link`` in the root link's frame (identity when the base
         link is the root).
@@ -203,9 +203,7 @@ def sim_gripper_from_files(
         if T_parent is not None:
             head += " " + pose_attrs(T_parent)
         lines = [head + ">"]
-        if joint is None:
-            lines.append(f'<freejoint name="{PREFIX}free"/>')
-        elif joint.kind != "fixed":
+        if joint is not None and joint.kind != "fixed":
             prismatic = joint.kind == "prismatic"
             lines.append(
                 "<joint "

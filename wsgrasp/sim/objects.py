@@ -215,12 +215,12 @@ def _box_wall(
 # paper13
 # --------------------------------------------------------------------------------
 def _storage_bin() -> SimObject:
-    # a small open plastic bin, 14 x 10 x 7.5 cm, 3 mm walls
-    return SimObject("storage_bin", _box_wall((0.14, 0.10, 0.075), 0.003, 0.003), 0.12)
+    # a small open plastic bin, 13 x 9 x 7 cm, 4 mm walls
+    return SimObject("storage_bin", _box_wall((0.13, 0.09, 0.07), 0.004, 0.004), 0.12)
 
 
 def _mug() -> SimObject:
-    r, h = 0.04, 0.095
+    r, h = 0.035, 0.09  # a 7 cm tea mug
     parts = [_disk(r - 0.001, 0.008)] + _wall(r, r, h, 0.005, 16)
     # handle: three bars in the x-z plane outside the wall at +x
     parts += [
@@ -241,7 +241,7 @@ def _thermos() -> SimObject:
 
 def _realsense_box() -> SimObject:
     return SimObject(
-        "realsense_box", [Part("box", (0.135, 0.095, 0.06), _T((0, 0, 0.03)))], 0.25
+        "realsense_box", [Part("box", (0.13, 0.07, 0.055), _T((0, 0, 0.0275)))], 0.2
     )
 
 
@@ -255,13 +255,13 @@ def _cookies_package() -> SimObject:
 
 
 def _plant_pot() -> SimObject:
-    rb, rt, h = 0.032, 0.042, 0.085
+    rb, rt, h = 0.029, 0.036, 0.08
     parts = [_disk(rb - 0.001, 0.01)] + _wall(rb, rt, h, 0.005, 16)
     return SimObject("plant_pot", parts, 0.20)
 
 
 def _plastic_cup() -> SimObject:
-    rb, rt, h = 0.027, 0.038, 0.10
+    rb, rt, h = 0.025, 0.035, 0.095
     parts = [_disk(rb - 0.001, 0.003)] + _wall(rb, rt, h, 0.002, 16)
     return SimObject("plastic_cup", parts, 0.03)
 
@@ -274,7 +274,7 @@ def _tooth_paste() -> SimObject:
 
 
 def _toilet_paper_roll() -> SimObject:
-    parts = _wall(0.055, 0.055, 0.10, 0.035, 16)
+    parts = _wall(0.05, 0.05, 0.095, 0.03, 16)
     return SimObject("toilet_paper_roll", parts, 0.12)
 
 
@@ -319,12 +319,12 @@ def _banana() -> SimObject:
 
 def _sprayer() -> SimObject:
     parts = [
-        Part("box", (0.09, 0.055, 0.15), _T((0, 0, 0.075))),
-        Part("cylinder", (0.015, 0.035), _T((0, 0, 0.1675))),
-        Part("box", (0.07, 0.03, 0.035), _T((0.015, 0, 0.2025))),
-        Part("box", (0.012, 0.02, 0.04), _T((0.035, 0, 0.165))),
+        Part("box", (0.07, 0.05, 0.14), _T((0, 0, 0.07))),
+        Part("cylinder", (0.014, 0.035), _T((0, 0, 0.1575))),
+        Part("box", (0.065, 0.028, 0.035), _T((0.012, 0, 0.1925))),
+        Part("box", (0.012, 0.02, 0.04), _T((0.03, 0, 0.155))),
     ]
-    return SimObject("sprayer", parts, 0.35)
+    return SimObject("sprayer", parts, 0.3)
 
 
 #: name → builder, in the order of the paper's Table II

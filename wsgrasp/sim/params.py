@@ -22,12 +22,13 @@ Masses
     would be.
 
 Gripper drive
-    The gripper's base body is free (6 DoF) and pulled towards a moving target (a
-    MuJoCo mocap body) by a weld equality with time constant ``drive_timeconst``:
-    a stiff spring-damper, like an arm's Cartesian impedance controller. The
-    target moves along straight lines at ``approach_speed`` and ``lift_speed``;
-    the gripper follows, and is stopped by what it hits instead of passing
-    through it.
+    The gripper stands on a 6-DoF drive (slides along world x, y, z and hinges
+    about them) with position actuators: stiffness ``drive_kp_linear`` (N/m) and
+    ``drive_kp_angular`` (N·m/rad), force limits ``drive_force`` (N) and
+    ``drive_torque`` (N·m), damping and armature as below; a Cartesian impedance
+    controller of an arm, in miniature. The targets move along straight lines at
+    ``approach_speed`` and ``lift_speed``; the gripper follows, and what it hits
+    stops it instead of being passed through.
 
 Finger drive
     Each actuated finger joint has a position actuator (gain ``kp_prismatic``
@@ -40,7 +41,9 @@ Finger drive
 
 Protocol
     The object is dropped from ``drop_height`` above the table at a random
-    orientation and position (within ``drop_radius`` of the table centre) and
+    position (within ``drop_radius`` of the table centre) and yaw, tilted by up
+    to ``drop_tilt_deg`` from its natural resting pose (``drop_pose`` "natural";
+    "random" draws any orientation, so mugs land on their sides) and
     settles with extra damping ``settle_damping`` on its free joint (removed for
     the grasp). The gripper starts ``standoff`` back along its approach axis,
     approaches, closes, lifts ``lift_height`` and holds for ``hold_time``.
@@ -70,7 +73,14 @@ class SimParams:
     # gripper
     gripper_density: float = 1000.0
     gripper_friction: float = 0.8
-    drive_timeconst: float = 0.01
+    drive_kp_linear: float = 3000.0
+    drive_kp_angular: float = 100.0
+    drive_force: float = 60.0
+    drive_torque: float = 10.0
+    drive_damping_linear: float = 150.0
+    drive_damping_angular: float = 3.0
+    drive_armature_linear: float = 0.5
+    drive_armature_angular: float = 0.01
     kp_prismatic: float = 2000.0
     kp_revolute: float = 2.0
     damping_prismatic: float = 20.0
@@ -78,6 +88,8 @@ class SimParams:
     armature_prismatic: float = 0.05
     armature_revolute: float = 0.001
     # protocol
+    drop_pose: str = "natural"
+    drop_tilt_deg: float = 15.0
     drop_height: float = 0.01
     drop_radius: float = 0.05
     settle_time: float = 3.0

@@ -1,9 +1,10 @@
 """The MuJoCo world of a trial: table, object, and optionally the gripper.
 
 The table is a slab whose top is the plane z = 0 (the world frame of ``scene
-synth``). The gripper's root body has a free joint and is welded to the mocap body
-``target``: moving the target drives the gripper like an impedance-controlled arm,
-and contacts stop it.
+synth``). The gripper stands on a 6-DoF drive, three slides and three hinges along
+the world axes, each with a force-limited position actuator: an arm's Cartesian
+impedance controller in miniature. Moving the targets drives the gripper; what it
+hits stops it (the drive gives way at ``drive_force``).
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wsgrasp.sim._mujoco import require_mujoco
-from wsgrasp.sim._xml import attrs, fmt
+from wsgrasp.sim._xml import attrs
 from wsgrasp.sim.gripper import PREFIX, SimGripper
 from wsgrasp.sim.objects import OBJECT_CONAFFINITY, OBJECT_CONTYPE, SimObject
 from wsgrasp.sim.params import SimParams
@@ -60,27 +61,9 @@ def scene_xml(obj: SimObject, gripper: SimGripper | None, p: SimParams) -> str:
     actuator = ""
     if gripper is not None:
         assets.append(gripper.asset_xml)
-        gripper_xml = (
-            '<body name="target" mocap="true" pos="0 0 1"/>\n'
-            + gripper.body_xml.replace(
-                f'<body name="{gripper.root_body}" gravcomp="1"',
-                f'<body name="{gripper.root_body}" gravcomp="1" pos="0 0 1"',
-                1,
-            )
-        )
-        equality = (
-            "<weld "
-            + attrs(
-                name="drive",
-                body1="target",
-                body2=gripper.root_body,
-                relpose="0 0 0 1 0 0 0",
-                solref=(p.drive_timeconst, 1.0),
-            )
-            + "/>\n"
-            + gripper.equality_xml
-        )
-        actuator = gripper.actuator_xml
+        gripper_xml = _drive_xml(gripper, p)
+        equality = gripper.equality_xml
+        actuator = _drive_actuators(p) + "\n" + gripper.actuator_xml
     return f"""<mujoco model="wsgrasp_trial">
 <compiler angle="radian" boundmass="1e-4" boundinertia="1e-9"/>
 <option {
@@ -136,7 +119,8 @@ class SimScene:
     gripper_bodies : (B,) int
         Bodies of the gripper (empty without one).
     gripper_qpos : slice or None
-        The gripper root's free joint in ``qpos``.
+        The drive's joints in ``qpos`` (x, y, z, rx, ry, rz; see
+        ``DRIVE_JOINTS``); their actuators are the first six.
     table_geom : int
     joint_qpos : dict of str to int
         qpos address of each gripper joint by its URDF name.
@@ -151,7 +135,7 @@ class SimScene:
     gripper_bodies: NDArray[np.int64]
     gripper_qpos: slice | None
     gripper_dof: slice | None
-    mocap: int
+    root_body: int
     table_geom: int
     joint_qpos: dict[str, int]
 
@@ -181,19 +165,17 @@ def build_scene(
     table = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "table")
     gbodies: list[int] = []
     gq = gd = None
-    mocap = -1
+    root = -1
     joint_qpos: dict[str, int] = {}
     if gripper is not None:
         root = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, gripper.root_body)
         gbodies = [b for b in range(model.nbody) if _has_ancestor(model, b, root)]
-        gj = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, PREFIX + "free")
-        gq = slice(int(model.jnt_qposadr[gj]), int(model.jnt_qposadr[gj]) + 7)
+        gj = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, DRIVE_JOINTS[0])
+        gq = slice(int(model.jnt_qposadr[gj]), int(model.jnt_qposadr[gj]) + 6)
         gd = slice(int(model.jnt_dofadr[gj]), int(model.jnt_dofadr[gj]) + 6)
-        target = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "target")
-        mocap = int(model.body_mocapid[target])
         for j in range(model.njnt):
             name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or ""
-            if name.startswith(PREFIX) and name != PREFIX + "free":
+            if name.startswith(PREFIX):
                 joint_qpos[name[len(PREFIX) :]] = int(model.jnt_qposadr[j])
     return SimScene(
         model=model,
@@ -205,7 +187,7 @@ def build_scene(
         gripper_bodies=np.asarray(gbodies, dtype=np.int64),
         gripper_qpos=gq,
         gripper_dof=gd,
-        mocap=mocap,
+        root_body=root,
         table_geom=table,
         joint_qpos=joint_qpos,
     )
@@ -219,4 +201,57 @@ def _has_ancestor(model: Any, body: int, ancestor: int) -> bool:
     return False
 
 
-_ = fmt
+#: the drive's joints: translations along world x, y, z, then small rotations
+DRIVE_JOINTS = ("drive/x", "drive/y", "drive/z", "drive/rx", "drive/ry", "drive/rz")
+
+
+def _drive_xml(gripper: SimGripper, p: SimParams) -> str:
+    """The arm stand-in: a chain of 3 slides and 3 hinges (world axes) carrying
+    the gripper's root body, whose orientation (``body_quat``) each trial sets to
+    the planned one, so the hinges stay near zero (no gimbal lock)."""
+    joints = []
+    for name, kind, axis in zip(
+        DRIVE_JOINTS,
+        ("slide",) * 3 + ("hinge",) * 3,
+        ((1, 0, 0), (0, 1, 0), (0, 0, 1)) * 2,
+        strict=True,
+    ):
+        lin = kind == "slide"
+        joints.append(
+            "<joint "
+            + attrs(
+                name=name,
+                type=kind,
+                axis=axis,
+                damping=p.drive_damping_linear if lin else p.drive_damping_angular,
+                armature=p.drive_armature_linear if lin else p.drive_armature_angular,
+                limited="false",
+            )
+            + "/>"
+        )
+    body = gripper.body_xml.replace('<freejoint name="g/free"/>', "", 1)
+    return (
+        '<body name="drive" gravcomp="1">\n'
+        + "\n".join(joints)
+        + '\n<inertial pos="0 0 0" mass="0.01" diaginertia="1e-5 1e-5 1e-5"/>\n'
+        + body
+        + "\n</body>"
+    )
+
+
+def _drive_actuators(p: SimParams) -> str:
+    out = []
+    for i, name in enumerate(DRIVE_JOINTS):
+        lin = i < 3
+        limit = p.drive_force if lin else p.drive_torque
+        out.append(
+            "<position "
+            + attrs(
+                name=name,
+                joint=name,
+                kp=p.drive_kp_linear if lin else p.drive_kp_angular,
+                forcerange=(-limit, limit),
+            )
+            + "/>"
+        )
+    return "\n".join(out)

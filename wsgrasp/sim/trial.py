@@ -1,7 +1,9 @@
 """One grasp trial, as in the paper's experiments (Sorour et al. 2019, Sec. V).
 
-1. **Drop.** The object is dropped at a random (seeded) orientation and position
-   onto the table and left to settle.
+1. **Drop.** The object is dropped onto the table at a random (seeded) position
+   and yaw, tilted at random from its natural resting pose (``drop_pose
+   "natural"``, as a person would put it down; ``"random"`` draws any
+   orientation) and left to settle.
 2. **Look.** Three noisy depth views of the settled scene are rendered with the
    camera model of ``scene synth``; the planner gets only these views.
 3. **Plan.** The pipeline plans a grasp: the pose of the gripper's base link.
@@ -99,7 +101,16 @@ def settle_object(
     limit = p.table_size / 2.0 - 0.03
     for drop in range(1, 11):
         mujoco.mj_resetData(m, d)
-        R = Rotation.random(random_state=rng).as_matrix()
+        if p.drop_pose == "random":
+            R = Rotation.random(random_state=rng).as_matrix()
+        else:  # natural: upright as modelled, random yaw, tilted up to drop_tilt
+            axis = np.array([*rng.normal(size=2), 0.0])
+            axis /= max(float(np.linalg.norm(axis)), 1e-12)
+            tilt = np.radians(p.drop_tilt_deg) * rng.uniform(0.0, 1.0)
+            yaw = rng.uniform(0.0, 2.0 * np.pi)
+            R = (
+                Rotation.from_rotvec(axis * tilt) * Rotation.from_rotvec([0, 0, yaw])
+            ).as_matrix()
         xy = rng.uniform(-p.drop_radius, p.drop_radius, 2)
         z = -float((verts @ R.T)[:, 2].min()) + p.drop_height
         T = np.eye(4)
@@ -199,13 +210,16 @@ def execute_grasp(
     approach = T_world_base[:3, :3] @ g.approach_axis  # (3,) world
     T_start = T_goal.copy()
     T_start[:3, 3] -= p.standoff * approach
-    q_start = _pose_to_qpos(T_start)
-    d.qpos[scene.gripper_qpos] = q_start
-    d.mocap_pos[scene.mocap] = q_start[:3]
-    d.mocap_quat[scene.mocap] = q_start[3:]
+    from wsgrasp.sim._xml import quat_wxyz
+
+    m.body_quat[scene.root_body] = quat_wxyz(T_goal[:3, :3])
+    d.qpos[scene.gripper_qpos] = 0.0
+    d.qpos[scene.gripper_qpos][:3] = T_start[:3, 3]
+    d.ctrl[:6] = 0.0
+    d.ctrl[:3] = T_start[:3, 3]
     for jn, v in g.qpos_pregrasp.items():
         d.qpos[scene.joint_qpos[jn]] = v
-    d.ctrl[:] = g.pregrasp
+    d.ctrl[6:] = g.pregrasp
     mujoco.mj_forward(m, d)
     z0 = float(d.xpos[scene.object_body][2])
     p0 = d.xpos[scene.object_body].copy()
@@ -216,7 +230,7 @@ def execute_grasp(
         dist = float(np.linalg.norm(goal - start))
         n = max(1, int(np.ceil(dist / speed / dt)))
         for i in range(1, n + 1):
-            d.mocap_pos[scene.mocap] = start + (goal - start) * (i / n)
+            d.ctrl[:3] = start + (goal - start) * (i / n)
             mujoco.mj_step(m, d)
 
     def wait(seconds: float) -> None:
@@ -225,7 +239,7 @@ def execute_grasp(
     # 4. approach
     move(T_start[:3, 3], T_goal[:3, 3], p.approach_speed)
     wait(0.1)
-    root = d.qpos[scene.gripper_qpos][:3]
+    root = d.xpos[scene.root_body]
     blocked = float(np.linalg.norm(root - T_goal[:3, 3]))
     disp = float(np.linalg.norm(d.xpos[scene.object_body] - p0))
     rot = _angle_deg(R0, d.xmat[scene.object_body].reshape(3, 3))
@@ -237,7 +251,7 @@ def execute_grasp(
     # 5. close: ramp the targets, then let the grip build up
     n = max(1, int(round(p.close_time / dt)))
     for i in range(1, n + 1):
-        d.ctrl[:] = g.pregrasp + (g.closed - g.pregrasp) * (i / n)
+        d.ctrl[6:] = g.pregrasp + (g.closed - g.pregrasp) * (i / n)
         mujoco.mj_step(m, d)
     wait(p.close_wait)
     # 6. lift, then hold

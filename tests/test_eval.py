@@ -1,0 +1,125 @@
+"""``wsgrasp eval``: the command, its report and its specs."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("mujoco")
+
+from wsgrasp.cli import main  # noqa: E402
+from wsgrasp.errors import InputError  # noqa: E402
+from wsgrasp.sim import build_report, report_markdown, spec_entries  # noqa: E402
+
+
+def test_eval_one_object_one_trial(tmp_path: Path, capsys: pytest.CaptureFixture):
+    md = tmp_path / "table.md"
+    rc = main(
+        [
+            "eval",
+            "--gripper",
+            "franka_hand",
+            "--objects",
+            "realsense_box",
+            "--trials",
+            "1",
+            "--workers",
+            "1",
+            "--json",
+            "--md-out",
+            str(md),
+        ]
+    )
+    assert rc == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["trials"] == 1
+    assert 0.0 <= report["success_rate"] <= 1.0
+    assert report["plan_ms_median"] > 0
+    by_spec = {r["spec"]: r for r in report["results"]}
+    assert set(by_spec) == {"default", "paper"}
+    row = by_spec["default"]["objects"][0]
+    assert row["object"] == "realsense_box"
+    assert row["trials"] == 1
+    assert row["paper"] == {"plan_s": 0.41, "success_rate": 0.9}
+    (record,) = [r for r in report["trial_records"] if r["spec"] == "default"]
+    assert record["outcome"] in (
+        "success",
+        "no_grasp",
+        "approach_collision",
+        "slipped_lifting",
+        "dropped_holding",
+    )
+    assert "| realsense_box |" in md.read_text()
+
+
+def test_eval_refuses_an_open_mesh(tmp_path: Path, capsys: pytest.CaptureFixture):
+    import numpy as np
+    import trimesh
+
+    mesh = trimesh.creation.box(extents=(0.05, 0.05, 0.1))
+    mesh.update_faces(np.arange(len(mesh.faces)) > 1)
+    mesh.export(tmp_path / "open.stl")
+    rc = main(["eval", "--objects", str(tmp_path / "open.stl"), "--trials", "1"])
+    assert rc == 2
+    err = capsys.readouterr().err
+    assert "not watertight" in err
+
+
+def _rec(gripper: str, spec: str, obj: str, outcome: str, plan_ms: float) -> dict:
+    return {
+        "gripper": gripper,
+        "spec": spec,
+        "object": obj,
+        "trial": 0,
+        "outcome": outcome,
+        "plan_ms": plan_ms,
+    }
+
+
+def test_report_counts_outcomes_per_object_and_gripper():
+    records = [
+        _rec("franka_hand", "default", "mug", "success", 100.0),
+        _rec("franka_hand", "default", "mug", "slipped_lifting", 300.0),
+        _rec("franka_hand", "default", "banana", "success", 200.0),
+        _rec("franka_hand", "paper", "mug", "no_grasp", 50.0),
+        _rec("allegro_right", "default", "mug", "dropped_holding", 400.0),
+    ]
+    report = build_report(records)
+    # the top level is the primary ("default") spec over every gripper
+    assert report["trials"] == 4
+    assert report["success_rate"] == pytest.approx(0.5)
+    assert report["plan_ms_median"] == pytest.approx(250.0)
+    franka = next(
+        r
+        for r in report["results"]
+        if r["gripper"] == "franka_hand" and r["spec"] == "default"
+    )
+    assert franka["success_rate"] == pytest.approx(2 / 3)
+    mug = next(o for o in franka["objects"] if o["object"] == "mug")
+    assert mug["failures"]["slipped_lifting"] == 1
+    assert mug["success_rate"] == pytest.approx(0.5)
+    md = report_markdown(report)
+    assert "| mug | 0.20 s | 50 % | 0.05 s | 0 % | 0.23 s | 80 % |" in md
+    assert "**allegro_right**" in md
+
+
+def test_spec_entries_default_paper_and_files(tmp_path: Path):
+    entries = spec_entries(["franka_hand", "allegro_right"])
+    assert [(e.gripper, e.label) for e in entries] == [
+        ("franka_hand", "default"),
+        ("franka_hand", "paper"),
+        ("allegro_right", "default"),
+        ("allegro_right", "paper"),
+    ]
+    assert all(e.spec["gripper"] == e.gripper for e in entries)
+    paper = entries[1].spec
+    assert [s["name"] for s in paper["scorers"]] == ["centroid_distance"]
+
+    spec = tmp_path / "mine.yaml"
+    spec.write_text("version: 1\ngripper: franka_hand\n")
+    (entry,) = spec_entries(["allegro_right"], [f"x={spec}"])
+    assert entry.label == "x" and entry.spec["gripper"] == "allegro_right"
+    with pytest.raises(InputError, match="labels repeat"):
+        spec_entries(["franka_hand"], [str(spec), str(spec)])

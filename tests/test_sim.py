@@ -1,0 +1,213 @@
+"""Physics trials: the simulated gripper, objects, settling and grasp execution."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco")
+
+from wsgrasp.errors import InputError, SimulationError  # noqa: E402
+from wsgrasp.sim import (  # noqa: E402
+    PAPER13,
+    SimParams,
+    build_scene,
+    execute_grasp,
+    object_from_mesh,
+    paper13,
+    require_mujoco,
+    settle_object,
+    sim_gripper_from_files,
+)
+from wsgrasp.sim.objects import Part, SimObject  # noqa: E402
+
+JAW_URDF = """<?xml version="1.0"?>
+<robot name="jaw">
+  <link name="palm">
+    <collision>
+      <origin xyz="0 0 0.02"/><geometry><box size="0.04 0.16 0.04"/></geometry>
+    </collision>
+  </link>
+  <link name="left">
+    <collision>
+      <origin xyz="0 0.005 0.03"/><geometry><box size="0.02 0.01 0.06"/></geometry>
+    </collision>
+  </link>
+  <link name="right">
+    <collision>
+      <origin xyz="0 0.005 0.03"/><geometry><box size="0.02 0.01 0.06"/></geometry>
+    </collision>
+  </link>
+  <joint name="j_left" type="prismatic">
+    <parent link="palm"/><child link="left"/>
+    <origin xyz="0 0 0.04"/><axis xyz="0 1 0"/>
+    <limit lower="0" upper="0.05" effort="60" velocity="0.2"/>
+  </joint>
+  <joint name="j_right" type="prismatic">
+    <parent link="palm"/><child link="right"/>
+    <origin xyz="0 0 0.04" rpy="0 0 3.141592653589793"/><axis xyz="0 1 0"/>
+    <limit lower="0" upper="0.05" effort="60" velocity="0.2"/>
+    <mimic joint="j_left" multiplier="1" offset="0"/>
+  </joint>
+</robot>
+"""
+
+
+def jaw_description(**over: object) -> dict:
+    desc = {
+        "name": "jaw",
+        "urdf": "jaw.urdf",
+        "base_link": "palm",
+        "approach_axis": (0.0, 0.0, 1.0),
+        "closing_axis": (0.0, 1.0, 0.0),
+        "pregrasp": {"j_left": 0.05},
+        "closed": {"j_left": 0.0},
+    }
+    desc.update(over)
+    return desc
+
+
+@pytest.fixture
+def jaw_dir(tmp_path: Path) -> Path:
+    (tmp_path / "jaw.urdf").write_text(JAW_URDF)
+    return tmp_path
+
+
+@pytest.fixture
+def box_object() -> SimObject:
+    # 4 x 6 x 8 cm box, base on z = 0
+    return SimObject("box", [Part("box", (0.04, 0.06, 0.08), _T((0, 0, 0.04)))], 0.2)
+
+
+def _T(xyz=(0.0, 0.0, 0.0), R=None) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, 3] = xyz
+    if R is not None:
+        T[:3, :3] = R
+    return T
+
+
+#: the gripper pointing down (its z along world -z), closing along world x
+R_DOWN = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+
+
+def test_mimic_joint_follows_its_master(jaw_dir: Path, box_object: SimObject):
+    mujoco = require_mujoco()
+    g = sim_gripper_from_files(jaw_description(), jaw_dir)
+    assert g.actuated == ["j_left"]
+    scene = build_scene(box_object, g)
+    m, d = scene.model, scene.data
+    d.qpos[scene.gripper_qpos][2] = d.ctrl[2] = 0.5  # the gripper in the air
+    for target in (0.04, 0.01, 0.03):
+        d.ctrl[6:] = target
+        mujoco.mj_step(m, d, nstep=500)
+        q_left = d.qpos[scene.joint_qpos["j_left"]]
+        q_right = d.qpos[scene.joint_qpos["j_right"]]
+        assert q_left == pytest.approx(target, abs=2e-3)
+        assert q_right == pytest.approx(q_left, abs=1e-3)
+
+
+@pytest.mark.parametrize(
+    "closed, match",
+    [({}, "no closed configuration"), ({"j_left": 0.05}, "equals the pregrasp")],
+    ids=["missing", "same-as-pregrasp"],
+)
+def test_gripper_without_closed_configuration_is_refused(
+    jaw_dir: Path, closed: dict, match: str
+):
+    with pytest.raises(SimulationError, match=match):
+        sim_gripper_from_files(jaw_description(closed=closed), jaw_dir)
+
+
+def test_unknown_joint_in_posture_is_named(jaw_dir: Path):
+    with pytest.raises(SimulationError, match="j_middle"):
+        sim_gripper_from_files(jaw_description(closed={"j_middle": 0.0}), jaw_dir)
+
+
+def test_missing_mujoco_says_how_to_install(monkeypatch: pytest.MonkeyPatch):
+    monkeypatch.setitem(sys.modules, "mujoco", None)
+    with pytest.raises(SimulationError, match=r"pip install 'wsgrasp\[sim\]'"):
+        require_mujoco()
+
+
+def test_paper13_objects_are_plausible():
+    objs = paper13()
+    assert [o.name for o in objs] == list(PAPER13)
+    for o in objs:
+        ext = o.size()
+        assert 0.03 <= ext.max() <= 0.25, o.name
+        assert ext.min() >= 0.01, o.name
+        assert 0.01 <= o.mass <= 1.0, o.name
+        com, inertia = o.inertial()
+        assert np.all(np.linalg.eigvalsh(inertia) > 0), o.name
+        for part in o.parts:
+            assert part.to_trimesh().is_watertight, o.name
+
+
+def test_mesh_object_checks(tmp_path: Path):
+    import trimesh
+
+    good = trimesh.creation.box(extents=(0.05, 0.05, 0.1))
+    good.export(tmp_path / "good.stl")
+    obj = object_from_mesh(tmp_path / "good.stl", mass=0.3, friction=0.5)
+    assert obj.mass == 0.3 and obj.friction == 0.5
+    assert np.asarray(obj.mesh().bounds)[0, 2] == pytest.approx(0.0, abs=1e-9)
+
+    open_mesh = good.copy()
+    open_mesh.update_faces(np.arange(len(open_mesh.faces)) > 1)  # drop a side
+    open_mesh.export(tmp_path / "open.stl")
+    with pytest.raises(InputError, match="not watertight"):
+        object_from_mesh(tmp_path / "open.stl")
+
+    trimesh.creation.box(extents=(50, 50, 100)).export(tmp_path / "mm.stl")
+    with pytest.raises(InputError, match="millimetres"):
+        object_from_mesh(tmp_path / "mm.stl")
+
+    with pytest.raises(InputError, match="does not exist"):
+        object_from_mesh(tmp_path / "nope.obj")
+
+
+def test_dropped_object_comes_to_rest_on_the_table(box_object: SimObject):
+    p = SimParams()
+    scene = build_scene(box_object, None, p)
+    settled = settle_object(scene, box_object, np.random.default_rng(3), p)
+    verts = np.asarray(box_object.mesh().vertices)
+    lowest = (verts @ settled.T_world_object[:3, :3].T)[:, 2].min()
+    assert lowest + settled.T_world_object[2, 3] == pytest.approx(0.0, abs=3e-3)
+    assert np.abs(settled.T_world_object[:2, 3]).max() < p.table_size / 2
+
+
+@pytest.mark.parametrize(
+    "offset, expected",
+    [
+        # fingertips 2 cm below the box top, straddling its 4 cm side
+        ((0.0, 0.0, 0.08 + 0.10 - 0.02), "success"),
+        # 10 cm to the side: the fingers close on air
+        ((0.10, 0.0, 0.08 + 0.10 - 0.02), "slipped_lifting"),
+        # fingers nearly closed before the approach: they land on the top
+        ("turned", "approach_collision"),
+    ],
+    ids=["straddling", "beside", "fingers-on-top"],
+)
+def test_grasp_execution_outcomes(
+    jaw_dir: Path, box_object: SimObject, offset, expected: str
+):
+    p = SimParams(hold_time=2.0)
+    g = sim_gripper_from_files(jaw_description(), jaw_dir)
+    scene = build_scene(box_object, g, p)
+    T_world_object = _T((0.0, 0.0, 0.0))
+    if offset == "turned":
+        Rz = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+        T_world_base = _T((0.0, 0.0, 0.16), Rz @ R_DOWN)
+        # a narrow opening: both fingers land on the box's top
+        g.pregrasp[:] = 0.005
+        g.qpos_pregrasp.update({"j_left": 0.005, "j_right": 0.005})
+    else:
+        T_world_base = _T(offset, R_DOWN)
+    ex = execute_grasp(scene, T_world_object, T_world_base, p)
+    assert ex.outcome == expected, ex.metrics
+    if expected == "success":
+        assert ex.metrics["rise_after_hold"] > 0.15
