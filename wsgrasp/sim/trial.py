@@ -131,7 +131,8 @@ def settle_object(
                 break
         m.dof_damping[scene.object_dof] = 0.0
         T = _qpos_to_pose(d.qpos[scene.object_qpos].copy())
-        if abs(T[0, 3]) < limit and abs(T[1, 3]) < limit and T[2, 3] > 0.0:
+        com = d.xipos[scene.object_body]  # (3,) centre of mass, world
+        if abs(com[0]) < limit and abs(com[1]) < limit and com[2] > 0.0:
             return Settled(T_world_object=T, drops=drop, settle_s=t)
     from wsgrasp.errors import SimulationError
 
