@@ -41,14 +41,16 @@ def _scene(seed: int, T_world_scene: np.ndarray, obstacles: bool):
     )
 
 
-def _check(gripper, seed, T_world_scene, obstacles, orientations=4):
+def _check(gripper, seed, T_world_scene, obstacles, orientations=4, flip=False):
     obj, T_world_object, samples, obs, table = _scene(seed, T_world_scene, obstacles)
     thetas = orientation_angles(orientations, 360)
-    _, T_world_gripper, _, _ = candidate_poses(
-        T_world_object, samples, thetas, gripper.T_gripper_gwc
+    _, T_world_gripper, _, _, _ = candidate_poses(
+        T_world_object, samples, thetas, gripper.T_gripper_gwc, flip
     )
     fast = evaluate_candidates(T_world_gripper, gripper, obj, obs, table)
-    ref = reference_search(gripper, T_world_object, samples, thetas, obj, obs, table)
+    ref = reference_search(
+        gripper, T_world_object, samples, thetas, obj, obs, table, flip
+    )
     np.testing.assert_array_equal(fast.reason, ref.reason)
     np.testing.assert_array_equal(fast.contacts, ref.contacts)
     out = run_search(
@@ -61,6 +63,7 @@ def _check(gripper, seed, T_world_scene, obstacles, orientations=4):
             obj,
             obs,
             table,
+            flip,
         ),
         [("centroid_distance", CentroidDistanceScorer(), None, 1.0)],
     )
@@ -70,8 +73,9 @@ def _check(gripper, seed, T_world_scene, obstacles, orientations=4):
 
 @pytest.mark.parametrize("seed", range(8), ids=lambda s: f"seed{s}")
 @pytest.mark.parametrize("obstacles", [False, True], ids=["alone", "clutter"])
-def test_fast_search_matches_reference(jaw_gripper, seed, obstacles):
-    _check(jaw_gripper, seed, np.eye(4), obstacles)
+@pytest.mark.parametrize("flip", [False, True], ids=["once", "flipped"])
+def test_fast_search_matches_reference(jaw_gripper, seed, obstacles, flip):
+    _check(jaw_gripper, seed, np.eye(4), obstacles, flip=flip)
 
 
 def test_sweep_finds_feasible_and_rejected(jaw_gripper):
@@ -80,7 +84,7 @@ def test_sweep_finds_feasible_and_rejected(jaw_gripper):
     for seed in range(8):
         obj, T_wo, samples, obs, table = _scene(seed, np.eye(4), True)
         thetas = orientation_angles(4, 360)
-        _, T_wg, _, _ = candidate_poses(
+        _, T_wg, _, _, _ = candidate_poses(
             T_wo, samples, thetas, jaw_gripper.T_gripper_gwc
         )
         seen += np.bincount(
@@ -95,14 +99,15 @@ def test_sweep_finds_feasible_and_rejected(jaw_gripper):
     rotvec=st.tuples(*[st.floats(-3.0, 3.0)] * 3),
     shift=st.tuples(*[st.floats(-2.0, 2.0)] * 3),
     orientations=st.integers(1, 8),
+    flip=st.booleans(),
 )
-def test_reference_agreement_in_any_frame(seed, rotvec, shift, orientations):
+def test_reference_agreement_in_any_frame(seed, rotvec, shift, orientations, flip):
     """Any rigid frame for the whole scene, any number of orientations."""
     T = np.eye(4)
     T[:3, :3] = Rotation.from_rotvec(rotvec).as_matrix()
     T[:3, 3] = shift
     gripper = make_jaw_gripper(spheres_per_finger=1 + seed % 12)
-    _check(gripper, seed, T, obstacles=bool(seed % 2), orientations=orientations)
+    _check(gripper, seed, T, bool(seed % 2), orientations=orientations, flip=flip)
 
 
 def test_frame_invariance(jaw_gripper):

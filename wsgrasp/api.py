@@ -217,6 +217,7 @@ class Pipeline:
             object_points=object_points,
             obstacle_points=obstacle_points,
             table=table,
+            flip=spec.sampling.flip,
         )
         return Prepared(
             search_input=search_input,

@@ -105,6 +105,7 @@ def run_bench(
                 inp.object_points,
                 inp.obstacle_points,
                 inp.table,
+                inp.flip,
             ),
             reference_repeat,
             warmup=0,
@@ -114,7 +115,9 @@ def run_bench(
             "search_ms": search_ms,
             "reference_search_ms": ref_ms,
             "speedup": ref_ms / search_ms,
-            "candidates": float(len(inp.samples_object) * len(inp.thetas)),
+            "candidates": float(
+                len(inp.samples_object) * len(inp.thetas) * (2 if inp.flip else 1)
+            ),
             "object_points": float(len(inp.object_points)),
             "scene_points": float(len(scene.points)),
             "paper_plan_ms": PAPER_PLAN_S.get(case.gripper, float("nan")) * 1e3,

@@ -242,6 +242,11 @@ class Sampling(_Model):
     angle_range_deg: float = Field(
         360.0, gt=0.0, le=360.0, description="orientations span this about z"
     )
+    flip: bool = Field(
+        False,
+        description="also try each pose turned half a turn about the approach axis "
+        "(for grippers not symmetric about it, e.g. hands with a thumb)",
+    )
 
 
 class TableSettings(_Model):

@@ -33,7 +33,15 @@ def _root(
 
 
 # Each command module adds its commands to ``app`` in ``register(app)``.
-_COMMAND_MODULES = ("_core", "_grippers", "_plan", "_scene", "_record", "_eval")
+_COMMAND_MODULES = (
+    "_core",
+    "_grippers",
+    "_plan",
+    "_scene",
+    "_record",
+    "_eval",
+    "_scaffold",
+)
 for _name in _COMMAND_MODULES:
     importlib.import_module(f"wsgrasp.cli.{_name}").register(app)
 
@@ -43,7 +51,10 @@ def main(argv: list[str] | None = None) -> int:
     args = sys.argv[1:] if argv is None else argv
     state.debug = "--debug" in args
     try:
-        app(args=args, standalone_mode=False)
+        # without standalone mode, click returns the code of a typer.Exit
+        rv = app(args=args, standalone_mode=False)
+        if isinstance(rv, int):
+            return rv
     except WsgraspError as exc:
         if state.debug:
             err_console.print_exception()

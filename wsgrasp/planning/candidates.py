@@ -8,6 +8,10 @@ object's xy plane (Algorithm 1, lines 2–6)::
     x_gwc = z_obj
     z_gwc = -(cos θ x_obj + sin θ y_obj)
     y_gwc = z_gwc × x_gwc
+
+With ``flip``, each pose is also tried turned half a turn about its approach axis
+(``x_gwc = -z_obj``): the same grasp for a gripper that is symmetric about its
+approach axis, a different one for a hand with a thumb on one side.
 """
 
 from __future__ import annotations
@@ -37,7 +41,8 @@ def candidate_poses(
     samples_object: Array,
     thetas: Array,
     T_gripper_gwc: Array,
-) -> tuple[Array, Array, NDArray[np.int64], Array]:
+    flip: bool = False,
+) -> tuple[Array, Array, NDArray[np.int64], Array, NDArray[np.bool_]]:
     """All candidate poses, samples outer and orientations inner.
 
     Parameters
@@ -47,17 +52,24 @@ def candidate_poses(
         Bounding-box samples in the object frame.
     thetas : (nos,) float
     T_gripper_gwc : (4, 4) float
+    flip : bool
+        Also try every pose turned half a turn about the approach axis.
 
     Returns
     -------
     T_world_gwc : (C, 4, 4) float
-        ``C = ns * nos``; candidate ``k`` uses sample ``k // nos`` and
-        orientation ``k % nos``.
+        ``C = ns * nos * (2 if flip else 1)``; samples outermost, then
+        orientations, then (with ``flip``) unflipped before flipped.
     T_world_gripper : (C, 4, 4) float
     sample : (C,) int
     theta : (C,) float
+    flipped : (C,) bool
     """
-    ns, nos = len(samples_object), len(thetas)
+    ns = len(samples_object)
+    nf = 2 if flip else 1
+    thetas = np.repeat(np.asarray(thetas, dtype=np.float64), nf)
+    flipped = np.tile(np.arange(nf) == 1, len(thetas) // nf)
+    nos = len(thetas)  # orientations × flips
     c, s = np.cos(thetas), np.sin(thetas)
     R_object_gwc = np.zeros((nos, 3, 3))
     R_object_gwc[:, 2, 0] = 1.0  # x_gwc = z_obj
@@ -65,6 +77,8 @@ def candidate_poses(
     R_object_gwc[:, 1, 2] = -s
     R_object_gwc[:, 0, 1] = -s  # y_gwc = z_gwc × x_gwc = (-sin θ, cos θ, 0)
     R_object_gwc[:, 1, 1] = c
+    # half a turn about z_gwc: x_gwc and y_gwc change sign
+    R_object_gwc[flipped, :, :2] *= -1.0
     T_object_gwc = np.zeros((ns, nos, 4, 4))
     T_object_gwc[:, :, :3, :3] = R_object_gwc[None]
     T_object_gwc[:, :, :3, 3] = samples_object[:, None, :]
@@ -73,5 +87,5 @@ def candidate_poses(
     T_world_gwc = T_world_object @ T_object_gwc_flat
     T_world_gripper = T_world_gwc @ invert_transforms(T_gripper_gwc)
     sample = np.repeat(np.arange(ns, dtype=np.int64), nos)
-    theta = np.tile(np.asarray(thetas, dtype=np.float64), ns)
-    return T_world_gwc, T_world_gripper, sample, theta
+    theta = np.tile(thetas, ns)
+    return T_world_gwc, T_world_gripper, sample, theta, np.tile(flipped, ns)

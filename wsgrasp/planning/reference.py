@@ -9,6 +9,7 @@ used for planning.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -54,12 +55,14 @@ def reference_search(
     object_points: Array,
     obstacle_points: Array,
     table: TableSE,
+    flip: bool = False,
 ) -> ReferenceResult:
     """Algorithm 1, one candidate at a time; same candidate order as the fast path
-    (samples outer, orientations inner)."""
+    (samples outer, orientations inner, then the flipped pose when ``flip``)."""
     g = gripper
     nf = g.num_fingers
-    C = len(samples_object) * len(thetas)
+    flips = (False, True) if flip else (False,)
+    C = len(samples_object) * len(thetas) * len(flips)
     reason = np.zeros(C, dtype=np.int64)
     contacts = np.zeros((C, nf), dtype=np.int64)
     T_table_world = _inv(table.T_world_table)
@@ -67,65 +70,59 @@ def reference_search(
     centroid = T_world_object[:3, 3]
     best, best_d = None, np.inf
     k = -1
-    for s in samples_object:
-        for theta in thetas:
-            k += 1
-            c, sn = np.cos(theta), np.sin(theta)
-            T_object_gwc = np.eye(4)
-            T_object_gwc[:3, 0] = [0.0, 0.0, 1.0]
-            T_object_gwc[:3, 1] = [-sn, c, 0.0]
-            T_object_gwc[:3, 2] = [-c, -sn, 0.0]
-            T_object_gwc[:3, 3] = s
-            T_world_gwc = T_world_object @ T_object_gwc
-            T_world_gripper = T_world_gwc @ T_gwc_gripper
-            # table: gripper cloud in the table frame
-            cloud_table = _rt(T_table_world @ T_world_gripper, g.cloud)
+    for s, theta, turned in itertools.product(samples_object, thetas, flips):
+        k += 1
+        c, sn = np.cos(theta), np.sin(theta)
+        sign = -1.0 if turned else 1.0
+        T_object_gwc = np.eye(4)
+        T_object_gwc[:3, 0] = [0.0, 0.0, sign]
+        T_object_gwc[:3, 1] = [-sn * sign, c * sign, 0.0]
+        T_object_gwc[:3, 2] = [-c, -sn, 0.0]
+        T_object_gwc[:3, 3] = s
+        T_world_gwc = T_world_object @ T_object_gwc
+        T_world_gripper = T_world_gwc @ T_gwc_gripper
+        # table: gripper cloud in the table frame
+        cloud_table = _rt(T_table_world @ T_world_gripper, g.cloud)
+        if np.any(
+            _se_value(cloud_table, table.center, table.semi_axes, table.exponent) < 1.0
+        ):
+            reason[k] = 1
+            continue
+        T_gripper_world = _inv(T_world_gripper)
+        obj = _rt(T_gripper_world, object_points)
+        hit = False
+        for e in range(len(g.se_centers)):
             if np.any(
-                _se_value(cloud_table, table.center, table.semi_axes, table.exponent)
-                < 1.0
+                _se_value(obj, g.se_centers[e], g.se_semi_axes[e], g.se_exponent) < 1.0
             ):
-                reason[k] = 1
-                continue
-            T_gripper_world = _inv(T_world_gripper)
-            obj = _rt(T_gripper_world, object_points)
-            hit = False
+                hit = True
+                break
+        if hit:
+            reason[k] = 2
+            continue
+        if len(obstacle_points):
+            obs = _rt(T_gripper_world, obstacle_points)
             for e in range(len(g.se_centers)):
                 if np.any(
-                    _se_value(obj, g.se_centers[e], g.se_semi_axes[e], g.se_exponent)
+                    _se_value(obs, g.se_centers[e], g.se_semi_axes[e], g.se_exponent)
                     < 1.0
                 ):
                     hit = True
                     break
             if hit:
-                reason[k] = 2
+                reason[k] = 3
                 continue
-            if len(obstacle_points):
-                obs = _rt(T_gripper_world, obstacle_points)
-                for e in range(len(g.se_centers)):
-                    if np.any(
-                        _se_value(
-                            obs, g.se_centers[e], g.se_semi_axes[e], g.se_exponent
-                        )
-                        < 1.0
-                    ):
-                        hit = True
-                        break
-                if hit:
-                    reason[k] = 3
-                    continue
-            d = float(np.linalg.norm(T_world_gwc[:3, 3] - centroid))
-            held = np.zeros((len(obj), nf), dtype=bool)
-            for i_sphere in range(len(g.sphere_centers)):
-                f = g.sphere_finger[i_sphere]
-                r = g.sphere_radii[i_sphere]
-                inside = (
-                    np.sum((obj - g.sphere_centers[i_sphere]) ** 2, axis=-1) < r * r
-                )
-                held[:, f] |= inside
-            contacts[k] = held.sum(axis=0)
-            if np.all(contacts[k] > 0):
-                if d < best_d:
-                    best, best_d = k, d
-            else:
-                reason[k] = 4
+        d = float(np.linalg.norm(T_world_gwc[:3, 3] - centroid))
+        held = np.zeros((len(obj), nf), dtype=bool)
+        for i_sphere in range(len(g.sphere_centers)):
+            f = g.sphere_finger[i_sphere]
+            r = g.sphere_radii[i_sphere]
+            inside = np.sum((obj - g.sphere_centers[i_sphere]) ** 2, axis=-1) < r * r
+            held[:, f] |= inside
+        contacts[k] = held.sum(axis=0)
+        if np.all(contacts[k] > 0):
+            if d < best_d:
+                best, best_d = k, d
+        else:
+            reason[k] = 4
     return ReferenceResult(reason, contacts, best, float(best_d))

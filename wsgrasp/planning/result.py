@@ -40,6 +40,8 @@ class CandidateSet:
         Combined score; NaN for rejected candidates.
     terms : dict of str to (C,) float
         Each scorer's term; NaN for rejected candidates.
+    flipped : (C,) bool
+        Turned half a turn about the approach axis (``sampling.flip``).
     """
 
     T_world_gwc: NDArray[np.float64]
@@ -50,6 +52,11 @@ class CandidateSet:
     contacts: NDArray[np.int64]
     score: NDArray[np.float64]
     terms: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+    flipped: NDArray[np.bool_] | None = None
+
+    def __post_init__(self) -> None:
+        if self.flipped is None:
+            self.flipped = np.zeros(len(self.reason), dtype=bool)
 
     def __len__(self) -> int:
         return int(self.reason.shape[0])

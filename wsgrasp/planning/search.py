@@ -39,6 +39,8 @@ class SearchInput:
     object_points : (no, 3) float
     obstacle_points : (k, 3) float
     table : TableSE
+    flip : bool
+        Also try each pose turned half a turn about the approach axis.
     """
 
     gripper: GripperModel
@@ -49,6 +51,7 @@ class SearchInput:
     object_points: Array
     obstacle_points: Array
     table: TableSE
+    flip: bool = False
 
 
 @dataclass
@@ -76,8 +79,8 @@ def run_search(
     now = clock or time.perf_counter
     g = inp.gripper
     t0 = now()
-    T_world_gwc, T_world_gripper, sample, theta = candidate_poses(
-        inp.T_world_object, inp.samples_object, inp.thetas, g.T_gripper_gwc
+    T_world_gwc, T_world_gripper, sample, theta, flipped = candidate_poses(
+        inp.T_world_object, inp.samples_object, inp.thetas, g.T_gripper_gwc, inp.flip
     )
     ev = evaluate_candidates(
         T_world_gripper, g, inp.object_points, inp.obstacle_points, inp.table, spheres
@@ -136,6 +139,7 @@ def run_search(
         contacts=ev.contacts,
         score=score,
         terms=terms_all,
+        flipped=flipped,
     )
     return SearchOutput(
         candidates=cands,
