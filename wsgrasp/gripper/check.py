@@ -36,6 +36,8 @@ INTRUSION_ERROR = 0.35
 MIN_MOTION = 1e-4
 #: a pad normal within this cosine of the direction to the others faces them
 FACING_COS = 0.3
+#: a finger whose workspace stays farther (m) from every other finger's is reported
+MAX_FINGER_GAP = 0.01
 #: plausible gripper sizes (m)
 SIZE_RANGE = (0.01, 1.0)
 
@@ -125,6 +127,7 @@ class CheckReport:
             lines.append(
                 f"  superellipsoid {s['ellipsoid']} holds {s['fraction']:.0%} of "
                 f"finger {s['finger']}'s workspace"
+                + (" (its own links, open)" if s.get("own_link") else "")
             )
         if not self.problems:
             lines.append("no problems found")
@@ -259,16 +262,38 @@ def _check_kinematics(report: CheckReport, desc: Any, base_dir: Path) -> None:
     for finger in desc.fingers:
         ws = sample_workspace(kin, desc, finger)
         voxels.append(ws.centers(np.argwhere(ws.occupied)))  # (W, 3)
+
+    def pad_inside(finger: Any, i: int) -> bool:
+        T = _pad_frame(kin, base, finger.pad.link, pre)
+        p = T[:3, :3] @ np.asarray(finger.pad.center) + T[:3, 3]
+        return bool(
+            points_in_superellipsoids(
+                p[None],
+                model.se_centers[i][None],
+                model.se_semi_axes[i][None],
+                model.se_exponent,
+            )[0]
+        )
+
     for i, e in enumerate(model.se_centers):
         for finger, pts in zip(desc.fingers, voxels, strict=True):
             inside = points_in_superellipsoids(
                 pts, e[None], model.se_semi_axes[i][None], model.se_exponent
             )
             frac = float(np.mean(inside))
+            # the finger's own links in the pre-grasp posture: expected, and only
+            # a problem when they swallow much of the workspace
+            own = bool(pad_inside(finger, i))
             if frac > INTRUSION_WARN:
                 report.intrusions.append(
-                    {"ellipsoid": i, "finger": finger.name, "fraction": round(frac, 3)}
+                    {
+                        "ellipsoid": i,
+                        "finger": finger.name,
+                        "fraction": round(frac, 3),
+                        "own_link": own,
+                    }
                 )
+            if frac > (INTRUSION_ERROR if own else INTRUSION_WARN):
                 _add(
                     report,
                     "error" if frac > INTRUSION_ERROR else "warning",
@@ -278,13 +303,15 @@ def _check_kinematics(report: CheckReport, desc: Any, base_dir: Path) -> None:
                     f"of finger {finger.name}'s workspace: object points there "
                     "reject the grasp",
                     "raise ellipsoids.count so links are fitted apart, or give "
-                    "ellipsoids.given by hand",
+                    "ellipsoids.given by hand; if the finger reaches into the body at "
+                    "the end of its joint range, narrow that joint's <limit> in the "
+                    "URDF",
                 )
     if len(voxels) > 1:
         for k, finger in enumerate(desc.fingers):
             others = np.concatenate([v for j, v in enumerate(voxels) if j != k])
             gap = float(cKDTree(others).query(voxels[k])[0].min())
-            if gap > 3 * desc.workspace_voxel + 1e-9:
+            if gap > max(3 * desc.workspace_voxel, MAX_FINGER_GAP) + 1e-9:
                 _add(
                     report,
                     "warning",
@@ -312,12 +339,32 @@ def _check_kinematics(report: CheckReport, desc: Any, base_dir: Path) -> None:
         p_closed = np.array(
             [centre(T, f) for T, f in zip(frames_closed, desc.fingers, strict=True)]
         )
+        # facing is judged open: the pad must face the finger it closes against,
+        # or lead the finger's first closing motion (curling fingers of a hand)
+        start = {j: 0.9 * pre[j] + 0.1 * closed.get(j, pre[j]) for j in pre} | {
+            j: v for j, v in closed.items() if j not in pre
+        }
+        p_start = np.array(
+            [centre(_pad_frame(kin, base, f.pad.link, start), f) for f in desc.fingers]
+        )
+        p_path = []  # pad centres at 8 steps from open to closed: (F, 3) each
+        for t in np.linspace(0.0, 1.0, 9)[1:]:
+            post = {j: (1 - t) * pre[j] + t * closed.get(j, pre[j]) for j in pre}
+            post |= {j: v for j, v in closed.items() if j not in pre}
+            p_path.append(
+                np.array(
+                    [
+                        centre(_pad_frame(kin, base, f.pad.link, post), f)
+                        for f in desc.fingers
+                    ]
+                )
+            )
         boxes = _link_centres(kin, [f.pad.link for f in desc.fingers])
         for k, f in enumerate(desc.fingers):
             rest = [j for j in range(len(desc.fingers)) if j != k]
             d_open = np.linalg.norm(p_open[k] - p_open[rest].mean(axis=0))
-            to_c = p_closed[rest].mean(axis=0) - p_closed[k]
-            d_closed = np.linalg.norm(to_c)
+            # nearest along the way: long fingers may pass each other at the end
+            d_closed = min(np.linalg.norm(p[k] - p[rest].mean(axis=0)) for p in p_path)
             nearer = float(d_open - d_closed)
             report.fingers[k]["pad_closes_mm"] = round(nearer * 1000, 1)
             if nearer < 1e-3:
@@ -326,17 +373,23 @@ def _check_kinematics(report: CheckReport, desc: Any, base_dir: Path) -> None:
                     "error",
                     "closed",
                     f"finger {f.name}'s pad does not get nearer the other fingers "
-                    f"from pregrasp to closed ({d_open * 1000:.0f} -> "
+                    f"on the way from pregrasp to closed ({d_open * 1000:.0f} -> "
                     f"{d_closed * 1000:.0f} mm)",
                     "swap the values of pregrasp and closed for the joints "
                     f"{f.joints}, or fix the joint axes in the URDF",
                 )
             normal = _pad_normal(f, boxes.get(f.pad.link))
-            if normal is None or d_closed < 1e-9:
+            if normal is None:
                 report.fingers[k]["pad_facing_deg"] = None
                 continue
-            n_base = frames_closed[k][:3, :3] @ normal
-            cos = float(n_base @ (to_c / d_closed))
+            n_base = frames_open[k][:3, :3] @ normal
+            # the partner: the finger farthest away when open (the one it opposes)
+            partner = max(rest, key=lambda j: np.linalg.norm(p_open[j] - p_open[k]))
+            cos = -1.0
+            for ref in (p_open[partner] - p_open[k], p_start[k] - p_open[k]):
+                length = float(np.linalg.norm(ref))
+                if length > 1e-9:
+                    cos = max(cos, float(n_base @ ref) / length)
             deg = float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
             report.fingers[k]["pad_facing_deg"] = round(deg, 1)
             if cos < FACING_COS:
@@ -345,8 +398,8 @@ def _check_kinematics(report: CheckReport, desc: Any, base_dir: Path) -> None:
                     "warning",
                     f"fingers[{f.name}].pad",
                     f"finger {f.name}'s pad on {f.pad.link!r} faces {deg:.0f} deg "
-                    "away from the other fingers when closed: it is not on the inner "
-                    "face",
+                    "away from the finger it closes against and from its own closing "
+                    "motion: it is not on the inner face",
                     f"move fingers[{f.name}].pad.center to the face of "
                     f"{f.pad.link!r} that points at the other fingertips",
                 )
@@ -401,18 +454,18 @@ def _check_kinematics(report: CheckReport, desc: Any, base_dir: Path) -> None:
             "flip approach_axis: it points from the base towards the fingertips",
         )
     if len(desc.fingers) > 1:
-        spread = model.sphere_centers - tips
-        spread -= np.outer(spread @ approach, approach)
-        w, v = np.linalg.eigh(spread.T @ spread)
+        motion = p_closed - p_open  # (F, 3)
+        motion -= np.outer(motion @ approach, approach)
+        w, v = np.linalg.eigh(motion.T @ motion)
         main = v[:, -1]
         cos = abs(float(main @ model.closing_axis))
-        if cos < 0.5 and w[-1] > 2.0 * w[-2]:
+        if w[-1] > 1e-8 and cos < 0.5:
             _add(
                 report,
                 "warning",
                 "closing_axis",
-                "the finger workspaces are spread along "
-                f"{np.round(main, 2).tolist()}, not along closing_axis "
+                "the pads move mostly along "
+                f"{np.round(main, 2).tolist()} when closing, not along closing_axis "
                 f"{np.round(model.closing_axis, 3).tolist()}",
                 "set closing_axis to the direction across which the fingers close",
             )

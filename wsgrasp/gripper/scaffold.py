@@ -50,6 +50,10 @@ SNAP_DEG = 15.0
 POSTURE_FRACTION = 0.25
 #: configurations sampled per finger when sizing joint_samples
 CONFIG_BUDGET = 6000
+#: sphere coverage of every finger workspace the scaffolder aims for
+TARGET_COVERAGE = 0.45
+#: ... with at most this many spheres per finger
+MAX_SPHERES = 40
 #: pad depth into the distal link (m), at most
 PAD_DEPTH = 0.004
 _NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_\-]*$")
@@ -524,29 +528,63 @@ def guess_description(
         )
 
     # -- open and closed: the ends of each joint that spread / gather the tips -----
+    # The grasp axis: from the base origin through the fingertips' centre with
+    # every joint at 0 (clipped into its limits). Per joint, starting from there,
+    # "closing" is the direction in which the fingertips first move nearer that
+    # axis; "closed" is the limit that way, "open" (pre-grasp) the other limit.
     masters_all = list(dict.fromkeys(used))
+    tips0 = _centroids(kin, base, distal, boxes, default)  # (F, 3)
+    c0 = tips0.mean(axis=0)
+    a0 = c0 / max(float(np.linalg.norm(c0)), 1e-12)
+
+    def off_axis(post: dict[str, float]) -> float:
+        d = _centroids(kin, base, distal, boxes, post) - c0  # (F, 3)
+        d -= np.outer(d @ a0, a0)
+        return float(np.linalg.norm(d, axis=1).sum())
+
     delta: dict[str, float] = {}
     ends: dict[str, tuple[float, float]] = {}
     for m in masters_all:
         j = kin.joints[m]
-        s = []
-        for q in (j.lower, j.upper):
-            post = dict(default)
-            post[m] = q
-            s.append(_spread(_centroids(kin, base, distal, boxes, post)))
-        delta[m] = s[1] - s[0]
+        h = 0.1 * (j.upper - j.lower)
+        qa = max(j.lower, default[m] - h)
+        qb = min(j.upper, default[m] + h)
+        s = [off_axis({**default, m: q}) for q in (qa, qb)]
+        delta[m] = (s[1] - s[0]) / max(qb - qa, 1e-12) * h  # per 10 % of range
         ends[m] = (j.upper, j.lower) if s[1] > s[0] else (j.lower, j.upper)
-    biggest = max((abs(d) for d in delta.values()), default=0.0)
+    # a joint is compared with the strongest closer of its own finger
+    biggest = {
+        m: max(
+            abs(delta[x])
+            for link in distal
+            for x in finger_joints[link]
+            if m in finger_joints[link]
+        )
+        for m in masters_all
+    }
     pregrasp: dict[str, float] = {}
     closed: dict[str, float] = {}
     how: list[str] = []
+    held: set[str] = set()
     for m in masters_all:
-        if len(distal) > 1 and abs(delta[m]) < POSTURE_FRACTION * biggest:
+        small = abs(delta[m]) < max(POSTURE_FRACTION * biggest[m], 2e-4)
+        sharing = [link for link in distal if m in finger_joints[link]]
+        # shared by several fingers that each close more with a joint of their own:
+        # a spread / ab-adduction joint, set once for the grasp, not a closer
+        shared = len(sharing) > 1 and all(
+            any(abs(delta[x]) > abs(delta[m]) for x in finger_joints[link] if x != m)
+            for link in sharing
+        )
+        if len(distal) > 1 and (small or shared):
             pregrasp[m] = closed[m] = default[m]
-            how.append(
-                f"{m} held at {default[m]:g} (moves the tips' spread by only "
-                f"{abs(delta[m]) * 1000:.1f} mm)"
+            held.add(m)
+            why = (
+                f"it spreads {len(sharing)} fingers that close with other joints"
+                if shared
+                else "10 % of its range moves the tips to or from the axis by only "
+                f"{abs(delta[m]) * 1000:.1f} mm"
             )
+            how.append(f"{m} held at {default[m]:g} ({why})")
         else:
             pregrasp[m], closed[m] = ends[m]
             how.append(f"{m} opens at {ends[m][0]:g}, closes at {ends[m][1]:g}")
@@ -555,30 +593,48 @@ def guess_description(
             pregrasp[m] = closed[m] = default[m]
             how.append(f"{m} moves no fingertip: held at {default[m]:g}")
     notes["pregrasp"] = (
-        "per joint, the limit at which the fingertips are spread widest (FK of the "
-        "distal links, other joints at 0): " + "; ".join(how)
+        "per joint, the limit away from which the fingertips first move nearer the "
+        "grasp axis (base origin -> fingertips' centre with all joints at 0; FK of "
+        "the distal links): " + "; ".join(how)
     )
-    notes["closed"] = "per joint, the other limit: the fingertips gathered closest"
+    notes["closed"] = "per joint, the other limit: towards the grasp axis"
+    dropped = []
+    for link in distal:
+        keep = [m for m in finger_joints[link] if m not in held]
+        if keep and len(keep) < len(finger_joints[link]):
+            dropped += [m for m in finger_joints[link] if m in held]
+            finger_joints[link] = keep
+    if dropped:
+        notes["fingers"] += (
+            "; joints held in pregrasp are not sampled for the workspaces: "
+            + ", ".join(sorted(set(dropped)))
+        )
 
     # -- pads: the distal links' faces towards the hand's centre -------------------
-    mid = {m: 0.5 * (pregrasp[m] + closed[m]) for m in pregrasp}
+    # The inner face leads when the finger starts to close: the pad faces the
+    # direction in which its link's geometry centre moves from the open posture
+    # (towards the grasp axis when it does not move).
+    mid = {m: 0.9 * pregrasp[m] + 0.1 * closed[m] for m in pregrasp}
     poses_mid = kin.link_poses(base, mid)
+    tips_open = _centroids(kin, base, distal, boxes, pregrasp)
     tips_mid = _centroids(kin, base, distal, boxes, mid)
-    centre = tips_mid.mean(axis=0)
     pads = []
     pad_notes = []
     for i, link in enumerate(distal):
         lo, hi = boxes[link]
         size = hi - lo
         c = 0.5 * (lo + hi)
-        if len(distal) > 1:
-            d_base = centre - tips_mid[i]
-        else:
-            d_base = -poses_mid[link][:3, 3]  # towards the base: best we can do
+        d_base = tips_mid[i] - tips_open[i]
+        if np.linalg.norm(d_base) < 1e-6:
+            d_base = c0 - tips_mid[i]
+            d_base -= (d_base @ a0) * a0
         d_link = poses_mid[link][:3, :3].T @ d_base
         n = np.linalg.norm(d_link)
         d_link = d_link / n if n > 1e-12 else np.array([1.0, 0.0, 0.0])
-        k = int(np.argmax(np.abs(d_link)))
+        # the face whose outward normal best matches, weighted by the face's area
+        # (so a finger's long side wins over its end)
+        area = np.array([size[1] * size[2], size[0] * size[2], size[0] * size[1]])
+        k = int(np.argmax(np.abs(d_link) * area))
         sign = float(np.sign(d_link[k]) or 1.0)
         depth = min(PAD_DEPTH, 0.5 * float(size[k]))
         pad_size = size * 0.8
@@ -605,7 +661,7 @@ def guess_description(
         )
         pad_notes.append(
             f"{finger_names[i]}: the {'+' if sign > 0 else '-'}{'xyz'[k]} face of "
-            f"{link}'s geometry box (faces the fingertips' centre){half}, 80 % "
+            f"{link}'s geometry box (the largest face leading when it closes){half}, 80 % "
             f"wide, {depth * 1000:.1f} mm deep"
         )
     notes["pad"] = "; ".join(pad_notes)
@@ -668,6 +724,15 @@ def guess_description(
     )
     notes["spheres_per_finger"] = f"{spheres} for fingers of {dof} joint(s)"
     notes["workspace_voxel"] = f"1 % of the gripper's size ({extent * 1000:.0f} mm)"
+    # pad samples about a voxel apart, so the swept samples close into a volume
+    cap = 12 if dof <= 2 else 6
+    for pad in pads:
+        edge = float(max(pad["size"]))
+        pad["samples"] = int(np.clip(np.ceil(edge / voxel) + 1, 3, cap))
+    notes["pad"] += (
+        "; samples: pad points about one workspace voxel apart "
+        f"(at most {cap} per edge)"
+    )
 
     data: dict[str, Any] = {
         "version": 1,
@@ -694,36 +759,58 @@ def guess_description(
 
 
 def fit_sphere_count(scaffold: Scaffold, base_dir: Path) -> None:
-    """Lower ``spheres_per_finger`` (and the voxel) until every finger's workspace
-    can hold that many spheres; note what was changed."""
-    from wsgrasp.gripper._workspace import sample_workspace
+    """Size ``spheres_per_finger`` (and the voxel) to the sampled workspaces: halve
+    the voxel while a workspace is too thin for spheres, lower the count to what
+    fits, raise it (up to :data:`MAX_SPHERES`) until the spheres cover
+    :data:`TARGET_COVERAGE` of every workspace; note what was changed."""
+    from wsgrasp.gripper._workspace import fill_spheres, sample_workspace
     from wsgrasp.spec import GripperDescription
 
     data = scaffold.data
+    note = scaffold.notes
     for _ in range(3):
         desc = GripperDescription.model_validate(data)
         kin = load_kinematics(Path(base_dir) / desc.urdf, desc.name)
-        fewest = None
-        for finger in desc.fingers:
-            ws = sample_workspace(kin, desc, finger)
-            r = (ws.distance - 1.0) * ws.voxel
-            count = int(np.count_nonzero(r >= desc.min_sphere_radius - 1e-12))
-            fewest = count if fewest is None else min(fewest, count)
-        assert fewest is not None
-        if fewest >= 3 * data["spheres_per_finger"]:
-            return
-        if fewest >= 3:
-            data["spheres_per_finger"] = max(1, fewest // 3)
-            scaffold.notes["spheres_per_finger"] += (
-                f"; lowered to {data['spheres_per_finger']} (the thinnest workspace "
-                f"holds {fewest} sphere centres)"
+        spaces = [sample_workspace(kin, desc, f) for f in desc.fingers]
+        counts = [
+            int(
+                np.count_nonzero(
+                    (ws.distance - 1.0) * ws.voxel >= desc.min_sphere_radius - 1e-12
+                )
             )
-            return
+            for ws in spaces
+        ]
+        fewest = min(counts)
+        if fewest >= 3:
+            break
         data["workspace_voxel"] = max(0.0005, data["workspace_voxel"] / 2)
         data["min_sphere_radius"] = data["workspace_voxel"]
-        scaffold.notes["workspace_voxel"] += (
+        note["workspace_voxel"] += (
             f"; halved to {data['workspace_voxel'] * 1000:.2f} mm (a workspace was "
             "too thin for spheres)"
+        )
+    else:
+        return  # the check will report it
+    n = data["spheres_per_finger"]
+    if fewest < 3 * n:
+        data["spheres_per_finger"] = max(1, fewest // 3)
+        note["spheres_per_finger"] += (
+            f"; lowered to {data['spheres_per_finger']} (the thinnest workspace "
+            f"holds {fewest} sphere centres)"
+        )
+        return
+    while True:
+        cover = min(
+            fill_spheres(ws, n, desc.min_sphere_radius, desc.name).covered_fraction
+            for ws in spaces
+        )
+        if cover >= TARGET_COVERAGE or 2 * n > min(MAX_SPHERES, fewest // 3):
+            break
+        n *= 2
+    if n != data["spheres_per_finger"]:
+        data["spheres_per_finger"] = n
+        note["spheres_per_finger"] += (
+            f"; doubled to {n} so the spheres cover {cover:.0%} of every workspace"
         )
 
 
@@ -824,9 +911,10 @@ packages = ["{module}"]
 """
 
 _MODULE = '''\
-"""wsgrasp gripper plugin: registers the gripper {name!r} (its YAML beside the URDF).
+"""wsgrasp gripper plugin.
 
-Scaffolded by `wsgrasp gripper new`.
+Registers the gripper {name!r} by its YAML (beside the URDF). Scaffolded by
+`wsgrasp gripper new`.
 """
 
 from __future__ import annotations
@@ -847,7 +935,10 @@ def wsgrasp_register_grippers(register: Callable[[str, Any], None]) -> None:
 '''
 
 _TEST = '''\
-"""The gripper {name!r} builds, passes `wsgrasp gripper check` and plans a grasp."""
+"""The gripper of this package.
+
+It builds, `wsgrasp gripper check` finds no error in it, and it plans a grasp.
+"""
 
 from __future__ import annotations
 

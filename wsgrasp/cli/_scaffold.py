@@ -1,0 +1,120 @@
+"""``wsgrasp gripper``: scaffold a gripper plugin from a URDF, check a gripper."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from wsgrasp.cli._common import console, err_console, print_json
+
+gripper_app = typer.Typer(
+    help="Add your own gripper: scaffold a plugin from a URDF, check a model.",
+    no_args_is_help=True,
+)
+
+
+def register(app: typer.Typer) -> None:
+    """Add this module's commands to ``app``."""
+    app.add_typer(gripper_app, name="gripper")
+
+
+@gripper_app.command("new")
+def new(
+    name: str = typer.Argument(..., help="Gripper (and distribution) name."),
+    urdf: Path = typer.Option(..., "--urdf", help="The gripper's URDF."),
+    out: Path = typer.Option(..., "--out", help="Folder for the plugin package."),
+    base_link: str | None = typer.Option(
+        None, "--base-link", help="Link the arm holds (default: the URDF's root)."
+    ),
+    mesh_dir: list[Path] = typer.Option(
+        [], "--mesh-dir", help="Extra folder to look for meshes in (repeatable)."
+    ),
+    mesh_units: str | None = typer.Option(
+        None, "--mesh-units", help="Units of the mesh files: m, cm or mm."
+    ),
+    force: bool = typer.Option(False, "--force", help="Write into a non-empty --out."),
+) -> None:
+    """Write a pip-installable plugin package for a gripper, guessed from its URDF."""
+    from wsgrasp.gripper.scaffold import scaffold_plugin
+
+    with err_console.status(f"scaffolding {name} from {urdf.name}"):
+        yaml_path, scaffold = scaffold_plugin(
+            name,
+            urdf,
+            out,
+            base_link=base_link,
+            mesh_dirs=list(mesh_dir),
+            mesh_units=mesh_units,
+            force=force,
+        )
+    d = scaffold.data
+    console.print(
+        f"[green]wrote[/] {out}/ : plugin package {name!r} "
+        f"({len(d['fingers'])} fingers: "
+        + ", ".join(f"{f['name']} [{', '.join(f['joints'])}]" for f in d["fingers"])
+        + f"; base {d['base_link']}, approach {d['approach_axis']}, "
+        f"closing {d['closing_axis']})",
+        highlight=False,
+    )
+    for w in scaffold.warnings:
+        console.print(w, style="yellow", highlight=False, markup=False)
+    console.print(
+        f"next: read the guesses in {yaml_path}, then\n"
+        f"  wsgrasp gripper check {yaml_path} -o {name}.png\n"
+        f"  pip install -e {out}    # then `gripper: {name}` in a spec",
+        highlight=False,
+    )
+
+
+@gripper_app.command("check")
+def check(
+    name: str = typer.Argument(..., help="Registered gripper name or gripper YAML."),
+    output: Path | None = typer.Option(
+        None, "-o", "--output", help="Also draw the model into this PNG."
+    ),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON."),
+    rebuild: bool = typer.Option(False, "--rebuild", help="Ignore cached models."),
+    cache_dir: Path | None = typer.Option(
+        None, "--cache-dir", help="Model cache (default: $WSGRASP_CACHE_DIR)."
+    ),
+) -> None:
+    """Build a gripper model and report what to trust and what to fix.
+
+    Exits with status 1 when the report has errors.
+    """
+    from wsgrasp.gripper.check import check_gripper
+
+    with err_console.status(f"checking gripper {name}") as status:
+
+        def progress(label: str) -> None:
+            if label:
+                status.update(label)
+
+        report = check_gripper(
+            name, rebuild=rebuild, cache_dir=cache_dir, progress=progress
+        )
+    if output is not None:
+        from wsgrasp.view import render_gripper
+
+        render_gripper(report.model, output)
+    if as_json:
+        data = report.to_dict()
+        data["picture"] = str(output) if output is not None else None
+        print_json(data)
+    else:
+        for line in report.format().splitlines():
+            style = (
+                "red"
+                if line.startswith("error")
+                else "yellow"
+                if line.startswith("warning")
+                else None
+            )
+            console.print(
+                line, style=style, highlight=False, soft_wrap=True, markup=False
+            )
+        if output is not None:
+            console.print(f"[green]wrote[/] {output}", highlight=False)
+    if report.errors:
+        raise typer.Exit(1)
