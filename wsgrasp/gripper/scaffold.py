@@ -661,8 +661,8 @@ def guess_description(
         )
         pad_notes.append(
             f"{finger_names[i]}: the {'+' if sign > 0 else '-'}{'xyz'[k]} face of "
-            f"{link}'s geometry box (the largest face leading when it closes){half}, 80 % "
-            f"wide, {depth * 1000:.1f} mm deep"
+            f"{link}'s geometry box (the largest face leading when it closes)"
+            f"{half}, 80 % wide, {depth * 1000:.1f} mm deep"
         )
     notes["pad"] = "; ".join(pad_notes)
 
