@@ -99,6 +99,11 @@ class Pipeline:
             gripper = load_gripper(name, registry=self.registry)
         self.gripper = gripper
         self._spheres = FingerSpheres(gripper)
+        # open3d's first calls cost ~1 s once per process: pay it here, not in the
+        # first plan's timings
+        from wsgrasp.perception.process import warm_up
+
+        warm_up()
         seg = self.registry.get("segmenters", spec.segmenter.name)
         self._segmenter = _instantiate(seg)
         self._segmenter_options = seg.obj.Options.model_validate(spec.segmenter.options)

@@ -158,24 +158,23 @@ def demo(
     out.mkdir(parents=True, exist_ok=True)
     scene_path = root / "examples" / "scenes" / "box_upright.npz"
     scene = load_scene([scene_path])
+    from wsgrasp.record import RunRecorder
+    from wsgrasp.view import render_gripper, render_run
+
     for name, spec_name in (("franka_hand", "franka"), ("allegro_right", "allegro")):
         spec = load_spec(root / "examples" / "specs" / f"{spec_name}.yaml")
         with console.status(f"building the {name} model (cached after the first run)"):
             pipeline = Pipeline(spec)
-        from wsgrasp.view import render_gripper
-
         gripper_png = out / f"{name}_model.png"
         render_gripper(pipeline.gripper, gripper_png)
-        from wsgrasp.record import RunRecorder
-
         run_path = out / f"{name}.mcap"
         result = pipeline.plan(scene, observers=[RunRecorder(run_path, force=True)])
         print_result(result, title=f"{name} on {scene_path.name}")
-        from wsgrasp.view import render_run
-
-        picture = out / f"{name}_grasp.png"
-        render_run(run_path, picture)
-        console.print(f"wrote {gripper_png}, {run_path} and {picture}", highlight=False)
+        picture = render_run(run_path, out / f"{name}_grasp.png")
+        page = render_run(run_path, out / f"{name}_grasp.html")
+        console.print(
+            f"wrote {gripper_png}, {run_path}, {picture} and {page}", highlight=False
+        )
 
 
 def bench(

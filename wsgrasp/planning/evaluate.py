@@ -199,10 +199,10 @@ def evaluate_candidates(
             keep &= ~obs_hit
         if not keep.any():
             continue
-        # 4. fingers: 3 × (no, b) -> (b, no, 3) -> (b * no, 3) -> (b, no, nf)
-        p_keep = np.stack([c[:, keep] for c in xyz], axis=-1).transpose(1, 0, 2)
-        b = len(p_keep)
-        held = spheres.holding(p_keep.reshape(-1, 3)).reshape(b, no, nf)
+        # 4. fingers
+        # (no, b, nf) -> (b, no, nf)
+        held = spheres.holding_coordinates(*(c[:, keep] for c in xyz))
+        held = held.transpose(1, 0, 2)
         counts = held.sum(axis=1)  # (b, nf)
         kept_idx = idx[keep]
         contacts[kept_idx] = counts

@@ -62,10 +62,14 @@ class CandidateBatch:
         return self.holding.sum(axis=1)
 
     @cached_property
+    def _held_weights(self) -> Array:
+        """``holding`` as float weights per finger, ``(F, nf, no)``."""
+        return np.ascontiguousarray(self.holding.transpose(0, 2, 1), dtype=np.float64)
+
+    @cached_property
     def contact_centroids(self) -> Array:
         """Centroid of the points each finger holds, ``(F, nf, 3)`` (NaN if none)."""
-        w = self.holding.astype(np.float64)  # (F, no, nf)
-        sums = np.einsum("fpn,pj->fnj", w, self.object_points)  # (F, nf, 3)
+        sums = self._held_weights @ self.object_points  # (F, nf, 3)
         with np.errstate(invalid="ignore", divide="ignore"):
             return sums / self.contacts[..., None]
 
@@ -83,8 +87,7 @@ class CandidateBatch:
     def contact_normals(self) -> Array:
         """Mean outward normal of the points each finger holds, unit, ``(F, nf, 3)``
         (zero where a finger holds nothing)."""
-        w = self.holding.astype(np.float64)
-        n = np.einsum("fpn,pj->fnj", w, self.object_normals)  # (F, nf, 3)
+        n = self._held_weights @ self.object_normals  # (F, nf, 3)
         norm = np.linalg.norm(n, axis=-1, keepdims=True)
         return np.divide(n, norm, out=np.zeros_like(n), where=norm > 0)
 

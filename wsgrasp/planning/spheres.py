@@ -89,28 +89,62 @@ class FingerSpheres:
         -------
         (n, nf) bool
         """
-        # cell of each point (n, 3); points outside the grid are clipped into its
-        # margin, two cells of which no sphere reaches, so they read as empty
-        ijk = ((points - self.origin) * (1.0 / self.cell)).astype(np.int64)
-        np.clip(ijk, 0, self._last, out=ijk)
-        status = self.status[ijk @ self._strides]  # (n, nf)
+        p = np.asarray(points, dtype=np.float64)
+        return self.holding_coordinates(p[:, 0], p[:, 1], p[:, 2])
+
+    def holding_coordinates(self, x: Array, y: Array, z: Array) -> NDArray[np.bool_]:
+        """:meth:`holding` for points given as three coordinate arrays.
+
+        Parameters
+        ----------
+        x, y, z : (...) float
+            In the gripper frame, all of one shape.
+
+        Returns
+        -------
+        (..., nf) bool
+        """
+        shape = np.shape(x)
+        # flat cell index of each point, computed in floats (exact below 2**53);
+        # points outside the grid are clipped into its margin, two cells of which
+        # no sphere reaches, so they read as empty
+        flat = np.zeros(shape)
+        for axis, (c, stride) in enumerate(zip((x, y, z), self._strides, strict=True)):
+            q = np.floor((c - self.origin[axis]) * (1.0 / self.cell))
+            np.clip(q, 0.0, float(self._last[axis]), out=q)
+            q *= float(stride)
+            flat += q
+        status = self.status[flat.astype(np.int64).ravel()]  # (n, nf)
         out = status == _FULL
-        for f, (tree, centers, radii, R) in enumerate(self._exact):
-            idx = np.flatnonzero(status[:, f] == _PARTIAL)
-            if idx.size == 0:
-                continue
-            query = np.hstack([points[idx], np.zeros((idx.size, 1))])  # (k, 4)
-            _, nearest = tree.query(query, k=1, distance_upper_bound=R * (1.0 + 1e-9))
-            found = nearest < len(centers)
-            idx, nearest = idx[found], nearest[found]
-            # exact test against the sphere nearest in power distance
-            d2 = np.sum((points[idx] - centers[nearest]) ** 2, axis=-1)
-            inside = d2 < radii[nearest] * radii[nearest]
-            out[idx[inside], f] = True
-            # points on a surface to within rounding: every sphere, as a brute
-            # force test would (a handful of points at most)
-            edge = idx[~inside]
-            if edge.size:
-                diff = points[edge, None, :] - centers  # (e, nsp, 3)
-                out[edge, f] = np.any(np.sum(diff**2, axis=-1) < radii * radii, axis=1)
-        return out
+        partial = status == _PARTIAL
+        if partial.any():
+            px, py, pz = (np.ravel(c) for c in (x, y, z))
+            for f, (tree, centers, radii, R) in enumerate(self._exact):
+                idx = np.flatnonzero(partial[:, f])
+                if idx.size == 0:
+                    continue
+                pts = np.stack([px[idx], py[idx], pz[idx]], axis=-1)  # (k, 3)
+                out[idx, f] = _exact_inside(pts, tree, centers, radii, R)
+        return out.reshape(*shape, self.num_fingers)
+
+
+def _exact_inside(
+    pts: Array, tree: cKDTree, centers: Array, radii: Array, R: float
+) -> NDArray[np.bool_]:
+    """Whether each point ``(k, 3)`` lies strictly inside any of the spheres."""
+    out = np.zeros(len(pts), dtype=bool)
+    query = np.hstack([pts, np.zeros((len(pts), 1))])  # (k, 4)
+    _, nearest = tree.query(query, k=1, distance_upper_bound=R * (1.0 + 1e-9))
+    found = np.flatnonzero(nearest < len(centers))
+    nearest = nearest[found]
+    # exact test against the sphere nearest in power distance
+    d2 = np.sum((pts[found] - centers[nearest]) ** 2, axis=-1)
+    inside = d2 < radii[nearest] * radii[nearest]
+    out[found[inside]] = True
+    # points on a surface to within rounding: every sphere, as a brute force test
+    # would (a handful of points at most)
+    edge = found[~inside]
+    if edge.size:
+        diff = pts[edge, None, :] - centers  # (e, nsp, 3)
+        out[edge] = np.any(np.sum(diff**2, axis=-1) < radii * radii, axis=1)
+    return out
