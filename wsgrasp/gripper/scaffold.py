@@ -54,6 +54,8 @@ CONFIG_BUDGET = 6000
 TARGET_COVERAGE = 0.45
 #: ... with at most this many spheres per finger
 MAX_SPHERES = 40
+#: the scaffolder tries up to this many body superellipsoids
+MAX_ELLIPSOIDS = 9
 #: pad depth into the distal link (m), at most
 PAD_DEPTH = 0.004
 _NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_\-]*$")
@@ -226,7 +228,9 @@ def copy_urdf(
                 'of the URDF gets scale="0.001 0.001 0.001"), or add that scale to '
                 "its <mesh> element",
             )
-        notes.append(f"{orig} -> {rel} ({extent * 1000:.0f} mm across)")
+        note = f"{orig} -> {rel} ({extent * 1000:.0f} mm across)"
+        if note not in notes:
+            notes.append(note)
     out_dir.mkdir(parents=True, exist_ok=True)
     if target:
         (out_dir / "meshes").mkdir(exist_ok=True)
@@ -870,7 +874,9 @@ def render_yaml(scaffold: Scaffold, header: list[str] | None = None) -> str:
         if key in n:
             out.append(_comment(n[key]))
         out.append(f"{key}: {_flow(d[key])}\n")
-    out.append(_comment("body superellipsoids fitted to the links (ne = 5, l = 10)"))
+    out.append(
+        _comment(n.get("ellipsoids", "body superellipsoids fitted to the links"))
+    )
     out.append(f"ellipsoids: {_flow(d['ellipsoids'])}\n")
     out.append(f"cloud_points: {d['cloud_points']}\n")
     for key in ("pregrasp", "closed"):
@@ -879,6 +885,38 @@ def render_yaml(scaffold: Scaffold, header: list[str] | None = None) -> str:
         for j, v in d[key].items():
             out.append(f"  {j}: {_flow(v)}\n")
     return "".join(out)
+
+
+def _refit_ellipsoids(
+    scaffold: Scaffold, yaml_path: Path, header: list[str], report: Any
+) -> Any:
+    """While the check finds body superellipsoids in the finger workspaces, try
+    more of them (up to :data:`MAX_ELLIPSOIDS`); keep the best count."""
+    from wsgrasp.gripper.check import check_gripper
+
+    def cost(r: Any) -> tuple[int, float]:
+        bad = [p for p in r.problems if p.field == "ellipsoids"]
+        return (len(bad), sum(i["fraction"] for i in r.intrusions))
+
+    ell = scaffold.data["ellipsoids"]
+    first = ell["count"]
+    best, best_count = report, first
+    count = first
+    while cost(best)[0] and count + 2 <= MAX_ELLIPSOIDS:
+        count += 2
+        ell["count"] = count
+        yaml_path.write_text(render_yaml(scaffold, header))
+        trial = check_gripper(str(yaml_path))
+        if cost(trial) < cost(best):
+            best, best_count = trial, count
+    ell["count"] = best_count
+    if best_count != first:
+        scaffold.notes["ellipsoids"] = (
+            f"body superellipsoids fitted to the links (l = 10); {best_count} "
+            f"rather than {first}, as fewer swallowed part of a finger workspace"
+        )
+    yaml_path.write_text(render_yaml(scaffold, header))
+    return best
 
 
 def module_name(name: str) -> str:
@@ -1045,6 +1083,7 @@ def scaffold_plugin(
         from wsgrasp.gripper.check import check_gripper
 
         report = check_gripper(str(yaml_path))
+        report = _refit_ellipsoids(scaffold, yaml_path, header, report)
         lines = [
             f"`wsgrasp gripper check` on this guess: {p.severity}: {p.message} "
             f"(field {p.field}; fix: {p.fix})"

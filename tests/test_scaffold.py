@@ -1,0 +1,163 @@
+"""`wsgrasp gripper new`: what the scaffolder guesses from a URDF, the package it
+writes, and the clear errors on bad URDFs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+from urdf_factory import jaw_urdf, write_claw
+
+from wsgrasp.errors import GripperError
+from wsgrasp.gripper.scaffold import copy_urdf, guess_description, scaffold_plugin
+from wsgrasp.spec import GripperDescription
+
+
+@pytest.fixture(autouse=True)
+def _cache(tmp_path_factory, monkeypatch):
+    cache = tmp_path_factory.getbasetemp() / "gripper-cache"
+    monkeypatch.setenv("WSGRASP_CACHE_DIR", str(cache))
+
+
+def _write(tmp_path, text, name="g.urdf"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_jaw_guesses_base_fingers_axes_and_postures(tmp_path):
+    sc = guess_description(_write(tmp_path, jaw_urdf()), "jaw")
+    d = sc.data
+    GripperDescription.model_validate(d)
+    assert d["base_link"] == "palm"
+    assert [f["pad"]["link"] for f in d["fingers"]] == ["left_finger", "right_finger"]
+    # the mimic follows its master: both fingers are driven by left_joint
+    assert [f["joints"] for f in d["fingers"]] == [["left_joint"], ["left_joint"]]
+    assert d["approach_axis"] == [0.0, 0.0, 1.0]
+    assert d["closing_axis"] == [0.0, 1.0, 0.0]
+    assert d["pregrasp"] == {"left_joint": 0.04}
+    assert d["closed"] == {"left_joint": 0.0}
+    # pads on the inner faces: the left finger's box spans y 0..15 mm, its inner
+    # face is its -y side; the right finger's is its +y side
+    left, right = (np.array(f["pad"]["center"]) for f in d["fingers"])
+    assert left[1] < 0.0075 - 0.005 and right[1] > -0.0075 + 0.005
+    # the TCP between the fingertips, in front of the palm
+    tcp = np.array(d["tool_frame"]["xyz"])
+    assert abs(tcp[1]) < 1e-6 and 0.05 < tcp[2] < 0.11
+    for field in ("base_link", "approach_axis", "closing_axis", "pregrasp", "pad"):
+        assert sc.notes[field], field
+
+
+def test_two_actuated_fingers_each_get_their_joint(tmp_path):
+    sc = guess_description(_write(tmp_path, jaw_urdf(mimic=False)), "jaw")
+    assert [f["joints"] for f in sc.data["fingers"]] == [
+        ["left_joint"],
+        ["right_joint"],
+    ]
+    assert sc.data["closed"] == {"left_joint": 0.0, "right_joint": 0.0}
+
+
+def test_claw_with_odd_conventions(tmp_path):
+    """Approach along x, revolute two-link fingers with a mimic distal joint,
+    meshes under package:// paths."""
+    urdf = write_claw(tmp_path / "src")
+    copy, notes = copy_urdf(urdf, tmp_path / "pkg", "claw")
+    assert len(notes) == 4 and (tmp_path / "pkg" / "meshes" / "palm.stl").is_file()
+    assert "package://" not in copy.read_text()
+    d = guess_description(copy, "claw").data
+    assert d["approach_axis"] == [1.0, 0.0, 0.0]
+    assert d["closing_axis"] == [0.0, 1.0, 0.0]
+    assert [f["pad"]["link"] for f in d["fingers"]] == ["upper_distal", "lower_distal"]
+    assert [f["joints"] for f in d["fingers"]] == [["upper_knuckle"], ["lower_knuckle"]]
+    # fingers open outwards at the lower limit, close at the upper one
+    assert d["pregrasp"] == {"upper_knuckle": -0.3, "lower_knuckle": -0.3}
+    assert d["closed"] == {"upper_knuckle": 0.7, "lower_knuckle": 0.7}
+    # the upper finger (y > 0) closes towards -y: its pad is on its -y face
+    assert d["fingers"][0]["pad"]["center"][1] < 0 < d["fingers"][1]["pad"]["center"][1]
+
+
+def test_scaffolded_package_is_complete_and_its_yaml_validates(tmp_path):
+    urdf = _write(tmp_path, jaw_urdf(), "jaw.urdf")
+    yaml_path, sc = scaffold_plugin("my-jaw", urdf, tmp_path / "out")
+    out = tmp_path / "out"
+    pkg = out / "wsgrasp_my_jaw"
+    assert yaml_path == pkg / "my-jaw.yaml"
+    for rel in ("pyproject.toml", "README.md", "tests/test_wsgrasp_my_jaw.py"):
+        assert (out / rel).is_file(), rel
+    assert (pkg / "__init__.py").is_file() and (pkg / "my-jaw.urdf").is_file()
+    pyproject = (out / "pyproject.toml").read_text()
+    assert '[project.entry-points.wsgrasp]\nmy-jaw = "wsgrasp_my_jaw"' in pyproject
+    text = yaml_path.read_text()
+    assert "# the root link of the URDF tree" in text
+    assert "`wsgrasp gripper check` on this guess" in text
+    GripperDescription.model_validate(yaml.safe_load(text))
+    # a second scaffold into the same folder needs --force
+    with pytest.raises(GripperError, match="--force"):
+        scaffold_plugin("my-jaw", urdf, out)
+    scaffold_plugin("my-jaw", urdf, out, force=True)
+
+
+# -- bad input: one clear error (or warning) naming the link/joint and the fix ----
+def test_no_actuated_joint(tmp_path):
+    with pytest.raises(GripperError) as err:
+        guess_description(_write(tmp_path, jaw_urdf(actuated=False)), "jaw")
+    msg = str(err.value)
+    assert "no actuated joint" in msg and "left_joint (fixed)" in msg
+    assert "revolute or prismatic" in msg
+
+
+def test_disconnected_trees(tmp_path):
+    path = _write(tmp_path, jaw_urdf(stray_tree=True))
+    with pytest.raises(GripperError) as err:
+        guess_description(path, "jaw")
+    msg = str(err.value)
+    assert "2 disconnected trees" in msg and "'stray_camera'" in msg
+    assert "--base-link" in msg
+    sc = guess_description(path, "jaw", base_link="palm")
+    assert any("stray_camera" in w for w in sc.warnings)
+
+
+def test_continuous_joint_without_limits_on_a_finger(tmp_path):
+    with pytest.raises(GripperError) as err:
+        guess_description(_write(tmp_path, jaw_urdf(continuous=True)), "jaw")
+    msg = str(err.value)
+    assert "'swivel_joint'" in msg and "<limit lower" in msg
+
+
+def test_urdf_in_millimetres(tmp_path):
+    with pytest.raises(GripperError, match="millimetres"):
+        guess_description(_write(tmp_path, jaw_urdf(scale=1000.0)), "jaw")
+
+
+def test_meshes_in_millimetres(tmp_path):
+    urdf = write_claw(tmp_path / "src", mesh_scale=1000.0)
+    with pytest.raises(GripperError) as err:
+        copy_urdf(urdf, tmp_path / "a", "claw")
+    msg = str(err.value)
+    assert "millimetres" in msg and "--mesh-units mm" in msg and "link " in msg
+    copy, _ = copy_urdf(urdf, tmp_path / "b", "claw", mesh_units="mm")
+    assert copy.read_text().count('scale="0.001 0.001 0.001"') == 6
+    d = guess_description(copy, "claw").data
+    assert d["approach_axis"] == [1.0, 0.0, 0.0]
+
+
+def test_missing_mesh_names_link_and_fix(tmp_path):
+    urdf = write_claw(tmp_path / "src")
+    moved = tmp_path / "elsewhere"
+    (tmp_path / "src" / "meshes").rename(moved)
+    with pytest.raises(GripperError) as err:
+        copy_urdf(urdf, tmp_path / "a", "claw")
+    msg = str(err.value)
+    assert "palm.stl" in msg and "link claw_base" in msg and "--mesh-dir" in msg
+    copy, _ = copy_urdf(urdf, tmp_path / "b", "claw", mesh_dirs=[moved])
+    assert (copy.parent / "meshes" / "distal.stl").is_file()
+
+
+def test_bad_names(tmp_path):
+    urdf = _write(tmp_path, jaw_urdf())
+    with pytest.raises(GripperError, match="package name"):
+        scaffold_plugin("9 lives", urdf, tmp_path / "o")
+    with pytest.raises(GripperError, match="does not exist"):
+        scaffold_plugin("jaw", tmp_path / "nope.urdf", tmp_path / "o")
+    with pytest.raises(GripperError, match="mesh-units"):
+        scaffold_plugin("jaw", urdf, tmp_path / "o", mesh_units="inch")
