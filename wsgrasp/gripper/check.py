@@ -333,6 +333,14 @@ def _check_kinematics(report: CheckReport, desc: Any, base_dir: Path) -> None:
         def centre(T: Array, f: Any) -> Array:
             return T[:3, :3] @ np.asarray(f.pad.center) + T[:3, 3]
 
+        def between(t: float) -> dict[str, float]:
+            """The posture a fraction ``t`` of the way from pregrasp to closed."""
+            out = {j: float(v) for j, v in closed.items()}
+            for j, v in pre.items():
+                end = closed[j] if j in closed else v
+                out[j] = (1.0 - t) * float(v) + t * float(end)
+            return out
+
         p_open = np.array(
             [centre(T, f) for T, f in zip(frames_open, desc.fingers, strict=True)]
         )
@@ -341,16 +349,13 @@ def _check_kinematics(report: CheckReport, desc: Any, base_dir: Path) -> None:
         )
         # facing is judged open: the pad must face the finger it closes against,
         # or lead the finger's first closing motion (curling fingers of a hand)
-        start = {j: 0.9 * pre[j] + 0.1 * closed.get(j, pre[j]) for j in pre} | {
-            j: v for j, v in closed.items() if j not in pre
-        }
+        start = between(0.1)
         p_start = np.array(
             [centre(_pad_frame(kin, base, f.pad.link, start), f) for f in desc.fingers]
         )
         p_path = []  # pad centres at 8 steps from open to closed: (F, 3) each
         for t in np.linspace(0.0, 1.0, 9)[1:]:
-            post = {j: (1 - t) * pre[j] + t * closed.get(j, pre[j]) for j in pre}
-            post |= {j: v for j, v in closed.items() if j not in pre}
+            post = between(float(t))
             p_path.append(
                 np.array(
                     [
