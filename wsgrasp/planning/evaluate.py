@@ -109,20 +109,21 @@ def table_collisions(
     for sl in _chunks(len(T_world_gripper), len(cloud)):
         T = T_table_gripper[sl]
         # heights of every cloud point in the table frame: (c, ng)
-        z = (cloud @ T[:, 2, :3].T).T + T[:, 2, 3][:, None]
-        min_height[sl] = z.min(axis=1)
-        below = z < top  # only these can be inside the SE
-        maybe = np.flatnonzero(below.any(axis=1))
+        z = T[:, 2, :3] @ cloud.T
+        z += T[:, 2, 3][:, None]
+        low = z.argmin(axis=1)  # (c,)
+        min_height[sl] = z[np.arange(len(T)), low]
+        # only points below the SE's top can be inside it
+        maybe = np.flatnonzero(min_height[sl] < top)
         if maybe.size == 0:
             continue
         block = np.zeros(len(T), dtype=bool)
         # quick: the lowest point of each candidate is nearly always inside when
         # any point is; test it first, all the points below the top only for the rest
-        lowest = cloud[z[maybe].argmin(axis=1)]  # (k, 3)
-        block[maybe] = _inside(T[maybe], lowest, se)
+        block[maybe] = _inside(T[maybe], cloud[low[maybe]], se)
         rest = maybe[~block[maybe]]
         if rest.size:
-            ci, pi = np.nonzero(below[rest])
+            ci, pi = np.nonzero(z[rest] < top)
             inside = _inside(T[rest[ci]], cloud[pi], se)
             block[rest[ci[inside]]] = True
         hit[sl] = block
@@ -131,11 +132,12 @@ def table_collisions(
 
 def _coordinates(T: Array, points: Array) -> tuple[Array, Array, Array]:
     """Points ``(n, 3)`` under transforms ``(a, 4, 4)``, as three ``(n, a)`` arrays."""
-    R, t = T[:, :3, :3], T[:, :3, 3]
-    x = points @ R[:, 0, :].T + t[:, 0]
-    y = points @ R[:, 1, :].T + t[:, 1]
-    z = points @ R[:, 2, :].T + t[:, 2]
-    return x, y, z
+    a = len(T)
+    # one product for all: (n, 3) @ (3, 3a), columns x of every transform, then y, z
+    M = T[:, :3, :3].transpose(2, 1, 0).reshape(3, 3 * a)
+    P = points @ M  # (n, 3a)
+    P += T[:, :3, 3].T.reshape(-1)
+    return P[:, :a], P[:, a : 2 * a], P[:, 2 * a :]
 
 
 def evaluate_candidates(
