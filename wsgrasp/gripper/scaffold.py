@@ -988,7 +988,8 @@ from wsgrasp.perception.io import scene_from_arrays
 from wsgrasp.perception.synth import synth_scene
 from wsgrasp.spec import load_spec
 
-YAML = Path(__file__).resolve().parents[1] / "{module}" / "{name}.yaml"
+HERE = Path(__file__).resolve().parents[1]
+YAML = HERE / "{module}" / "{name}.yaml"
 
 
 def test_check_finds_no_errors():
@@ -998,7 +999,7 @@ def test_check_finds_no_errors():
 
 def test_plans_a_grasp_on_a_cylinder():
     pipe = Pipeline(load_spec({{"gripper": str(YAML), "record": {{"enabled": False}}}}))
-    radius = min(0.04, max(0.012, 0.3 * pipe.gripper.max_opening))
+    radius = min(0.035, max(0.012, 0.2 * pipe.gripper.max_opening))
     scene = synth_scene("cylinder", size=(radius, 0.12), seed=0, width=160, height=120)
     result = pipe.plan(scene_from_arrays(scene.points))
     assert result.found, result.hint

@@ -13,11 +13,8 @@ from wsgrasp.perception.io import scene_from_arrays
 from wsgrasp.perception.synth import synth_scene
 from wsgrasp.spec import load_spec
 
-YAML = (
-    Path(__file__).resolve().parents[1]
-    / "wsgrasp_robotiq_2f85_like"
-    / "robotiq_2f85_like.yaml"
-)
+HERE = Path(__file__).resolve().parents[1]
+YAML = HERE / "wsgrasp_robotiq_2f85_like" / "robotiq_2f85_like.yaml"
 
 
 def test_check_finds_no_errors():
