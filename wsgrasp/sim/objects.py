@@ -281,12 +281,12 @@ def _toilet_paper_roll() -> SimObject:
 def _doll() -> SimObject:
     # a small soft doll sitting: torso, head, arms, legs (ellipsoids, capsules)
     parts = [
-        Part("ellipsoid", (0.035, 0.025, 0.045), _T((0, 0, 0.065))),
-        Part("sphere", (0.03,), _T((0, 0, 0.135))),
-        Part("capsule", (0.011, 0.05), _T((0, 0.045, 0.075), _rot("x", 0.4))),
-        Part("capsule", (0.011, 0.05), _T((0, -0.045, 0.075), _rot("x", -0.4))),
-        Part("capsule", (0.013, 0.06), _T((0.04, 0.016, 0.015), _rot("y", np.pi / 2))),
-        Part("capsule", (0.013, 0.06), _T((0.04, -0.016, 0.015), _rot("y", np.pi / 2))),
+        Part("ellipsoid", (0.035, 0.025, 0.045), _T((0, 0, 0.046))),
+        Part("sphere", (0.028,), _T((0, 0, 0.115))),
+        Part("capsule", (0.011, 0.05), _T((0, 0.042, 0.06), _rot("x", 0.4))),
+        Part("capsule", (0.011, 0.05), _T((0, -0.042, 0.06), _rot("x", -0.4))),
+        Part("capsule", (0.013, 0.06), _T((0.03, 0.016, 0.013), _rot("y", np.pi / 2))),
+        Part("capsule", (0.013, 0.06), _T((0.03, -0.016, 0.013), _rot("y", np.pi / 2))),
     ]
     return SimObject("doll", parts, 0.15)
 
@@ -300,17 +300,18 @@ def _dish_brush() -> SimObject:
 
 
 def _banana() -> SimObject:
-    # five capsules along an arc of radius 12 cm, thickness 3.6 cm
+    # five capsules along an arc of radius 12 cm, 3.6 cm thick, lying on its side
     parts = []
     R, r = 0.12, 0.018
     angles = np.linspace(-0.65, 0.65, 6)
     for a0, a1 in zip(angles[:-1], angles[1:], strict=True):
-        p0 = np.array([R * np.sin(a0), 0.0, R - R * np.cos(a0)])
-        p1 = np.array([R * np.sin(a1), 0.0, R - R * np.cos(a1)])
+        # lying on its side: the arc in the table plane, resting on z = 0
+        p0 = np.array([R * np.sin(a0), R - R * np.cos(a0), r])
+        p1 = np.array([R * np.sin(a1), R - R * np.cos(a1), r])
         mid, d = (p0 + p1) / 2, p1 - p0
         length = float(np.linalg.norm(d))
         z = d / length
-        x = np.cross([0.0, 1.0, 0.0], z)
+        x = np.cross([0.0, 0.0, 1.0], z)
         Rm = np.stack([x, np.cross(z, x), z], axis=1)
         rr = r * (0.75 + 0.25 * np.cos(2.2 * (a0 + a1) / 2))  # thinner ends
         parts.append(Part("capsule", (rr, length), _T(tuple(mid), Rm)))

@@ -118,18 +118,11 @@ def settle_object(
         T[:3, 3] = [xy[0], xy[1], z]
         d.qpos[scene.object_qpos] = _pose_to_qpos(T)
         m.dof_damping[scene.object_dof] = p.settle_damping
-        t = 0.0
-        while t < p.settle_time:
-            mujoco.mj_step(m, d, nstep=steps)
-            t += steps * p.timestep
-            v = d.qvel[scene.object_dof]
-            if (
-                t > 0.3
-                and np.linalg.norm(v[:3]) < 2e-3
-                and np.linalg.norm(v[3:]) < 2e-2
-            ):
-                break
+        t = _run_until_still(m, d, scene, steps, p.settle_time, p.timestep)
+        # then without the extra damping: what is still tipping over, tips now
         m.dof_damping[scene.object_dof] = 0.0
+        mujoco.mj_step(m, d, nstep=int(round(0.5 / p.timestep)))
+        t += 0.5 + _run_until_still(m, d, scene, steps, p.settle_time, p.timestep)
         T = _qpos_to_pose(d.qpos[scene.object_qpos].copy())
         com = d.xipos[scene.object_body]  # (3,) centre of mass, world
         if abs(com[0]) < limit and abs(com[1]) < limit and com[2] > 0.0:
@@ -140,6 +133,21 @@ def settle_object(
         f"object {obj.name!r} did not come to rest on the table in 10 drops",
         hint="check the object's size (metres) and shape",
     )
+
+
+def _run_until_still(
+    m: Any, d: Any, scene: SimScene, steps: int, limit: float, dt: float
+) -> float:
+    """Step until the object is still (after at least 0.3 s) or ``limit`` s."""
+    mujoco = require_mujoco()
+    t = 0.0
+    while t < limit:
+        mujoco.mj_step(m, d, nstep=steps)
+        t += steps * dt
+        v = d.qvel[scene.object_dof]  # (6,) linear, angular
+        if t > 0.3 and np.linalg.norm(v[:3]) < 2e-3 and np.linalg.norm(v[3:]) < 2e-2:
+            break
+    return t
 
 
 def render_views(
