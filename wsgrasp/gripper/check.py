@@ -305,7 +305,8 @@ def _check_kinematics(report: CheckReport, desc: Any, base_dir: Path) -> None:
                     "raise ellipsoids.count so links are fitted apart, or give "
                     "ellipsoids.given by hand; if the finger reaches into the body at "
                     "the end of its joint range, narrow that joint's <limit> in the "
-                    "URDF",
+                    "URDF (then set closed to the new limit, or rerun `wsgrasp "
+                    "gripper new ... --force`)",
                 )
     if len(voxels) > 1:
         for k, finger in enumerate(desc.fingers):
