@@ -12,6 +12,7 @@ from test_record_fakes import box_scene, fake_gripper, fake_spec, plan_recorded
 
 from wsgrasp.errors import RecordingError
 from wsgrasp.record import (
+    FORMAT_VERSION,
     PARTS,
     RunRecorder,
     compare_results,
@@ -59,7 +60,7 @@ def test_round_trip_gives_back_inputs_and_result_bit_for_bit(recorded) -> None:
 def test_metadata_has_versions_plugins_spec_and_seed(recorded) -> None:
     run = open_run(recorded[0])
     meta = run.metadata["wsgrasp"]
-    assert meta["format_version"] == "1" and meta["seed"] == "0"
+    assert meta["format_version"] == str(FORMAT_VERSION) and meta["seed"] == "0"
     assert {"wsgrasp_version", "python", "platform", "numpy"} <= set(meta)
     assert json.loads(run.metadata["spec"]["json"])["gripper"] == "fake_franka"
     assert all({"distribution", "version"} <= set(p) for p in run.plugins)
@@ -91,7 +92,7 @@ def test_every_channel_decodes_with_its_declared_schema(recorded) -> None:
     assert names - {"wsgrasp.Record"} <= FOXGLOVE_SCHEMAS
     assert FOXGLOVE_SCHEMAS <= names, "all well-known schemas are used"
     by_topic = {ch.topic: msg for _, ch, _, msg in decoded}
-    assert by_topic["/wsgrasp/inputs"].format_version == 1
+    assert by_topic["/wsgrasp/inputs"].format_version == FORMAT_VERSION
     assert len(by_topic["/inputs/view0"].data) == 12 * 2250
     for _, ch, _, _ in decoded:
         assert ch.message_encoding == "protobuf"
@@ -246,5 +247,5 @@ def test_a_newer_format_names_the_version(tmp_path: Path) -> None:
         w.start("wsgrasp", "wsgrasp 9.0")
         w.add_metadata("wsgrasp", {"format_version": "7", "wsgrasp_version": "9.0"})
         w.finish()
-    with pytest.raises(RecordingError, match=r"wsgrasp 9\.0 in run format 7.*up to 1"):
+    with pytest.raises(RecordingError, match=rf"wsgrasp 9\.0 in run format 7.*up to {FORMAT_VERSION}"):
         open_run(path)

@@ -4,6 +4,12 @@ Each full-fidelity message is one ``wsgrasp.Record`` (protobuf, see :mod:`._prot
 a JSON text for the structure, in which ``{"$array": i}`` stands for the i-th raw
 little-endian array of the record, so arrays decode bit for bit. A float that JSON
 cannot hold (NaN, ±inf) is ``{"$float": "nan"}``. Everything else is plain JSON.
+
+A float64 array whose every value is exactly a float32 (sensor clouds usually are)
+is stored as float32, half the bytes, and marked ``{"$array": i, "$as": "<f8"}``:
+it decodes to the very float64 bits it was recorded from. The test is on the bits
+(float64 -> float32 -> float64 gives the same 64 bits), so ``-0.0``, infinities and
+NaNs with the standard payload survive it and any other NaN stays float64.
 """
 
 from __future__ import annotations
@@ -30,7 +36,9 @@ __all__ = [
 ]
 
 #: Version of the recording layout. A reader refuses files with a larger one.
-FORMAT_VERSION = 1
+#: 2: float64 arrays may be stored as float32 (``"$as"``), the merged scene points
+#: as ``"merge(views)"`` (see :mod:`._writer`). Version 1 files still read.
+FORMAT_VERSION = 2
 
 #: MCAP header profile of wsgrasp runs.
 PROFILE = "wsgrasp"
@@ -48,6 +56,30 @@ TOPICS = {
 
 _DTYPES = {"<f8", "<i8", "|b1", "<f4", "<i4", "|u1"}
 
+#: float64 arrays at least this long are tried as float32 (smaller ones gain little)
+F32_MIN_SIZE = 64
+_PROBE = 64
+
+
+def as_float32_exact(a: NDArray[Any]) -> NDArray[np.float32] | None:
+    """``a`` (contiguous ``<f8``) as float32 when that keeps every bit, else None.
+
+    The first values are tried first, so an array that is not float32 at heart
+    costs almost nothing.
+    """
+    flat = a.reshape(-1)
+    head = flat[:_PROBE]
+    if not _same_bits(head.astype("<f4").astype("<f8"), head):
+        return None
+    f32 = a.astype("<f4")
+    if not _same_bits(f32.astype("<f8").reshape(-1), flat):
+        return None
+    return f32
+
+
+def _same_bits(x: NDArray[Any], y: NDArray[Any]) -> bool:
+    return bool(np.array_equal(x.view("<i8"), y.view("<i8")))
+
 
 def _encode_array(a: NDArray[Any], arrays: list[ArrayBytes]) -> dict[str, Any]:
     a = np.asarray(a)
@@ -60,9 +92,14 @@ def _encode_array(a: NDArray[Any], arrays: list[ArrayBytes]) -> dict[str, Any]:
     if a.dtype.str not in _DTYPES:
         raise RecordingError(f"cannot record an array of dtype {a.dtype}")
     a = np.ascontiguousarray(a)
+    ref: dict[str, Any] = {}
+    if a.dtype.str == "<f8" and a.size >= F32_MIN_SIZE:
+        f32 = as_float32_exact(a)
+        if f32 is not None:
+            a, ref["$as"] = f32, "<f8"
     raw = a.reshape(-1).view(np.uint8).data  # (nbytes,) view, no copy
     arrays.append(ArrayBytes(a.dtype.str, tuple(a.shape), raw))
-    return {"$array": len(arrays) - 1}
+    return {"$array": len(arrays) - 1, **ref}
 
 
 def encode_value(value: Any, arrays: list[ArrayBytes]) -> Any:
@@ -100,13 +137,19 @@ def encode_value(value: Any, arrays: list[ArrayBytes]) -> Any:
 def decode_value(data: Any, arrays: list[ArrayBytes]) -> Any:
     """Inverse of :func:`encode_value` (dataclasses come back as dicts)."""
     if isinstance(data, dict):
-        if "$array" in data and len(data) == 1:
+        if "$array" in data and set(data) <= {"$array", "$as"}:
             a = arrays[int(data["$array"])]
             if a.dtype not in _DTYPES:
                 raise ValueError(f"unknown array dtype {a.dtype!r}")
             flat = np.frombuffer(a.data, dtype=np.dtype(a.dtype))
             # the record's own shape, e.g. (n, 3) points or (C, 4, 4) poses
-            return flat.reshape(a.shape).copy()
+            out = flat.reshape(a.shape)
+            cast = data.get("$as")
+            if cast is None:
+                return out.copy()
+            if (a.dtype, cast) != ("<f4", "<f8"):
+                raise ValueError(f"cannot read {a.dtype!r} array as {cast!r}")
+            return out.astype("<f8")
         if "$float" in data and len(data) == 1:
             return float(data["$float"])
         return {k: decode_value(v, arrays) for k, v in data.items()}

@@ -3,11 +3,20 @@
 Each builder returns ``(schema_name, encoded_bytes)``; the schema name is the exact
 well-known name (``foxglove.PointCloud``, ...) and :func:`schema_of` gives the
 protobuf ``FileDescriptorSet`` the writer registers for it.
+
+Messages are built with foxglove-sdk, except the long repeated fields (the poses of
+a ``PosesInFrame``, the spheres of a ``SceneEntity``): one Python object per pose
+costs microseconds each, thousands per run, so these are encoded a whole array at a
+time (:func:`_rows`) and appended to the SDK's encoding of the rest of the message
+(protobuf concatenates repeated fields). Every field is written, zeros included,
+which any protobuf reader accepts; the tests decode them with the schemas.
 """
 
 from __future__ import annotations
 
+import math
 import warnings
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -64,6 +73,64 @@ def schema_of(name: str) -> tuple[str, bytes]:
     return s.encoding, bytes(s.data)
 
 
+# -- vectorised protobuf --------------------------------------------------------------
+#: A row template: bytes are copied as they are, None is the next float64 column.
+_Parts = list[bytes | None]
+
+
+def _tag(field: int) -> int:
+    """Key byte of a length-delimited field (fields 1..15)."""
+    return (field << 3) | 2
+
+
+def _vec3(field: int) -> _Parts:
+    """A ``Vector3`` (x, y, z doubles: fields 1, 2, 3, 27 bytes) as ``field``."""
+    return [bytes([_tag(field), 27, 0x09]), None, b"\x11", None, b"\x19", None]
+
+
+def _vec4(field: int) -> _Parts:
+    """A ``Quaternion`` (x, y, z, w) or ``Color`` (r, g, b, a): 4 doubles, 36 bytes."""
+    head = bytes([_tag(field), 36, 0x09])
+    return [head, None, b"\x11", None, b"\x19", None, b"\x21", None]
+
+
+def _pose(field: int) -> _Parts:
+    """A ``Pose`` (position 1, orientation 2: 67 bytes) as ``field``; columns
+    x, y, z, qx, qy, qz, qw."""
+    return [bytes([_tag(field), 67]), *_vec3(1), *_vec4(2)]
+
+
+def _rows(parts: _Parts, values: Array) -> bytes:
+    """``len(values)`` protobuf fields, one per row: the constant bytes of
+    ``parts`` with the row's doubles ``values`` (k, m) in place of the Nones."""
+    merged: list[bytes | None] = []
+    for part in parts:
+        if part is not None and merged and merged[-1] is not None:
+            merged[-1] += part
+        else:
+            merged.append(part)
+    names, formats = [], []
+    for i, part in enumerate(merged):
+        names.append(f"f{i}")
+        formats.append("<f8" if part is None else f"V{len(part)}")
+    rec = np.empty(len(values), dtype=np.dtype({"names": names, "formats": formats}))
+    column = 0
+    for i, part in enumerate(merged):
+        if part is None:
+            rec[f"f{i}"] = values[:, column]
+            column += 1
+        else:
+            rec[f"f{i}"] = np.void(part)
+    assert column == values.shape[1]
+    return rec.tobytes()
+
+
+def _pose_columns(T: ArrayLike) -> Array:
+    """Columns x, y, z, qx, qy, qz, qw (k, 7) of transforms (k, 4, 4)."""
+    T = np.asarray(T, dtype=np.float64).reshape(-1, 4, 4)  # (k, 4, 4)
+    return np.concatenate([T[:, :3, 3], quaternions_xyzw(T[:, :3, :3])], axis=1)
+
+
 def _stamp(t_ns: int) -> Any:
     return fm.Timestamp(t_ns // 1_000_000_000, t_ns % 1_000_000_000)
 
@@ -73,6 +140,8 @@ def quaternions_xyzw(R: ArrayLike) -> Array:
     (Shepperd's method: the largest of w, x, y, z is found first, so every branch is
     well conditioned)."""
     R = np.asarray(R, dtype=np.float64).reshape(-1, 3, 3)  # (k, 3, 3)
+    if len(R) == 1:  # one pose: plain floats beat a dozen tiny numpy calls
+        return np.array([_quaternion_xyzw(R[0].tolist())])
     tr = np.trace(R, axis1=1, axis2=2)  # (k,)
     d = np.stack([R[:, 0, 0], R[:, 1, 1], R[:, 2, 2], tr], axis=1)  # (k, 4)
     best = np.argmax(d, axis=1)  # 0..2: x, y or z largest; 3: w largest
@@ -104,6 +173,28 @@ def quaternions_xyzw(R: ArrayLike) -> Array:
         q[sel, 1] = 0.5 * (Rs[:, 0, 2] - Rs[:, 2, 0]) / s
         q[sel, 2] = 0.5 * (Rs[:, 1, 0] - Rs[:, 0, 1]) / s
     return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
+def _quaternion_xyzw(R: list[list[float]]) -> list[float]:
+    """:func:`quaternions_xyzw` of one rotation matrix (3, 3), the same branches."""
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = R
+    d = [r00, r11, r22, r00 + r11 + r22]
+    best = max(range(4), key=d.__getitem__)
+    q = [0.0, 0.0, 0.0, 0.0]
+    if best == 3:
+        s = math.sqrt(max(1.0 + d[3], 1e-300))
+        q = [(r21 - r12) * 0.5 / s, (r02 - r20) * 0.5 / s, (r10 - r01) * 0.5 / s]
+        q.append(0.5 * s)
+    else:
+        i = best
+        j, k = (i + 1) % 3, (i + 2) % 3
+        s = math.sqrt(max(1.0 + 2.0 * R[i][i] - r00 - r11 - r22 + 0.0, 1e-300))
+        q[i] = 0.5 * s
+        q[j] = 0.5 * (R[j][i] + R[i][j]) / s
+        q[k] = 0.5 * (R[k][i] + R[i][k]) / s
+        q[3] = 0.5 * (R[k][j] - R[j][k]) / s
+    n = math.sqrt(sum(c * c for c in q))
+    return [c / n for c in q]
 
 
 def _pq(T: ArrayLike) -> tuple[list[list[float]], list[list[float]]]:
@@ -201,8 +292,9 @@ def pose_in_frame(T: ArrayLike, frame_id: str, t_ns: int) -> tuple[str, bytes]:
 
 def poses_in_frame(T: ArrayLike, frame_id: str, t_ns: int) -> tuple[str, bytes]:
     """A ``foxglove.PosesInFrame`` of transforms ``(k, 4, 4)``."""
-    msg = fm.PosesInFrame(timestamp=_stamp(t_ns), frame_id=frame_id, poses=_poses(T))
-    return "foxglove.PosesInFrame", msg.encode()
+    msg = fm.PosesInFrame(timestamp=_stamp(t_ns), frame_id=frame_id, poses=[])
+    poses = _rows(_pose(3), _pose_columns(T))  # field 3: poses
+    return "foxglove.PosesInFrame", bytes(msg.encode()) + poses
 
 
 def _color(rgba: tuple[float, ...]) -> Any:
@@ -217,42 +309,62 @@ def cube(T: ArrayLike, size: ArrayLike, rgba: tuple[float, ...]) -> Any:
     )
 
 
-def spheres(centers: ArrayLike, radii: ArrayLike, rgba: tuple[float, ...]) -> list[Any]:
-    """Sphere primitives at ``centers`` (k, 3) with ``radii`` (k,)."""
+#: A ``SpherePrimitive`` as ``SceneEntity.spheres`` (field 9): pose 1, size 2,
+#: color 3 (136 bytes: a two-byte length); columns pose (7), size (3), color (4)
+_SPHERE: _Parts = [b"\x4a\x88\x01", *_pose(1), *_vec3(2), *_vec4(3)]
+
+
+class Spheres(bytes):
+    """Encoded ``SceneEntity.spheres`` entries (see :func:`spheres`)."""
+
+
+def spheres(centers: ArrayLike, radii: ArrayLike, rgba: tuple[float, ...]) -> Spheres:
+    """Sphere primitives at ``centers`` (k, 3) with ``radii`` (k,), for
+    :func:`scene_update`."""
     c = np.asarray(centers, dtype=np.float64).reshape(-1, 3)  # (k, 3)
-    r = np.asarray(radii, dtype=np.float64).reshape(-1)
-    T = np.broadcast_to(np.eye(4), (len(c), 4, 4)).copy()  # (k, 4, 4)
-    T[:, :3, 3] = c
-    color = _color(rgba)
-    return [
-        fm.SpherePrimitive(
-            pose=pose, size=fm.Vector3(x=2 * ri, y=2 * ri, z=2 * ri), color=color
-        )
-        for pose, ri in zip(_poses(T), r.tolist(), strict=True)
-    ]
+    d = 2.0 * np.asarray(radii, dtype=np.float64).reshape(-1, 1)  # (k, 1)
+    k = len(c)
+    cols = np.empty((k, 14))
+    cols[:, 0:3] = c
+    cols[:, 3:7] = (0.0, 0.0, 0.0, 1.0)  # identity orientation
+    cols[:, 7:10] = d
+    cols[:, 10:14] = rgba
+    return Spheres(_rows(_SPHERE, cols))
 
 
-def sphere(center: ArrayLike, radius: float, rgba: tuple[float, ...]) -> Any:
+def sphere(center: ArrayLike, radius: float, rgba: tuple[float, ...]) -> Spheres:
     """One sphere primitive."""
-    return spheres(np.asarray(center).reshape(1, 3), [radius], rgba)[0]
+    return spheres(np.asarray(center).reshape(1, 3), [radius], rgba)
 
 
 def scene_update(
-    entities: list[tuple[str, list[Any], list[Any]]], frame_id: str, t_ns: int
+    entities: Sequence[tuple[str, Sequence[Any], Sequence[Any]]],
+    frame_id: str,
+    t_ns: int,
 ) -> tuple[str, bytes]:
-    """A ``foxglove.SceneUpdate`` of entities ``(id, cubes, spheres)``."""
+    """A ``foxglove.SceneUpdate`` of entities ``(id, cubes, spheres)``; spheres
+    from :func:`spheres` (or a list of SDK ``SpherePrimitive``)."""
     stamp = _stamp(t_ns)
-    msg = fm.SceneUpdate(
-        entities=[
-            fm.SceneEntity(
-                timestamp=stamp,
-                frame_id=frame_id,
-                id=eid,
-                frame_locked=False,
-                cubes=cubes,
-                spheres=sph,
-            )
-            for eid, cubes, sph in entities
-        ]
-    )
-    return "foxglove.SceneUpdate", msg.encode()
+    out: list[bytes] = []
+    for eid, cubes, sph in entities:
+        packed = isinstance(sph, Spheres)
+        entity = fm.SceneEntity(
+            timestamp=stamp,
+            frame_id=frame_id,
+            id=eid,
+            frame_locked=False,
+            cubes=list(cubes),
+            spheres=[] if packed else list(sph),
+        )
+        body = bytes(entity.encode()) + (bytes(sph) if packed else b"")
+        out += [b"\x12", _varint(len(body)), body]  # SceneUpdate.entities: field 2
+    return "foxglove.SceneUpdate", b"".join(out)
+
+
+def _varint(n: int) -> bytes:
+    out = bytearray()
+    while n >= 0x80:
+        out.append((n & 0x7F) | 0x80)
+        n >>= 7
+    out.append(n)
+    return bytes(out)

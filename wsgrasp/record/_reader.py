@@ -214,6 +214,11 @@ class Run:
                 hint="nothing of this run can be replayed",
             )
         d = self.inputs
+        if d.get("points_mismatch"):
+            raise RecordingError(
+                f"{self.path}: {d['points_mismatch']}",
+                hint="replay the run where it was recorded (same numpy and BLAS)",
+            )
         views = [
             View(points=v["points"], T_world_camera=v["T_world_camera"], name=v["name"])
             for v in d["views"]
@@ -425,6 +430,37 @@ def _add(scan: _Scan, rec: Any) -> None:
         )
 
 
+def _rebuild_points(inputs: dict[str, Any]) -> None:
+    """Put the merged scene points back into ``inputs`` when the file stores how to
+    make them rather than them (see :func:`wsgrasp.record._writer._inputs_record`).
+
+    When this machine's merge does not give the recorded CRC-32 (another numpy or
+    BLAS than the recording machine's), ``points`` is still the merge and
+    ``points_mismatch`` says so; :attr:`Run.scene` then refuses to pass it off as
+    the planner's input.
+    """
+    from wsgrasp.record._writer import MERGED, merge_views, points_crc32
+
+    rule = inputs["points"]
+    views = inputs.get("views") or []
+    if rule == "views[0].points" and views:  # format 1
+        inputs["points"] = views[0]["points"]
+        return
+    if rule != MERGED or not views:
+        raise ValueError(f"unknown rule for the merged points: {rule!r}")
+    merged = merge_views([(v["points"], v["T_world_camera"]) for v in views])
+    assert merged is not None
+    inputs["points"] = merged
+    want = inputs.get("points_crc32")
+    if want is not None and points_crc32(merged) != int(want):
+        inputs["points_mismatch"] = (
+            "the recording stores the merged scene points as the merge of its "
+            "views, and merging them here does not give the recorded bits "
+            f"(CRC-32 {points_crc32(merged):#010x}, recorded {int(want):#010x}); "
+            "this machine's numpy/BLAS computes the merge differently"
+        )
+
+
 def open_run(path: str | Path) -> Run:
     """Read a recorded run.
 
@@ -519,7 +555,10 @@ def _run_from_scan(p: Path, scan: _Scan) -> Run:
     error = by_topic.get(TOPICS["error"])
     inputs = by_topic.get(TOPICS["inputs"])
     if inputs is not None and isinstance(inputs.get("points"), str):
-        inputs["points"] = inputs["views"][0]["points"]
+        try:
+            _rebuild_points(inputs)
+        except (ValueError, KeyError, TypeError) as exc:
+            raise _corrupt(p, 0, f"the inputs record: {exc}") from None
 
     truncated = not scan.footer
     present = {
