@@ -161,3 +161,10 @@ def test_bad_names(tmp_path):
         scaffold_plugin("jaw", tmp_path / "nope.urdf", tmp_path / "o")
     with pytest.raises(GripperError, match="mesh-units"):
         scaffold_plugin("jaw", urdf, tmp_path / "o", mesh_units="inch")
+
+
+def test_failed_scaffold_leaves_no_folder(tmp_path):
+    urdf = _write(tmp_path, jaw_urdf(stray_tree=True))
+    with pytest.raises(GripperError, match="disconnected"):
+        scaffold_plugin("jaw", urdf, tmp_path / "out")
+    assert not (tmp_path / "out").exists()

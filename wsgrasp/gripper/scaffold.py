@@ -14,10 +14,11 @@ and a README), then checks the model and records what the check found.
 from __future__ import annotations
 
 import re
+import shutil
 from pathlib import Path
 from typing import Any
 
-from wsgrasp.errors import GripperError
+from wsgrasp.errors import GripperError, WsgraspError
 from wsgrasp.gripper._guess import Scaffold, fit_sphere_count, guess_description
 from wsgrasp.gripper._scaffold_urdf import MESH_UNITS, copy_urdf
 
@@ -286,11 +287,31 @@ def scaffold_plugin(
             f"output folder {str(out)!r} exists and is not empty",
             hint="choose a new --out folder, or pass --force to overwrite",
         )
+    fresh = not out.exists()
+    try:
+        return _write_package(
+            name, Path(urdf), out, base_link, mesh_dirs, mesh_units, check
+        )
+    except BaseException:
+        if fresh:  # leave nothing half-written behind
+            shutil.rmtree(out, ignore_errors=True)
+        raise
+
+
+def _write_package(
+    name: str,
+    urdf: Path,
+    out: Path,
+    base_link: str | None,
+    mesh_dirs: list[Path] | None,
+    mesh_units: str | None,
+    check: bool,
+) -> tuple[Path, Scaffold]:
     module = module_name(name)
     pkg = out / module
     pkg.mkdir(parents=True, exist_ok=True)
     urdf_copy, mesh_notes = copy_urdf(
-        Path(urdf), pkg, name, mesh_dirs=mesh_dirs, mesh_units=mesh_units
+        urdf, pkg, name, mesh_dirs=mesh_dirs, mesh_units=mesh_units
     )
     scaffold = guess_description(urdf_copy, name, base_link=base_link)
     fit_sphere_count(scaffold, pkg)
@@ -302,17 +323,22 @@ def scaffold_plugin(
     if check:
         from wsgrasp.gripper.check import check_gripper
 
-        report = check_gripper(str(yaml_path))
-        report = _refit_ellipsoids(scaffold, yaml_path, header, report)
-        lines = [
-            f"`wsgrasp gripper check` on this guess: {p.severity}: {p.message} "
-            f"(field {p.field}; fix: {p.fix})"
-            for p in report.problems
-        ] or ["`wsgrasp gripper check` on this guess found no problem"]
+        try:
+            report = check_gripper(str(yaml_path))
+        except WsgraspError as exc:  # the guess does not build: say so, keep it
+            lines = [f"`wsgrasp gripper check` cannot build this guess: {exc}"]
+            scaffold.warnings.append(f"error: the model does not build: {exc}")
+        else:
+            report = _refit_ellipsoids(scaffold, yaml_path, header, report)
+            lines = [
+                f"`wsgrasp gripper check` on this guess: {p.severity}: {p.message} "
+                f"(field {p.field}; fix: {p.fix})"
+                for p in report.problems
+            ] or ["`wsgrasp gripper check` on this guess found no problem"]
+            scaffold.warnings += [
+                f"{p.severity}: {p.message} (field {p.field})" for p in report.problems
+            ]
         yaml_path.write_text(render_yaml(scaffold, header + lines))
-        scaffold.warnings += [
-            f"{p.severity}: {p.message} (field {p.field})" for p in report.problems
-        ]
     (out / "pyproject.toml").write_text(_PYPROJECT.format(name=name, module=module))
     (pkg / "__init__.py").write_text(_MODULE.format(name=name))
     (out / "tests").mkdir(exist_ok=True)
@@ -320,6 +346,6 @@ def scaffold_plugin(
         _TEST.format(name=name, module=module)
     )
     (out / "README.md").write_text(
-        _README.format(name=name, module=module, urdf=Path(urdf).name)
+        _README.format(name=name, module=module, urdf=urdf.name)
     )
     return yaml_path, scaffold
