@@ -1,9 +1,10 @@
 """Which pipeline specs an evaluation runs, per gripper.
 
-By default two: ``default`` (wsgrasp's scorers, the template
-``examples/specs/franka.yaml``) and ``paper`` (the paper's criterion alone,
-``examples/specs/franka_paper.yaml``), each with its ``gripper`` set to the gripper
-evaluated, so that the effect of the added scorers is measured on the same scenes.
+By default two: ``default`` (wsgrasp's scorers: the gripper's example spec
+``examples/specs/<x>.yaml``, e.g. ``allegro.yaml``) and ``paper`` (the paper's
+criterion alone, ``<x>_paper.yaml``); a gripper without example specs gets the
+Franka ones with its ``gripper`` replaced. Both run on the same scenes, so the
+effect of the added scorers is measured, not claimed.
 ``--spec FILE`` (or ``LABEL=FILE``) replaces them.
 """
 
@@ -33,14 +34,25 @@ _FALLBACK: dict[str, dict[str, Any]] = {
 }
 
 
-def _template(label: str) -> tuple[dict[str, Any], str]:
+def _template(label: str, gripper: str) -> tuple[dict[str, Any], str]:
+    """The spec data for ``label``: the gripper's own example spec if there is
+    one (``examples/specs/<x>.yaml`` or ``<x>_paper.yaml`` naming this gripper),
+    else the Franka one with its gripper replaced, else a built-in copy."""
     from wsgrasp._loading import load_document
     from wsgrasp.bench import project_root
 
-    path = project_root() / "examples" / "specs" / BUILTIN_SPECS[label]
-    if path.exists():
-        data, _ = load_document(path)
-        return dict(data), str(path)
+    folder = project_root() / "examples" / "specs"
+    if folder.is_dir():
+        for path in sorted(folder.glob("*.yaml")):
+            if path.stem.endswith("_paper") != (label == "paper"):
+                continue
+            data, _ = load_document(path)
+            if data.get("gripper") == gripper:
+                return dict(data), str(path)
+        path = folder / BUILTIN_SPECS[label]
+        if path.exists():
+            data, _ = load_document(path)
+            return dict(data), str(path)
     base = {
         "version": 1,
         "segmenter": {"name": "ransac_dbscan"},
@@ -64,8 +76,11 @@ def spec_entries(
     from wsgrasp._loading import load_document
     from wsgrasp.spec import load_spec
 
-    sources: list[tuple[str, dict[str, Any], str]] = []
-    if specs:
+    def sources_for(gripper: str) -> list[tuple[str, dict[str, Any], str]]:
+        if not specs:
+            labels = ["default", "paper"] if paper else ["default"]
+            return [(lb, *_template(lb, gripper)) for lb in labels]
+        out = []
         for item in specs:
             label, _, file = item.rpartition("=")
             path = Path(file)
@@ -75,18 +90,18 @@ def spec_entries(
                     hint="pass --spec FILE or --spec LABEL=FILE",
                 )
             data, _ = load_document(path)
-            sources.append((label or path.stem, dict(data), str(path)))
-    else:
-        labels = ["default", "paper"] if paper else ["default"]
-        sources = [(lb, *_template(lb)) for lb in labels]
-    labels_seen = [s[0] for s in sources]
-    if len(set(labels_seen)) != len(labels_seen):
-        raise InputError(
-            f"spec labels repeat: {labels_seen}",
-            hint="name them: --spec mine=a.yaml --spec other=b.yaml",
-        )
+            out.append((label or path.stem, dict(data), str(path)))
+        return out
+
     out = []
     for g in grippers:
+        sources = sources_for(g)
+        labels_seen = [s[0] for s in sources]
+        if len(set(labels_seen)) != len(labels_seen):
+            raise InputError(
+                f"spec labels repeat: {labels_seen}",
+                hint="name them: --spec mine=a.yaml --spec other=b.yaml",
+            )
         for label, data, src in sources:
             d = {**data, "gripper": _gripper_ref(g)}
             d["record"] = {**(d.get("record") or {}), "enabled": False}
