@@ -195,4 +195,3 @@ def unlimited_continuous(path: Path) -> list[str]:
         if lim is None or lim.get("lower") is None or lim.get("upper") is None:
             out.append(j.get("name", "?"))
     return out
-
