@@ -1,105 +1,150 @@
 """What recording a run costs: plan time with and without a ``RunRecorder``.
 
-Runs ``Pipeline(spec).plan(scene)`` alternately without and with a recorder (to a
-temporary file, deleted after each run), so that load on a shared machine hits both
-alike, and prints medians: plan time, recording overhead (ms and %), file size and
-the recorder's own time (``RunRecorder.overhead_ms``).
+Runs ``Pipeline(spec).plan(scene)`` without and with a recorder (to a temporary
+file, deleted after each run), alternating, so that load on a shared machine hits
+both alike, and prints medians: plan time, recording overhead (ms and %), file size
+and the time the planner's thread spent in the recorder. ``--baseline MODULE``
+adds another recorder (``MODULE.RunRecorder``, e.g. an older copy of
+``wsgrasp.record`` importable under another name) to the same alternation.
 
     .venv/bin/python benchmarks/record_overhead.py [--runs 15] [--spec S ...]
-        [--scene S ...] [--json]
+        [--scene S ...] [--baseline MODULE] [--json]
 
-The time with a recorder is the wall time of ``plan`` including finishing the file
-(``on_result`` waits for everything queued to be written).
+The time with a recorder is the wall time of ``plan`` and ``close`` (``on_result``
+waits for the recorder's writer thread, so the file is complete when it returns).
+``paired`` is the median of the per-round differences, ``min`` the difference of
+the fastest runs: both are steadier than the difference of medians on a loaded
+machine. ``cpu`` is the process's CPU time (all threads: the planner's, BLAS's and
+the recorder's writer thread), which other processes' load hardly changes; its
+overhead is what recording costs when nothing runs in parallel.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import statistics
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 SPECS = ["examples/specs/franka.yaml", "examples/specs/allegro.yaml"]
 SCENES = ["examples/scenes/box_upright.npz", "examples/scenes/cone_views/scene.yaml"]
 
 
-def measure(spec_path: str, scene_path: str, runs: int) -> dict[str, object]:
+def measure(
+    spec_path: str, scene_path: str, runs: int, recorders: dict[str, Any]
+) -> list[dict[str, Any]]:
+    """One row per recorder: medians over ``runs`` rounds (after 2 warm-ups)."""
     from wsgrasp import Pipeline, load_spec
     from wsgrasp.perception.io import load_scene
-    from wsgrasp.record import RunRecorder
 
     pipe = Pipeline(load_spec(ROOT / spec_path))
     scene = load_scene(ROOT / scene_path)
-    plain: list[float] = []
-    recorded: list[float] = []
-    inside: list[float] = []
-    sizes: list[int] = []
+    names = list(recorders)
+    wall: dict[str, list[float]] = {n: [] for n in ["none", *names]}
+    cpu: dict[str, list[float]] = {n: [] for n in ["none", *names]}
+    inside: dict[str, list[float]] = {n: [] for n in names}
+    sizes: dict[str, list[int]] = {n: [] for n in names}
     with tempfile.TemporaryDirectory() as tmp:
-        for i in range(runs + 2):  # the first two warm up
-            t0 = time.perf_counter()
-            pipe.plan(scene)
-            t1 = time.perf_counter()
-            path = Path(tmp) / f"run{i}.mcap"
-            rec = RunRecorder(path)
-            t2 = time.perf_counter()
-            pipe.plan(scene, observers=[rec])
-            rec.close()
-            t3 = time.perf_counter()
-            if i >= 2:
-                plain.append((t1 - t0) * 1e3)
-                recorded.append((t3 - t2) * 1e3)
-                inside.append(rec.overhead_ms)
-                sizes.append(path.stat().st_size)
-            path.unlink()
-    p, r = statistics.median(plain), statistics.median(recorded)
-    # median of the paired differences: robust to drifting load
-    d = statistics.median(b - a for a, b in zip(plain, recorded, strict=True))
-    return {
-        "spec": spec_path,
-        "gripper": pipe.gripper.name,
-        "scene": scene_path,
-        "points": int(scene.points.shape[0]),
-        "views": len(scene.views),
-        "runs": runs,
-        "plan_ms": round(p, 2),
-        "recorded_ms": round(r, 2),
-        "overhead_ms": round(r - p, 2),
-        "overhead_pct": round(100 * (r - p) / p, 1),
-        "paired_overhead_ms": round(d, 2),
-        "recorder_ms": round(statistics.median(inside), 2),
-        "file_mb": round(statistics.median(sizes) / 1e6, 3),
-    }
+        for i in range(runs + 2):
+            order = ["none", *names]
+            k = i % len(order)
+            order = order[k:] + order[:k]  # each variant goes first in turn
+            for name in order:
+                path = Path(tmp) / f"{name}{i}.mcap"
+                obs = [] if name == "none" else [recorders[name](path)]
+                c0, t0 = time.process_time(), time.perf_counter()
+                pipe.plan(scene, observers=obs)
+                for o in obs:
+                    o.close()
+                dt = (time.perf_counter() - t0) * 1e3
+                dc = (time.process_time() - c0) * 1e3
+                if i < 2:
+                    continue
+                wall[name].append(dt)
+                cpu[name].append(dc)
+                if obs:
+                    inside[name].append(obs[0].overhead_ms)
+                    sizes[name].append(path.stat().st_size)
+                    path.unlink()
+    plain = statistics.median(wall["none"])
+    rows = []
+    for name in names:
+        rec = statistics.median(wall[name])
+        paired = statistics.median(
+            b - a for a, b in zip(wall["none"], wall[name], strict=True)
+        )
+        fastest = min(wall[name]) - min(wall["none"])
+        plain_cpu = statistics.median(cpu["none"])
+        cpu_extra = statistics.median(cpu[name]) - plain_cpu
+        rows.append(
+            {
+                "recorder": name,
+                "spec": spec_path,
+                "gripper": pipe.gripper.name,
+                "scene": scene_path,
+                "points": int(scene.points.shape[0]),
+                "views": len(scene.views),
+                "runs": runs,
+                "plan_ms": round(plain, 2),
+                "recorded_ms": round(rec, 2),
+                "overhead_ms": round(rec - plain, 2),
+                "overhead_pct": round(100 * (rec - plain) / plain, 1),
+                "paired_ms": round(paired, 2),
+                "paired_pct": round(100 * paired / plain, 1),
+                "min_plan_ms": round(min(wall["none"]), 2),
+                "min_overhead_ms": round(fastest, 2),
+                "min_pct": round(100 * fastest / min(wall["none"]), 1),
+                "plan_cpu_ms": round(plain_cpu, 2),
+                "cpu_overhead_ms": round(cpu_extra, 2),
+                "cpu_pct": round(100 * cpu_extra / plain_cpu, 1),
+                "recorder_ms": round(statistics.median(inside[name]), 2),
+                "file_mb": round(statistics.median(sizes[name]) / 1e6, 3),
+            }
+        )
+    return rows
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     ap.add_argument("--runs", type=int, default=15)
     ap.add_argument("--spec", action="append")
     ap.add_argument("--scene", action="append")
+    ap.add_argument("--baseline", help="module with another RunRecorder")
     ap.add_argument("--json", action="store_true")
     a = ap.parse_args()
+    from wsgrasp.record import RunRecorder
+
+    recorders: dict[str, Any] = {"wsgrasp": RunRecorder}
+    if a.baseline:
+        recorders[a.baseline] = importlib.import_module(a.baseline).RunRecorder
     rows = [
-        measure(spec, scene, a.runs)
+        row
         for spec in a.spec or SPECS
         for scene in a.scene or SCENES
+        for row in measure(spec, scene, a.runs, recorders)
     ]
     if a.json:
         print(json.dumps(rows, indent=2))
         return
-    head = (
-        f"{'gripper':<14}{'scene':<24}{'points':>8}{'plan ms':>9}{'+rec ms':>9}"
-        f"{'%':>7}{'paired':>8}{'inside':>8}{'MB':>8}"
+    print(
+        f"{'recorder':<20}{'gripper':<14}{'scene':<22}{'points':>7}{'plan':>8}"
+        f"{'+ms':>7}{'%':>6}{'paired':>7}{'%':>6}{'min':>6}{'%':>6}"
+        f"{'cpu':>7}{'+cpu':>6}{'%':>6}{'inside':>7}{'MB':>7}"
     )
-    print(head)
-    for row in rows:
+    for r in rows:
+        scene = "/".join(Path(str(r["scene"])).parts[-2:])
         print(
-            f"{row['gripper']!s:<14}{Path(str(row['scene'])).parent.name + '/' + Path(str(row['scene'])).name:<24.24}"
-            f"{row['points']:>8}{row['plan_ms']:>9}{row['overhead_ms']:>9}"
-            f"{row['overhead_pct']:>7}{row['paired_overhead_ms']:>8}"
-            f"{row['recorder_ms']:>8}{row['file_mb']:>8}"
+            f"{r['recorder']:<20.20}{r['gripper']:<14}{scene:<22.22}{r['points']:>7}"
+            f"{r['plan_ms']:>8.1f}{r['overhead_ms']:>7.1f}{r['overhead_pct']:>6.0f}"
+            f"{r['paired_ms']:>7.1f}{r['paired_pct']:>6.0f}"
+            f"{r['min_overhead_ms']:>6.1f}{r['min_pct']:>6.0f}"
+            f"{r['plan_cpu_ms']:>7.1f}{r['cpu_overhead_ms']:>6.1f}{r['cpu_pct']:>6.0f}"
+            f"{r['recorder_ms']:>7.1f}{r['file_mb']:>7.2f}"
         )
 
 

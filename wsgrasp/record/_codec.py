@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wsgrasp.errors import RecordingError
-from wsgrasp.record._proto import ArrayBytes, decode_record, encode_record
+from wsgrasp.record._proto import ArrayBytes, decode_record, encode_record_parts
 
 __all__ = [
     "FORMAT_VERSION",
@@ -32,6 +32,7 @@ __all__ = [
     "encode_value",
     "decode_value",
     "dumps",
+    "dumps_parts",
     "loads",
 ]
 
@@ -59,22 +60,31 @@ _DTYPES = {"<f8", "<i8", "|b1", "<f4", "<i4", "|u1"}
 #: float64 arrays at least this long are tried as float32 (smaller ones gain little)
 F32_MIN_SIZE = 64
 _PROBE = 64
+_BLOCK = 16384
 
 
 def as_float32_exact(a: NDArray[Any]) -> NDArray[np.float32] | None:
     """``a`` (contiguous ``<f8``) as float32 when that keeps every bit, else None.
 
     The first values are tried first, so an array that is not float32 at heart
-    costs almost nothing.
+    costs almost nothing; the rest is converted and checked block by block.
     """
     flat = a.reshape(-1)
     head = flat[:_PROBE]
     if not _same_bits(head.astype("<f4").astype("<f8"), head):
         return None
-    f32 = a.astype("<f4")
-    if not _same_bits(f32.astype("<f8").reshape(-1), flat):
-        return None
-    return f32
+    out = np.empty(a.shape, dtype="<f4")
+    out_flat = out.reshape(-1)
+    back = np.empty(min(_BLOCK, flat.size), dtype="<f8")
+    for i in range(0, flat.size, _BLOCK):
+        seg = flat[i : i + _BLOCK]
+        f32 = out_flat[i : i + _BLOCK]
+        np.copyto(f32, seg, casting="same_kind")  # rounds to float32
+        b = back[: len(seg)]
+        np.copyto(b, f32)  # exact
+        if not _same_bits(b, seg):
+            return None
+    return out
 
 
 def _same_bits(x: NDArray[Any], y: NDArray[Any]) -> bool:
@@ -160,11 +170,17 @@ def decode_value(data: Any, arrays: list[ArrayBytes]) -> Any:
 
 def dumps(value: Any, kind: str = "") -> bytes:
     """Encode ``value`` to the bytes of one ``wsgrasp.Record``."""
+    return b"".join(dumps_parts(value, kind))
+
+
+def dumps_parts(value: Any, kind: str = "") -> list[bytes | memoryview]:
+    """:func:`dumps` in pieces: the arrays' bytes are views of the arrays (or of
+    their float32 copies), valid while those arrays are unchanged."""
     arrays: list[ArrayBytes] = []
     text = json.dumps(
         encode_value(value, arrays), allow_nan=False, separators=(",", ":")
     )
-    return encode_record(kind, text, arrays, FORMAT_VERSION)
+    return encode_record_parts(kind, text, arrays, FORMAT_VERSION)
 
 
 def loads(data: bytes | memoryview) -> Any:

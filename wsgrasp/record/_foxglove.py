@@ -125,7 +125,7 @@ def _rows(parts: _Parts, values: Array) -> bytes:
     return rec.tobytes()
 
 
-def _pose_columns(T: ArrayLike) -> Array:
+def pose_columns(T: ArrayLike) -> Array:
     """Columns x, y, z, qx, qy, qz, qw (k, 7) of transforms (k, 4, 4)."""
     T = np.asarray(T, dtype=np.float64).reshape(-1, 4, 4)  # (k, 4, 4)
     return np.concatenate([T[:, :3, 3], quaternions_xyzw(T[:, :3, :3])], axis=1)
@@ -224,8 +224,11 @@ def point_cloud(
     *,
     rgba: ArrayLike | None = None,
     T_frame_points: ArrayLike | None = None,
-) -> tuple[str, bytes]:
+) -> tuple[str, list[bytes | memoryview]]:
     """A ``foxglove.PointCloud`` of float32 x, y, z and optional uint8 colours.
+
+    The encoded message is returned in pieces (their concatenation), the points'
+    bytes a view of a fresh array.
 
     Parameters
     ----------
@@ -237,21 +240,22 @@ def point_cloud(
     T_frame_points : (4, 4) float, optional
         Pose of the points' origin in ``frame_id``.
     """
-    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)  # (n, 3)
+    p = np.asarray(points).reshape(-1, 3)  # (n, 3)
     F = fm.PackedElementFieldNumericType
     fields = [
         fm.PackedElementField(name=axis, offset=4 * i, type=F.Float32)
         for i, axis in enumerate("xyz")
     ]
     if rgba is None:
-        data = p.astype("<f4").tobytes()
+        rows = np.ascontiguousarray(p, dtype="<f4")  # (n, 3)
         stride = 12
     else:
-        c = np.broadcast_to(np.asarray(rgba, dtype=np.float64), (len(p), 4))
-        rec = np.empty(len(p), dtype=[("xyz", "<f4", 3), ("rgba", "u1", 4)])
-        rec["xyz"] = p
-        rec["rgba"] = np.clip(np.round(c * 255.0), 0, 255).astype(np.uint8)
-        data = rec.tobytes()
+        c = np.asarray(rgba, dtype=np.float64)  # (4,) or (n, 4)
+        c8 = np.ascontiguousarray(np.clip(np.round(c * 255.0), 0, 255), np.uint8)
+        # one row of 4 x 4 bytes per point: x, y, z (float32), r, g, b, a (uint8)
+        rows = np.empty((len(p), 4), dtype="<f4")
+        rows[:, :3] = p
+        rows.view("<u4")[:, 3] = c8.view("<u4")[..., 0]  # the colour's bytes
         stride = 16
         fields += [
             fm.PackedElementField(name=ch, offset=12 + i, type=F.Uint8)
@@ -264,9 +268,12 @@ def point_cloud(
         pose=pose,
         point_stride=stride,
         fields=fields,
-        data=data,
     )
-    return "foxglove.PointCloud", msg.encode()
+    # the data (field 6, bytes) appended to the rest as a view of ``rows``: a
+    # cloud is copied once, into the file, not three times
+    data = rows.reshape(-1).view(np.uint8).data
+    head = b"\x32" + _varint(len(data)) if len(data) else b""
+    return "foxglove.PointCloud", [bytes(msg.encode()), head, data]
 
 
 def frame_transform(
@@ -292,8 +299,15 @@ def pose_in_frame(T: ArrayLike, frame_id: str, t_ns: int) -> tuple[str, bytes]:
 
 def poses_in_frame(T: ArrayLike, frame_id: str, t_ns: int) -> tuple[str, bytes]:
     """A ``foxglove.PosesInFrame`` of transforms ``(k, 4, 4)``."""
+    return poses_in_frame_columns(pose_columns(T), frame_id, t_ns)
+
+
+def poses_in_frame_columns(
+    columns: Array, frame_id: str, t_ns: int
+) -> tuple[str, bytes]:
+    """:func:`poses_in_frame` of :func:`pose_columns` ``(k, 7)``."""
     msg = fm.PosesInFrame(timestamp=_stamp(t_ns), frame_id=frame_id, poses=[])
-    poses = _rows(_pose(3), _pose_columns(T))  # field 3: poses
+    poses = _rows(_pose(3), columns)  # field 3: poses
     return "foxglove.PosesInFrame", bytes(msg.encode()) + poses
 
 

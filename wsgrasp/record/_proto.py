@@ -23,6 +23,7 @@ __all__ = [
     "DESCRIPTOR_SET",
     "SCHEMA_NAME",
     "encode_record",
+    "encode_record_parts",
     "decode_record",
 ]
 
@@ -39,7 +40,12 @@ class ArrayBytes:
 
 
 # -- wire format ---------------------------------------------------------------------
+_SMALL = [bytes((i,)) for i in range(0x80)]
+
+
 def _varint(n: int) -> bytes:
+    if n < 0x80:
+        return _SMALL[n]
     out = bytearray()
     while True:
         b = n & 0x7F
@@ -109,6 +115,13 @@ def encode_record(
     kind: str, json_text: str, arrays: list[ArrayBytes], format_version: int
 ) -> bytes:
     """Bytes of one ``wsgrasp.Record``."""
+    return b"".join(encode_record_parts(kind, json_text, arrays, format_version))
+
+
+def encode_record_parts(
+    kind: str, json_text: str, arrays: list[ArrayBytes], format_version: int
+) -> list[bytes | memoryview]:
+    """:func:`encode_record` in pieces, the arrays' bytes not copied (views)."""
     parts: list[bytes | memoryview] = [_key(1, 0), _varint(format_version)]
     parts += _str_field(2, kind)
     parts += _str_field(3, json_text)
@@ -120,7 +133,7 @@ def encode_record(
         inner += _len_field(3, a.data) if len(a.data) else []
         size = sum(len(p) for p in inner)
         parts += [_key(4, 2), _varint(size), *inner]
-    return b"".join(parts)
+    return parts
 
 
 def decode_record(data: bytes | memoryview) -> tuple[int, str, str, list[ArrayBytes]]:

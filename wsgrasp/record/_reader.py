@@ -434,12 +434,12 @@ def _rebuild_points(inputs: dict[str, Any]) -> None:
     """Put the merged scene points back into ``inputs`` when the file stores how to
     make them rather than them (see :func:`wsgrasp.record._writer._inputs_record`).
 
-    When this machine's merge does not give the recorded CRC-32 (another numpy or
-    BLAS than the recording machine's), ``points`` is still the merge and
+    When this machine's merge does not give the recorded check value (another
+    numpy or BLAS than the recording machine's), ``points`` is still the merge and
     ``points_mismatch`` says so; :attr:`Run.scene` then refuses to pass it off as
     the planner's input.
     """
-    from wsgrasp.record._writer import MERGED, merge_views, points_crc32
+    from wsgrasp.record._writer import MERGED, merge_views, points_check
 
     rule = inputs["points"]
     views = inputs.get("views") or []
@@ -449,15 +449,14 @@ def _rebuild_points(inputs: dict[str, Any]) -> None:
     if rule != MERGED or not views:
         raise ValueError(f"unknown rule for the merged points: {rule!r}")
     merged = merge_views([(v["points"], v["T_world_camera"]) for v in views])
-    assert merged is not None
     inputs["points"] = merged
-    want = inputs.get("points_crc32")
-    if want is not None and points_crc32(merged) != int(want):
+    want = inputs.get("points_check")
+    if want is not None and points_check(merged) != want:
         inputs["points_mismatch"] = (
             "the recording stores the merged scene points as the merge of its "
             "views, and merging them here does not give the recorded bits "
-            f"(CRC-32 {points_crc32(merged):#010x}, recorded {int(want):#010x}); "
-            "this machine's numpy/BLAS computes the merge differently"
+            f"(check value {points_check(merged)}, recorded {want}); this "
+            "machine's numpy/BLAS computes the merge differently"
         )
 
 
