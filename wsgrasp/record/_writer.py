@@ -80,8 +80,10 @@ def thin_for_view(points: Any, step: int) -> Any:
     return points if step <= 1 else points[::step]
 
 
-def view_step(sizes: list[int], limit: int = FOXGLOVE_MAX_POINTS) -> int:
-    """The step that leaves at most ``limit`` points of clouds of ``sizes``."""
+def view_step(sizes: list[int], limit: int | None = None) -> int:
+    """The step that leaves at most ``limit`` (:data:`FOXGLOVE_MAX_POINTS`)
+    points of clouds of ``sizes``."""
+    limit = FOXGLOVE_MAX_POINTS if limit is None else limit
     return max(1, -(-sum(sizes) // limit))
 
 

@@ -1,0 +1,430 @@
+"""What keeps recording cheap, without losing a bit: float64 arrays stored as
+float32 when that is exact, the merged scene points stored as "the merge of the
+views", the Foxglove views written by the writer thread (and still there when a
+plan fails), and Foxglove messages encoded a whole array at a time."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from test_record_fakes import box_scene, fake_gripper, fake_spec
+
+from wsgrasp.errors import RecordingError
+from wsgrasp.perception.types import Scene, View
+from wsgrasp.record import RunRecorder, open_run
+from wsgrasp.record import _foxglove as fx
+from wsgrasp.record._codec import as_float32_exact, dumps, loads
+from wsgrasp.record._proto import decode_record
+from wsgrasp.record._writer import MERGED, _inputs_record, is_merge_of
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _bits(a: np.ndarray) -> bytes:
+    return np.ascontiguousarray(a).tobytes()
+
+
+def _record_json(data: bytes) -> dict:
+    _, _, text, _ = decode_record(data)
+    return json.loads(text)
+
+
+# -- float32 when exact ---------------------------------------------------------------
+def test_float32_exact_arrays_are_stored_as_float32_and_read_back_bit_for_bit() -> None:
+    rng = np.random.default_rng(0)
+    a = rng.normal(size=(500, 3)).astype(np.float32).astype(np.float64)
+    a[0] = [-0.0, 0.0, np.inf]
+    a[1] = [-np.inf, np.nan, -np.nan]  # the standard NaNs, both signs
+    a[2] = [float(np.float32(1e-45)), -float(np.float32(3.4e38)), 0.5]  # extremes
+    data = dumps({"a": a})
+    ref = _record_json(data)["a"]
+    assert ref["$as"] == "<f8"
+    _, _, _, arrays = decode_record(data)
+    assert arrays[0].dtype == "<f4" and len(arrays[0].data) == a.size * 4
+    back = loads(data)["a"]
+    assert back.dtype == np.float64 and back.shape == a.shape
+    assert _bits(back) == _bits(a)  # -0.0, infinities and NaN signs included
+    assert np.signbit(back[0, 0]) and not np.signbit(back[0, 1])
+
+
+@pytest.mark.parametrize(
+    "spoil",
+    [
+        lambda a: a.__setitem__((7, 1), 0.1),  # not a float32
+        lambda a: a.__setitem__((499, 2), 1e-300),  # below float32's range
+        lambda a: a.__setitem__((250, 0), 1e39),  # above it
+        # a NaN with a payload float32 cannot hold
+        lambda a: a.reshape(-1).view(np.uint64).__setitem__(9, 0x7FF8000000000001),
+        # a signalling NaN (float32 would quiet it)
+        lambda a: a.reshape(-1).view(np.uint64).__setitem__(5, 0x7FF0000000000001),
+    ],
+)
+def test_an_array_that_is_not_float32_exact_stays_float64(spoil) -> None:
+    a = np.arange(1500, dtype=np.float64).reshape(500, 3) / 8.0
+    assert as_float32_exact(a) is not None
+    spoil(a)
+    assert as_float32_exact(a) is None
+    data = dumps({"a": a})
+    assert "$as" not in _record_json(data)["a"]
+    assert _bits(loads(data)["a"]) == _bits(a)
+
+
+def test_small_and_non_float_arrays_are_stored_as_they_are() -> None:
+    value = {
+        "small": np.array([0.5, 1.0, -0.0]),
+        "ints": np.arange(100, dtype=np.int64),
+        "f32": np.arange(100, dtype=np.float32),
+        "empty": np.zeros((0, 3)),
+    }
+    data = dumps(value)
+    text = _record_json(data)
+    assert all("$as" not in text[k] for k in value)
+    back = loads(data)
+    for k, v in value.items():
+        assert back[k].dtype == v.dtype and _bits(back[k]) == _bits(v)
+
+
+def test_a_reader_refuses_an_unknown_cast() -> None:
+    from wsgrasp.record._codec import decode_value
+    from wsgrasp.record._proto import ArrayBytes
+
+    arrays = [ArrayBytes("<i4", (2,), np.arange(2, dtype="<i4").tobytes())]
+    with pytest.raises(ValueError, match="cannot read"):
+        decode_value({"$array": 0, "$as": "<f8"}, arrays)
+
+
+# -- merged points --------------------------------------------------------------------
+def test_merged_points_are_stored_as_the_merge_of_the_views() -> None:
+    scene = box_scene(views=3)
+    record = _inputs_record(scene)
+    assert record["points"] == MERGED
+    assert isinstance(record["points_check"], str)  # the views are posed
+
+
+def test_one_view_at_the_identity_needs_no_check_value() -> None:
+    pts = box_scene().points
+    scene = Scene(views=[View(points=pts)], points=pts.copy())
+    record = _inputs_record(scene)
+    assert record["points"] == MERGED and "points_check" not in record
+
+
+def test_merged_points_that_are_not_the_merge_are_stored() -> None:
+    scene = box_scene(views=3)
+    points = scene.points.copy()
+    points[100, 2] = np.nextafter(points[100, 2], 1.0)  # one ulp off
+    odd = Scene(views=scene.views, points=points)
+    assert not is_merge_of([(v.points, v.T_world_camera) for v in odd.views], points)
+    record = _inputs_record(odd)
+    assert record["points"] is points
+    # another shape, or float32 merged points, are stored too
+    assert not is_merge_of(
+        [(v.points, v.T_world_camera) for v in odd.views], points[1:]
+    )
+    f32 = Scene(views=scene.views, points=scene.points.astype(np.float32))
+    assert _inputs_record(f32)["points"] is f32.points
+
+
+@pytest.mark.parametrize("views", [1, 3])
+def test_merged_points_round_trip_bit_for_bit(tmp_path: Path, views: int) -> None:
+    scene = box_scene(views=views)
+    path = tmp_path / "run.mcap"
+    rec = RunRecorder(path)
+    rec.on_start(fake_spec(), fake_gripper(), scene)
+    rec.close()
+    run = open_run(path)
+    assert _bits(run.scene.points) == _bits(scene.points)
+    assert run.scene.points.dtype == np.float64
+    for got, want in zip(run.scene.views, scene.views, strict=True):
+        assert _bits(got.points) == _bits(want.points)
+
+
+def test_a_merge_that_does_not_match_here_is_said_so(tmp_path: Path) -> None:
+    """As if the run were read on a machine whose BLAS rounds the merge otherwise."""
+    from wsgrasp.record._reader import _rebuild_points
+
+    scene = box_scene(views=3)
+    inputs: dict[str, Any] = {
+        "views": [
+            {"name": v.name, "points": v.points, "T_world_camera": v.T_world_camera}
+            for v in scene.views
+        ],
+        "points": MERGED,
+        "points_check": "0" * 32,
+    }
+    _rebuild_points(inputs)
+    assert "numpy/BLAS" in inputs["points_mismatch"]
+    assert _bits(inputs["points"]) == _bits(scene.points)  # the merge, here
+    # format 1 named the single view's points
+    old: dict[str, Any] = {"views": [{"points": np.ones((3, 3))}]}
+    old["points"] = "views[0].points"
+    _rebuild_points(old)
+    assert _bits(old["points"]) == _bits(np.ones((3, 3)))
+    with pytest.raises(ValueError, match="unknown rule"):
+        _rebuild_points({"views": inputs["views"], "points": "magic"})
+
+
+def test_run_scene_refuses_points_it_cannot_reproduce(tmp_path: Path) -> None:
+    scene = box_scene(views=3)
+    path = tmp_path / "run.mcap"
+    with RunRecorder(path) as rec:
+        rec.on_start(fake_spec(), fake_gripper(), scene)
+    run = open_run(path)
+    assert run.inputs is not None
+    run.inputs["points_mismatch"] = "merging them here gives other bits"
+    with pytest.raises(RecordingError, match="gives other bits"):
+        _ = run.scene
+
+
+# -- the writer thread ----------------------------------------------------------------
+def _topics(path: Path) -> dict[str, int]:
+    run = open_run(path)
+    out: dict[str, int] = {}
+    for m in run.messages:
+        out[m.topic] = out.get(m.topic, 0) + 1
+    return out
+
+
+@pytest.mark.parametrize("background", [True, False])
+def test_a_failed_plan_still_has_every_view_queued_before_the_error(
+    tmp_path: Path, background: bool
+) -> None:
+    scene = box_scene()
+    path = tmp_path / "failed.mcap"
+    rec = RunRecorder(path, background=background)
+    rec.on_start(fake_spec(), fake_gripper(), scene)
+    rec.on_stage("preprocess", {"points": scene.points[::3]})
+    rec.on_stage(
+        "segmentation",
+        {
+            "table_normal": np.array([0.0, 0.0, 1.0]),
+            "table_offset": 0.0,
+            "table_points": scene.points[:100],
+            "object_points": scene.points[100:200],
+            "obstacles": [],
+        },
+    )
+    rec.on_error(RuntimeError("the segmenter gave up"))
+    run = open_run(path)
+    assert not run.truncated and run.status == "error" and run.error is not None
+    assert run.error["message"] == "the segmenter gave up"
+    assert run.metadata["run_end"]["status"] == "error"
+    topics = _topics(path)
+    for topic in ("/inputs/view0", "/inputs/view1", "/scene/downsampled"):
+        assert topics.get(topic) == 1, topic
+    assert topics.get("/scene/table_points") == 1 and topics.get("/scene/object") == 1
+    assert "/wsgrasp/stage/segmentation" in topics
+    assert rec._worker is None  # joined
+
+
+def test_a_view_that_fails_to_build_is_a_warning_not_a_failure(tmp_path: Path) -> None:
+    scene = box_scene()
+    path = tmp_path / "run.mcap"
+    rec = RunRecorder(path)
+    rec.on_start(fake_spec(), fake_gripper(), scene)
+    rec.on_stage("segmentation", {"obstacles": ["not an array"]})
+    rec.close()
+    run = open_run(path)
+    assert not run.truncated
+    warnings = [m for m in run.messages if m.topic == "/wsgrasp/warnings"]
+    assert len(warnings) == 1
+    assert "segmentation" in loads(warnings[0].data)["stage"]
+
+
+def test_a_writer_thread_failure_is_reported_and_the_run_is_kept(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import threading
+
+    from wsgrasp.record._mcapio import ChunkWriter
+
+    scene = box_scene()
+    path = tmp_path / "run.mcap"
+    rec = RunRecorder(path)
+    rec.on_start(fake_spec(), fake_gripper(), scene)
+    pack = ChunkWriter.pack
+
+    def full(chunk: object, **kwargs: object) -> object:
+        if threading.current_thread() is not threading.main_thread():
+            raise OSError(28, "No space left on device")
+        return pack(chunk, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(ChunkWriter, "pack", staticmethod(full))
+    rec.on_stage("preprocess", {"points": scene.points[::3]})  # its views fail
+    with pytest.raises(RecordingError, match="No space left"):
+        rec.close()
+    monkeypatch.undo()
+    run = open_run(path)
+    assert not run.truncated
+    assert run.stages["preprocess"]["points"].shape == scene.points[::3].shape
+
+
+def test_a_recorder_left_open_is_finished_at_exit(tmp_path: Path) -> None:
+    path = tmp_path / "left_open.mcap"
+    code = textwrap.dedent(
+        f"""
+        import sys
+        sys.path.insert(0, {str(ROOT / "tests")!r})
+        from test_record_fakes import box_scene, fake_gripper, fake_spec
+        from wsgrasp.record import RunRecorder
+
+        scene = box_scene()
+        rec = RunRecorder({str(path)!r})
+        rec.on_start(fake_spec(), fake_gripper(), scene)
+        rec.on_stage("preprocess", {{"points": scene.points[::3]}})
+        raise SystemExit(3)  # no on_result, no close
+        """
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 3, done.stderr
+    run = open_run(path)
+    assert not run.truncated and run.metadata["run_end"]["status"] == "closed"
+    assert "/scene/downsampled" in _topics(path)
+
+
+# -- Foxglove messages encoded a whole array at a time --------------------------------
+def _schema_class(name: str):  # noqa: ANN202 - a generated protobuf class
+    from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+
+    _, data = fx.schema_of(name)
+    pool = descriptor_pool.DescriptorPool()
+    for f in descriptor_pb2.FileDescriptorSet.FromString(data).file:
+        pool.Add(f)
+    return message_factory.GetMessageClass(pool.FindMessageTypeByName(name))
+
+
+def _random_poses(n: int) -> np.ndarray:
+    from scipy.spatial.transform import Rotation
+
+    T = np.broadcast_to(np.eye(4), (n, 4, 4)).copy()
+    T[:, :3, :3] = Rotation.random(n, random_state=1).as_matrix()
+    T[:, :3, 3] = np.random.default_rng(1).normal(size=(n, 3))
+    T[0] = np.eye(4)  # zeros, which the SDK leaves out
+    return T
+
+
+def test_poses_in_frame_decode_as_the_sdk_encodes_them() -> None:
+    import foxglove.messages as fm
+
+    T = _random_poses(40)
+    cls = _schema_class("foxglove.PosesInFrame")
+    name, data = fx.poses_in_frame(T, "world", 1_700_000_000_123_456_789)
+    assert name == "foxglove.PosesInFrame"
+    ref = fm.PosesInFrame(
+        timestamp=fx._stamp(1_700_000_000_123_456_789),
+        frame_id="world",
+        poses=fx._poses(T),
+    )
+    assert cls.FromString(data) == cls.FromString(bytes(ref.encode()))
+
+
+def test_spheres_decode_as_the_sdk_encodes_them() -> None:
+    import foxglove.messages as fm
+
+    rng = np.random.default_rng(2)
+    centres, radii = rng.normal(size=(9, 3)), rng.uniform(0.001, 0.01, 9)
+    rgba = (0.1, 0.9, 0.2, 0.6)
+    cube = fx.cube(_random_poses(2)[1], (0.1, 0.2, 0.3), (1.0, 0.0, 0.0, 1.0))
+    name, data = fx.scene_update(
+        [("a", [cube], fx.spheres(centres, radii, rgba)), ("b", [], [])], "world", 7
+    )
+    T = np.broadcast_to(np.eye(4), (9, 4, 4)).copy()
+    T[:, :3, 3] = centres
+    sdk_spheres = [
+        fm.SpherePrimitive(
+            pose=pose, size=fm.Vector3(x=2 * r, y=2 * r, z=2 * r), color=fx._color(rgba)
+        )
+        for pose, r in zip(fx._poses(T), radii.tolist(), strict=True)
+    ]
+    entity = {"timestamp": fx._stamp(7), "frame_id": "world", "frame_locked": False}
+    ref = fm.SceneUpdate(
+        entities=[
+            fm.SceneEntity(id="a", cubes=[cube], spheres=sdk_spheres, **entity),
+            fm.SceneEntity(id="b", cubes=[], spheres=[], **entity),
+        ]
+    )
+    cls = _schema_class("foxglove.SceneUpdate")
+    assert name == "foxglove.SceneUpdate"
+    assert cls.FromString(data) == cls.FromString(bytes(ref.encode()))
+
+
+@pytest.mark.parametrize("colour", ["none", "one", "each"])
+def test_point_clouds_hold_float32_points_and_byte_colours(colour: str) -> None:
+    rng = np.random.default_rng(3)
+    p = rng.normal(size=(50, 3))
+    rgba = {
+        "none": None,
+        "one": (0.2, 0.4, 1.0, 1.0),
+        "each": rng.uniform(size=(50, 4)),
+    }
+    name, parts = fx.point_cloud(p, "world", 5, rgba=rgba[colour])
+    msg = _schema_class("foxglove.PointCloud").FromString(b"".join(parts))
+    assert name == "foxglove.PointCloud" and msg.frame_id == "world"
+    if rgba[colour] is None:
+        assert msg.point_stride == 12 and msg.data == p.astype("<f4").tobytes()
+        return
+    rec = np.empty(50, dtype=[("xyz", "<f4", 3), ("rgba", "u1", 4)])
+    rec["xyz"] = p
+    rec["rgba"] = np.clip(np.round(np.asarray(rgba[colour]) * 255), 0, 255)
+    assert msg.point_stride == 16 and msg.data == rec.tobytes()
+    assert [f.name for f in msg.fields][3:] == ["red", "green", "blue", "alpha"]
+
+
+def test_one_rotation_and_many_give_the_same_quaternions() -> None:
+    T = _random_poses(200)
+    many = fx.quaternions_xyzw(T[:, :3, :3])
+    one = np.array([fx.quaternions_xyzw(R)[0] for R in T[:, :3, :3]])
+    assert np.abs(many - one).max() < 1e-15
+
+
+def test_input_views_shown_in_foxglove_are_thinned_to_the_cap(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from wsgrasp.record import _writer
+
+    monkeypatch.setattr(_writer, "FOXGLOVE_MAX_POINTS", 1000)
+    scene = box_scene(views=3)  # 4500 points
+    path = tmp_path / "run.mcap"
+    with RunRecorder(path) as rec:
+        rec.on_start(fake_spec(), fake_gripper(), scene)
+    run = open_run(path)
+    cls = _schema_class("foxglove.PointCloud")
+    clouds = [
+        cls.FromString(m.data) for m in run.messages if m.topic.startswith("/inputs/")
+    ]
+    assert len(clouds) == 3
+    shown = sum(len(c.data) // c.point_stride for c in clouds)
+    assert shown == 900  # every 5th point of each view
+    assert _bits(run.scene.views[2].points) == _bits(scene.views[2].points)
+
+
+def test_the_overhead_benchmark_runs(tmp_path: Path) -> None:
+    """A smoke test of benchmarks/record_overhead.py (no timing is asserted)."""
+    done = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "benchmarks" / "record_overhead.py"),
+            "--runs",
+            "1",
+            "--spec",
+            "examples/specs/franka.yaml",
+            "--scene",
+            "examples/scenes/mug.npz",
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=ROOT,
+    )
+    assert done.returncode == 0, done.stderr
+    (row,) = json.loads(done.stdout)
+    assert row["gripper"] == "franka_hand" and row["file_mb"] > 0
