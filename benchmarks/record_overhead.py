@@ -14,9 +14,9 @@ The time with a recorder is the wall time of ``plan`` and ``close`` (``on_result
 waits for the recorder's writer thread, so the file is complete when it returns).
 ``paired`` is the median of the per-round differences, ``min`` the difference of
 the fastest runs: both are steadier than the difference of medians on a loaded
-machine. ``cpu`` is the process's CPU time (all threads: the planner's, BLAS's and
-the recorder's writer thread), which other processes' load hardly changes; its
-overhead is what recording costs when nothing runs in parallel.
+machine. ``cpu`` (JSON only) is the process's CPU time, all threads; it overstates
+the recording's cost, as BLAS's helper threads spin while the planner's thread is
+in the recorder.
 """
 
 from __future__ import annotations
@@ -134,7 +134,7 @@ def main() -> None:
     print(
         f"{'recorder':<20}{'gripper':<14}{'scene':<22}{'points':>7}{'plan':>8}"
         f"{'+ms':>7}{'%':>6}{'paired':>7}{'%':>6}{'min':>6}{'%':>6}"
-        f"{'cpu':>7}{'+cpu':>6}{'%':>6}{'inside':>7}{'MB':>7}"
+        f"{'inside':>7}{'MB':>7}"
     )
     for r in rows:
         scene = "/".join(Path(str(r["scene"])).parts[-2:])
@@ -143,7 +143,6 @@ def main() -> None:
             f"{r['plan_ms']:>8.1f}{r['overhead_ms']:>7.1f}{r['overhead_pct']:>6.0f}"
             f"{r['paired_ms']:>7.1f}{r['paired_pct']:>6.0f}"
             f"{r['min_overhead_ms']:>6.1f}{r['min_pct']:>6.0f}"
-            f"{r['plan_cpu_ms']:>7.1f}{r['cpu_overhead_ms']:>6.1f}{r['cpu_pct']:>6.0f}"
             f"{r['recorder_ms']:>7.1f}{r['file_mb']:>7.2f}"
         )
 

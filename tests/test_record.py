@@ -49,6 +49,7 @@ def test_round_trip_gives_back_inputs_and_result_bit_for_bit(recorded) -> None:
         assert got.T_world_camera.tobytes() == want.T_world_camera.tobytes()
         assert got.name == want.name
     assert run.scene.points.tobytes() == scene.points.tobytes()
+    assert run.result is not None
     assert compare_results(result, run.result) == []
     assert run.spec == fake_spec()
     g = run.gripper
@@ -86,6 +87,7 @@ def test_every_channel_decodes_with_its_declared_schema(recorded) -> None:
     with open(recorded[0], "rb") as fh:
         reader = make_reader(fh, decoder_factories=[DecoderFactory()])
         summary = reader.get_summary()
+        assert summary is not None and summary.statistics is not None
         names = {summary.schemas[c.schema_id].name for c in summary.channels.values()}
         decoded = list(reader.iter_decoded_messages())
     assert len(decoded) == summary.statistics.message_count > 0
@@ -103,7 +105,7 @@ def test_chunks_are_zstd(recorded) -> None:
 
     with open(recorded[0], "rb") as fh:
         summary = make_reader(fh).get_summary()
-    assert summary.chunk_indexes
+    assert summary is not None and summary.chunk_indexes
     assert {c.compression for c in summary.chunk_indexes} == {"zstd"}
     # one chunk per stage: inputs, preprocess, segmentation, frame, candidates, result
     assert len(summary.chunk_indexes) >= 6
@@ -158,7 +160,9 @@ def test_truncation_point_is_reported_per_stage(recorded, tmp_path: Path) -> Non
 
     data = recorded[0].read_bytes()
     with open(recorded[0], "rb") as fh:
-        chunks = make_reader(fh).get_summary().chunk_indexes
+        summary = make_reader(fh).get_summary()
+    assert summary is not None
+    chunks = summary.chunk_indexes
     seen = []
     for c in sorted(chunks, key=lambda c: c.chunk_start_offset):
         end = c.chunk_start_offset + c.chunk_length
@@ -198,7 +202,7 @@ def test_a_failed_plan_is_recorded_with_its_error(tmp_path: Path) -> None:
             scene, observers=[RunRecorder(path)]
         )
     run = open_run(path)
-    assert run.status == "error" and not run.truncated
+    assert run.status == "error" and not run.truncated and run.error is not None
     assert run.error["type"] == "InputError" and run.error["message"]
     assert summarize_run(run)["error"]["type"] == "InputError"
 
@@ -221,7 +225,9 @@ def test_corrupt_chunk_is_one_clear_error(recorded, tmp_path: Path) -> None:
 
     data = bytearray(recorded[0].read_bytes())
     with open(recorded[0], "rb") as fh:
-        chunk = make_reader(fh).get_summary().chunk_indexes[1]
+        summary = make_reader(fh).get_summary()
+    assert summary is not None
+    chunk = summary.chunk_indexes[1]
     mid = chunk.chunk_start_offset + chunk.chunk_length // 2
     data[mid : mid + 16] = bytes(16)  # zeros over compressed data
     bad = tmp_path / "bad.mcap"
@@ -247,5 +253,7 @@ def test_a_newer_format_names_the_version(tmp_path: Path) -> None:
         w.start("wsgrasp", "wsgrasp 9.0")
         w.add_metadata("wsgrasp", {"format_version": "7", "wsgrasp_version": "9.0"})
         w.finish()
-    with pytest.raises(RecordingError, match=rf"wsgrasp 9\.0 in run format 7.*up to {FORMAT_VERSION}"):
+    with pytest.raises(
+        RecordingError, match=rf"wsgrasp 9\.0 in run format 7.*up to {FORMAT_VERSION}"
+    ):
         open_run(path)
