@@ -348,11 +348,16 @@ class ChunkWriter:
         length = len(packed.head) + packed.packed_size
         index_start = self._offset
         offsets: dict[int, int] = {}
-        b = RecordBuilder()
+        pieces: list[bytes] = []
+        n = 0
         for cid, index in chunk.indices.items():
-            offsets[cid] = index_start + b.count
-            index.write(b)
-        index_data = b.end()
+            # MessageIndex record: channel id, (log time, offset) pairs
+            flat = [v for pair in index.records for v in pair]
+            body = struct.pack(f"<HI{len(flat)}Q", cid, 8 * len(flat), *flat)
+            offsets[cid] = index_start + n
+            pieces.append(_record_bytes(Opcode.MESSAGE_INDEX, body))
+            n += len(pieces[-1])
+        index_data = b"".join(pieces)
         self._write(index_data)
         self._chunk_indices.append(
             ChunkIndex(
