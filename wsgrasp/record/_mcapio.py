@@ -53,33 +53,6 @@ _LEVEL_FAST = -7
 _FAST_ABOVE = 512 * 1024
 
 
-#: buffers smaller than this are joined before they are compressed or written
-_COALESCE = 64 * 1024
-
-
-def _coalesce(parts: Sequence[bytes | memoryview]) -> list[bytes | memoryview]:
-    """``parts`` with runs of small buffers joined (one call per ~64 KiB instead of
-    one per protobuf key or length); large buffers are left as they are."""
-    out: list[bytes | memoryview] = []
-    run: list[bytes | memoryview] = []
-    n = 0
-    for p in parts:
-        if len(p) >= _COALESCE:
-            if run:
-                out.append(b"".join(run))
-                run, n = [], 0
-            out.append(p)
-            continue
-        run.append(p)
-        n += len(p)
-        if n >= _COALESCE:
-            out.append(b"".join(run))
-            run, n = [], 0
-    if run:
-        out.append(b"".join(run))
-    return out
-
-
 _COMPRESSORS = threading.local()
 
 
@@ -126,11 +99,11 @@ class Chunk:
 class PackedChunk:
     """A chunk compressed, ready to be written (see :meth:`ChunkWriter.pack`)."""
 
-    def __init__(self, chunk: Chunk, head: bytes, data: list[bytes | memoryview]):
+    def __init__(self, chunk: Chunk, head: bytes, data: bytes):
         self.chunk = chunk
         self.head = head
         self.data = data
-        self.packed_size = sum(len(d) for d in data)
+        self.packed_size = len(data)
 
 
 class ChunkWriter:
@@ -308,21 +281,16 @@ class ChunkWriter:
         level = next((lv for top, lv in _LEVELS if size <= top), _LEVEL_LARGE)
         if fast and size > _LEVELS[0][0]:
             level = _LEVEL_FAST
-        # compress and checksum part by part: no copy of the whole chunk. A large
-        # or ``fast`` chunk is checked by zstd's own (faster) content checksum
-        # instead of the chunk CRC, which MCAP allows to be 0 ("not computed").
+        # one buffer compressed in one call: zstd's streaming mode costs more than
+        # the copy. A large or ``fast`` chunk is checked by zstd's own (faster)
+        # content checksum instead of the chunk CRC, which MCAP allows to be 0
+        # ("not computed").
         use_crc = size <= _FAST_ABOVE and not fast
-        zobj = _compressor(level, not use_crc).compressobj(size=size)
-        out: list[bytes] = []
-        crc = 0
-        for part in _coalesce(chunk.parts):
-            if use_crc:
-                crc = zlib.crc32(part, crc)
-            o = zobj.compress(part)
-            if o:
-                out.append(o)
-        out.append(zobj.flush())
-        packed_size = sum(len(o) for o in out)
+        parts = chunk.parts
+        data = parts[0] if len(parts) == 1 else b"".join(parts)
+        crc = zlib.crc32(data) if use_crc else 0
+        packed = _compressor(level, not use_crc).compress(data)
+        packed_size = len(packed)
         # Chunk record: start/end time, size, crc, compression, records
         body = 8 + 8 + 8 + 4 + 4 + 4 + 8 + packed_size
         head = _CHUNK.pack(
@@ -336,15 +304,14 @@ class ChunkWriter:
             b"zstd",
             packed_size,
         )
-        return PackedChunk(chunk, head, _coalesce(out))
+        return PackedChunk(chunk, head, packed)
 
     def write_packed(self, packed: PackedChunk) -> None:
         """Write a packed chunk and its message indexes (does not flush)."""
         chunk = packed.chunk
         start = self._offset
         self._write(packed.head)
-        for piece in packed.data:
-            self._write(piece)
+        self._write(packed.data)
         length = len(packed.head) + packed.packed_size
         index_start = self._offset
         offsets: dict[int, int] = {}
