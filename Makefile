@@ -9,7 +9,7 @@ export MPLBACKEND := Agg
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install -q --upgrade pip
+	$(BIN)/python -m pip install -q --upgrade pip setuptools wheel
 
 sysdeps:
 	@bash scripts/ensure-sysdeps.sh

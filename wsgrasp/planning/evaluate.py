@@ -205,7 +205,7 @@ def evaluate_candidates(
         # (no, b, nf) -> (b, no, nf)
         held = spheres.holding_coordinates(*(c[:, keep] for c in xyz))
         held = held.transpose(1, 0, 2)
-        counts = held.sum(axis=1)  # (b, nf)
+        counts = np.count_nonzero(held, axis=1)  # (b, nf)
         kept_idx = idx[keep]
         contacts[kept_idx] = counts
         ok = np.all(counts > 0, axis=1)

@@ -59,7 +59,7 @@ class CandidateBatch:
     @cached_property
     def contacts(self) -> NDArray[np.int64]:
         """Object points held per finger, ``(F, nf)``."""
-        return self.holding.sum(axis=1)
+        return np.count_nonzero(self.holding, axis=1)
 
     @cached_property
     def _held_weights(self) -> Array:

@@ -128,7 +128,9 @@ def run_search(
                     terms={k: float(v[j]) for k, v in terms.items()},
                 )
             )
-        contacts = _contacts(g, T_world_gripper[best], inp.object_points)
+        contacts = _contacts(
+            g, T_world_gripper[best], inp.object_points, ev.holding[best_local]
+        )
     t2 = now()
     cands = CandidateSet(
         T_world_gwc=T_world_gwc,
@@ -152,20 +154,29 @@ def run_search(
 
 
 def _contacts(
-    g: GripperModel, T_world_gripper: Array, object_points: Array
+    g: GripperModel,
+    T_world_gripper: Array,
+    object_points: Array,
+    holding: NDArray[np.bool_],
 ) -> list[Contact]:
-    """Per finger: the object points its spheres hold and the spheres holding them."""
+    """Per finger: the object points its spheres hold and the spheres holding them.
+
+    ``holding`` ``(no, nf)`` is the search's answer for this pose; only the held
+    points are tested against each sphere.
+    """
     p = transform_points(invert_transforms(T_world_gripper), object_points)  # (no, 3)
-    inside = points_in_spheres(p, g.sphere_centers, g.sphere_radii)  # (no, S)
     out = []
     for f, name in enumerate(g.finger_names):
-        mine = g.sphere_finger == f
-        held = inside[:, mine]
+        mine = np.flatnonzero(g.sphere_finger == f)
+        held_points = holding[:, f]
+        inside = points_in_spheres(
+            p[held_points], g.sphere_centers[mine], g.sphere_radii[mine]
+        )  # (k, nsp)
         out.append(
             Contact(
                 finger=name,
-                points=object_points[held.any(axis=1)],
-                spheres=np.flatnonzero(mine)[held.any(axis=0)].astype(np.int64),
+                points=object_points[held_points],
+                spheres=mine[inside.any(axis=0)].astype(np.int64),
             )
         )
     return out

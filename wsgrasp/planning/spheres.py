@@ -6,10 +6,11 @@ Two levels, both exact:
    finger, *full* (the whole cell lies strictly inside one of the finger's spheres),
    *empty* (no sphere of the finger reaches into the cell) or *partial*. Most
    points are answered by one lookup.
-2. Points in partial cells are answered exactly: a point lies inside some sphere
-   ``(c, r)`` of a finger exactly when its nearest neighbour among the lifted
-   centres ``(c, sqrt(R² - r²))`` (``R`` the finger's largest radius) lies closer
-   than ``R`` to ``(p, 0)`` — one KD-tree query, whatever the number of spheres.
+2. A point in a partial cell is tested against the few spheres that reach into
+   that cell (a compressed list per cell), with the same arithmetic as a brute-force
+   test, so the answer is the brute-force answer even on a sphere's surface.
+
+Neither level's cost grows with the number of spheres per finger.
 """
 
 from __future__ import annotations
@@ -27,6 +28,23 @@ Array = NDArray[np.float64]
 _EMPTY, _FULL, _PARTIAL = 0, 1, 2
 #: classification margin (m): cells this close to a sphere's surface are partial
 _MARGIN = 1e-9
+
+
+class _PartialCells:
+    """For one finger: the spheres reaching into each partial cell (CSR lists)."""
+
+    def __init__(
+        self, n_cells: int, cell: NDArray[np.int64], sphere: NDArray[np.int64]
+    ) -> None:
+        order = np.lexsort((sphere, cell))
+        cell, sphere = cell[order], sphere[order]
+        cells, counts = np.unique(cell, return_counts=True)
+        # compact id of each partial cell, -1 elsewhere
+        self.index = np.full(n_cells, -1, dtype=np.int64)
+        self.index[cells] = np.arange(len(cells))
+        self.start = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
+        self.count = counts.astype(np.int64)
+        self.sphere = sphere.astype(np.int64)
 
 
 class FingerSpheres:
@@ -56,7 +74,7 @@ class FingerSpheres:
         half_diag = 0.5 * h * np.sqrt(3.0)
         cell_tree = cKDTree(cells)
         self.status = np.empty((len(cells), nf), dtype=np.uint8)
-        self._exact = []
+        self._fingers: list[tuple[Array, Array, _PartialCells]] = []
         for f in range(nf):
             sel = gripper.sphere_finger == f
             centers, radii = centers_all[sel], radii_all[sel]
@@ -72,8 +90,9 @@ class FingerSpheres:
             status[i[touch]] = _PARTIAL
             status[i[full]] = _FULL
             self.status[:, f] = status
-            lifted = np.hstack([centers, np.sqrt(R * R - radii * radii)[:, None]])
-            self._exact.append((cKDTree(lifted), centers, radii, R))
+            keep = touch & (status[i] == _PARTIAL)
+            partial = _PartialCells(len(cells), i[keep], j[keep])
+            self._fingers.append((centers, radii, partial))
         self._strides = np.array([shape[1] * shape[2], shape[2], 1], dtype=np.int64)
         self._last = shape - 1
 
@@ -108,43 +127,50 @@ class FingerSpheres:
         # flat cell index of each point, computed in floats (exact below 2**53);
         # points outside the grid are clipped into its margin, two cells of which
         # no sphere reaches, so they read as empty
-        flat = np.zeros(shape)
+        flat_f = np.zeros(shape)
         for axis, (c, stride) in enumerate(zip((x, y, z), self._strides, strict=True)):
             q = np.floor((c - self.origin[axis]) * (1.0 / self.cell))
             np.clip(q, 0.0, float(self._last[axis]), out=q)
             q *= float(stride)
-            flat += q
-        status = self.status[flat.astype(np.int64).ravel()]  # (n, nf)
+            flat_f += q
+        flat = flat_f.astype(np.int64).ravel()
+        status = self.status[flat]  # (n, nf)
         out = status == _FULL
         partial = status == _PARTIAL
         if partial.any():
             px, py, pz = (np.ravel(c) for c in (x, y, z))
-            for f, (tree, centers, radii, R) in enumerate(self._exact):
+            for f, (centers, radii, cells) in enumerate(self._fingers):
                 idx = np.flatnonzero(partial[:, f])
-                if idx.size == 0:
-                    continue
-                pts = np.stack([px[idx], py[idx], pz[idx]], axis=-1)  # (k, 3)
-                out[idx, f] = _exact_inside(pts, tree, centers, radii, R)
+                if idx.size:
+                    out[idx, f] = _inside_listed(
+                        px[idx], py[idx], pz[idx], flat[idx], centers, radii, cells
+                    )
         return out.reshape(*shape, self.num_fingers)
 
 
-def _exact_inside(
-    pts: Array, tree: cKDTree, centers: Array, radii: Array, R: float
+def _inside_listed(
+    x: Array,
+    y: Array,
+    z: Array,
+    flat: NDArray[np.int64],
+    centers: Array,
+    radii: Array,
+    cells: _PartialCells,
 ) -> NDArray[np.bool_]:
-    """Whether each point ``(k, 3)`` lies strictly inside any of the spheres."""
-    out = np.zeros(len(pts), dtype=bool)
-    query = np.hstack([pts, np.zeros((len(pts), 1))])  # (k, 4)
-    _, nearest = tree.query(query, k=1, distance_upper_bound=R * (1.0 + 1e-9))
-    found = np.flatnonzero(nearest < len(centers))
-    nearest = nearest[found]
-    # exact test against the sphere nearest in power distance
-    d2 = np.sum((pts[found] - centers[nearest]) ** 2, axis=-1)
-    inside = d2 < radii[nearest] * radii[nearest]
-    out[found[inside]] = True
-    # points on a surface to within rounding: every sphere, as a brute force test
-    # would (a handful of points at most)
-    edge = found[~inside]
-    if edge.size:
-        diff = pts[edge, None, :] - centers  # (e, nsp, 3)
-        out[edge] = np.any(np.sum(diff**2, axis=-1) < radii * radii, axis=1)
+    """Whether each point (coordinates ``(k,)``, cells ``flat``) lies strictly inside
+    one of the spheres listed for its cell."""
+    k = cells.index[flat]  # (k,) compact cell ids, all >= 0 for partial cells
+    count = cells.count[k]
+    point = np.repeat(np.arange(len(flat)), count)  # (m,) one row per pair
+    # position of each pair in the CSR list: its cell's start + its rank there
+    first = np.repeat(np.cumsum(count) - count, count)
+    sphere = cells.sphere[
+        np.repeat(cells.start[k], count) + np.arange(len(point)) - first
+    ]
+    c = centers[sphere]  # (m, 3)
+    # the same arithmetic as a brute-force test: sum of squares over x, y, z
+    diff = np.stack([x[point], y[point], z[point]], axis=-1) - c
+    inside = np.sum(diff**2, axis=-1) < radii[sphere] * radii[sphere]
+    out = np.zeros(len(flat), dtype=bool)
+    out[point[inside]] = True
     return out
