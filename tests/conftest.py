@@ -23,7 +23,9 @@ def _box_surface(center, half, n, rng):
     return center + p * half
 
 
-def make_jaw_gripper(spheres_per_finger: int = 10, seed: int = 0) -> GripperModel:
+def make_jaw_gripper(
+    spheres_per_finger: int = 10, seed: int = 0, name: str = "fake_jaw"
+) -> GripperModel:
     """A Franka-hand-like model from the authors' published numbers: five body
     superellipsoids, ten 5 mm spheres per finger between the fingertips."""
     rng = np.random.default_rng(seed)
@@ -62,7 +64,7 @@ def make_jaw_gripper(spheres_per_finger: int = 10, seed: int = 0) -> GripperMode
     T_gripper_tcp = np.eye(4)
     T_gripper_tcp[2, 3] = 0.1034
     return GripperModel(
-        name="fake_jaw",
+        name=name,
         cloud=cloud,
         sphere_centers=centers,
         sphere_radii=radii,
@@ -78,6 +80,8 @@ def make_jaw_gripper(spheres_per_finger: int = 10, seed: int = 0) -> GripperMode
         pregrasp={"finger_joint1": 0.04},
         closed={"finger_joint1": 0.0},
         max_opening=0.08,
+        description={"name": name, "urdf": "none.urdf"},
+        source_hash="fake",
     )
 
 

@@ -1,5 +1,5 @@
 """Shared helpers of the record/replay/view tests: a small Franka-like gripper model
-built from the reference values (no URDF), synthetic scenes, and recorded runs.
+(conftest.make_jaw_gripper, no URDF), synthetic scenes, and recorded runs.
 
 It holds no tests itself; the other ``test_record*`` modules import it.
 """
@@ -10,65 +10,16 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from conftest import make_jaw_gripper
 
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.perception.types import Scene, View
 from wsgrasp.spec import PipelineSpec, load_spec
 
-#: body superellipsoids of the Franka hand (semi-axes, centre), gripper frame
-_SES = [
-    ((0.025, 0.11, 0.045), (0.0, 0.0, 0.0225)),
-    ((0.01, 0.01, 0.03), (0.0, 0.05, 0.09)),
-    ((0.01, 0.01, 0.03), (0.0, -0.05, 0.09)),
-    ((0.05, 0.04, 0.02), (-0.01, 0.0, -0.02)),
-    ((0.015, 0.045, 0.015), (-0.07, 0.0, -0.03)),
-]
-
 
 def fake_gripper(name: str = "fake_franka") -> GripperModel:
     """A Franka-like gripper: 5 body SEs, 2 fingers of 10 spheres, ~500 points."""
-    rng = np.random.default_rng(0)
-    semi = np.array([s for s, _ in _SES])  # (5, 3)
-    centre = np.array([c for _, c in _SES])  # (5, 3)
-    # points on the SE boxes' surfaces, ~100 per body
-    pts = []
-    for a, c in zip(semi, centre, strict=True):
-        u = rng.uniform(-1.0, 1.0, size=(100, 3))
-        axis = rng.integers(0, 3, size=100)
-        u[np.arange(100), axis] = np.sign(u[np.arange(100), axis])
-        pts.append(u * a * 0.95 + c)
-    cloud = np.concatenate(pts)  # (500, 3)
-    off = np.linspace(0.004, 0.040, 10)
-    centres = np.concatenate(
-        [
-            np.stack([np.zeros(10), off, np.full(10, 0.104)], axis=1),
-            np.stack([np.zeros(10), -off, np.full(10, 0.104)], axis=1),
-        ]
-    )  # (20, 3)
-    T_tcp = np.eye(4)
-    T_tcp[2, 3] = 0.1034
-    T_gwc = np.eye(4)
-    T_gwc[:3, 3] = centres.mean(axis=0)
-    return GripperModel(
-        name=name,
-        cloud=cloud,
-        sphere_centers=centres,
-        sphere_radii=np.full(20, 0.005),
-        sphere_finger=np.repeat(np.arange(2), 10).astype(np.int64),
-        finger_names=["left", "right"],
-        se_centers=centre,
-        se_semi_axes=semi,
-        se_exponent=10.0,
-        T_gripper_tcp=T_tcp,
-        T_gripper_gwc=T_gwc,
-        approach_axis=np.array([0.0, 0.0, 1.0]),
-        closing_axis=np.array([0.0, 1.0, 0.0]),
-        pregrasp={"finger_joint1": 0.04},
-        closed={"finger_joint1": 0.0},
-        max_opening=0.08,
-        description={"name": name, "urdf": "none.urdf"},
-        source_hash="fake",
-    )
+    return make_jaw_gripper(name=name)
 
 
 def box_scene(seed: int = 0, views: int = 2) -> Scene:
