@@ -112,12 +112,9 @@ def test_plan_cli_on_a_bag_is_recorded(tmp_path: Path) -> None:
     from typer.testing import CliRunner
 
     from wsgrasp.cli import app
+    from wsgrasp.perception.synth import synth_scene
     from wsgrasp.record import open_run, replay_run
 
-    try:
-        from wsgrasp.perception.synth import synth_scene
-    except ImportError:
-        pytest.skip("no synthetic scenes")
     syn = synth_scene("box", views=1, seed=0, width=160, height=120)
     v = syn.views[0]
     bag = write_cloud_bag(
@@ -126,8 +123,6 @@ def test_plan_cli_on_a_bag_is_recorded(tmp_path: Path) -> None:
         [("/tf_static", "world", "cam", v.T_world_camera, 0)],
     )
     spec = Path(__file__).parents[1] / "examples" / "specs" / "franka.yaml"
-    if not spec.is_file():
-        pytest.skip("examples/specs/franka.yaml is missing")
     rec = tmp_path / "run.mcap"
     res = CliRunner().invoke(
         app,

@@ -97,22 +97,17 @@ def test_replay_detects_a_changed_result(run_path: Path, tmp_path: Path) -> None
     assert not report.identical and report.differences
 
 
-def _real_gripper_or_skip(name: str):
-    try:
-        from wsgrasp.gripper import load_gripper
-    except ImportError:
-        pytest.skip("the gripper builder is not available")
-    try:
-        return load_gripper(name)
-    except Exception as exc:  # noqa: BLE001
-        pytest.skip(f"gripper {name} cannot be loaded here: {exc}")
+def _real_gripper(name: str):
+    from wsgrasp.gripper import load_gripper
+
+    return load_gripper(name)
 
 
 @pytest.mark.parametrize("gripper", ["franka_hand", "allegro_right"])
 def test_record_replay_identical_for_the_real_grippers(
     gripper: str, tmp_path: Path, monkeypatch
 ) -> None:
-    model = _real_gripper_or_skip(gripper)
+    model = _real_gripper(gripper)
     spec = fake_spec(gripper=gripper)
     path = tmp_path / f"{gripper}.mcap"
     plan_recorded(path, spec=spec, gripper=model)
