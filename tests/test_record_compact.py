@@ -131,6 +131,40 @@ def test_merged_points_that_are_not_the_merge_are_stored() -> None:
     assert _inputs_record(f32)["points"] is f32.points
 
 
+def test_a_loaders_scene_is_known_merged_until_something_changes(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from wsgrasp.perception.io import scene_from_arrays
+    from wsgrasp.record import _writer
+
+    made = box_scene(views=3)
+    scene = scene_from_arrays([(v.points, v.T_world_camera) for v in made.views])
+    assert scene.merged_digest is not None and scene.is_merge()
+    checked: list[int] = []
+    real = _writer.is_merge_of
+
+    def counting(views: object, points: object) -> bool:
+        checked.append(1)
+        return real(views, points)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(_writer, "is_merge_of", counting)
+    assert _inputs_record(scene)["points"] == MERGED
+    assert not checked  # known from the digest, not merged again
+    # a view changed in place after the merge: checked, and the points stored
+    scene.views[1].points[5, 0] += 1e-3
+    assert not scene.is_merge()
+    record = _inputs_record(scene)
+    assert checked and record["points"] is scene.points
+    # the points changed in place: the same
+    other = scene_from_arrays([(v.points, v.T_world_camera) for v in made.views])
+    other.points[0, 1] = 7.0
+    assert not other.is_merge()
+    assert _inputs_record(other)["points"] is other.points
+    # a scene built by hand has no digest and is checked
+    hand = Scene(views=made.views, points=made.points)
+    assert hand.merged_digest is None and not hand.is_merge()
+
+
 @pytest.mark.parametrize("views", [1, 3])
 def test_merged_points_round_trip_bit_for_bit(tmp_path: Path, views: int) -> None:
     scene = box_scene(views=views)
@@ -182,7 +216,7 @@ def test_run_scene_refuses_points_it_cannot_reproduce(tmp_path: Path) -> None:
         _ = run.scene
 
 
-# -- the writer thread ----------------------------------------------------------------
+# -- views and failures ----------------------------------------------------------------
 def _topics(path: Path) -> dict[str, int]:
     run = open_run(path)
     out: dict[str, int] = {}
@@ -191,13 +225,12 @@ def _topics(path: Path) -> dict[str, int]:
     return out
 
 
-@pytest.mark.parametrize("background", [True, False])
-def test_a_failed_plan_still_has_every_view_queued_before_the_error(
-    tmp_path: Path, background: bool
+def test_a_failed_plan_still_has_every_view_written_before_the_error(
+    tmp_path: Path,
 ) -> None:
     scene = box_scene()
     path = tmp_path / "failed.mcap"
-    rec = RunRecorder(path, background=background)
+    rec = RunRecorder(path)
     rec.on_start(fake_spec(), fake_gripper(), scene)
     rec.on_stage("preprocess", {"points": scene.points[::3]})
     rec.on_stage(
@@ -220,7 +253,6 @@ def test_a_failed_plan_still_has_every_view_queued_before_the_error(
         assert topics.get(topic) == 1, topic
     assert topics.get("/scene/table_points") == 1 and topics.get("/scene/object") == 1
     assert "/wsgrasp/stage/segmentation" in topics
-    assert rec._worker is None  # joined
 
 
 def test_a_view_that_fails_to_build_is_a_warning_not_a_failure(tmp_path: Path) -> None:
@@ -237,32 +269,31 @@ def test_a_view_that_fails_to_build_is_a_warning_not_a_failure(tmp_path: Path) -
     assert "segmentation" in loads(warnings[0].data)["stage"]
 
 
-def test_a_writer_thread_failure_is_reported_and_the_run_is_kept(
+def test_a_failed_write_is_one_error_and_the_file_keeps_the_stages_before(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import threading
-
     from wsgrasp.record._mcapio import ChunkWriter
 
     scene = box_scene()
     path = tmp_path / "run.mcap"
     rec = RunRecorder(path)
     rec.on_start(fake_spec(), fake_gripper(), scene)
-    pack = ChunkWriter.pack
+    rec.on_stage("preprocess", {"points": scene.points[::3]})
 
-    def full(chunk: object, **kwargs: object) -> object:
-        if threading.current_thread() is not threading.main_thread():
-            raise OSError(28, "No space left on device")
-        return pack(chunk, **kwargs)  # type: ignore[arg-type]
+    def full(*args: object, **kwargs: object) -> None:
+        raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(ChunkWriter, "pack", staticmethod(full))
-    rec.on_stage("preprocess", {"points": scene.points[::3]})  # its views fail
-    with pytest.raises(RecordingError, match="No space left"):
-        rec.close()
+    monkeypatch.setattr(ChunkWriter, "write_packed", full)
+    with pytest.raises(RecordingError, match="No space left") as info:
+        rec.on_stage("segmentation", {"table_points": scene.points[:10]})
+    assert "--no-record" in (info.value.hint or "")
+    rec.on_error(info.value)  # what the planner does next: nothing more is written
+    rec.close()
     monkeypatch.undo()
     run = open_run(path)
-    assert not run.truncated
+    assert run.truncated
     assert run.stages["preprocess"]["points"].shape == scene.points[::3].shape
+    assert "segmentation" not in run.stages
 
 
 def test_a_recorder_left_open_is_finished_at_exit(tmp_path: Path) -> None:

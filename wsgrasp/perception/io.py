@@ -370,10 +370,14 @@ def _merge(views: list[View], *, icp: bool, icp_distance: float) -> Scene:
             v.points = v.points[finite]
     if icp and len(views) > 1:
         refine_views_icp(views, max_distance=icp_distance)
-    # (N, 3) world-frame points of every view
-    merged = np.concatenate([_to_world(v) for v in views], axis=0)
+    # (N, 3) world-frame points of every view; one view in the world frame is
+    # its own merge (not copied)
+    world = [_to_world(v) for v in views]
+    merged = world[0] if len(world) == 1 else np.concatenate(world, axis=0)
     check_units(merged, name=" + ".join(v.name for v in views) or "points")
-    return Scene(views=views, points=merged, dropped_nonfinite=dropped)
+    scene = Scene(views=views, points=merged, dropped_nonfinite=dropped)
+    scene.merged_digest = scene.digest()
+    return scene
 
 
 def _to_world(view: View) -> Array:

@@ -57,8 +57,9 @@ TOPICS = {
 
 _DTYPES = {"<f8", "<i8", "|b1", "<f4", "<i4", "|u1"}
 
-#: float64 arrays at least this long are tried as float32 (smaller ones gain little)
-F32_MIN_SIZE = 64
+#: float64 arrays at least this long are tried as float32 (smaller ones gain little,
+#: and trying costs tens of microseconds an array)
+F32_MIN_SIZE = 1024
 _PROBE = 64
 _BLOCK = 16384
 
@@ -79,14 +80,18 @@ def _as_float32_exact(a: NDArray[Any]) -> NDArray[np.float32] | None:
     if not _same_bits(head.astype("<f4").astype("<f8"), head):
         return None
     out = np.empty(a.shape, dtype="<f4")
+    np.copyto(out, a, casting="same_kind")  # rounds to float32
+    # Equal values are equal bits, save for NaN (never equal) and zeros (float32
+    # keeps a zero's sign): one pass when there is no NaN. Otherwise compare the
+    # bits, block by block.
+    if bool(np.equal(out, a).all()):
+        return out
     out_flat = out.reshape(-1)
     back = np.empty(min(_BLOCK, flat.size), dtype="<f8")
     for i in range(0, flat.size, _BLOCK):
         seg = flat[i : i + _BLOCK]
-        f32 = out_flat[i : i + _BLOCK]
-        np.copyto(f32, seg, casting="same_kind")  # rounds to float32
         b = back[: len(seg)]
-        np.copyto(b, f32)  # exact
+        np.copyto(b, out_flat[i : i + _BLOCK])  # exact
         if not _same_bits(b, seg):
             return None
     return out

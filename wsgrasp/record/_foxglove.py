@@ -100,28 +100,49 @@ def _pose(field: int) -> _Parts:
     return [bytes([_tag(field), 67]), *_vec3(1), *_vec4(2)]
 
 
+_ROW_LAYOUTS: dict[
+    tuple[bytes | None, ...], tuple[np.dtype[Any], NDArray[Any], int]
+] = {}
+
+
+def _row_layout(parts: _Parts) -> tuple[np.dtype[Any], NDArray[Any], int]:
+    """The structured dtype of a row of ``parts`` (constant runs merged), one row
+    holding the constant bytes (doubles zero), and the number of doubles; made
+    once per template."""
+    key = tuple(parts)
+    layout = _ROW_LAYOUTS.get(key)
+    if layout is None:
+        merged: list[bytes | None] = []
+        for part in parts:
+            if part is not None and merged and merged[-1] is not None:
+                merged[-1] += part
+            else:
+                merged.append(part)
+        names, formats = [], []
+        for i, part in enumerate(merged):
+            names.append(f"f{i}")
+            formats.append("<f8" if part is None else f"V{len(part)}")
+        dtype = np.dtype({"names": names, "formats": formats})
+        template = np.zeros(1, dtype=dtype)
+        for i, part in enumerate(merged):
+            if part is not None:
+                template[f"f{i}"] = np.void(part)
+        doubles = sum(part is None for part in merged)
+        layout = _ROW_LAYOUTS[key] = (dtype, template, doubles)
+    return layout
+
+
 def _rows(parts: _Parts, values: Array) -> bytes:
     """``len(values)`` protobuf fields, one per row: the constant bytes of
     ``parts`` with the row's doubles ``values`` (k, m) in place of the Nones."""
-    merged: list[bytes | None] = []
-    for part in parts:
-        if part is not None and merged and merged[-1] is not None:
-            merged[-1] += part
-        else:
-            merged.append(part)
-    names, formats = [], []
-    for i, part in enumerate(merged):
-        names.append(f"f{i}")
-        formats.append("<f8" if part is None else f"V{len(part)}")
-    rec = np.empty(len(values), dtype=np.dtype({"names": names, "formats": formats}))
+    dtype, template, doubles = _row_layout(parts)
+    assert doubles == values.shape[1]
+    rec = np.repeat(template, len(values))
     column = 0
-    for i, part in enumerate(merged):
-        if part is None:
-            rec[f"f{i}"] = values[:, column]
+    for name in dtype.names or ():
+        if dtype[name] == np.float64:
+            rec[name] = values[:, column]
             column += 1
-        else:
-            rec[f"f{i}"] = np.void(part)
-    assert column == values.shape[1]
     return rec.tobytes()
 
 
@@ -241,14 +262,8 @@ def point_cloud(
         Pose of the points' origin in ``frame_id``.
     """
     p = np.asarray(points).reshape(-1, 3)  # (n, 3)
-    F = fm.PackedElementFieldNumericType
-    fields = [
-        fm.PackedElementField(name=axis, offset=4 * i, type=F.Float32)
-        for i, axis in enumerate("xyz")
-    ]
     if rgba is None:
         rows = np.ascontiguousarray(p, dtype="<f4")  # (n, 3)
-        stride = 12
     else:
         c = np.asarray(rgba, dtype=np.float64)  # (4,) or (n, 4)
         c8 = np.ascontiguousarray(np.clip(np.round(c * 255.0), 0, 255), np.uint8)
@@ -256,24 +271,60 @@ def point_cloud(
         rows = np.empty((len(p), 4), dtype="<f4")
         rows[:, :3] = p
         rows.view("<u4")[:, 3] = c8.view("<u4")[..., 0]  # the colour's bytes
-        stride = 16
-        fields += [
-            fm.PackedElementField(name=ch, offset=12 + i, type=F.Uint8)
-            for i, ch in enumerate(("red", "green", "blue", "alpha"))
-        ]
-    pose = _poses(np.eye(4) if T_frame_points is None else T_frame_points)[0]
-    msg = fm.PointCloud(
-        timestamp=_stamp(t_ns),
-        frame_id=frame_id,
-        pose=pose,
-        point_stride=stride,
-        fields=fields,
-    )
+    pose = None if T_frame_points is None else _pose_bytes(T_frame_points)
     # the data (field 6, bytes) appended to the rest as a view of ``rows``: a
     # cloud is copied once, into the file, not three times
     data = rows.reshape(-1).view(np.uint8).data
     head = b"\x32" + _varint(len(data)) if len(data) else b""
-    return "foxglove.PointCloud", [bytes(msg.encode()), head, data]
+    body = _cloud_head(frame_id, rgba is not None, pose)
+    return "foxglove.PointCloud", [_timestamp_field(t_ns), body, head, data]
+
+
+_CLOUD_HEADS: dict[tuple[str, bool, bytes | None], bytes] = {}
+
+
+def _cloud_head(frame_id: str, colour: bool, pose: bytes | None) -> bytes:
+    """A ``PointCloud``'s frame, pose, stride and fields, encoded by the SDK once
+    per kind of cloud (the timestamp and the data are added around it)."""
+    key = (frame_id, colour, pose)
+    head = _CLOUD_HEADS.get(key)
+    if head is None:
+        F = fm.PackedElementFieldNumericType
+        fields = [
+            fm.PackedElementField(name=axis, offset=4 * i, type=F.Float32)
+            for i, axis in enumerate("xyz")
+        ]
+        if colour:
+            fields += [
+                fm.PackedElementField(name=ch, offset=12 + i, type=F.Uint8)
+                for i, ch in enumerate(("red", "green", "blue", "alpha"))
+            ]
+        msg = fm.PointCloud(
+            frame_id=frame_id,
+            pose=_poses(np.eye(4))[0] if pose is None else None,
+            point_stride=16 if colour else 12,
+            fields=fields,
+        )
+        head = bytes(msg.encode()) + (pose or b"")
+        if len(_CLOUD_HEADS) >= 64:
+            _CLOUD_HEADS.clear()
+        _CLOUD_HEADS[key] = head
+    return head
+
+
+def _pose_bytes(T: ArrayLike) -> bytes:
+    """Field 3 (``pose``) of a message, as the SDK encodes it."""
+    return bytes(fm.PointCloud(pose=_poses(T)[0]).encode())
+
+
+def _timestamp_field(t_ns: int) -> bytes:
+    """Field 1 (``timestamp``: seconds 1, nanoseconds 2, varints; zeros left out
+    as protobuf does) of a message."""
+    sec, nsec = divmod(t_ns, 1_000_000_000)
+    inner = (b"\x08" + _varint(sec) if sec else b"") + (
+        b"\x10" + _varint(nsec) if nsec else b""
+    )
+    return b"\x0a" + _varint(len(inner)) + inner
 
 
 def frame_transform(

@@ -12,10 +12,11 @@ Layout of a run file (``FORMAT_VERSION`` 2):
   run.
 
 The inputs are written and flushed in ``on_start``, before any processing, and each
-stage is flushed (one zstd chunk) when it ends: a crash leaves a file that
-:func:`~wsgrasp.record.open_run` reads up to the last finished stage. The stages
-are written by a writer thread (see :class:`RunRecorder`); a plan that raises still
-has every stage before the error written, and the file finished, when it returns.
+stage is flushed (one zstd chunk: its full-fidelity record and its Foxglove views)
+when it ends: a crash, even one that kills the process, leaves a file that
+:func:`~wsgrasp.record.open_run` reads up to the last finished stage. A plan that
+raises has every stage before the error written, and the file finished, when it
+returns.
 
 What keeps recording cheap (the issue's budget is 20 % of the plan time):
 
@@ -25,7 +26,12 @@ What keeps recording cheap (the issue's budget is 20 % of the plan time):
   gives them bit for bit (checked here, with a check value the reader checks
   again): ``"points": "merge(views)"``;
 - the Foxglove input views are thinned to :data:`FOXGLOVE_MAX_POINTS` points;
-- the gripper model's attachment is encoded once per model, not once per plan.
+- the gripper model's attachment is encoded once per model, not once per plan;
+- chunks zstd cannot shrink (float clouds) are stored as raw zstd blocks
+  (:mod:`._mcapio`), without compressing or copying;
+- everything is done in the planner's thread: building messages is Python work,
+  which on another thread would hold the GIL against the planner (measured: a
+  writer thread saved nothing).
 """
 
 from __future__ import annotations
@@ -33,18 +39,17 @@ from __future__ import annotations
 import atexit
 import json
 import platform
-import queue
 import sys
-import threading
 import time
 import weakref
-import zlib
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager, suppress
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import IO, TYPE_CHECKING, Any
+from typing import IO, TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
+import xxhash
 from numpy.typing import NDArray
 
 from wsgrasp.errors import RecordingError
@@ -63,7 +68,7 @@ __all__ = ["RunRecorder", "default_run_path", "FOXGLOVE_MAX_POINTS"]
 
 #: Most points of the input views, all together, in their Foxglove channels
 #: (``/inputs/view<i>``; the exact views are in ``/wsgrasp/inputs``).
-FOXGLOVE_MAX_POINTS = 50_000
+FOXGLOVE_MAX_POINTS = 30_000
 
 #: The merged points are the merge of the views (``wsgrasp.perception.io``).
 MERGED = "merge(views)"
@@ -85,56 +90,6 @@ def view_step(sizes: list[int], limit: int | None = None) -> int:
     points of clouds of ``sizes``."""
     limit = FOXGLOVE_MAX_POINTS if limit is None else limit
     return max(1, -(-sum(sizes) // limit))
-
-
-class _Worker:
-    """A recorder's jobs, run in order on the process's writer thread.
-
-    After a job fails the recorder's later jobs are skipped; :meth:`join` returns
-    the error. One thread serves every recorder (starting a thread can take
-    milliseconds on a busy machine); it is started by the first recorder, before
-    its plan.
-    """
-
-    _jobs: queue.SimpleQueue[Callable[[], None]] = queue.SimpleQueue()
-    _thread: threading.Thread | None = None
-    _start_lock = threading.Lock()
-
-    def __init__(self) -> None:
-        self.error: BaseException | None = None
-        self.start_thread()
-
-    @classmethod
-    def start_thread(cls) -> None:
-        with cls._start_lock:
-            if cls._thread is None or not cls._thread.is_alive():
-                cls._thread = threading.Thread(
-                    target=cls._serve, name="wsgrasp-recorder", daemon=True
-                )
-                cls._thread.start()
-
-    @classmethod
-    def _serve(cls) -> None:
-        while True:
-            cls._jobs.get()()
-
-    def submit(self, job: Callable[[], None]) -> None:
-        def run() -> None:
-            if self.error is not None:
-                return
-            try:
-                job()
-            except BaseException as exc:  # noqa: BLE001 - handed to join()
-                self.error = exc
-
-        self._jobs.put(run)
-
-    def join(self) -> BaseException | None:
-        """Wait for every job submitted; the first error, if any."""
-        done = threading.Event()
-        self._jobs.put(done.set)
-        done.wait()
-        return self.error
 
 
 @atexit.register
@@ -187,15 +142,11 @@ def check_record_path(path: str | Path, *, force: bool = False) -> Path:
 class RunRecorder:
     """Record one plan to an MCAP file; pass it to ``Pipeline.plan(observers=...)``.
 
-    The full-fidelity records are written and flushed in the planner's thread:
-    ``on_start`` writes the metadata, the exact inputs and the gripper model before
-    it returns, each ``on_stage`` its stage's record. Each stage's Foxglove views
-    (point clouds, poses, shapes: for looking only) are built in the planner's
-    thread too, then compressed and written as one chunk by a writer thread
-    (``background``) while the planner goes on. ``on_result``, ``on_error`` and
-    ``close`` wait for the writer thread, so after a plan returns or raises the
-    file is complete; a process killed outright loses at most the Foxglove views
-    still queued, never a stage.
+    ``on_start`` writes the metadata, the gripper model and the exact inputs with
+    their Foxglove views, and flushes them, before it returns; each ``on_stage``
+    does the same with its stage's record and views (point clouds, poses, shapes:
+    for looking at), ``on_result`` with the result, then finishes the file. A
+    process killed outright loses the stage it was in, nothing before.
 
     Parameters
     ----------
@@ -204,43 +155,27 @@ class RunRecorder:
     force
         Replace an existing file. Without it an existing file is an error, raised
         here, before the plan starts.
-    background
-        Compress and write the Foxglove views on a writer thread (default); False
-        writes them in the planner's thread, as each stage ends.
 
     Attributes
     ----------
     path : Path
     overhead_ms : float
-        Time the planner's thread spent inside the recorder so far (including
-        waiting for the writer thread at the end).
+        Time the planner's thread spent inside the recorder so far.
     views_ms : float
         The part of it spent building Foxglove views.
-    writer_ms : float
-        Time spent compressing and writing the Foxglove views (on the writer
-        thread when ``background``).
     """
 
-    def __init__(
-        self, path: str | Path, *, force: bool = False, background: bool = True
-    ) -> None:
+    def __init__(self, path: str | Path, *, force: bool = False) -> None:
         self.path = check_record_path(path, force=force)
         self.force = force
-        self.background = background
         self.overhead_ms = 0.0
         self.views_ms = 0.0
-        self.writer_ms = 0.0
         self._writer: ChunkWriter | None = None
         self._stream: IO[bytes] | None = None
-        self._worker: _Worker | None = None
-        if background:
-            _Worker.start_thread()  # now, not in the plan's time
-        # the file (ChunkWriter, schema and channel ids) is shared by both threads
-        self._lock = threading.Lock()
-        self._views: list[tuple[str, str, _Payload, int]] = []  # being built
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self._gripper: GripperModel | None = None
+        self._model_key: tuple[Any, ...] | None = None
         self._spec: PipelineSpec | None = None
         self._candidates: Any = None
         self._stages_written: list[str] = []
@@ -248,55 +183,64 @@ class RunRecorder:
 
     # -- PlanObserver ------------------------------------------------------------
     def on_start(self, spec: PipelineSpec, gripper: GripperModel, scene: Scene) -> None:
-        """Write metadata, the inputs and the gripper model, and flush."""
+        """Write metadata, the gripper model and the inputs, and flush."""
         t0 = time.perf_counter()
         self._spec = spec
         self._gripper = gripper
         self._open()
+        with self._writing():
+            self._write_start(spec, gripper, scene)
+        self.overhead_ms += (time.perf_counter() - t0) * 1e3
+
+    def _write_start(
+        self, spec: PipelineSpec, gripper: GripperModel, scene: Scene
+    ) -> None:
         w = self._w
         w.add_metadata("wsgrasp", _run_metadata(spec, gripper))
         w.add_metadata("spec", _spec_metadata(spec))
         w.add_metadata("plugins", _plugins_metadata())
         now = time.time_ns()
-        self._json("inputs", _inputs_record(scene), now)
-        w.flush(fast=True)
-        for name, media, data in _gripper_attachments(spec, gripper):
+        self._model_key = _model_key(gripper)
+        for name, media, data in _gripper_attachments(spec, gripper, self._model_key):
             w.add_attachment(now, name, media, data)
-        w.flush()
-        if self.background:
-            self._worker = _Worker()
+        topic = TOPICS["inputs"]
+        self._put(topic, SCHEMA_NAME, self._encode(topic, _inputs_record(scene)), now)
         views = [(v.points, v.T_world_camera) for v in scene.views]
-        self._submit("inputs", lambda: self._foxglove_inputs(views, now))
-        self.overhead_ms += (time.perf_counter() - t0) * 1e3
+        self._views("inputs", lambda: self._foxglove_inputs(views, now))
+        w.flush(fast=True)
 
     def on_stage(self, stage: str, data: dict[str, Any]) -> None:
-        """Write one stage's data and flush; queue its Foxglove views."""
+        """Write one stage's record and Foxglove views, and flush."""
         if self._writer is None or self._finished:
             return
         t0 = time.perf_counter()
         now = time.time_ns()
         topic = TOPICS.get(stage, f"/wsgrasp/stage/{stage}")
-        self._write_flushed(topic, self._encode(topic, data), now)
+        with self._writing():
+            self._put(topic, SCHEMA_NAME, self._encode(topic, data), now)
+            fox = getattr(self, f"_fox_{stage}", None)
+            if fox is not None:
+                self._views(stage, lambda: fox(data, now))
+            self._w.flush(fast=True)
         if stage == "candidates":
             self._candidates = data.get("candidates")
         self._stages_written.append(stage)
-        fox = getattr(self, f"_fox_{stage}", None)
-        if fox is not None:
-            self._submit(stage, lambda: fox(data, now))
         self.overhead_ms += (time.perf_counter() - t0) * 1e3
 
     def on_result(self, result: PlanResult) -> None:
-        """Write the result, the chosen grasp's Foxglove views, and finish the file."""
+        """Write the result and the chosen grasp's Foxglove views; finish the file."""
         if self._writer is None or self._finished:
             return
         t0 = time.perf_counter()
         now = time.time_ns()
         topic = TOPICS["result"]
         record = _result_record(result, self._candidates)
-        self._write_flushed(topic, self._encode(topic, record), now)
-        self._submit("result", lambda: self._fox_result(result, now))
-        self.overhead_ms += (time.perf_counter() - t0) * 1e3
-        self._finish("ok")
+        with self._writing():
+            self._put(topic, SCHEMA_NAME, self._encode(topic, record), now)
+            self._views("result", lambda: self._fox_result(result, now))
+            self._w.flush(fast=True)
+            self.overhead_ms += (time.perf_counter() - t0) * 1e3
+            self._finish("ok")
 
     def on_error(self, error: BaseException) -> None:
         """Write what stopped the plan, and finish the file."""
@@ -311,14 +255,17 @@ class RunRecorder:
             "stages": list(self._stages_written),
         }
         topic = TOPICS["error"]
-        self._write_flushed(topic, self._encode(topic, record), now)
-        self.overhead_ms += (time.perf_counter() - t0) * 1e3
-        self._finish("error", raise_errors=False)
+        with self._writing():
+            self._put(topic, SCHEMA_NAME, self._encode(topic, record), now)
+            self._w.flush(fast=True)
+            self.overhead_ms += (time.perf_counter() - t0) * 1e3
+            self._finish("error")
 
     def close(self) -> None:
         """Finish the file if the plan did not (safe to call twice)."""
         if self._writer is not None and not self._finished:
-            self._finish("closed")
+            with self._writing():
+                self._finish("closed")
 
     def __enter__(self) -> RunRecorder:
         return self
@@ -332,50 +279,38 @@ class RunRecorder:
         assert self._writer is not None
         return self._writer
 
-    def _write_flushed(self, topic: str, payload: _Payload, t_ns: int) -> None:
-        """One full-fidelity message in a chunk of its own, flushed."""
-        with self._lock:
-            self._put(topic, SCHEMA_NAME, payload, t_ns)
-            self._w.flush(fast=True)
+    @contextmanager
+    def _writing(self) -> Iterator[None]:
+        """Turn a failed write (disk full, file system gone) into one
+        ``RecordingError``; the file keeps what was flushed before, and the
+        recorder writes nothing more."""
+        try:
+            yield
+        except OSError as exc:
+            self._finished = True
+            _OPEN.discard(self)
+            if self._stream is not None:
+                with suppress(OSError):
+                    self._stream.close()
+            raise RecordingError(
+                f"{self.path}: writing the recording failed: "
+                f"{exc.strerror or exc}; the file keeps the stages written before",
+                hint="free disk space or record elsewhere (--record PATH), or plan "
+                "with --no-record",
+            ) from exc
 
-    def _submit(self, stage: str, build: Callable[[], None]) -> None:
-        """Build a stage's Foxglove views now (``build`` calls :meth:`_fox`) and
-        have the writer thread compress and write them, as one chunk.
-
-        Building is Python work, kept in this thread: on the writer thread it
-        would hold the GIL against the planner. Compressing and writing release
-        the GIL, so they overlap with planning.
-        """
+    def _views(self, stage: str, build: Callable[[], None]) -> None:
+        """Add a stage's Foxglove views to the chunk in progress (``build`` calls
+        :meth:`_fox`). A view that fails to build is a warning in the run, not a
+        failed recording: the views are for looking at."""
         t0 = time.perf_counter()
         try:
             build()
         except Exception as exc:  # noqa: BLE001 - views are a convenience
             value = {"stage": stage, "error": repr(exc)}
             data = self._encode("/wsgrasp/warnings", value)
-            self._views.append(("/wsgrasp/warnings", SCHEMA_NAME, data, time.time_ns()))
-        views, self._views = self._views, []
-        if not views:
-            return
-        with self._lock:
-            for topic, schema, payload, t_ns in views:
-                self._put(topic, schema, payload, t_ns)
-            chunk = self._w.take_chunk()
+            self._put("/wsgrasp/warnings", SCHEMA_NAME, data, time.time_ns())
         self.views_ms += (time.perf_counter() - t0) * 1e3
-        if chunk is None:
-            return
-
-        def write() -> None:
-            t1 = time.perf_counter()
-            packed = ChunkWriter.pack(chunk, fast=True)
-            with self._lock:
-                self._w.write_packed(packed)
-                self._w.flush()
-            self.writer_ms += (time.perf_counter() - t1) * 1e3
-
-        if self._worker is not None:
-            self._worker.submit(write)
-        else:
-            write()
 
     def _open(self) -> None:
         if self._writer is not None:
@@ -404,39 +339,27 @@ class RunRecorder:
         self._writer.start(profile=PROFILE, library=f"wsgrasp {__version__}")
         _OPEN.add(self)
 
-    def _finish(self, status: str, *, raise_errors: bool = True) -> None:
-        """Wait for the writer thread, write the summary and close the file."""
+    def _finish(self, status: str) -> None:
+        """Write the summary and close the file."""
         t0 = time.perf_counter()
         self._finished = True
-        error = None
-        if self._worker is not None:
-            error = self._worker.join()
-            self._worker = None
         try:
-            with self._lock:
-                self._w.add_metadata(
-                    "run_end",
-                    {
-                        "status": status,
-                        "stages": ",".join(self._stages_written),
-                        "finished_utc": datetime.now(timezone.utc).isoformat(),
-                        "recorder_ms": f"{self.overhead_ms:.3f}",
-                        "views_ms": f"{self.views_ms:.3f}",
-                        "writer_ms": f"{self.writer_ms:.3f}",
-                    },
-                )
-                self._w.finish()
+            self._w.add_metadata(
+                "run_end",
+                {
+                    "status": status,
+                    "stages": ",".join(self._stages_written),
+                    "finished_utc": datetime.now(timezone.utc).isoformat(),
+                    "recorder_ms": f"{self.overhead_ms:.3f}",
+                    "views_ms": f"{self.views_ms:.3f}",
+                },
+            )
+            self._w.finish()
         finally:
             assert self._stream is not None
             self._stream.close()
             _OPEN.discard(self)
             self.overhead_ms += (time.perf_counter() - t0) * 1e3
-        if error is not None and raise_errors:
-            raise RecordingError(
-                f"{self.path}: writing the Foxglove views failed: {error!r}; the "
-                "run itself (inputs, stages, result) is recorded",
-                hint="check free disk space and the file system",
-            ) from error
 
     def _schema_id(self, name: str) -> int:
         sid = self._schemas.get(name)
@@ -465,22 +388,15 @@ class RunRecorder:
         cid = self._channel_id(topic, schema)
         self._w.add_message(cid, t_ns, data)
 
-    def _json(self, key: str, value: Any, t_ns: int) -> None:
-        self._json_topic(TOPICS[key], value, t_ns)
-
     @staticmethod
     def _encode(topic: str, value: Any) -> _Payload:
         """The record's bytes, in pieces that view the arrays in ``value``: write
         them (and flush) before the caller can change those arrays."""
         return dumps_parts(value, topic.removeprefix("/wsgrasp/"))
 
-    def _json_topic(self, topic: str, value: Any, t_ns: int) -> None:
-        kind = topic.removeprefix("/wsgrasp/")
-        self._put(topic, SCHEMA_NAME, dumps_parts(value, kind), t_ns)
-
     def _fox(self, topic: str, msg: tuple[str, _Payload], t_ns: int) -> None:
-        """Add a Foxglove view to the chunk :meth:`_submit` is building."""
-        self._views.append((topic, msg[0], msg[1], t_ns))
+        """Add a Foxglove view to the chunk in progress."""
+        self._put(topic, msg[0], msg[1], t_ns)
 
     # -- Foxglove views of each stage ---------------------------------------------
     def _foxglove_inputs(self, views: list[tuple[Any, Any]], t: int) -> None:
@@ -571,52 +487,27 @@ class RunRecorder:
         )
 
     def _fox_result(self, result: PlanResult, t: int) -> None:
+        """The chosen pose, the gripper there (its cloud, body superellipsoids
+        and workspace spheres, the ones holding object points highlighted) and
+        the contacts. The gripper is drawn in frame ``gripper``, which ``/tf``
+        puts at the chosen pose, so its shapes are encoded once per model."""
         g = self._gripper
         if not result.found or result.T_world_ee is None or g is None:
             return
         T = np.asarray(result.T_world_ee)
         self._fox("/grasp/pose", fx.pose_in_frame(T, "world", t), t)
         self._fox("/tf", fx.frame_transform(T, "world", "gripper", t), t)
-        self._fox(
-            "/grasp/gripper_cloud",
-            fx.point_cloud(
-                g.cloud, "world", t, rgba=(0.4, 0.4, 0.45, 1.0), T_frame_points=T
-            ),
-            t,
-        )
-        body = []
-        for c, s in zip(
-            np.asarray(g.se_centers), np.asarray(g.se_semi_axes), strict=True
-        ):
-            Tc = T.copy()
-            Tc[:3, 3] = T[:3, :3] @ c + T[:3, 3]
-            body.append(fx.cube(Tc, 2 * s, (0.5, 0.5, 0.55, 0.35)))
-        centers_world = np.asarray(g.sphere_centers) @ T[:3, :3].T + T[:3, 3]  # (S, 3)
-        held = np.zeros(len(centers_world), dtype=bool)
+        shapes = _gripper_shapes(g, self._model_key)
+        self._fox("/grasp/gripper_cloud", fx.point_cloud(shapes.cloud, "gripper", t), t)
+        held = np.zeros(len(shapes.spheres), dtype=bool)
         for contact in result.contacts:
             held[np.asarray(contact.spheres, dtype=np.int64)] = True
         ents = [
-            ("gripper_body", body, []),
-            (
-                "workspace_spheres",
-                [],
-                fx.spheres(
-                    centers_world[~held],
-                    np.asarray(g.sphere_radii)[~held],
-                    (0.3, 0.6, 1.0, 0.15),
-                ),
-            ),
-            (
-                "holding_spheres",
-                [],
-                fx.spheres(
-                    centers_world[held],
-                    np.asarray(g.sphere_radii)[held],
-                    (0.1, 0.9, 0.2, 0.6),
-                ),
-            ),
+            ("gripper_body", shapes.body, []),
+            ("workspace_spheres", [], fx.Spheres(shapes.spheres[~held].tobytes())),
+            ("holding_spheres", [], fx.Spheres(shapes.held[held].tobytes())),
         ]
-        self._fox("/grasp/gripper", fx.scene_update(ents, "world", t), t)
+        self._fox("/grasp/gripper", fx.scene_update(ents, "gripper", t), t)
         pts = [np.asarray(c.points).reshape(-1, 3) for c in result.contacts]
         if pts:
             self._fox(
@@ -626,6 +517,50 @@ class RunRecorder:
                 ),
                 t,
             )
+
+
+class _GripperShapes(NamedTuple):
+    """A gripper's Foxglove shapes in its own frame (see ``_fox_result``)."""
+
+    cloud: NDArray[np.float32]  # (n, 3)
+    body: list[Any]  # cube primitives, one per superellipsoid
+    spheres: NDArray[np.void]  # (S,) encoded sphere primitives, faint
+    held: NDArray[np.void]  # (S,) the same, highlighted
+
+
+#: :class:`_GripperShapes` by model fingerprint (:func:`_model_key`)
+_SHAPES: dict[tuple[Any, ...], _GripperShapes] = {}
+
+
+def _gripper_shapes(g: GripperModel, key: tuple[Any, ...] | None) -> _GripperShapes:
+    k = _model_key(g) if key is None else key
+    shapes = _SHAPES.get(k)
+    if shapes is None:
+        body = []
+        for c, s in zip(
+            np.asarray(g.se_centers), np.asarray(g.se_semi_axes), strict=True
+        ):
+            Tc = np.eye(4)
+            Tc[:3, 3] = c
+            body.append(fx.cube(Tc, 2 * s, (0.5, 0.5, 0.55, 0.35)))
+        centers = np.asarray(g.sphere_centers, dtype=np.float64).reshape(-1, 3)
+        radii = np.asarray(g.sphere_radii, dtype=np.float64).reshape(-1)
+
+        def rows(rgba: tuple[float, ...]) -> NDArray[np.void]:
+            data = bytes(fx.spheres(centers, radii, rgba))
+            size = len(data) // len(radii) if len(radii) else 1
+            return np.frombuffer(data, dtype=f"V{size}")
+
+        shapes = _GripperShapes(
+            cloud=np.ascontiguousarray(g.cloud, dtype="<f4"),
+            body=body,
+            spheres=rows((0.3, 0.6, 1.0, 0.15)),
+            held=rows((0.1, 0.9, 0.2, 0.6)),
+        )
+        if len(_SHAPES) >= 8:
+            _SHAPES.clear()
+        _SHAPES[k] = shapes
+    return shapes
 
 
 # -- records -----------------------------------------------------------------------
@@ -668,7 +603,9 @@ def _plugins_metadata() -> dict[str, str]:
 
 def _inputs_record(scene: Scene) -> dict[str, Any]:
     """The inputs, exact. The merged points are stored once more unless merging
-    the views as ``wsgrasp.perception.io`` does gives them bit for bit; then
+    the views as ``wsgrasp.perception.io`` does gives them bit for bit (known
+    from :meth:`~wsgrasp.perception.types.Scene.is_merge` for a loader's scene,
+    checked for any other); then
     ``points`` is :data:`MERGED`, and when the merge computed anything (a view not
     at the identity) ``points_check`` is :func:`points_check` of them, which the
     reader checks on its own merge."""
@@ -682,7 +619,9 @@ def _inputs_record(scene: Scene) -> dict[str, Any]:
         "dropped_nonfinite": int(scene.dropped_nonfinite),
     }
     pairs = [(v.points, v.T_world_camera) for v in views]
-    if is_merge_of(pairs, scene.points):
+    # a loader's scene, unchanged since it merged the views, is their merge; any
+    # other scene is checked
+    if scene.is_merge() or is_merge_of(pairs, scene.points):
         record["points"] = MERGED
         if any(not np.array_equal(T, np.eye(4)) for _, T in pairs):
             # computed, so the reader's own merge is checked against it
@@ -719,6 +658,12 @@ def is_merge_of(views: list[tuple[Any, Any]], points: Any) -> bool:
     """
     pts = np.asarray(points)
     arrays = [np.asarray(p) for p, _ in views]
+    if (
+        len(arrays) == 1
+        and arrays[0] is pts
+        and np.array_equal(np.asarray(views[0][1], dtype=np.float64), np.eye(4))
+    ):
+        return pts.dtype == np.float64 and pts.ndim == 2 and pts.shape[1] == 3
     if (
         not arrays
         or pts.dtype != np.float64
@@ -782,9 +727,9 @@ def _result_record(result: PlanResult, stage_candidates: Any) -> dict[str, Any]:
 _MODEL_BYTES: dict[tuple[Any, ...], bytes] = {}
 
 
-def _model_bytes(gripper: GripperModel) -> bytes:
-    """``gripper.to_bytes()``, encoded once per model content (a compressed npz
-    takes milliseconds; the fingerprint, a CRC-32 of every array, microseconds)."""
+def _model_key(gripper: GripperModel) -> tuple[Any, ...]:
+    """A fingerprint of the model's exact content: every array's XXH3 (tens of
+    microseconds for a model) and every other field's JSON."""
     from dataclasses import fields
 
     key: list[Any] = [type(gripper).__qualname__]
@@ -792,10 +737,16 @@ def _model_bytes(gripper: GripperModel) -> bytes:
         v = getattr(gripper, f.name)
         if isinstance(v, np.ndarray):
             a = np.ascontiguousarray(v)
-            key.append((f.name, a.dtype.str, a.shape, zlib.crc32(a.data)))
+            key.append((f.name, a.dtype.str, a.shape, xxhash.xxh3_64_intdigest(a.data)))
         else:
             key.append((f.name, json.dumps(v, sort_keys=True, default=repr)))
-    k = tuple(key)
+    return tuple(key)
+
+
+def _model_bytes(gripper: GripperModel, key: tuple[Any, ...] | None = None) -> bytes:
+    """``gripper.to_bytes()``, encoded once per model content (a compressed npz
+    takes milliseconds; the fingerprint, :func:`_model_key`, microseconds)."""
+    k = _model_key(gripper) if key is None else key
     data = _MODEL_BYTES.get(k)
     if data is None:
         data = gripper.to_bytes()
@@ -805,18 +756,58 @@ def _model_bytes(gripper: GripperModel) -> bytes:
     return data
 
 
+#: the attachments by model fingerprint and the gripper files' paths and stats
+_ATTACHMENTS: dict[tuple[Any, ...], list[tuple[str, str, bytes]]] = {}
+
+
+def _file_stat(path: Path) -> tuple[str, int, int] | None:
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return (str(path), st.st_mtime_ns, st.st_size)
+
+
 def _gripper_attachments(
-    spec: PipelineSpec, gripper: GripperModel
+    spec: PipelineSpec, gripper: GripperModel, model_key: tuple[Any, ...]
+) -> list[tuple[str, str, bytes]]:
+    """The attachments of a run's gripper: the model, its description and, when
+    found, its YAML and URDF; built once per model and files (their size and
+    modification time)."""
+    yaml_path = _gripper_yaml(spec)
+    urdf_path = None
+    urdf = gripper.description.get("urdf")
+    if yaml_path is not None and urdf:
+        urdf_path = (yaml_path.parent / urdf).resolve()
+    key = (
+        model_key,
+        json.dumps(gripper.description, sort_keys=True, default=str),
+        None if yaml_path is None else _file_stat(yaml_path),
+        None if urdf_path is None else _file_stat(urdf_path),
+    )
+    out = _ATTACHMENTS.get(key)
+    if out is None:
+        out = _read_gripper_attachments(gripper, model_key, yaml_path, urdf_path)
+        if len(_ATTACHMENTS) >= 8:
+            _ATTACHMENTS.clear()
+        _ATTACHMENTS[key] = out
+    return out
+
+
+def _read_gripper_attachments(
+    gripper: GripperModel,
+    model_key: tuple[Any, ...],
+    yaml_path: Path | None,
+    urdf_path: Path | None,
 ) -> list[tuple[str, str, bytes]]:
     out = [
-        ("gripper/model.npz", "application/x-npz", _model_bytes(gripper)),
+        ("gripper/model.npz", "application/x-npz", _model_bytes(gripper, model_key)),
         (
             "gripper/description.json",
             "application/json",
             json.dumps(gripper.description, sort_keys=True, default=str).encode(),
         ),
     ]
-    yaml_path = _gripper_yaml(spec)
     if yaml_path is not None:
         try:
             out.append(
@@ -826,17 +817,14 @@ def _gripper_attachments(
                     yaml_path.read_bytes(),
                 )
             )
-            urdf = gripper.description.get("urdf")
-            if urdf:
-                urdf_path = (yaml_path.parent / urdf).resolve()
-                if urdf_path.is_file():
-                    out.append(
-                        (
-                            f"gripper/{urdf_path.name}",
-                            "application/xml",
-                            urdf_path.read_bytes(),
-                        )
+            if urdf_path is not None and urdf_path.is_file():
+                out.append(
+                    (
+                        f"gripper/{urdf_path.name}",
+                        "application/xml",
+                        urdf_path.read_bytes(),
                     )
+                )
         except OSError:
             pass
     return out
