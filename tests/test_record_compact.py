@@ -1,7 +1,7 @@
 """What keeps recording cheap, without losing a bit: float64 arrays stored as
 float32 when that is exact, the merged scene points stored as "the merge of the
-views", the Foxglove views written by the writer thread (and still there when a
-plan fails), and Foxglove messages encoded a whole array at a time."""
+views", the Foxglove views built by the writer thread after the plan (and still
+there when a plan fails), and Foxglove messages encoded a whole array at a time."""
 
 from __future__ import annotations
 
@@ -319,6 +319,132 @@ def test_a_recorder_left_open_is_finished_at_exit(tmp_path: Path) -> None:
     run = open_run(path)
     assert not run.truncated and run.metadata["run_end"]["status"] == "closed"
     assert "/scene/downsampled" in _topics(path)
+
+
+def test_views_are_built_after_the_plan_and_a_new_recording_waits_for_them(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import threading
+    import time
+
+    from wsgrasp.record import _writer
+
+    gate = threading.Event()
+    real = _writer.RunRecorder._foxglove_inputs
+
+    def slow(self: Any, views: Any, t: int) -> None:
+        gate.wait(10)
+        real(self, views, t)
+
+    monkeypatch.setattr(_writer.RunRecorder, "_foxglove_inputs", slow)
+    scene = box_scene()
+    first = RunRecorder(tmp_path / "first.mcap")
+    first.on_start(fake_spec(), fake_gripper(), scene)
+    first.on_error(RuntimeError("stopped early"))  # hands the views over
+    assert first._done is not None and not first._done.is_set()
+    assert first.overhead_ms > 0  # returned: the views wait for the gate
+    threading.Timer(0.2, gate.set).start()
+    t0 = time.perf_counter()
+    second = RunRecorder(tmp_path / "second.mcap")
+    second.on_start(fake_spec(), fake_gripper(), scene)  # waits for the first
+    assert first._done.is_set() and time.perf_counter() - t0 > 0.1
+    second.close()
+    first.close()
+    for name in ("first", "second"):
+        run = open_run(tmp_path / f"{name}.mcap")
+        assert not run.truncated
+        assert _topics(tmp_path / f"{name}.mcap").get("/inputs/view0") == 1
+
+
+def test_the_views_show_the_result_as_planned_even_if_the_caller_changes_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import threading
+
+    from wsgrasp.record import _writer
+
+    gate = threading.Event()
+    real = _writer.RunRecorder._fox_result
+
+    def gated(self: Any, result: Any, t: int) -> None:
+        gate.wait(10)
+        real(self, result, t)
+
+    monkeypatch.setattr(_writer.RunRecorder, "_fox_result", gated)
+    from wsgrasp import Pipeline
+
+    scene = box_scene()
+    pipe = Pipeline(fake_spec(), gripper=fake_gripper())
+    path = tmp_path / "run.mcap"
+    rec = RunRecorder(path)
+    result = pipe.plan(scene, observers=[rec])
+    assert result.found
+    planned = np.array(result.T_world_ee)
+    result.T_world_ee[:3, 3] += 1.0  # the caller moves on with the pose
+    gate.set()
+    rec.close()
+    run = open_run(path)
+    assert np.array_equal(run.result.T_world_ee, planned)
+    pose = [m for m in run.messages if m.topic == "/grasp/pose"]
+    assert len(pose) == 1
+    msg = _schema_class("foxglove.PoseInFrame").FromString(pose[0].data)
+    got = [msg.pose.position.x, msg.pose.position.y, msg.pose.position.z]
+    assert np.allclose(got, planned[:3, 3])
+
+
+def test_a_failure_finishing_the_file_is_raised_by_close_and_the_run_is_kept(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from wsgrasp.record._mcapio import ChunkWriter
+
+    def full(self: Any) -> None:
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(ChunkWriter, "finish", full)
+    scene = box_scene()
+    path = tmp_path / "run.mcap"
+    rec = RunRecorder(path)
+    rec.on_start(fake_spec(), fake_gripper(), scene)
+    rec.on_stage("preprocess", {"points": scene.points[::3]})
+    rec.on_error(RuntimeError("the segmenter gave up"))
+    with pytest.raises(RecordingError, match="No space left"):
+        rec.close()
+    rec.close()  # reported once
+    monkeypatch.undo()
+    run = open_run(path)
+    assert run.truncated  # no summary
+    assert run.error is not None and run.error["message"] == "the segmenter gave up"
+    assert run.stages["preprocess"]["points"].shape == scene.points[::3].shape
+
+
+def test_a_process_killed_after_the_plan_keeps_inputs_stages_and_result(
+    tmp_path: Path,
+) -> None:
+    path = tmp_path / "killed.mcap"
+    code = textwrap.dedent(
+        f"""
+        import os, sys, time
+        sys.path.insert(0, {str(ROOT / "tests")!r})
+        from test_record_fakes import box_scene, fake_gripper, fake_spec
+        from wsgrasp import Pipeline
+        from wsgrasp.record import RunRecorder, _writer
+
+        _writer.RunRecorder._fox_result = lambda *a: time.sleep(30)
+        rec = RunRecorder({str(path)!r})
+        pipe = Pipeline(fake_spec(), gripper=fake_gripper())
+        result = pipe.plan(box_scene(), observers=[rec])
+        os._exit(0 if result.found else 4)  # no close, no exit handlers
+        """
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 0, done.stderr
+    run = open_run(path)
+    assert run.truncated and run.missing == []  # only views and the summary lack
+    assert run.result is not None and run.result.found
+    assert run.scene.points.shape[0] > 0
+    assert set(run.stages) >= {"preprocess", "segmentation", "candidates"}
 
 
 # -- Foxglove messages encoded a whole array at a time --------------------------------

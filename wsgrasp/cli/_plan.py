@@ -138,9 +138,11 @@ def plan(
         data = result.to_json()
         data["recording"] = None if path is None else str(path)
         print_json(data)
-        return
-    print_result(result)
-    if path is not None:
+    else:
+        print_result(result)
+    for o in observers:  # the writer thread finishes the file meanwhile
+        o.close()
+    if path is not None and not as_json:
         console.print(f"recorded to {path}")
 
 
@@ -168,8 +170,10 @@ def demo(
         gripper_png = out / f"{name}_model.png"
         render_gripper(pipeline.gripper, gripper_png)
         run_path = out / f"{name}.mcap"
-        result = pipeline.plan(scene, observers=[RunRecorder(run_path, force=True)])
+        recorder = RunRecorder(run_path, force=True)
+        result = pipeline.plan(scene, observers=[recorder])
         print_result(result, title=f"{name} on {scene_path.name}")
+        recorder.close()
         picture = render_run(run_path, out / f"{name}_grasp.png")
         page = render_run(run_path, out / f"{name}_grasp.html")
         console.print(

@@ -57,7 +57,12 @@ class Scene:
         dtypes, shapes and bytes (about 0.03 ms a million values)."""
         h = xxhash.xxh3_64()
         arrays = [a for v in self.views for a in (v.points, v.T_world_camera)]
-        for a in [*arrays, self.points]:
+        seen: dict[int, int] = {}
+        for i, a in enumerate([*arrays, self.points]):
+            if id(a) in seen:  # the same array again (one view as the merge)
+                h.update(f"={seen[id(a)]};".encode())
+                continue
+            seen[id(a)] = i
             arr = np.ascontiguousarray(a)
             h.update(f"{arr.dtype.str}{arr.shape};".encode())
             h.update(arr.reshape(-1).view(np.uint8).data)

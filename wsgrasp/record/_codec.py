@@ -61,7 +61,7 @@ _DTYPES = {"<f8", "<i8", "|b1", "<f4", "<i4", "|u1"}
 #: and trying costs tens of microseconds an array)
 F32_MIN_SIZE = 1024
 _PROBE = 64
-_BLOCK = 16384
+_BLOCK = 32768
 
 
 def as_float32_exact(a: NDArray[Any]) -> NDArray[np.float32] | None:
@@ -80,18 +80,24 @@ def _as_float32_exact(a: NDArray[Any]) -> NDArray[np.float32] | None:
     if not _same_bits(head.astype("<f4").astype("<f8"), head):
         return None
     out = np.empty(a.shape, dtype="<f4")
-    np.copyto(out, a, casting="same_kind")  # rounds to float32
-    # Equal values are equal bits, save for NaN (never equal) and zeros (float32
-    # keeps a zero's sign): one pass when there is no NaN. Otherwise compare the
-    # bits, block by block.
-    if bool(np.equal(out, a).all()):
-        return out
     out_flat = out.reshape(-1)
-    back = np.empty(min(_BLOCK, flat.size), dtype="<f8")
-    for i in range(0, flat.size, _BLOCK):
+    same = np.empty(min(_BLOCK, flat.size), dtype=bool)
+    back: NDArray[np.float64] | None = None
+    for i in range(0, flat.size, _BLOCK):  # a block stays in cache
         seg = flat[i : i + _BLOCK]
+        f32 = out_flat[i : i + _BLOCK]
+        np.copyto(f32, seg, casting="same_kind")  # rounds to float32
+        # Equal values are equal bits, save for NaN (never equal) and zeros
+        # (float32 keeps a zero's sign); only a block with a NaN or a value
+        # float32 cannot hold needs its bits compared.
+        eq = same[: len(seg)]
+        np.equal(f32, seg, out=eq)
+        if eq.all():
+            continue
+        if back is None:
+            back = np.empty(min(_BLOCK, flat.size), dtype="<f8")
         b = back[: len(seg)]
-        np.copyto(b, out_flat[i : i + _BLOCK])  # exact
+        np.copyto(b, f32)  # exact
         if not _same_bits(b, seg):
             return None
     return out
@@ -101,25 +107,52 @@ def _same_bits(x: NDArray[Any], y: NDArray[Any]) -> bool:
     return bool(np.array_equal(x.view("<i8"), y.view("<i8")))
 
 
+#: the little-endian dtype an array is stored as, by its dtype (None: refused)
+_STORED: dict[np.dtype[Any], str | None] = {}
+
+
+def _stored_dtype(dtype: np.dtype[Any]) -> str | None:
+    out = _STORED.get(dtype)
+    if out is None and dtype not in _STORED:
+        if dtype.kind == "f":
+            out = "<f8" if dtype.itemsize == 8 else "<f4"
+        elif dtype.kind in "iu" and dtype != np.uint8:
+            out = "<i8" if dtype.itemsize == 8 else "<i4"
+        elif dtype.kind == "b":
+            out = "|b1"
+        else:
+            out = dtype.str
+        if out not in _DTYPES:
+            out = None
+        _STORED[dtype] = out
+    return out
+
+
 def _encode_array(a: NDArray[Any], arrays: list[ArrayBytes]) -> dict[str, Any]:
-    a = np.asarray(a)
-    if a.dtype.kind == "f":
-        a = a.astype("<f8" if a.dtype.itemsize == 8 else "<f4", copy=False)
-    elif a.dtype.kind in "iu" and a.dtype != np.uint8:
-        a = a.astype("<i8" if a.dtype.itemsize == 8 else "<i4", copy=False)
-    elif a.dtype.kind == "b":
-        a = a.astype("|b1", copy=False)
-    if a.dtype.str not in _DTYPES:
+    stored = _stored_dtype(a.dtype)
+    if stored is None:
         raise RecordingError(f"cannot record an array of dtype {a.dtype}")
+    if a.dtype.str != stored:
+        a = a.astype(stored)
     a = np.ascontiguousarray(a)
-    ref: dict[str, Any] = {}
-    if a.dtype.str == "<f8" and a.size >= F32_MIN_SIZE:
+    ref: dict[str, Any] = {"$array": len(arrays)}
+    if stored == "<f8" and a.size >= F32_MIN_SIZE:
         f32 = as_float32_exact(a)
         if f32 is not None:
             a, ref["$as"] = f32, "<f8"
     raw = a.reshape(-1).view(np.uint8).data  # (nbytes,) view, no copy
-    arrays.append(ArrayBytes(a.dtype.str, tuple(a.shape), raw))
-    return {"$array": len(arrays) - 1, **ref}
+    arrays.append(ArrayBytes(a.dtype.str, a.shape, raw))
+    return ref
+
+
+#: field names of the dataclasses met so far
+_FIELDS: dict[type, tuple[str, ...]] = {}
+
+
+def _float(f: float) -> Any:
+    if math.isfinite(f):
+        return f
+    return {"$float": "nan" if math.isnan(f) else ("inf" if f > 0 else "-inf")}
 
 
 def encode_value(value: Any, arrays: list[ArrayBytes]) -> Any:
@@ -128,27 +161,38 @@ def encode_value(value: Any, arrays: list[ArrayBytes]) -> Any:
     Dataclasses become dicts of their fields, pydantic models their JSON dump, numpy
     scalars Python numbers; anything else its ``repr``.
     """
-    if isinstance(value, np.ndarray):
+    t = type(value)
+    # the common types first, by exact type (a run's records hold thousands)
+    if t is np.ndarray:
         return _encode_array(value, arrays)
+    if t is float:
+        return _float(value)
+    if t is int or t is str or t is bool or value is None:
+        return value
+    if t is dict:
+        return {str(k): encode_value(v, arrays) for k, v in value.items()}
+    if t is list or t is tuple:
+        return [encode_value(v, arrays) for v in value]
+    names = _FIELDS.get(t)
+    if names is None and is_dataclass(value) and not isinstance(value, type):
+        names = _FIELDS[t] = tuple(f.name for f in fields(value))
+    if names is not None:
+        return {n: encode_value(getattr(value, n), arrays) for n in names}
+    # subclasses and numpy scalars
+    if isinstance(value, np.ndarray):
+        return _encode_array(np.asarray(value), arrays)
     if isinstance(value, (bool, np.bool_)):
         return bool(value)
     if isinstance(value, (int, np.integer)):
         return int(value)
     if isinstance(value, (float, np.floating)):
-        f = float(value)
-        if math.isfinite(f):
-            return f
-        return {"$float": "nan" if math.isnan(f) else ("inf" if f > 0 else "-inf")}
-    if value is None or isinstance(value, str):
-        return value
+        return _float(float(value))
+    if isinstance(value, str):
+        return str(value)
     if isinstance(value, dict):
         return {str(k): encode_value(v, arrays) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
         return [encode_value(v, arrays) for v in value]
-    if is_dataclass(value) and not isinstance(value, type):
-        return {
-            f.name: encode_value(getattr(value, f.name), arrays) for f in fields(value)
-        }
     if hasattr(value, "model_dump"):  # pydantic models
         return encode_value(value.model_dump(mode="json"), arrays)
     return repr(value)

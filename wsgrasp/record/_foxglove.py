@@ -362,6 +362,31 @@ def poses_in_frame_columns(
     return "foxglove.PosesInFrame", bytes(msg.encode()) + poses
 
 
+def poses_in_frame_groups(
+    columns: Array, counts: Sequence[int], frame_id: str, t_ns: int
+) -> list[tuple[str, bytes]]:
+    """:func:`poses_in_frame_columns` of consecutive groups of rows of
+    ``columns`` (k, 7), ``counts[i]`` rows in the i-th: every pose encoded in one
+    pass."""
+    rows = _rows(_pose(3), columns)  # field 3: poses
+    size = len(rows) // len(columns) if len(columns) else 0
+    head = _timestamp_field(t_ns) + _frame_id_field(frame_id)
+    out = []
+    start = 0
+    for n in counts:
+        out.append(
+            ("foxglove.PosesInFrame", head + rows[start * size : (start + n) * size])
+        )
+        start += n
+    return out
+
+
+def _frame_id_field(frame_id: str) -> bytes:
+    """Field 2 (``frame_id``) of a message."""
+    data = frame_id.encode()
+    return b"\x12" + _varint(len(data)) + data if data else b""
+
+
 def _color(rgba: tuple[float, ...]) -> Any:
     return fm.Color(r=rgba[0], g=rgba[1], b=rgba[2], a=rgba[3])
 

@@ -16,6 +16,7 @@ zstd decoder reads both.
 
 from __future__ import annotations
 
+import os
 import struct
 import threading
 import zlib
@@ -77,6 +78,13 @@ _ZSTD_BLOCK_MAX = 128 * 1024
 #: parts up to this size are joined into one block (a block header is 3 bytes)
 _SMALL_PART = 4096
 
+
+#: writes of at least this many bytes go to the file with one ``os.writev``
+_WRITEV_ABOVE = 64 * 1024
+#: pieces per ``os.writev`` call (the system's limit, usually 1024)
+_IOV_MAX = max(
+    16, min(os.sysconf("SC_IOV_MAX") if hasattr(os, "sysconf") else 16, 1024)
+)
 
 _COMPRESSORS = threading.local()
 
@@ -243,6 +251,29 @@ class ChunkWriter:
     def _write(self, data: bytes | memoryview) -> None:
         self._stream.write(data)
         self._offset += len(data)
+
+    def _write_all(self, pieces: list[bytes | memoryview]) -> None:
+        """Write ``pieces`` in order: with one ``writev`` call to a file (after
+        flushing the stream's buffer), one ``write`` each to anything else."""
+        size = sum(len(p) for p in pieces)
+        try:
+            fd = self._stream.fileno()
+        except (AttributeError, OSError, ValueError):
+            fd = -1
+        if fd < 0 or size < _WRITEV_ABOVE or not hasattr(os, "writev"):
+            for piece in pieces:
+                self._stream.write(piece)
+        else:
+            self._stream.flush()
+            todo = [memoryview(p).cast("B") for p in pieces if len(p)]
+            while todo:
+                n = os.writev(fd, todo[:_IOV_MAX])
+                while todo and n >= len(todo[0]):  # whole pieces written
+                    n -= len(todo[0])
+                    todo.pop(0)
+                if n:  # a piece written in part
+                    todo[0] = todo[0][n:]
+        self._offset += size
 
     def _record(self, record: object) -> int:
         """Write one record outside chunks; returns its length."""
@@ -422,11 +453,8 @@ class ChunkWriter:
         """Write a packed chunk and its message indexes (does not flush)."""
         chunk = packed.chunk
         start = self._offset
-        self._write(packed.head)
-        for piece in packed.data:
-            self._write(piece)
         length = len(packed.head) + packed.packed_size
-        index_start = self._offset
+        index_start = start + length
         offsets: dict[int, int] = {}
         pieces: list[bytes] = []
         n = 0
@@ -438,7 +466,7 @@ class ChunkWriter:
             pieces.append(_record_bytes(Opcode.MESSAGE_INDEX, body))
             n += len(pieces[-1])
         index_data = b"".join(pieces)
-        self._write(index_data)
+        self._write_all([packed.head, *packed.data, index_data])
         self._chunk_indices.append(
             ChunkIndex(
                 message_start_time=chunk.start,

@@ -126,14 +126,25 @@ def encode_record_parts(
     parts += _str_field(2, kind)
     parts += _str_field(3, json_text)
     for a in arrays:
-        shape = b"".join(_varint(int(n)) for n in a.shape)
-        inner: list[bytes | memoryview] = _str_field(1, a.dtype)
+        # Array: dtype 1, shape 2 (packed varints), data 3; the bytes before the
+        # data joined into one piece
+        head = _DTYPE_FIELDS.get(a.dtype) or b"".join(_str_field(1, a.dtype))
         if a.shape:
-            inner += _len_field(2, shape)
-        inner += _len_field(3, a.data) if len(a.data) else []
-        size = sum(len(p) for p in inner)
-        parts += [_key(4, 2), _varint(size), *inner]
+            shape = b"".join([_varint(int(n)) for n in a.shape])
+            head += b"\x12" + _varint(len(shape)) + shape
+        n = len(a.data)
+        if n:
+            head += b"\x1a" + _varint(n)
+        parts += [b"\x22" + _varint(len(head) + n) + head]
+        if n:
+            parts.append(a.data)
     return parts
+
+
+#: the dtype field (1) of an ``Array``, encoded, by dtype
+_DTYPE_FIELDS = {
+    d: b"".join(_str_field(1, d)) for d in ("<f8", "<i8", "|b1", "<f4", "<i4", "|u1")
+}
 
 
 def decode_record(data: bytes | memoryview) -> tuple[int, str, str, list[ArrayBytes]]:

@@ -480,6 +480,9 @@ def open_run(path: str | Path) -> Run:
         The file is missing, not MCAP, corrupt, not a wsgrasp run, or recorded in a
         newer format than this wsgrasp reads.
     """
+    from wsgrasp.record._writer import wait_for_recorders
+
+    wait_for_recorders()  # a run this process is still finishing
     p = Path(path)
     if not p.is_file():
         raise RecordingError(

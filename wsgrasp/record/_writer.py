@@ -39,11 +39,14 @@ from __future__ import annotations
 import atexit
 import json
 import platform
+import queue
 import sys
+import threading
 import time
 import weakref
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager, suppress
+from dataclasses import fields, is_dataclass, replace
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import IO, TYPE_CHECKING, Any, NamedTuple
@@ -90,6 +93,45 @@ def view_step(sizes: list[int], limit: int | None = None) -> int:
     points of clouds of ``sizes``."""
     limit = FOXGLOVE_MAX_POINTS if limit is None else limit
     return max(1, -(-sum(sizes) // limit))
+
+
+class _Worker:
+    """The process's writer thread: runs jobs in order (starting a thread can
+    take milliseconds on a busy machine, so one serves every recorder)."""
+
+    _jobs: queue.SimpleQueue[Callable[[], None]] = queue.SimpleQueue()
+    _thread: threading.Thread | None = None
+    _lock = threading.Lock()
+
+    @classmethod
+    def start(cls) -> None:
+        with cls._lock:
+            if cls._thread is None or not cls._thread.is_alive():
+                cls._thread = threading.Thread(
+                    target=cls._serve, name="wsgrasp-recorder", daemon=True
+                )
+                cls._thread.start()
+
+    @classmethod
+    def _serve(cls) -> None:
+        while True:
+            cls._jobs.get()()
+
+    @classmethod
+    def submit(cls, job: Callable[[], None]) -> None:
+        cls.start()
+        cls._jobs.put(job)
+
+
+#: Recorders whose file the writer thread is finishing.
+_PENDING: weakref.WeakSet[RunRecorder] = weakref.WeakSet()
+
+
+def wait_for_recorders() -> None:
+    """Wait until the writer thread has finished every recording handed to it
+    (a new recording calls this before its plan starts)."""
+    for rec in list(_PENDING):
+        rec.wait()
 
 
 @atexit.register
@@ -142,11 +184,18 @@ def check_record_path(path: str | Path, *, force: bool = False) -> Path:
 class RunRecorder:
     """Record one plan to an MCAP file; pass it to ``Pipeline.plan(observers=...)``.
 
-    ``on_start`` writes the metadata, the gripper model and the exact inputs with
-    their Foxglove views, and flushes them, before it returns; each ``on_stage``
-    does the same with its stage's record and views (point clouds, poses, shapes:
-    for looking at), ``on_result`` with the result, then finishes the file. A
-    process killed outright loses the stage it was in, nothing before.
+    In the planner's thread, ``on_start`` writes the metadata, the gripper model
+    and the exact inputs, and flushes them, before it returns; each ``on_stage``
+    writes and flushes its stage's full-fidelity record, ``on_result`` the result.
+    A process killed outright keeps every finished stage.
+
+    The Foxglove views (point clouds, poses, shapes: for looking at) are built
+    after the result, on the process's writer thread, which then finishes the
+    file: the plan returns without waiting for them, and they are built while the
+    caller goes on (a robot moving to the grasp). :meth:`close` waits for them; a
+    new recording waits for the previous ones before its plan starts, so finishing
+    never competes with planning. A plan that raises gets the views of the stages
+    before the error the same way.
 
     Parameters
     ----------
@@ -160,9 +209,11 @@ class RunRecorder:
     ----------
     path : Path
     overhead_ms : float
-        Time the planner's thread spent inside the recorder so far.
+        Time the planner's thread spent inside the recorder.
     views_ms : float
-        The part of it spent building Foxglove views.
+        Time the writer thread spent building the Foxglove views.
+    finish_ms : float
+        Time the writer thread spent on the views and the file's end (summary).
     """
 
     def __init__(self, path: str | Path, *, force: bool = False) -> None:
@@ -170,6 +221,7 @@ class RunRecorder:
         self.force = force
         self.overhead_ms = 0.0
         self.views_ms = 0.0
+        self.finish_ms = 0.0
         self._writer: ChunkWriter | None = None
         self._stream: IO[bytes] | None = None
         self._schemas: dict[str, int] = {}
@@ -179,11 +231,16 @@ class RunRecorder:
         self._spec: PipelineSpec | None = None
         self._candidates: Any = None
         self._stages_written: list[str] = []
-        self._finished = False
+        self._queued: list[tuple[str, Callable[[], None]]] = []
+        self._finished = False  # no more hooks taken
+        self._done: threading.Event | None = None  # set when the file is finished
+        self._error: BaseException | None = None  # a failure on the writer thread
+        _Worker.start()  # now, not in the plan's time
 
     # -- PlanObserver ------------------------------------------------------------
     def on_start(self, spec: PipelineSpec, gripper: GripperModel, scene: Scene) -> None:
         """Write metadata, the gripper model and the inputs, and flush."""
+        wait_for_recorders()  # earlier runs' views: not while this one plans
         t0 = time.perf_counter()
         self._spec = spec
         self._gripper = gripper
@@ -205,12 +262,12 @@ class RunRecorder:
             w.add_attachment(now, name, media, data)
         topic = TOPICS["inputs"]
         self._put(topic, SCHEMA_NAME, self._encode(topic, _inputs_record(scene)), now)
-        views = [(v.points, v.T_world_camera) for v in scene.views]
-        self._views("inputs", lambda: self._foxglove_inputs(views, now))
         w.flush(fast=True)
+        views = [(v.points, v.T_world_camera) for v in scene.views]
+        self._queue("inputs", lambda: self._foxglove_inputs(views, now))
 
     def on_stage(self, stage: str, data: dict[str, Any]) -> None:
-        """Write one stage's record and Foxglove views, and flush."""
+        """Write one stage's record and flush; queue its Foxglove views."""
         if self._writer is None or self._finished:
             return
         t0 = time.perf_counter()
@@ -218,17 +275,19 @@ class RunRecorder:
         topic = TOPICS.get(stage, f"/wsgrasp/stage/{stage}")
         with self._writing():
             self._put(topic, SCHEMA_NAME, self._encode(topic, data), now)
-            fox = getattr(self, f"_fox_{stage}", None)
-            if fox is not None:
-                self._views(stage, lambda: fox(data, now))
             self._w.flush(fast=True)
         if stage == "candidates":
             self._candidates = data.get("candidates")
         self._stages_written.append(stage)
+        fox = getattr(self, f"_fox_{stage}", None)
+        if fox is not None:
+            snap = _snapshot(data)
+            self._queue(stage, lambda: fox(snap, now))
         self.overhead_ms += (time.perf_counter() - t0) * 1e3
 
     def on_result(self, result: PlanResult) -> None:
-        """Write the result and the chosen grasp's Foxglove views; finish the file."""
+        """Write the result and flush; the writer thread adds the Foxglove views
+        and finishes the file."""
         if self._writer is None or self._finished:
             return
         t0 = time.perf_counter()
@@ -237,13 +296,15 @@ class RunRecorder:
         record = _result_record(result, self._candidates)
         with self._writing():
             self._put(topic, SCHEMA_NAME, self._encode(topic, record), now)
-            self._views("result", lambda: self._fox_result(result, now))
             self._w.flush(fast=True)
-            self.overhead_ms += (time.perf_counter() - t0) * 1e3
-            self._finish("ok")
+        snap = _snapshot(result)
+        self._queue("result", lambda: self._fox_result(snap, now))
+        self._finish_later("ok")
+        self.overhead_ms += (time.perf_counter() - t0) * 1e3
 
     def on_error(self, error: BaseException) -> None:
-        """Write what stopped the plan, and finish the file."""
+        """Write what stopped the plan and flush; the writer thread adds the
+        Foxglove views of the stages before it and finishes the file."""
         if self._writer is None or self._finished:
             return
         t0 = time.perf_counter()
@@ -258,14 +319,36 @@ class RunRecorder:
         with self._writing():
             self._put(topic, SCHEMA_NAME, self._encode(topic, record), now)
             self._w.flush(fast=True)
-            self.overhead_ms += (time.perf_counter() - t0) * 1e3
-            self._finish("error")
+        self._finish_later("error")
+        self.overhead_ms += (time.perf_counter() - t0) * 1e3
 
     def close(self) -> None:
-        """Finish the file if the plan did not (safe to call twice)."""
-        if self._writer is not None and not self._finished:
-            with self._writing():
-                self._finish("closed")
+        """Wait until the file is finished; finish it here if the plan never
+        reported a result or an error (safe to call twice).
+
+        Raises
+        ------
+        RecordingError
+            Writing the views or the file's end failed (the run's records, written
+            before, are in the file).
+        """
+        if self._writer is None:
+            return
+        if not self._finished:
+            self._finish_later("closed")
+        self.wait()
+        error, self._error = self._error, None
+        if error is not None:
+            raise RecordingError(
+                f"{self.path}: finishing the recording failed: {error!r}; the run "
+                "itself (inputs, stages, result) is recorded",
+                hint="check free disk space and the file system",
+            ) from error
+
+    def wait(self) -> None:
+        """Wait for the writer thread to finish this recording's file."""
+        if self._done is not None:
+            self._done.wait()
 
     def __enter__(self) -> RunRecorder:
         return self
@@ -288,16 +371,47 @@ class RunRecorder:
             yield
         except OSError as exc:
             self._finished = True
-            _OPEN.discard(self)
-            if self._stream is not None:
-                with suppress(OSError):
-                    self._stream.close()
+            self._close_stream()
             raise RecordingError(
                 f"{self.path}: writing the recording failed: "
                 f"{exc.strerror or exc}; the file keeps the stages written before",
                 hint="free disk space or record elsewhere (--record PATH), or plan "
                 "with --no-record",
             ) from exc
+
+    def _close_stream(self) -> None:
+        _OPEN.discard(self)
+        if self._stream is not None:
+            with suppress(OSError):
+                self._stream.close()
+
+    def _queue(self, stage: str, build: Callable[[], None]) -> None:
+        self._queued.append((stage, build))
+
+    def _finish_later(self, status: str) -> None:
+        """Hand the queued views and the file's end to the writer thread."""
+        self._finished = True
+        self._done = threading.Event()
+        queued, self._queued = self._queued, []
+        _PENDING.add(self)
+
+        def job() -> None:
+            t0 = time.perf_counter()
+            try:
+                for stage, build in queued:  # a chunk per stage
+                    self._views(stage, build)
+                    self._w.flush()
+                self._finish(status)
+            except BaseException as exc:  # noqa: BLE001 - raised by close()
+                self._error = exc
+                self._close_stream()
+            finally:
+                self.finish_ms += (time.perf_counter() - t0) * 1e3
+                _PENDING.discard(self)
+                assert self._done is not None
+                self._done.set()
+
+        _Worker.submit(job)
 
     def _views(self, stage: str, build: Callable[[], None]) -> None:
         """Add a stage's Foxglove views to the chunk in progress (``build`` calls
@@ -340,9 +454,8 @@ class RunRecorder:
         _OPEN.add(self)
 
     def _finish(self, status: str) -> None:
-        """Write the summary and close the file."""
-        t0 = time.perf_counter()
-        self._finished = True
+        """Write the file's end (the ``run_end`` metadata, the summary) and close
+        it."""
         try:
             self._w.add_metadata(
                 "run_end",
@@ -356,10 +469,7 @@ class RunRecorder:
             )
             self._w.finish()
         finally:
-            assert self._stream is not None
-            self._stream.close()
-            _OPEN.discard(self)
-            self.overhead_ms += (time.perf_counter() - t0) * 1e3
+            self._close_stream()
 
     def _schema_id(self, name: str) -> int:
         sid = self._schemas.get(name)
@@ -473,11 +583,14 @@ class RunRecorder:
         if cs is None or len(cs) == 0:
             return
         reason = np.asarray(cs.reason)
-        columns = fx.pose_columns(cs.T_world_ee)  # (C, 7), all at once
-        for code, name in enumerate(REASONS):
-            sel = reason == code
-            if sel.any():
-                msg = fx.poses_in_frame_columns(columns[sel], "world", t)
+        # the poses grouped by reason, in the order of REASONS; encoded at once
+        order = np.argsort(reason, kind="stable")
+        counts = np.bincount(reason, minlength=len(REASONS))
+        columns = fx.pose_columns(np.asarray(cs.T_world_ee)[order])  # (C, 7)
+        groups = fx.poses_in_frame_groups(columns, counts.tolist(), "world", t)
+        names = [*REASONS, *(f"reason_{i}" for i in range(len(REASONS), len(counts)))]
+        for name, n, msg in zip(names, counts.tolist(), groups, strict=True):
+            if n:
                 self._fox(f"/candidates/{name}", msg, t)
         colors = np.array([fx.reason_rgba(n) for n in REASONS])  # (R, 4)
         code = np.clip(reason, 0, len(REASONS) - 1)
@@ -563,6 +676,33 @@ def _gripper_shapes(g: GripperModel, key: tuple[Any, ...] | None) -> _GripperSha
     return shapes
 
 
+#: arrays up to this many values are copied for the views built later (the
+#: caller may hold them: poses, contacts, candidates); larger ones are the
+#: planner's own clouds, which nothing changes
+_COPY_MAX = 1 << 16
+
+
+def _snapshot(value: Any) -> Any:
+    """``value`` with its small arrays copied (see :data:`_COPY_MAX`), for the
+    Foxglove views the writer thread builds after the plan has returned."""
+    if isinstance(value, np.ndarray):
+        return value.copy() if value.size <= _COPY_MAX else value
+    if isinstance(value, dict):
+        return {k: _snapshot(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return type(value)(_snapshot(v) for v in value) if value else value
+    if is_dataclass(value) and not isinstance(value, type):
+        return replace(
+            value,
+            **{
+                f.name: _snapshot(getattr(value, f.name))
+                for f in fields(value)
+                if f.init
+            },
+        )
+    return value
+
+
 # -- records -----------------------------------------------------------------------
 def _run_metadata(spec: PipelineSpec, gripper: GripperModel) -> dict[str, str]:
     from wsgrasp import __version__
@@ -621,7 +761,11 @@ def _inputs_record(scene: Scene) -> dict[str, Any]:
     pairs = [(v.points, v.T_world_camera) for v in views]
     # a loader's scene, unchanged since it merged the views, is their merge; any
     # other scene is checked
-    if scene.is_merge() or is_merge_of(pairs, scene.points):
+    if (
+        _is_its_only_view(pairs, scene.points)
+        or scene.is_merge()
+        or is_merge_of(pairs, scene.points)
+    ):
         record["points"] = MERGED
         if any(not np.array_equal(T, np.eye(4)) for _, T in pairs):
             # computed, so the reader's own merge is checked against it
@@ -647,6 +791,20 @@ def merge_views(views: list[tuple[Any, Any]]) -> NDArray[np.float64]:
 _BLOCK = 16384
 
 
+def _is_its_only_view(views: list[tuple[Any, Any]], points: Any) -> bool:
+    """Whether ``points`` is the very array of the only view, posed at the
+    identity (float64 (n, 3)): its own merge."""
+    return (
+        len(views) == 1
+        and views[0][0] is points
+        and isinstance(points, np.ndarray)
+        and points.dtype == np.float64
+        and points.ndim == 2
+        and points.shape[1] == 3
+        and np.array_equal(np.asarray(views[0][1], dtype=np.float64), np.eye(4))
+    )
+
+
 def is_merge_of(views: list[tuple[Any, Any]], points: Any) -> bool:
     """Whether ``points`` (N, 3) is bit for bit :func:`merge_views` of ``views``.
 
@@ -656,14 +814,10 @@ def is_merge_of(views: list[tuple[Any, Any]], points: Any) -> bool:
     come out different from the whole-array product (another BLAS kernel for small
     matrices), the answer is False and the points are stored: never a wrong True.
     """
+    if _is_its_only_view(views, points):
+        return True
     pts = np.asarray(points)
     arrays = [np.asarray(p) for p, _ in views]
-    if (
-        len(arrays) == 1
-        and arrays[0] is pts
-        and np.array_equal(np.asarray(views[0][1], dtype=np.float64), np.eye(4))
-    ):
-        return pts.dtype == np.float64 and pts.ndim == 2 and pts.shape[1] == 3
     if (
         not arrays
         or pts.dtype != np.float64
@@ -712,8 +866,6 @@ def _same_bits(a: Any, b: Any) -> bool:
 
 
 def _result_record(result: PlanResult, stage_candidates: Any) -> dict[str, Any]:
-    from dataclasses import fields
-
     record: dict[str, Any] = {}
     for f in fields(result):
         value = getattr(result, f.name)
@@ -730,8 +882,6 @@ _MODEL_BYTES: dict[tuple[Any, ...], bytes] = {}
 def _model_key(gripper: GripperModel) -> tuple[Any, ...]:
     """A fingerprint of the model's exact content: every array's XXH3 (tens of
     microseconds for a model) and every other field's JSON."""
-    from dataclasses import fields
-
     key: list[Any] = [type(gripper).__qualname__]
     for f in fields(gripper):
         v = getattr(gripper, f.name)
