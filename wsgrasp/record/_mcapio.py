@@ -403,6 +403,11 @@ class ChunkWriter:
             self.write_packed(self.pack(chunk, fast=fast))
         self._stream.flush()
 
+    @property
+    def pending_bytes(self) -> int:
+        """Bytes of the chunk in progress (records not yet written)."""
+        return self._chunk.size
+
     def take_chunk(self) -> Chunk | None:
         """The chunk in progress (None if it has no message); a new one begins."""
         if not self._chunk.messages:

@@ -12,26 +12,29 @@ Layout of a run file (``FORMAT_VERSION`` 2):
   run.
 
 The inputs are written and flushed in ``on_start``, before any processing, and each
-stage is flushed (one zstd chunk: its full-fidelity record and its Foxglove views)
-when it ends: a crash, even one that kills the process, leaves a file that
-:func:`~wsgrasp.record.open_run` reads up to the last finished stage. A plan that
-raises has every stage before the error written, and the file finished, when it
-returns.
+stage's full-fidelity record is flushed (a zstd chunk of its own) when the stage
+ends, in the planner's thread: a crash, even one that kills the process, leaves a
+file that :func:`~wsgrasp.record.open_run` reads up to the last finished stage.
+The Foxglove views of every stage and the file's end (the summary) are written
+after the result or the error, by the process's writer thread, so that the plan
+returns without waiting for them; ``close()`` waits, and so do a new recording
+before its plan and ``open_run`` (see :class:`RunRecorder`).
 
 What keeps recording cheap (the issue's budget is 20 % of the plan time):
 
 - float64 arrays that are exactly float32 (sensor clouds) are stored as float32
   (:func:`~wsgrasp.record._codec.as_float32_exact`), bit-exact;
-- the merged scene points are not stored when the merge of the recorded views
-  gives them bit for bit (checked here, with a check value the reader checks
-  again): ``"points": "merge(views)"``;
-- the Foxglove input views are thinned to :data:`FOXGLOVE_MAX_POINTS` points;
-- the gripper model's attachment is encoded once per model, not once per plan;
+- the merged scene points are not stored when they are the merge of the recorded
+  views (known from the loader's digest, :meth:`Scene.is_merge`, or checked
+  here), with a check value the reader checks again: ``"points": "merge(views)"``;
 - chunks zstd cannot shrink (float clouds) are stored as raw zstd blocks
-  (:mod:`._mcapio`), without compressing or copying;
-- everything is done in the planner's thread: building messages is Python work,
-  which on another thread would hold the GIL against the planner (measured: a
-  writer thread saved nothing).
+  (:mod:`._mcapio`), without compressing or copying, and written with one
+  ``writev``;
+- the gripper model's attachment and Foxglove shapes are encoded once per model;
+- the Foxglove views are built after the plan, and the input views are thinned to
+  :data:`FOXGLOVE_MAX_POINTS` points. Building them during the plan on another
+  thread would not help: it is Python work, and holding the GIL it would stall
+  the planner.
 """
 
 from __future__ import annotations
@@ -122,6 +125,10 @@ class _Worker:
         cls.start()
         cls._jobs.put(job)
 
+
+#: The views are written in chunks of at least this many bytes (fewer chunks,
+#: less per-chunk work), the last one excepted.
+_VIEW_CHUNK = 256 * 1024
 
 #: Recorders whose file the writer thread is finishing.
 _PENDING: weakref.WeakSet[RunRecorder] = weakref.WeakSet()
@@ -398,10 +405,11 @@ class RunRecorder:
         def job() -> None:
             t0 = time.perf_counter()
             try:
-                for stage, build in queued:  # a chunk per stage
+                for stage, build in queued:
                     self._views(stage, build)
-                    self._w.flush()
-                self._finish(status)
+                    if self._w.pending_bytes >= _VIEW_CHUNK:
+                        self._w.flush(fast=True)
+                self._finish(status)  # writes the last chunk
             except BaseException as exc:  # noqa: BLE001 - raised by close()
                 self._error = exc
                 self._close_stream()
