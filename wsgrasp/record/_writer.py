@@ -49,9 +49,10 @@ import time
 import weakref
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager, suppress
-from dataclasses import fields, is_dataclass, replace
+from dataclasses import fields, is_dataclass
 from datetime import datetime, timezone
 from pathlib import Path
+from types import SimpleNamespace
 from typing import IO, TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
@@ -304,7 +305,11 @@ class RunRecorder:
         with self._writing():
             self._put(topic, SCHEMA_NAME, self._encode(topic, record), now)
             self._w.flush(fast=True)
-        snap = _snapshot(result)
+        snap = SimpleNamespace(  # what the views show, copied
+            found=result.found,
+            T_world_ee=_snapshot(result.T_world_ee),
+            contacts=_snapshot(result.contacts),
+        )
         self._queue("result", lambda: self._fox_result(snap, now))
         self._finish_later("ok")
         self.overhead_ms += (time.perf_counter() - t0) * 1e3
@@ -588,7 +593,7 @@ class RunRecorder:
         from wsgrasp.planning.result import REASONS
 
         cs = d.get("candidates")
-        if cs is None or len(cs) == 0:
+        if cs is None or len(cs.reason) == 0:
             return
         reason = np.asarray(cs.reason)
         # the poses grouped by reason, in the order of REASONS; encoded at once
@@ -607,7 +612,7 @@ class RunRecorder:
             "/candidates/points", fx.point_cloud(pts, "world", t, rgba=colors[code]), t
         )
 
-    def _fox_result(self, result: PlanResult, t: int) -> None:
+    def _fox_result(self, result: Any, t: int) -> None:
         """The chosen pose, the gripper there (its cloud, body superellipsoids
         and workspace spheres, the ones holding object points highlighted) and
         the contacts. The gripper is drawn in frame ``gripper``, which ``/tf``
@@ -692,21 +697,17 @@ _COPY_MAX = 1 << 16
 
 def _snapshot(value: Any) -> Any:
     """``value`` with its small arrays copied (see :data:`_COPY_MAX`), for the
-    Foxglove views the writer thread builds after the plan has returned."""
+    Foxglove views the writer thread builds after the plan has returned;
+    dataclasses become namespaces of their fields (nothing is validated again)."""
     if isinstance(value, np.ndarray):
         return value.copy() if value.size <= _COPY_MAX else value
     if isinstance(value, dict):
         return {k: _snapshot(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return type(value)(_snapshot(v) for v in value) if value else value
+        return [_snapshot(v) for v in value]
     if is_dataclass(value) and not isinstance(value, type):
-        return replace(
-            value,
-            **{
-                f.name: _snapshot(getattr(value, f.name))
-                for f in fields(value)
-                if f.init
-            },
+        return SimpleNamespace(
+            **{f.name: _snapshot(getattr(value, f.name)) for f in fields(value)}
         )
     return value
 
