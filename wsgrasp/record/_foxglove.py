@@ -15,6 +15,7 @@ which any protobuf reader accepts; the tests decode them with the schemas.
 from __future__ import annotations
 
 import math
+import struct
 import warnings
 from collections.abc import Sequence
 from typing import Any
@@ -132,11 +133,17 @@ def _row_layout(parts: _Parts) -> tuple[np.dtype[Any], NDArray[Any], int]:
     return layout
 
 
+_DOUBLE = struct.Struct("<d")
+
+
 def _rows(parts: _Parts, values: Array) -> bytes:
     """``len(values)`` protobuf fields, one per row: the constant bytes of
     ``parts`` with the row's doubles ``values`` (k, m) in place of the Nones."""
     dtype, template, doubles = _row_layout(parts)
     assert doubles == values.shape[1]
+    if len(values) == 1:  # one row: plain bytes beat numpy's per-call cost
+        row = iter(values[0].tolist())
+        return b"".join(p if p is not None else _DOUBLE.pack(next(row)) for p in parts)
     rec = np.repeat(template, len(values))
     column = 0
     for name in dtype.names or ():
@@ -149,6 +156,11 @@ def _rows(parts: _Parts, values: Array) -> bytes:
 def pose_columns(T: ArrayLike) -> Array:
     """Columns x, y, z, qx, qy, qz, qw (k, 7) of transforms (k, 4, 4)."""
     T = np.asarray(T, dtype=np.float64).reshape(-1, 4, 4)  # (k, 4, 4)
+    if len(T) == 1:  # one pose: plain floats beat a dozen tiny numpy calls
+        (r0, r1, r2, _), (r3, r4, r5, _), (r6, r7, r8, _), _ = T[0].tolist()
+        xyz = T[0, :3, 3].tolist()
+        q = _quaternion_xyzw([[r0, r1, r2], [r3, r4, r5], [r6, r7, r8]])
+        return np.array([xyz + q])
     return np.concatenate([T[:, :3, 3], quaternions_xyzw(T[:, :3, :3])], axis=1)
 
 
@@ -159,40 +171,42 @@ def _stamp(t_ns: int) -> Any:
 def quaternions_xyzw(R: ArrayLike) -> Array:
     """Unit quaternions ``q_xyzw`` ``(k, 4)`` of rotation matrices ``(k, 3, 3)``
     (Shepperd's method: the largest of w, x, y, z is found first, so every branch is
-    well conditioned)."""
+    well conditioned). The four branches are computed for every matrix and the
+    right one picked: no masks, a few dozen whole-array operations."""
     R = np.asarray(R, dtype=np.float64).reshape(-1, 3, 3)  # (k, 3, 3)
     if len(R) == 1:  # one pose: plain floats beat a dozen tiny numpy calls
         return np.array([_quaternion_xyzw(R[0].tolist())])
-    tr = np.trace(R, axis1=1, axis2=2)  # (k,)
-    d = np.stack([R[:, 0, 0], R[:, 1, 1], R[:, 2, 2], tr], axis=1)  # (k, 4)
-    best = np.argmax(d, axis=1)  # 0..2: x, y or z largest; 3: w largest
-    q = np.empty((len(R), 4))  # x, y, z, w
-    for i in range(3):  # loop over the 3 axis cases, not over rotations
-        sel = best == i
-        if not sel.any():
-            continue
-        j, k = (i + 1) % 3, (i + 2) % 3
-        Rs = R[sel]
-        s = np.sqrt(
-            np.maximum(
-                1.0 + 2.0 * Rs[:, i, i] - Rs[:, 0, 0] - Rs[:, 1, 1] - Rs[:, 2, 2] + 0.0,
-                1e-300,
-            )
+    m00, m01, m02 = R[:, 0, 0], R[:, 0, 1], R[:, 0, 2]
+    m10, m11, m12 = R[:, 1, 0], R[:, 1, 1], R[:, 1, 2]
+    m20, m21, m22 = R[:, 2, 0], R[:, 2, 1], R[:, 2, 2]
+    tr = m00 + m11 + m22  # (k,)
+    best = np.argmax(np.stack([m00, m11, m22, tr], axis=1), axis=1)  # 3: w largest
+    # 2 * (the largest component) for each branch: x, y, z, w
+    s = 2.0 * np.sqrt(
+        np.maximum(
+            np.stack(
+                [
+                    1.0 + m00 - m11 - m22,
+                    1.0 + m11 - m00 - m22,
+                    1.0 + m22 - m00 - m11,
+                    1.0 + tr,
+                ]
+            ),
+            1e-300,
         )
-        qs = np.empty((len(Rs), 4))
-        qs[:, i] = 0.5 * s
-        qs[:, j] = 0.5 * (Rs[:, j, i] + Rs[:, i, j]) / s
-        qs[:, k] = 0.5 * (Rs[:, k, i] + Rs[:, i, k]) / s
-        qs[:, 3] = 0.5 * (Rs[:, k, j] - Rs[:, j, k]) / s
-        q[sel] = qs
-    sel = best == 3
-    if sel.any():
-        Rs = R[sel]
-        s = np.sqrt(np.maximum(1.0 + tr[sel], 1e-300))
-        q[sel, 3] = 0.5 * s
-        q[sel, 0] = 0.5 * (Rs[:, 2, 1] - Rs[:, 1, 2]) / s
-        q[sel, 1] = 0.5 * (Rs[:, 0, 2] - Rs[:, 2, 0]) / s
-        q[sel, 2] = 0.5 * (Rs[:, 1, 0] - Rs[:, 0, 1]) / s
+    )  # (4, k)
+    a, b, c = m01 + m10, m02 + m20, m12 + m21  # symmetric parts
+    d, e, f = m21 - m12, m02 - m20, m10 - m01  # skew parts
+    q = np.stack(
+        [
+            np.stack([0.25 * s[0], a / s[0], b / s[0], d / s[0]], axis=1),  # x largest
+            np.stack([a / s[1], 0.25 * s[1], c / s[1], e / s[1]], axis=1),  # y largest
+            np.stack([b / s[2], c / s[2], 0.25 * s[2], f / s[2]], axis=1),  # z largest
+            np.stack([d / s[3], e / s[3], f / s[3], 0.25 * s[3]], axis=1),  # w largest
+        ],
+        axis=1,
+    )  # (k, 4 branches, 4)
+    q = q[np.arange(len(R)), best]  # (k, 4)
     return q / np.linalg.norm(q, axis=1, keepdims=True)
 
 
@@ -330,22 +344,30 @@ def _timestamp_field(t_ns: int) -> bytes:
 def frame_transform(
     T_parent_child: ArrayLike, parent: str, child: str, t_ns: int
 ) -> tuple[str, bytes]:
-    """A ``foxglove.FrameTransform``: ``T_parent_child`` (4, 4)."""
-    (p,), (q,) = _pq(T_parent_child)
-    msg = fm.FrameTransform(
-        timestamp=_stamp(t_ns),
-        parent_frame_id=parent,
-        child_frame_id=child,
-        translation=fm.Vector3(x=p[0], y=p[1], z=p[2]),
-        rotation=fm.Quaternion(x=q[0], y=q[1], z=q[2], w=q[3]),
-    )
-    return "foxglove.FrameTransform", msg.encode()
+    """A ``foxglove.FrameTransform``: ``T_parent_child`` (4, 4). Fields: timestamp
+    1, parent_frame_id 2, child_frame_id 3, translation 4, rotation 5."""
+    columns = pose_columns(T_parent_child)  # (1, 7)
+    body = _rows(_FRAME_TRANSFORM, columns)
+    head = _timestamp_field(t_ns) + _str_field(2, parent) + _str_field(3, child)
+    return "foxglove.FrameTransform", head + body
+
+
+#: translation (field 4) and rotation (field 5) of a ``FrameTransform``
+_FRAME_TRANSFORM: _Parts = [*_vec3(4), *_vec4(5)]
 
 
 def pose_in_frame(T: ArrayLike, frame_id: str, t_ns: int) -> tuple[str, bytes]:
     """A ``foxglove.PoseInFrame`` of one transform (4, 4)."""
-    msg = fm.PoseInFrame(timestamp=_stamp(t_ns), frame_id=frame_id, pose=_poses(T)[0])
-    return "foxglove.PoseInFrame", msg.encode()
+    body = _rows(_pose(3), pose_columns(T))  # field 3: pose
+    return "foxglove.PoseInFrame", _timestamp_field(t_ns) + _str_field(
+        2, frame_id
+    ) + body
+
+
+def _str_field(field: int, text: str) -> bytes:
+    """A string field (fields 1..15), left out when empty as protobuf does."""
+    data = text.encode()
+    return bytes([_tag(field)]) + _varint(len(data)) + data if data else b""
 
 
 def poses_in_frame(T: ArrayLike, frame_id: str, t_ns: int) -> tuple[str, bytes]:
@@ -383,8 +405,7 @@ def poses_in_frame_groups(
 
 def _frame_id_field(frame_id: str) -> bytes:
     """Field 2 (``frame_id``) of a message."""
-    data = frame_id.encode()
-    return b"\x12" + _varint(len(data)) + data if data else b""
+    return _str_field(2, frame_id)
 
 
 def _color(rgba: tuple[float, ...]) -> Any:

@@ -180,6 +180,21 @@ def raw_zstd_frame(
     return out
 
 
+#: encoded Schema and Channel records by content: every run registers the same
+#: ones, in the same order
+_SCHEMA_RECORDS: dict[tuple[object, ...], bytes] = {}
+_CHANNEL_RECORDS: dict[tuple[object, ...], bytes] = {}
+
+
+def _remember(
+    cache: dict[tuple[object, ...], bytes], key: tuple[object, ...], value: bytes
+) -> bytes:
+    if len(cache) >= 512:
+        cache.clear()
+    cache[key] = value
+    return value
+
+
 def _string(text: str) -> bytes:
     """An MCAP string: uint32 length and UTF-8 bytes."""
     data = text.encode()
@@ -290,12 +305,16 @@ class ChunkWriter:
 
     def register_schema(self, name: str, encoding: str, data: bytes) -> int:
         sid = len(self._schemas) + 1
-        # Schema record: id, name, encoding, data (encoded here: the mcap package's
-        # builder takes ~0.1 ms a record, and a run registers dozens)
-        body = b"".join(
-            [struct.pack("<H", sid), _string(name), _string(encoding), _bytes(data)]
-        )
-        self._schemas[sid] = _record_bytes(Opcode.SCHEMA, body)
+        key = (sid, name, encoding, data)
+        record = _SCHEMA_RECORDS.get(key)
+        if record is None:
+            # Schema record: id, name, encoding, data (encoded here: the mcap
+            # package's builder takes ~0.1 ms a record, and a run registers dozens)
+            body = b"".join(
+                [struct.pack("<H", sid), _string(name), _string(encoding), _bytes(data)]
+            )
+            record = _remember(_SCHEMA_RECORDS, key, _record_bytes(Opcode.SCHEMA, body))
+        self._schemas[sid] = record
         self._chunk_raw(self._schemas[sid])
         return sid
 
@@ -307,17 +326,23 @@ class ChunkWriter:
         metadata: dict[str, str],
     ) -> int:
         cid = len(self._channels) + 1
-        # Channel record: id, schema id, topic, message encoding, metadata map
-        entries = b"".join(_string(k) + _string(v) for k, v in metadata.items())
-        body = b"".join(
-            [
-                struct.pack("<HH", cid, schema_id),
-                _string(topic),
-                _string(message_encoding),
-                _bytes(entries),
-            ]
-        )
-        self._channels[cid] = _record_bytes(Opcode.CHANNEL, body)
+        key = (cid, schema_id, topic, message_encoding, tuple(metadata.items()))
+        record = _CHANNEL_RECORDS.get(key)
+        if record is None:
+            # Channel record: id, schema id, topic, message encoding, metadata map
+            entries = b"".join(_string(k) + _string(v) for k, v in metadata.items())
+            body = b"".join(
+                [
+                    struct.pack("<HH", cid, schema_id),
+                    _string(topic),
+                    _string(message_encoding),
+                    _bytes(entries),
+                ]
+            )
+            record = _remember(
+                _CHANNEL_RECORDS, key, _record_bytes(Opcode.CHANNEL, body)
+            )
+        self._channels[cid] = record
         self._chunk_raw(self._channels[cid])
         return cid
 
