@@ -585,3 +585,105 @@ def test_the_overhead_benchmark_runs(tmp_path: Path) -> None:
     assert done.returncode == 0, done.stderr
     (row,) = json.loads(done.stdout)
     assert row["gripper"] == "franka_hand" and row["file_mb"] > 0
+
+
+# -- raw zstd frames and vectored writes --------------------------------------------
+@pytest.mark.parametrize(
+    "sizes",
+    [
+        [],
+        [0],
+        [5],
+        [3, 4000, 7],
+        [200_000],
+        [131_072],
+        [1, 131_073, 2, 70_000, 4096, 4097],
+    ],
+)
+def test_a_raw_zstd_frame_is_zstd_and_carries_a_checksum(sizes: list[int]) -> None:
+    import zstandard
+
+    from wsgrasp.record._mcapio import raw_zstd_frame
+
+    rng = np.random.default_rng(len(sizes))
+    parts: list[Any] = []
+    for i, n in enumerate(sizes):
+        data = rng.integers(0, 256, n, dtype=np.uint8)
+        parts.append(data.tobytes() if i % 2 else memoryview(data))  # both kinds
+    whole = b"".join(bytes(p) for p in parts)
+    frame = b"".join(bytes(p) for p in raw_zstd_frame(parts, len(whole)))
+    assert zstandard.ZstdDecompressor().decompress(frame) == whole
+    params = zstandard.get_frame_parameters(frame)
+    assert params.content_size == len(whole) and params.has_checksum
+    if whole:
+        bad = bytearray(frame)
+        bad[-5] ^= 0x40  # one bit of the last content byte
+        with pytest.raises(zstandard.ZstdError):
+            zstandard.ZstdDecompressor().decompress(bytes(bad))
+
+
+def test_clouds_are_stored_raw_and_structured_records_compressed(
+    tmp_path: Path,
+) -> None:
+    from mcap.reader import make_reader
+
+    path = tmp_path / "run.mcap"
+    rec = RunRecorder(path)
+    scene = box_scene()
+    rec.on_start(fake_spec(), fake_gripper(), scene)
+    rec.on_stage("preprocess", {"points": np.repeat(scene.points, 20, axis=0)})
+    rec.on_stage("object_frame", {"labels": np.zeros(50_000, dtype=np.int64)})
+    rec.close()
+    with open(path, "rb") as fh:
+        summary = make_reader(fh).get_summary()
+    assert summary is not None
+    ratios = sorted(
+        c.compressed_size / c.uncompressed_size for c in summary.chunk_indexes
+    )
+    assert all(c.compression == "zstd" for c in summary.chunk_indexes)
+    assert ratios[0] < 0.1  # the zeros: compressed
+    assert ratios[-1] > 1.0  # a cloud: raw blocks, a few bytes of framing more
+    run = open_run(path)
+    assert _bits(run.stages["preprocess"]["points"]) == _bits(
+        np.repeat(scene.points, 20, axis=0)
+    )
+
+
+def test_short_vectored_writes_are_resumed(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import os
+
+    scene = box_scene()
+    whole = tmp_path / "whole.mcap"
+    plan_args = (fake_spec(), fake_gripper(), scene)
+    points = np.repeat(scene.points, 20, axis=0)
+    with RunRecorder(whole) as rec:
+        rec.on_start(*plan_args)
+        rec.on_stage("preprocess", {"points": points})
+    real = os.writev
+    calls: list[int] = []
+
+    def short(fd: int, buffers: Any) -> int:  # at most 10,007 bytes a call
+        left, take = 10_007, []
+        for b in buffers:
+            if left <= 0:
+                break
+            take.append(memoryview(b)[:left])
+            left -= len(take[-1])
+        calls.append(1)
+        return real(fd, take)
+
+    monkeypatch.setattr(os, "writev", short)
+    pieces = tmp_path / "pieces.mcap"
+    with RunRecorder(pieces) as rec:
+        rec.on_start(*plan_args)
+        rec.on_stage("preprocess", {"points": points})
+    monkeypatch.undo()
+    assert len(calls) > 20
+    a, b = open_run(whole), open_run(pieces)
+    assert not b.truncated
+    assert _bits(b.stages["preprocess"]["points"]) == _bits(
+        a.stages["preprocess"]["points"]
+    )
+    assert _bits(b.scene.points) == _bits(a.scene.points)
