@@ -687,3 +687,44 @@ def test_short_vectored_writes_are_resumed(
         a.stages["preprocess"]["points"]
     )
     assert _bits(b.scene.points) == _bits(a.scene.points)
+
+
+@pytest.mark.skipif(not hasattr(__import__("os"), "fork"), reason="needs os.fork")
+def test_a_forked_child_leaves_the_parents_recordings_alone(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import os
+    import threading
+
+    from wsgrasp.record import _writer
+
+    gate = threading.Event()
+    real = _writer.RunRecorder._foxglove_inputs
+
+    def gated(self: Any, views: Any, t: int) -> None:
+        gate.wait(10)
+        real(self, views, t)
+
+    monkeypatch.setattr(_writer.RunRecorder, "_foxglove_inputs", gated)
+    path = tmp_path / "parent.mcap"
+    rec = RunRecorder(path)
+    rec.on_start(fake_spec(), fake_gripper(), box_scene())
+    rec.on_error(RuntimeError("stop"))  # the views wait for the gate
+    size_before = path.stat().st_size
+    pid = os.fork()
+    if pid == 0:  # the child: nothing of the parent's to wait for or finish
+        code = 0
+        try:
+            _writer.wait_for_recorders()
+            _writer._close_open_recorders()
+            if path.stat().st_size != size_before:
+                code = 5
+        except BaseException:  # noqa: BLE001 - reported by the exit code
+            code = 6
+        os._exit(code)
+    _, status = os.waitpid(pid, 0)
+    assert os.waitstatus_to_exitcode(status) == 0
+    gate.set()
+    rec.close()
+    run = open_run(path)
+    assert not run.truncated and _topics(path).get("/inputs/view0") == 1

@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import atexit
 import json
+import os
 import platform
 import queue
 import sys
@@ -140,6 +141,21 @@ def wait_for_recorders() -> None:
     (a new recording calls this before its plan starts)."""
     for rec in list(_PENDING):
         rec.wait()
+
+
+def _forget_after_fork() -> None:
+    """In a forked child: the parent's recordings are the parent's to finish (a
+    child finishing them at exit would write into the parent's files), and the
+    writer thread was not copied."""
+    _OPEN.clear()
+    _PENDING.clear()
+    _Worker._jobs = queue.SimpleQueue()
+    _Worker._thread = None
+    _Worker._lock = threading.Lock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_after_fork)
 
 
 @atexit.register
