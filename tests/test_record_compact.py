@@ -321,22 +321,32 @@ def test_a_recorder_left_open_is_finished_at_exit(tmp_path: Path) -> None:
     assert "/scene/downsampled" in _topics(path)
 
 
+def _gate_views(monkeypatch: pytest.MonkeyPatch, method: str) -> Any:
+    """Make the writer thread wait, before building the views of ``method``
+    (``_foxglove_inputs``, ``_fox_result``, ...), until the returned event is
+    set."""
+    import threading
+
+    from wsgrasp.record import _writer
+
+    gate = threading.Event()
+    real = getattr(_writer.RunRecorder, method)
+
+    def gated(self: Any, *args: Any) -> None:
+        gate.wait(10)
+        real(self, *args)
+
+    monkeypatch.setattr(_writer.RunRecorder, method, gated)
+    return gate
+
+
 def test_views_are_built_after_the_plan_and_a_new_recording_waits_for_them(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     import threading
     import time
 
-    from wsgrasp.record import _writer
-
-    gate = threading.Event()
-    real = _writer.RunRecorder._foxglove_inputs
-
-    def slow(self: Any, views: Any, t: int) -> None:
-        gate.wait(10)
-        real(self, views, t)
-
-    monkeypatch.setattr(_writer.RunRecorder, "_foxglove_inputs", slow)
+    gate = _gate_views(monkeypatch, "_foxglove_inputs")
     scene = box_scene()
     first = RunRecorder(tmp_path / "first.mcap")
     first.on_start(fake_spec(), fake_gripper(), scene)
@@ -359,19 +369,9 @@ def test_views_are_built_after_the_plan_and_a_new_recording_waits_for_them(
 def test_the_views_show_the_result_as_planned_even_if_the_caller_changes_it(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import threading
-
-    from wsgrasp.record import _writer
-
-    gate = threading.Event()
-    real = _writer.RunRecorder._fox_result
-
-    def gated(self: Any, result: Any, t: int) -> None:
-        gate.wait(10)
-        real(self, result, t)
-
-    monkeypatch.setattr(_writer.RunRecorder, "_fox_result", gated)
     from wsgrasp import Pipeline
+
+    gate = _gate_views(monkeypatch, "_fox_result")
 
     scene = box_scene()
     pipe = Pipeline(fake_spec(), gripper=fake_gripper())
@@ -694,18 +694,10 @@ def test_a_forked_child_leaves_the_parents_recordings_alone(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     import os
-    import threading
 
     from wsgrasp.record import _writer
 
-    gate = threading.Event()
-    real = _writer.RunRecorder._foxglove_inputs
-
-    def gated(self: Any, views: Any, t: int) -> None:
-        gate.wait(10)
-        real(self, views, t)
-
-    monkeypatch.setattr(_writer.RunRecorder, "_foxglove_inputs", gated)
+    gate = _gate_views(monkeypatch, "_foxglove_inputs")
     path = tmp_path / "parent.mcap"
     rec = RunRecorder(path)
     rec.on_start(fake_spec(), fake_gripper(), box_scene())
