@@ -55,7 +55,7 @@ def test_round_trip_gives_back_inputs_and_result_bit_for_bit(recorded) -> None:
     g = run.gripper
     assert g.name == "fake_franka"
     assert g.sphere_centers.tobytes() == fake_gripper().sphere_centers.tobytes()
-    assert "recorder" in run.timing_ms
+    assert run.timing_ms["recorder"] > 0 and run.timing_ms["views"] > 0
 
 
 def test_metadata_has_versions_plugins_spec_and_seed(recorded) -> None:

@@ -270,15 +270,17 @@ class Run:
 
     @property
     def timing_ms(self) -> dict[str, float]:
-        """The plan's stage timings and the recorder's own time (``recorder``)."""
+        """The plan's stage timings, the recorder's time in the plan
+        (``recorder``) and, after it, building the Foxglove views (``views``)."""
         out: dict[str, float] = {}
         if self.result_data is not None:
             out.update(
                 {k: float(v) for k, v in self.result_data.get("timing_ms", {}).items()}
             )
-        rec = self.metadata.get("run_end", {}).get("recorder_ms")
-        if rec is not None:
-            out["recorder"] = float(rec)
+        end = self.metadata.get("run_end", {})
+        for key, name in (("recorder_ms", "recorder"), ("views_ms", "views")):
+            if end.get(key) is not None:
+                out[name] = float(end[key])
         return out
 
     def topics(self) -> dict[str, tuple[str, int]]:
