@@ -276,8 +276,14 @@ def point_cloud(
         Pose of the points' origin in ``frame_id``.
     """
     p = np.asarray(points).reshape(-1, 3)  # (n, 3)
+    F = fm.PackedElementFieldNumericType
+    fields = [
+        fm.PackedElementField(name=axis, offset=4 * i, type=F.Float32)
+        for i, axis in enumerate("xyz")
+    ]
     if rgba is None:
         rows = np.ascontiguousarray(p, dtype="<f4")  # (n, 3)
+        stride = 12
     else:
         c = np.asarray(rgba, dtype=np.float64)  # (4,) or (n, 4)
         c8 = np.ascontiguousarray(np.clip(np.round(c * 255.0), 0, 255), np.uint8)
@@ -285,89 +291,45 @@ def point_cloud(
         rows = np.empty((len(p), 4), dtype="<f4")
         rows[:, :3] = p
         rows.view("<u4")[:, 3] = c8.view("<u4")[..., 0]  # the colour's bytes
-    pose = None if T_frame_points is None else _pose_bytes(T_frame_points)
+        stride = 16
+        fields += [
+            fm.PackedElementField(name=ch, offset=12 + i, type=F.Uint8)
+            for i, ch in enumerate(("red", "green", "blue", "alpha"))
+        ]
+    pose = _poses(np.eye(4) if T_frame_points is None else T_frame_points)[0]
+    msg = fm.PointCloud(
+        timestamp=_stamp(t_ns),
+        frame_id=frame_id,
+        pose=pose,
+        point_stride=stride,
+        fields=fields,
+    )
     # the data (field 6, bytes) appended to the rest as a view of ``rows``: a
     # cloud is copied once, into the file, not three times
     data = rows.reshape(-1).view(np.uint8).data
     head = b"\x32" + _varint(len(data)) if len(data) else b""
-    body = _cloud_head(frame_id, rgba is not None, pose)
-    return "foxglove.PointCloud", [_timestamp_field(t_ns), body, head, data]
-
-
-_CLOUD_HEADS: dict[tuple[str, bool, bytes | None], bytes] = {}
-
-
-def _cloud_head(frame_id: str, colour: bool, pose: bytes | None) -> bytes:
-    """A ``PointCloud``'s frame, pose, stride and fields, encoded by the SDK once
-    per kind of cloud (the timestamp and the data are added around it)."""
-    key = (frame_id, colour, pose)
-    head = _CLOUD_HEADS.get(key)
-    if head is None:
-        F = fm.PackedElementFieldNumericType
-        fields = [
-            fm.PackedElementField(name=axis, offset=4 * i, type=F.Float32)
-            for i, axis in enumerate("xyz")
-        ]
-        if colour:
-            fields += [
-                fm.PackedElementField(name=ch, offset=12 + i, type=F.Uint8)
-                for i, ch in enumerate(("red", "green", "blue", "alpha"))
-            ]
-        msg = fm.PointCloud(
-            frame_id=frame_id,
-            pose=_poses(np.eye(4))[0] if pose is None else None,
-            point_stride=16 if colour else 12,
-            fields=fields,
-        )
-        head = bytes(msg.encode()) + (pose or b"")
-        if len(_CLOUD_HEADS) >= 64:
-            _CLOUD_HEADS.clear()
-        _CLOUD_HEADS[key] = head
-    return head
-
-
-def _pose_bytes(T: ArrayLike) -> bytes:
-    """Field 3 (``pose``) of a message, as the SDK encodes it."""
-    return bytes(fm.PointCloud(pose=_poses(T)[0]).encode())
-
-
-def _timestamp_field(t_ns: int) -> bytes:
-    """Field 1 (``timestamp``: seconds 1, nanoseconds 2, varints; zeros left out
-    as protobuf does) of a message."""
-    sec, nsec = divmod(t_ns, 1_000_000_000)
-    inner = (b"\x08" + _varint(sec) if sec else b"") + (
-        b"\x10" + _varint(nsec) if nsec else b""
-    )
-    return b"\x0a" + _varint(len(inner)) + inner
+    return "foxglove.PointCloud", [bytes(msg.encode()), head, data]
 
 
 def frame_transform(
     T_parent_child: ArrayLike, parent: str, child: str, t_ns: int
 ) -> tuple[str, bytes]:
-    """A ``foxglove.FrameTransform``: ``T_parent_child`` (4, 4). Fields: timestamp
-    1, parent_frame_id 2, child_frame_id 3, translation 4, rotation 5."""
-    columns = pose_columns(T_parent_child)  # (1, 7)
-    body = _rows(_FRAME_TRANSFORM, columns)
-    head = _timestamp_field(t_ns) + _str_field(2, parent) + _str_field(3, child)
-    return "foxglove.FrameTransform", head + body
-
-
-#: translation (field 4) and rotation (field 5) of a ``FrameTransform``
-_FRAME_TRANSFORM: _Parts = [*_vec3(4), *_vec4(5)]
+    """A ``foxglove.FrameTransform``: ``T_parent_child`` (4, 4)."""
+    (p,), (q,) = _pq(T_parent_child)
+    msg = fm.FrameTransform(
+        timestamp=_stamp(t_ns),
+        parent_frame_id=parent,
+        child_frame_id=child,
+        translation=fm.Vector3(x=p[0], y=p[1], z=p[2]),
+        rotation=fm.Quaternion(x=q[0], y=q[1], z=q[2], w=q[3]),
+    )
+    return "foxglove.FrameTransform", msg.encode()
 
 
 def pose_in_frame(T: ArrayLike, frame_id: str, t_ns: int) -> tuple[str, bytes]:
     """A ``foxglove.PoseInFrame`` of one transform (4, 4)."""
-    body = _rows(_pose(3), pose_columns(T))  # field 3: pose
-    return "foxglove.PoseInFrame", _timestamp_field(t_ns) + _str_field(
-        2, frame_id
-    ) + body
-
-
-def _str_field(field: int, text: str) -> bytes:
-    """A string field (fields 1..15), left out when empty as protobuf does."""
-    data = text.encode()
-    return bytes([_tag(field)]) + _varint(len(data)) + data if data else b""
+    msg = fm.PoseInFrame(timestamp=_stamp(t_ns), frame_id=frame_id, pose=_poses(T)[0])
+    return "foxglove.PoseInFrame", msg.encode()
 
 
 def poses_in_frame(T: ArrayLike, frame_id: str, t_ns: int) -> tuple[str, bytes]:
@@ -392,7 +354,8 @@ def poses_in_frame_groups(
     pass."""
     rows = _rows(_pose(3), columns)  # field 3: poses
     size = len(rows) // len(columns) if len(columns) else 0
-    head = _timestamp_field(t_ns) + _frame_id_field(frame_id)
+    msg = fm.PosesInFrame(timestamp=_stamp(t_ns), frame_id=frame_id, poses=[])
+    head = bytes(msg.encode())
     out = []
     start = 0
     for n in counts:
@@ -401,11 +364,6 @@ def poses_in_frame_groups(
         )
         start += n
     return out
-
-
-def _frame_id_field(frame_id: str) -> bytes:
-    """Field 2 (``frame_id``) of a message."""
-    return _str_field(2, frame_id)
 
 
 def _color(rgba: tuple[float, ...]) -> Any:
