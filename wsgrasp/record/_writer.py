@@ -86,6 +86,8 @@ _Payload = bytes | list[bytes | memoryview]
 
 #: Recorders with a file still open; finished at interpreter exit.
 _OPEN: weakref.WeakSet[RunRecorder] = weakref.WeakSet()
+#: Guards ``_OPEN`` and ``_PENDING``, which the writer thread changes too.
+_REGISTRY = threading.Lock()
 
 
 def thin_for_view(points: Any, step: int) -> Any:
@@ -139,7 +141,9 @@ _PENDING: weakref.WeakSet[RunRecorder] = weakref.WeakSet()
 def wait_for_recorders() -> None:
     """Wait until the writer thread has finished every recording handed to it
     (a new recording calls this before its plan starts)."""
-    for rec in list(_PENDING):
+    with _REGISTRY:
+        pending = list(_PENDING)
+    for rec in pending:
         rec.wait()
 
 
@@ -147,6 +151,8 @@ def _forget_after_fork() -> None:
     """In a forked child: the parent's recordings are the parent's to finish (a
     child finishing them at exit would write into the parent's files), and the
     writer thread was not copied."""
+    global _REGISTRY
+    _REGISTRY = threading.Lock()  # another thread may have held it at the fork
     _OPEN.clear()
     _PENDING.clear()
     _Worker._jobs = queue.SimpleQueue()
@@ -162,7 +168,9 @@ if hasattr(os, "register_at_fork"):
 def _close_open_recorders() -> None:
     """A recorder left open (no result, no error reported) is finished at exit,
     so that what was queued reaches the file."""
-    for rec in list(_OPEN):
+    with _REGISTRY:
+        still_open = list(_OPEN)
+    for rec in still_open:
         try:
             rec.close()
         except Exception:  # noqa: BLE001, S110 - exiting anyway
@@ -408,7 +416,8 @@ class RunRecorder:
             ) from exc
 
     def _close_stream(self) -> None:
-        _OPEN.discard(self)
+        with _REGISTRY:
+            _OPEN.discard(self)
         if self._stream is not None:
             with suppress(OSError):
                 self._stream.close()
@@ -421,7 +430,8 @@ class RunRecorder:
         self._finished = True
         self._done = threading.Event()
         queued, self._queued = self._queued, []
-        _PENDING.add(self)
+        with _REGISTRY:
+            _PENDING.add(self)
 
         def job() -> None:
             t0 = time.perf_counter()
@@ -436,7 +446,8 @@ class RunRecorder:
                 self._close_stream()
             finally:
                 self.finish_ms += (time.perf_counter() - t0) * 1e3
-                _PENDING.discard(self)
+                with _REGISTRY:
+                    _PENDING.discard(self)
                 assert self._done is not None
                 self._done.set()
 
@@ -480,7 +491,8 @@ class RunRecorder:
 
         self._writer = ChunkWriter(raw)
         self._writer.start(profile=PROFILE, library=f"wsgrasp {__version__}")
-        _OPEN.add(self)
+        with _REGISTRY:
+            _OPEN.add(self)
 
     def _finish(self, status: str) -> None:
         """Write the file's end (the ``run_end`` metadata, the summary) and close
