@@ -260,7 +260,7 @@ class RunRecorder:
         self._channels: dict[str, int] = {}
         self._gripper: GripperModel | None = None
         self._model_key: tuple[Any, ...] | None = None
-        self._spec: PipelineSpec | None = None
+        self._table_axes: tuple[float, float, float] | None = None
         self._candidates: Any = None
         self._stages_written: list[str] = []
         self._queued: list[tuple[str, Callable[[], None]]] = []
@@ -274,7 +274,10 @@ class RunRecorder:
         """Write metadata, the gripper model and the inputs, and flush."""
         wait_for_recorders()  # earlier runs' views: not while this one plans
         t0 = time.perf_counter()
-        self._spec = spec
+        # what the views need of the spec, as it is now (the caller may change
+        # the spec before the writer thread builds them)
+        a, b, c = spec.table.semi_axes
+        self._table_axes = (float(a), float(b), float(c))
         self._gripper = gripper
         self._open()
         with self._writing():
@@ -295,7 +298,7 @@ class RunRecorder:
         topic = TOPICS["inputs"]
         self._put(topic, SCHEMA_NAME, self._encode(topic, _inputs_record(scene)), now)
         w.flush(fast=True)
-        views = [(v.points, v.T_world_camera) for v in scene.views]
+        views = _snapshot([(v.points, v.T_world_camera) for v in scene.views])
         self._queue("inputs", lambda: self._foxglove_inputs(views, now))
 
     def on_stage(self, stage: str, data: dict[str, Any]) -> None:
@@ -601,10 +604,10 @@ class RunRecorder:
                 d["samples_world"], "world", t, rgba=(1.0, 0.85, 0.1, 1)
             )
             self._fox("/object/samples", pc, t)
-        if d.get("T_world_table") is not None and self._spec is not None:
+        if d.get("T_world_table") is not None and self._table_axes is not None:
             T = np.asarray(d["T_world_table"])
             self._fox("/tf", fx.frame_transform(T, "world", "table", t), t)
-            a, b, c = self._spec.table.semi_axes
+            a, b, c = self._table_axes
             T_centre = T.copy()
             T_centre[:3, 3] = T[:3, :3] @ np.array([0.0, 0.0, -c]) + T[:3, 3]
             ents.append(
