@@ -1,7 +1,8 @@
 """Recording runs to MCAP, reading them back, replaying them.
 
 - :class:`RunRecorder` is a plan observer that writes one ``.mcap`` file per run;
-  :func:`default_run_path` is where ``plan`` puts it.
+  :func:`default_run_path` is where ``plan`` puts it; :func:`wait_for_recorders`
+  waits until the writer thread has finished every file handed to it.
 - :func:`open_run` reads a run back (also a truncated one) as a :class:`Run`.
 - :func:`replay_run` re-plans a run's inputs and compares the results.
 - :func:`summarize_run` is what ``wsgrasp inspect --json`` prints.
@@ -14,7 +15,12 @@ from wsgrasp.record._codec import FORMAT_VERSION
 from wsgrasp.record._reader import PARTS, RawMessage, Run, open_run
 from wsgrasp.record._replay import ReplayReport, compare_results, replay_run
 from wsgrasp.record._summary import summarize_run
-from wsgrasp.record._writer import RunRecorder, check_record_path, default_run_path
+from wsgrasp.record._writer import (
+    RunRecorder,
+    check_record_path,
+    default_run_path,
+    wait_for_recorders,
+)
 
 __all__ = [
     "FORMAT_VERSION",
@@ -29,4 +35,5 @@ __all__ = [
     "open_run",
     "replay_run",
     "summarize_run",
+    "wait_for_recorders",
 ]
