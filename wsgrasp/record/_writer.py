@@ -898,13 +898,6 @@ def points_check(points: Any) -> str:
     return f"{total:016x}{mixed:016x}"
 
 
-def _same_bits(a: Any, b: Any) -> bool:
-    """Bitwise equality of two float64 arrays (``-0.0`` differs from ``0.0``)."""
-    x = np.ascontiguousarray(a, dtype=np.float64)
-    y = np.ascontiguousarray(b, dtype=np.float64)
-    return x.shape == y.shape and np.array_equal(x.view(np.int64), y.view(np.int64))
-
-
 def _result_record(result: PlanResult, stage_candidates: Any) -> dict[str, Any]:
     record: dict[str, Any] = {}
     for f in fields(result):
