@@ -91,11 +91,9 @@ def _object_key(obj: SimObject) -> tuple[str, float, float, int]:
 
 def run_task(task: Task) -> list[dict[str, Any]]:
     """One (object, trial) with every spec; returns one record per spec."""
-    from wsgrasp.errors import WsgraspError
     from wsgrasp.perception.io import scene_from_arrays
-    from wsgrasp.sim.gripper import load_sim_gripper
     from wsgrasp.sim.scene import build_scene
-    from wsgrasp.sim.trial import execute_grasp, render_views, settle_object
+    from wsgrasp.sim.trial import render_views, settle_object
 
     p = task.params
     obj = task.object
@@ -109,6 +107,34 @@ def run_task(task: Task) -> list[dict[str, Any]]:
     prep_s = time.perf_counter() - t0
     records: list[dict[str, Any]] = []
     executed: dict[tuple[str, bytes], Any] = {}
+    recorders: list[Any] = []
+    try:
+        _run_specs(task, scene, prep_s, settled, records, executed, recorders)
+    finally:
+        for r in recorders:  # finished while the grasps were simulated
+            r.close()
+    return records
+
+
+def _run_specs(
+    task: Task,
+    scene: Any,
+    prep_s: float,
+    settled: Any,
+    records: list[dict[str, Any]],
+    executed: dict[tuple[str, bytes], Any],
+    recorders: list[Any],
+) -> None:
+    """The plans and grasps of one task, one record per spec (see
+    :func:`run_task`)."""
+    from wsgrasp.errors import WsgraspError
+    from wsgrasp.sim.gripper import load_sim_gripper
+    from wsgrasp.sim.scene import build_scene
+    from wsgrasp.sim.trial import execute_grasp
+
+    p = task.params
+    obj = task.object
+    okey = _object_key(obj)
     for entry in task.specs:
         rec: dict[str, Any] = {
             "object": obj.name,
@@ -126,6 +152,7 @@ def run_task(task: Task) -> list[dict[str, Any]]:
                 f"{entry.gripper}-{entry.label}-{obj.name}-{task.trial:03d}.mcap"
             )
             observers.append(RunRecorder(path, force=True))
+            recorders.append(observers[-1])
             rec["record"] = str(path)
         try:
             result = _pipeline(entry).plan(scene, observers=observers)
@@ -160,7 +187,6 @@ def run_task(task: Task) -> list[dict[str, Any]]:
             T_world_ee=T.tolist(),
         )
         records.append(rec)
-    return records
 
 
 def _init_worker() -> None:
