@@ -296,11 +296,13 @@ def test_a_failed_write_is_one_error_and_the_file_keeps_the_stages_before(
     assert "segmentation" not in run.stages
 
 
-def test_a_recorder_left_open_is_finished_at_exit(tmp_path: Path) -> None:
-    path = tmp_path / "left_open.mcap"
+def _record_preprocess_then(path: Path, ending: str) -> int:
+    """In another process: start recording to ``path``, record the preprocess
+    stage, then run the statement ``ending`` (how the process stops); its exit
+    code."""
     code = textwrap.dedent(
         f"""
-        import sys
+        import os, sys
         sys.path.insert(0, {str(ROOT / "tests")!r})
         from test_record_fakes import box_scene, fake_gripper, fake_spec
         from wsgrasp.record import RunRecorder
@@ -309,13 +311,22 @@ def test_a_recorder_left_open_is_finished_at_exit(tmp_path: Path) -> None:
         rec = RunRecorder({str(path)!r})
         rec.on_start(fake_spec(), fake_gripper(), scene)
         rec.on_stage("preprocess", {{"points": scene.points[::3]}})
-        raise SystemExit(3)  # no on_result, no close
         """
     )
     done = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120
+        [sys.executable, "-c", code + ending],
+        capture_output=True,
+        text=True,
+        timeout=120,
     )
-    assert done.returncode == 3, done.stderr
+    assert "Traceback" not in done.stderr, done.stderr
+    return done.returncode
+
+
+def test_a_recorder_left_open_is_finished_at_exit(tmp_path: Path) -> None:
+    path = tmp_path / "left_open.mcap"
+    # no on_result, no close
+    assert _record_preprocess_then(path, "raise SystemExit(3)") == 3
     run = open_run(path)
     assert not run.truncated and run.metadata["run_end"]["status"] == "closed"
     assert "/scene/downsampled" in _topics(path)
@@ -720,3 +731,63 @@ def test_a_forked_child_leaves_the_parents_recordings_alone(
     rec.close()
     run = open_run(path)
     assert not run.truncated and _topics(path).get("/inputs/view0") == 1
+
+
+# -- a copy with the views built again -------------------------------------------------
+def test_a_copy_of_a_run_has_the_same_records_and_views(tmp_path: Path) -> None:
+    from test_record_fakes import plan_recorded
+
+    from wsgrasp.record import copy_with_views, replay_run
+
+    path = tmp_path / "run.mcap"
+    plan_recorded(path)
+    run = open_run(path)
+    copy = open_run(copy_with_views(run, tmp_path / "copy.mcap"))
+    assert not copy.truncated and copy.status == "ok" and copy.missing == []
+    assert {t: s for t, (s, _) in copy.topics().items()} == {
+        t: s for t, (s, _) in run.topics().items()
+    }
+    assert _bits(copy.scene.points) == _bits(run.scene.points)
+    assert _bits(copy.candidates.T_world_ee) == _bits(run.candidates.T_world_ee)
+    assert copy.metadata["copy_of"]["path"] == str(path)
+    assert replay_run(copy).identical
+    with pytest.raises(RecordingError, match="is the run being copied"):
+        copy_with_views(run, path, force=True)
+    with pytest.raises(RecordingError, match="already exists"):
+        copy_with_views(run, tmp_path / "copy.mcap")
+
+
+def test_a_run_killed_before_its_views_gets_them_in_a_copy(tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from wsgrasp.cli import app
+
+    path = tmp_path / "killed.mcap"
+    # killed in the segmentation: no exit handler runs
+    assert _record_preprocess_then(path, "os._exit(0)") == 0
+    assert "/scene/downsampled" not in _topics(path)
+    out = tmp_path / "views.mcap"
+    result = CliRunner().invoke(app, ["view", str(path), "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    assert "copied up to where it stops" in result.output
+    copy = open_run(out)
+    assert not copy.truncated and copy.status == "truncated"
+    assert "segmentation" in copy.missing and "result" in copy.missing
+    topics = _topics(out)
+    assert topics.get("/scene/downsampled") == 1 and topics.get("/inputs/view0") == 1
+
+
+def test_a_copy_keeps_the_recorded_error(tmp_path: Path) -> None:
+    from wsgrasp.errors import InputError
+    from wsgrasp.record import copy_with_views
+
+    path = tmp_path / "failed.mcap"
+    rec = RunRecorder(path)
+    rec.on_start(fake_spec(), fake_gripper(), box_scene())
+    rec.on_error(InputError("no object on the table", hint="move the camera"))
+    rec.close()
+    copy = open_run(copy_with_views(open_run(path), tmp_path / "copy.mcap"))
+    assert copy.status == "error" and copy.error is not None
+    assert copy.error["type"] == "InputError"
+    assert copy.error["message"] == "no object on the table"
+    assert copy.error["hint"] == "move the camera"

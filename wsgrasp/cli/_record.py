@@ -205,26 +205,40 @@ def _print_replay(d: dict[str, Any]) -> None:
 def view(
     run: Path = typer.Argument(..., help="A recorded run (.mcap)."),
     out: Path = typer.Option(
-        ..., "--out", "-o", help="Picture (.png) or interactive page (.html)."
+        ...,
+        "--out",
+        "-o",
+        help="Picture (.png), interactive page (.html), or a copy of the run with "
+        "its Foxglove views built again (.mcap).",
     ),
     force: bool = typer.Option(False, "--force", help="Replace an existing file."),
 ) -> None:
     """Draw a run: scene, table, object, candidates coloured by why they were
-    rejected, and the chosen grasp with the spheres that hold the object."""
+    rejected, and the chosen grasp with the spheres that hold the object. With
+    -o FILE.mcap, write the run again with its Foxglove views (for a run whose
+    process was killed before they were written)."""
     from wsgrasp.errors import RecordingError
     from wsgrasp.record import open_run
 
     suffix = out.suffix.lower()
-    if suffix not in (".png", ".html", ".htm"):
+    if suffix not in (".png", ".html", ".htm", ".mcap"):
         raise RecordingError(
             f"{out}: unknown picture type {out.suffix!r}",
-            hint="use -o FILE.png for a picture or -o FILE.html for a 3D page",
+            hint="use -o FILE.png for a picture, -o FILE.html for a 3D page, or "
+            "-o FILE.mcap for a copy of the run that Foxglove shows",
         )
     if out.exists() and not force:
         raise RecordingError(
             f"{out}: exists already", hint="choose another name or pass --force"
         )
     r = open_run(run)
+    if suffix == ".mcap":
+        from wsgrasp.record import copy_with_views
+
+        copy_with_views(r, out, force=force)
+        note = " (the run is truncated: copied up to where it stops)"
+        console.print(f"wrote {out}{note if r.truncated else ''}", highlight=False)
+        return
     if suffix == ".png":
         from wsgrasp.view._run import render_png
 

@@ -3,7 +3,8 @@
 - :class:`RunRecorder` is a plan observer that writes one ``.mcap`` file per run;
   :func:`default_run_path` is where ``plan`` puts it; :func:`wait_for_recorders`
   waits until the writer thread has finished every file handed to it.
-- :func:`open_run` reads a run back (also a truncated one) as a :class:`Run`.
+- :func:`open_run` reads a run back (also a truncated one) as a :class:`Run`;
+  :func:`copy_with_views` writes it again with its Foxglove views.
 - :func:`replay_run` re-plans a run's inputs and compares the results.
 - :func:`summarize_run` is what ``wsgrasp inspect --json`` prints.
 - :mod:`wsgrasp.record.bag` reads ROS 2 bags (``sensor_msgs/msg/PointCloud2``).
@@ -12,6 +13,7 @@
 from __future__ import annotations
 
 from wsgrasp.record._codec import FORMAT_VERSION
+from wsgrasp.record._copy import copy_with_views
 from wsgrasp.record._reader import PARTS, RawMessage, Run, open_run
 from wsgrasp.record._replay import ReplayReport, compare_results, replay_run
 from wsgrasp.record._summary import summarize_run
@@ -31,6 +33,7 @@ __all__ = [
     "RunRecorder",
     "check_record_path",
     "compare_results",
+    "copy_with_views",
     "default_run_path",
     "open_run",
     "replay_run",

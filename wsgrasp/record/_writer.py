@@ -349,7 +349,7 @@ class RunRecorder:
         t0 = time.perf_counter()
         now = time.time_ns()
         record = {
-            "type": type(error).__name__,
+            "type": getattr(error, "type_name", None) or type(error).__name__,
             "message": getattr(error, "message", str(error)),
             "hint": getattr(error, "hint", None),
             "stages": list(self._stages_written),
