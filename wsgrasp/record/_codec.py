@@ -162,25 +162,23 @@ def encode_value(value: Any, arrays: list[ArrayBytes]) -> Any:
     scalars Python numbers; anything else its ``repr``.
     """
     t = type(value)
-    # the common types first, by exact type (a run's records hold thousands)
-    if t is np.ndarray:
-        return _encode_array(value, arrays)
+    # plain scalars by exact type first (a run's records hold thousands)
     if t is float:
         return _float(value)
     if t is int or t is str or t is bool or value is None:
         return value
-    if t is dict:
+    if isinstance(value, np.ndarray):
+        return _encode_array(np.asarray(value), arrays)
+    if isinstance(value, dict):
         return {str(k): encode_value(v, arrays) for k, v in value.items()}
-    if t is list or t is tuple:
+    if isinstance(value, (list, tuple)):
         return [encode_value(v, arrays) for v in value]
     names = _FIELDS.get(t)
     if names is None and is_dataclass(value) and not isinstance(value, type):
         names = _FIELDS[t] = tuple(f.name for f in fields(value))
     if names is not None:
         return {n: encode_value(getattr(value, n), arrays) for n in names}
-    # subclasses and numpy scalars
-    if isinstance(value, np.ndarray):
-        return _encode_array(np.asarray(value), arrays)
+    # numpy scalars and subclasses of the plain types
     if isinstance(value, (bool, np.bool_)):
         return bool(value)
     if isinstance(value, (int, np.integer)):
@@ -189,10 +187,6 @@ def encode_value(value: Any, arrays: list[ArrayBytes]) -> Any:
         return _float(float(value))
     if isinstance(value, str):
         return str(value)
-    if isinstance(value, dict):
-        return {str(k): encode_value(v, arrays) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [encode_value(v, arrays) for v in value]
     if hasattr(value, "model_dump"):  # pydantic models
         return encode_value(value.model_dump(mode="json"), arrays)
     return repr(value)

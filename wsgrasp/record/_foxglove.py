@@ -15,7 +15,6 @@ which any protobuf reader accepts; the tests decode them with the schemas.
 from __future__ import annotations
 
 import math
-import struct
 import warnings
 from collections.abc import Sequence
 from typing import Any
@@ -133,17 +132,11 @@ def _row_layout(parts: _Parts) -> tuple[np.dtype[Any], NDArray[Any], int]:
     return layout
 
 
-_DOUBLE = struct.Struct("<d")
-
-
 def _rows(parts: _Parts, values: Array) -> bytes:
     """``len(values)`` protobuf fields, one per row: the constant bytes of
     ``parts`` with the row's doubles ``values`` (k, m) in place of the Nones."""
     dtype, template, doubles = _row_layout(parts)
     assert doubles == values.shape[1]
-    if len(values) == 1:  # one row: plain bytes beat numpy's per-call cost
-        row = iter(values[0].tolist())
-        return b"".join(p if p is not None else _DOUBLE.pack(next(row)) for p in parts)
     rec = np.repeat(template, len(values))
     column = 0
     for name in dtype.names or ():
@@ -156,11 +149,6 @@ def _rows(parts: _Parts, values: Array) -> bytes:
 def pose_columns(T: ArrayLike) -> Array:
     """Columns x, y, z, qx, qy, qz, qw (k, 7) of transforms (k, 4, 4)."""
     T = np.asarray(T, dtype=np.float64).reshape(-1, 4, 4)  # (k, 4, 4)
-    if len(T) == 1:  # one pose: plain floats beat a dozen tiny numpy calls
-        (r0, r1, r2, _), (r3, r4, r5, _), (r6, r7, r8, _), _ = T[0].tolist()
-        xyz = T[0, :3, 3].tolist()
-        q = _quaternion_xyzw([[r0, r1, r2], [r3, r4, r5], [r6, r7, r8]])
-        return np.array([xyz + q])
     return np.concatenate([T[:, :3, 3], quaternions_xyzw(T[:, :3, :3])], axis=1)
 
 

@@ -654,6 +654,7 @@ class RunRecorder:
         T = np.asarray(result.T_world_ee)
         self._fox("/grasp/pose", fx.pose_in_frame(T, "world", t), t)
         self._fox("/tf", fx.frame_transform(T, "world", "gripper", t), t)
+        assert self._model_key is not None  # set with the gripper
         shapes = _gripper_shapes(g, self._model_key)
         self._fox("/grasp/gripper_cloud", fx.point_cloud(shapes.cloud, "gripper", t), t)
         held = np.zeros(len(shapes.spheres), dtype=bool)
@@ -689,9 +690,9 @@ class _GripperShapes(NamedTuple):
 _SHAPES: dict[tuple[Any, ...], _GripperShapes] = {}
 
 
-def _gripper_shapes(g: GripperModel, key: tuple[Any, ...] | None) -> _GripperShapes:
-    k = _model_key(g) if key is None else key
-    shapes = _SHAPES.get(k)
+def _gripper_shapes(g: GripperModel, key: tuple[Any, ...]) -> _GripperShapes:
+    """``g``'s shapes, made once per model fingerprint ``key``."""
+    shapes = _SHAPES.get(key)
     if shapes is None:
         body = []
         for c, s in zip(
@@ -716,7 +717,7 @@ def _gripper_shapes(g: GripperModel, key: tuple[Any, ...] | None) -> _GripperSha
         )
         if len(_SHAPES) >= 8:
             _SHAPES.clear()
-        _SHAPES[k] = shapes
+        _SHAPES[key] = shapes
     return shapes
 
 
@@ -908,10 +909,6 @@ def _result_record(result: PlanResult, stage_candidates: Any) -> dict[str, Any]:
     return record
 
 
-#: ``GripperModel.to_bytes()`` by a fingerprint of the model (its exact content)
-_MODEL_BYTES: dict[tuple[Any, ...], bytes] = {}
-
-
 def _model_key(gripper: GripperModel) -> tuple[Any, ...]:
     """A fingerprint of the model's exact content: every array's XXH3 (tens of
     microseconds for a model) and every other field's JSON."""
@@ -924,19 +921,6 @@ def _model_key(gripper: GripperModel) -> tuple[Any, ...]:
         else:
             key.append((f.name, json.dumps(v, sort_keys=True, default=repr)))
     return tuple(key)
-
-
-def _model_bytes(gripper: GripperModel, key: tuple[Any, ...] | None = None) -> bytes:
-    """``gripper.to_bytes()``, encoded once per model content (a compressed npz
-    takes milliseconds; the fingerprint, :func:`_model_key`, microseconds)."""
-    k = _model_key(gripper) if key is None else key
-    data = _MODEL_BYTES.get(k)
-    if data is None:
-        data = gripper.to_bytes()
-        if len(_MODEL_BYTES) >= 8:
-            _MODEL_BYTES.clear()
-        _MODEL_BYTES[k] = data
-    return data
 
 
 #: the attachments by model fingerprint and the gripper files' paths and stats
@@ -962,15 +946,14 @@ def _gripper_attachments(
     urdf = gripper.description.get("urdf")
     if yaml_path is not None and urdf:
         urdf_path = (yaml_path.parent / urdf).resolve()
-    key = (
+    key = (  # the model's fingerprint covers its description too
         model_key,
-        json.dumps(gripper.description, sort_keys=True, default=str),
         None if yaml_path is None else _file_stat(yaml_path),
         None if urdf_path is None else _file_stat(urdf_path),
     )
     out = _ATTACHMENTS.get(key)
     if out is None:
-        out = _read_gripper_attachments(gripper, model_key, yaml_path, urdf_path)
+        out = _read_gripper_attachments(gripper, yaml_path, urdf_path)
         if len(_ATTACHMENTS) >= 8:
             _ATTACHMENTS.clear()
         _ATTACHMENTS[key] = out
@@ -978,13 +961,11 @@ def _gripper_attachments(
 
 
 def _read_gripper_attachments(
-    gripper: GripperModel,
-    model_key: tuple[Any, ...],
-    yaml_path: Path | None,
-    urdf_path: Path | None,
+    gripper: GripperModel, yaml_path: Path | None, urdf_path: Path | None
 ) -> list[tuple[str, str, bytes]]:
     out = [
-        ("gripper/model.npz", "application/x-npz", _model_bytes(gripper, model_key)),
+        # a compressed npz takes milliseconds: once per model and files
+        ("gripper/model.npz", "application/x-npz", gripper.to_bytes()),
         (
             "gripper/description.json",
             "application/json",
