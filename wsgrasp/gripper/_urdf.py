@@ -11,7 +11,7 @@ import contextlib
 import difflib
 import io
 import xml.etree.ElementTree as ET
-from collections.abc import Iterable, Mapping
+from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -87,20 +87,20 @@ class Kinematics:
     # -- names -------------------------------------------------------------------
     def check_link(self, link: str, gripper: str, where: str) -> None:
         """Raise ``GripperError`` naming ``where`` if the URDF has no ``link``."""
-        if link not in self.links:
-            raise GripperError(
-                f"gripper {gripper!r}: {where} names link {link!r}, which "
-                f"{self.path.name} does not have{_close(link, self.links)}",
-                hint=f"use one of the links of {self.path.name} in {where}",
-            )
+        self._check_name("link", link, self.links, gripper, where)
 
     def check_joint(self, joint: str, gripper: str, where: str) -> None:
         """Raise ``GripperError`` naming ``where`` if the URDF has no ``joint``."""
-        if joint not in self.joints:
+        self._check_name("joint", joint, self.joints, gripper, where)
+
+    def _check_name(
+        self, kind: str, name: str, names: Collection[str], gripper: str, where: str
+    ) -> None:
+        if name not in names:
             raise GripperError(
-                f"gripper {gripper!r}: {where} names joint {joint!r}, which "
-                f"{self.path.name} does not have{_close(joint, self.joints)}",
-                hint=f"use one of the joints of {self.path.name} in {where}",
+                f"gripper {gripper!r}: {where} names {kind} {name!r}, which "
+                f"{self.path.name} does not have{_close(name, names)}",
+                hint=f"use one of the {kind}s of {self.path.name} in {where}",
             )
 
     def master(self, joint: str) -> str:

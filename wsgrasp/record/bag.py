@@ -453,16 +453,15 @@ def read_bag_scene(
 _HEADER = "builtin_interfaces/Time stamp\nstring frame_id\n"
 _TIME = "int32 sec\nuint32 nanosec\n"
 _SEP = "=" * 80 + "\n"
+#: the definitions a message with a ``std_msgs/Header`` appends for it
+_HEADER_DEFS = (
+    _SEP + "MSG: std_msgs/Header\n" + _HEADER + _SEP + "MSG: builtin_interfaces/Time\n"
+) + _TIME
 POINTCLOUD2_DEF = (
     "std_msgs/Header header\nuint32 height\nuint32 width\n"
     "sensor_msgs/PointField[] fields\nbool is_bigendian\nuint32 point_step\n"
     "uint32 row_step\nuint8[] data\nbool is_dense\n"
-    + _SEP
-    + "MSG: std_msgs/Header\n"
-    + _HEADER
-    + _SEP
-    + "MSG: builtin_interfaces/Time\n"
-    + _TIME
+    + _HEADER_DEFS
     + _SEP
     + "MSG: sensor_msgs/PointField\n"
     "uint8 INT8=1\nuint8 UINT8=2\nuint8 INT16=3\nuint8 UINT16=4\nuint8 INT32=5\n"
@@ -474,12 +473,7 @@ TF_MESSAGE_DEF = (
     + _SEP
     + "MSG: geometry_msgs/TransformStamped\n"
     "std_msgs/Header header\nstring child_frame_id\ngeometry_msgs/Transform transform\n"
-    + _SEP
-    + "MSG: std_msgs/Header\n"
-    + _HEADER
-    + _SEP
-    + "MSG: builtin_interfaces/Time\n"
-    + _TIME
+    + _HEADER_DEFS
     + _SEP
     + "MSG: geometry_msgs/Transform\n"
     "geometry_msgs/Vector3 translation\ngeometry_msgs/Quaternion rotation\n"
