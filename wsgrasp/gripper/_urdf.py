@@ -1,8 +1,11 @@
-"""A URDF read into plain arrays: the joint tree, mimic couplings, link geometry.
+"""A URDF read into plain arrays: the joint tree, mimic couplings, link geometry
+and mass properties.
 
 yourdfpy parses the file; forward kinematics is ours (batched, in
 :mod:`wsgrasp.geometry`), so no yourdfpy call is made per configuration. Meshes are
-loaded lazily, only when a cloud is sampled, with trimesh.
+loaded lazily, only when a cloud is sampled, with trimesh. The planner
+(:mod:`wsgrasp.gripper`) and the simulator (:mod:`wsgrasp.sim.gripper`) both read
+their URDF here.
 """
 
 from __future__ import annotations
@@ -50,6 +53,27 @@ class Joint:
     lower: float
     upper: float
     mimic: tuple[str, float, float] | None = None  # (master, multiplier, offset)
+    effort: float = 0.0  # <limit effort>: N or N·m; 0 where the URDF gives none
+    continuous: bool = False  # a URDF continuous joint: no limits of its own
+
+
+@dataclass(frozen=True)
+class Inertial:
+    """A link's mass properties (URDF ``<inertial>``).
+
+    Attributes
+    ----------
+    mass : float
+        kg.
+    T_link_inertial : (4, 4) float
+        The inertial frame (origin at the centre of mass) in the link frame.
+    inertia : (3, 3) float
+        Inertia tensor about the centre of mass, in the inertial frame (kg·m²).
+    """
+
+    mass: float
+    T_link_inertial: Array
+    inertia: Array
 
 
 @dataclass(frozen=True)
@@ -75,6 +99,8 @@ class Kinematics:
         For each link with a parent, the joint that attaches it.
     shapes : dict of str to list of Shape
         Collision elements per link (visual ones where a link has no collision).
+    inertials : dict of str to Inertial
+        Mass properties of the links whose ``<inertial>`` gives a mass.
     """
 
     robot_name: str
@@ -83,6 +109,7 @@ class Kinematics:
     links: list[str]
     parent_joint: dict[str, str]
     shapes: dict[str, list[Shape]] = field(default_factory=dict)
+    inertials: dict[str, Inertial] = field(default_factory=dict)
 
     # -- names -------------------------------------------------------------------
     def check_link(self, link: str, gripper: str, where: str) -> None:
@@ -141,8 +168,13 @@ class Kinematics:
             link = joint.parent
         return out[::-1]
 
+    def child_joints(self, link: str) -> list[Joint]:
+        """The joints whose parent is ``link``, in file order."""
+        return [j for j in self.joints.values() if j.parent == link]
+
     def subtree(self, base: str) -> list[str]:
-        """``base`` and every link below it, parents before children."""
+        """``base`` and every link below it, parents before children (depth
+        first, children in file order)."""
         children: dict[str, list[str]] = {}
         for j in self.joints.values():
             children.setdefault(j.parent, []).append(j.child)
@@ -152,6 +184,24 @@ class Kinematics:
             order.append(link)
             stack.extend(reversed(children.get(link, [])))
         return order
+
+    def subtree_joints(self, base: str) -> list[Joint]:
+        """The joints below link ``base`` (those that attach a link of its
+        subtree other than ``base`` itself), in file order."""
+        below = set(self.subtree(base)) - {base}
+        return [j for j in self.joints.values() if j.child in below]
+
+    def mimic_of(self, joint: str) -> tuple[str, float, float]:
+        """``(master, multiplier, offset)`` with ``q = offset + multiplier *
+        q_master``, ``master`` the actuated joint at the end of the mimic chain
+        (``(joint, 1, 0)`` for an actuated joint)."""
+        mult, off = 1.0, 0.0
+        name = joint
+        while self.joints[name].mimic is not None:
+            m_name, m_mult, m_off = self.joints[name].mimic  # type: ignore[misc]
+            mult, off = mult * m_mult, off * m_mult + m_off
+            name = m_name
+        return name, mult, off
 
     def joint_positions(
         self, chain: Iterable[Joint], masters: Mapping[str, Any]
@@ -175,12 +225,7 @@ class Kinematics:
             if j.kind == JOINT_FIXED:
                 cols.append(np.asarray(0.0))
                 continue
-            mult, off = 1.0, 0.0
-            name = j.name
-            while self.joints[name].mimic is not None:
-                m_name, m_mult, m_off = self.joints[name].mimic  # type: ignore[misc]
-                mult, off = mult * m_mult, off * m_mult + m_off
-                name = m_name
+            name, mult, off = self.mimic_of(j.name)
             if name in masters:
                 value = np.asarray(masters[name], dtype=np.float64)
             else:
@@ -295,6 +340,9 @@ def load_kinematics(path: Path, gripper: str) -> Kinematics:
                 raise fail(f"has joint {j.name!r} with a zero axis")
             axis = axis / norm
         lower, upper = 0.0, 0.0
+        effort = 0.0
+        if j.limit is not None and j.limit.effort is not None:
+            effort = float(j.limit.effort)
         if j.type == "continuous":
             lower, upper = -np.pi, np.pi
             if j.limit is not None and j.limit.lower is not None:
@@ -320,6 +368,8 @@ def load_kinematics(path: Path, gripper: str) -> Kinematics:
             lower,
             upper,
             mimic,
+            effort=effort,
+            continuous=j.type == "continuous",
         )
         if j.child in parent_joint:
             raise fail(f"gives link {j.child!r} two parents")
@@ -332,6 +382,16 @@ def load_kinematics(path: Path, gripper: str) -> Kinematics:
         kin.master(j)  # cycles
     for link in robot.links:
         kin.shapes[link.name] = _shapes(link, path.parent, fail)
+        inertial = link.inertial
+        if inertial is not None and inertial.mass is not None:
+            inertia = (
+                np.zeros((3, 3))
+                if inertial.inertia is None
+                else np.asarray(inertial.inertia, dtype=np.float64).reshape(3, 3)
+            )
+            kin.inertials[link.name] = Inertial(
+                float(inertial.mass), _origin(inertial.origin), inertia
+            )
     return kin
 
 
@@ -394,8 +454,9 @@ def mesh_files(kin: Kinematics) -> list[Path]:
     return sorted(p for p in files if p is not None)
 
 
-def shape_mesh(shape: Shape) -> Any:
-    """The shape as a ``trimesh.Trimesh`` in its link frame (meshes loaded now)."""
+def shape_mesh(shape: Shape, *, frame: str = "link") -> Any:
+    """The shape as a ``trimesh.Trimesh`` (meshes loaded now, scaled), in its link
+    frame, or with ``frame="shape"`` in its own (before ``T_link_shape``)."""
     import trimesh
 
     if shape.kind == "box":
@@ -418,5 +479,8 @@ def shape_mesh(shape: Shape) -> Any:
             ) from None
         mesh = mesh.copy()
         mesh.apply_transform(np.diag([*shape.mesh_scale, 1.0]))
-    mesh.apply_transform(shape.T_link_shape)
+    if frame == "link":
+        mesh.apply_transform(shape.T_link_shape)
+    elif frame != "shape":
+        raise ValueError(f"frame must be 'link' or 'shape', not {frame!r}")
     return mesh

@@ -1,0 +1,245 @@
+"""The simulated gripper reads its URDF as the planner does: a hand mounted deep in
+an arm's URDF is simulated as the subtree of its base link, and it can be scaffolded,
+planned with and simulated end to end."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+from urdf_factory import jaw_urdf
+
+pytest.importorskip("mujoco")
+
+from wsgrasp.sim import (  # noqa: E402
+    OUTCOMES,
+    EvalConfig,
+    SimParams,
+    build_scene,
+    load_sim_gripper,
+    run_eval,
+    sim_gripper_from_files,
+    spec_entries,
+)
+from wsgrasp.sim.objects import Part, SimObject  # noqa: E402
+
+#: the camera mesh: a box of these extents, centred here in its shape frame
+CAMERA_EXTENTS, CAMERA_CENTRE = (0.03, 0.08, 0.02), (0.01, 0.0, 0.0)
+#: the camera's shape frame in the camera link, and the camera link on the palm
+CAMERA_SHAPE_XYZ, CAMERA_MOUNT_XYZ = (0.0, 0.0, -0.01), (-0.03, 0.0, 0.0)
+CAMERA_MASS = 0.05
+
+
+def _inertial(mass: float, xyz: str = "0 0 0") -> str:
+    return (
+        f'<inertial><origin xyz="{xyz}"/><mass value="{mass}"/>'
+        '<inertia ixx="0.001" iyy="0.001" izz="0.001" ixy="0" ixz="0" iyz="0"/>'
+        "</inertial>"
+    )
+
+
+def _box(size: str, xyz: str = "0 0 0") -> str:
+    return (
+        f'<collision><origin xyz="{xyz}"/><geometry><box size="{size}"/>'
+        "</geometry></collision>"
+    )
+
+
+def _link(mass: float, size: str, z: float) -> str:
+    """An arm link: a box centred ``z`` up its axis, with its mass there."""
+    return _inertial(mass, f"0 0 {z}") + _box(size, f"0 0 {z}")
+
+
+def write_arm_with_jaw(folder: Path) -> Path:
+    """A 3-joint arm (revolute, with inertials and boxes) whose flange carries the
+    jaw of ``urdf_factory.jaw_urdf`` (fingers of 40 N) and a camera whose geometry
+    is an STL mesh; the jaw's ``palm`` is four joints below the root."""
+    import trimesh
+
+    folder.mkdir(parents=True, exist_ok=True)
+    mesh = trimesh.creation.box(extents=CAMERA_EXTENTS)
+    mesh.apply_translation(CAMERA_CENTRE)
+    mesh.export(folder / "camera.stl")
+    jaw = jaw_urdf().replace('effort="1"', 'effort="40"')
+    hand = jaw.split('<robot name="jaw">', 1)[1].rsplit("</robot>", 1)[0]
+    cam_xyz = " ".join(map(str, CAMERA_SHAPE_XYZ))
+    mount_xyz = " ".join(map(str, CAMERA_MOUNT_XYZ))
+    arm = f"""
+  <link name="arm_base">{_link(4.0, "0.2 0.2 0.1", 0.05)}</link>
+  <link name="upper_arm">{_link(2.0, "0.08 0.08 0.4", 0.2)}</link>
+  <joint name="shoulder" type="revolute">
+    <parent link="arm_base"/><child link="upper_arm"/>
+    <origin xyz="0 0 0.1"/><axis xyz="0 1 0"/>
+    <limit lower="-2" upper="2" effort="80" velocity="1"/>
+  </joint>
+  <link name="forearm">{_link(1.5, "0.06 0.06 0.3", 0.15)}</link>
+  <joint name="elbow" type="revolute">
+    <parent link="upper_arm"/><child link="forearm"/>
+    <origin xyz="0 0 0.4" rpy="0 1.2 0"/><axis xyz="0 1 0"/>
+    <limit lower="-2.5" upper="2.5" effort="40" velocity="1"/>
+  </joint>
+  <link name="flange">{_inertial(0.2)}{_box("0.06 0.06 0.02", "0 0 0.01")}</link>
+  <joint name="wrist" type="revolute">
+    <parent link="forearm"/><child link="flange"/>
+    <origin xyz="0 0 0.3"/><axis xyz="0 0 1"/>
+    <limit lower="-3" upper="3" effort="10" velocity="1"/>
+  </joint>
+  <joint name="flange_palm" type="fixed">
+    <parent link="flange"/><child link="palm"/>
+    <origin xyz="0 0 0.02" rpy="0 0 0.7853981633974483"/>
+  </joint>
+  <link name="camera">{_inertial(CAMERA_MASS)}
+    <collision><origin xyz="{cam_xyz}"/>
+      <geometry><mesh filename="camera.stl"/></geometry></collision>
+  </link>
+  <joint name="camera_mount" type="fixed">
+    <parent link="palm"/><child link="camera"/><origin xyz="{mount_xyz}"/>
+  </joint>"""
+    text = f'<?xml version="1.0"?>\n<robot name="arm_jaw">{arm}{hand}</robot>\n'
+    path = folder / "arm_jaw.urdf"
+    path.write_text(text)
+    return path
+
+
+@pytest.fixture(autouse=True)
+def _cache(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch):
+    cache = tmp_path_factory.getbasetemp() / "gripper-cache"
+    monkeypatch.setenv("WSGRASP_CACHE_DIR", str(cache))
+
+
+def _description(urdf: Path) -> dict:
+    return {
+        "name": "arm_jaw",
+        "urdf": urdf.name,
+        "base_link": "palm",
+        "approach_axis": (0.0, 0.0, 1.0),
+        "closing_axis": (0.0, 1.0, 0.0),
+        "pregrasp": {"left_joint": 0.04},
+        "closed": {"left_joint": 0.0},
+    }
+
+
+def _box_object() -> SimObject:
+    T = np.eye(4)
+    T[2, 3] = 0.04
+    return SimObject("box", [Part("box", (0.04, 0.05, 0.08), T)], 0.2)
+
+
+def test_hand_deep_in_an_arm_is_simulated_alone(tmp_path: Path):
+    import mujoco
+
+    urdf = write_arm_with_jaw(tmp_path)
+    g = sim_gripper_from_files(_description(urdf), tmp_path)
+    assert g.actuated == ["left_joint"]  # not the arm's shoulder, elbow, wrist
+    assert g.mimics == {"right_joint": ("left_joint", 1.0, 0.0)}
+    assert g.root_body == "g/palm"
+    scene = build_scene(_box_object(), g)
+    m, d = scene.model, scene.data
+    names = {mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(m.nbody)}
+    gripper = {n for n in names if n.startswith("g/")}
+    assert gripper == {"g/palm", "g/left_finger", "g/right_finger", "g/camera"}
+    joints = {mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(m.njnt)}
+    assert {"g/left_joint", "g/right_joint"} <= joints
+    assert not joints & {"g/shoulder", "g/elbow", "g/wrist"}
+
+    def body(name: str) -> int:
+        return mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
+
+    # the camera keeps its URDF mass; the fingers, without <inertial>, get
+    # 1000 kg/m³ over their 20 x 15 x 50 mm boxes
+    assert m.body_mass[body("g/camera")] == pytest.approx(CAMERA_MASS)
+    assert m.body_mass[body("g/left_finger")] == pytest.approx(1000 * 15e-6, rel=1e-6)
+    # the mesh sits where the URDF puts it: palm → camera link → shape → centre
+    d.qpos[scene.gripper_qpos] = 0.0
+    mujoco.mj_forward(m, d)
+    mesh_geom = next(
+        i
+        for i in range(m.ngeom)
+        if m.geom_type[i] == mujoco.mjtGeom.mjGEOM_MESH
+        and m.geom_bodyid[i] == body("g/camera")
+    )
+    palm = body("g/palm")
+    R_palm = d.xmat[palm].reshape(3, 3)
+    centre_palm = R_palm.T @ (d.geom_xpos[mesh_geom] - d.xpos[palm])
+    expected = np.add(np.add(CAMERA_MOUNT_XYZ, CAMERA_SHAPE_XYZ), CAMERA_CENTRE)
+    np.testing.assert_allclose(centre_palm, expected, atol=1e-9)
+    # the hull keeps the mesh's size
+    vert = m.mesh_vert[m.mesh_vertadr[m.geom_dataid[mesh_geom]] :][
+        : m.mesh_vertnum[m.geom_dataid[mesh_geom]]
+    ]  # (n, 3) in the mesh's own (centred, principal) frame
+    np.testing.assert_allclose(
+        np.sort(np.ptp(vert, axis=0)), np.sort(CAMERA_EXTENTS), atol=1e-9
+    )
+
+
+def test_posture_naming_an_arm_joint_is_refused(tmp_path: Path):
+    from wsgrasp.errors import SimulationError
+
+    urdf = write_arm_with_jaw(tmp_path)
+    desc = _description(urdf)
+    desc["closed"] = {"left_joint": 0.0, "elbow": 0.3}
+    with pytest.raises(SimulationError, match="'elbow'.*below base_link 'palm'"):
+        sim_gripper_from_files(desc, tmp_path)
+
+
+def test_scaffold_plan_and_simulate_a_hand_on_an_arm(tmp_path: Path):
+    """`wsgrasp gripper new --base-link palm` on the arm's URDF, then one eval
+    trial: drop, look, plan, approach, close, lift, hold."""
+    from wsgrasp.gripper.scaffold import scaffold_plugin
+
+    urdf = write_arm_with_jaw(tmp_path / "src")
+    yaml_path, sc = scaffold_plugin("arm-jaw", urdf, tmp_path / "pkg", base_link="palm")
+    assert sc.data["base_link"] == "palm"
+    g = load_sim_gripper(str(yaml_path))
+    assert g.actuated == ["left_joint"]
+    config = EvalConfig(
+        objects=[_box_object()],
+        specs=spec_entries([str(yaml_path)], paper=False),
+        trials=1,
+        seed=0,
+        params=SimParams(hold_time=1.0),
+        workers=1,
+    )
+    records, _ = run_eval(config, progress=False)
+    (rec,) = records
+    assert rec["found"], rec.get("hint")
+    assert rec["outcome"] == "success", rec
+    assert rec["outcome"] in OUTCOMES
+
+
+PYBULLET_PANDA = None
+try:  # pybullet_data ships the real Franka Panda URDF (arm + hand, vendor meshes)
+    import pybullet_data  # type: ignore[import-not-found]
+
+    PYBULLET_PANDA = Path(pybullet_data.getDataPath()) / "franka_panda" / "panda.urdf"
+except ImportError:
+    pass
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(
+    PYBULLET_PANDA is None or not PYBULLET_PANDA.exists(),
+    reason="pybullet_data is not installed: it carries the real panda.urdf "
+    "(pip install pybullet to run this test)",
+)
+def test_real_panda_urdf_with_base_link_panda_hand(tmp_path: Path):
+    from wsgrasp.gripper.scaffold import scaffold_plugin
+
+    assert PYBULLET_PANDA is not None
+    yaml_path, _ = scaffold_plugin(
+        "panda", PYBULLET_PANDA, tmp_path / "pkg", base_link="panda_hand"
+    )
+    g = load_sim_gripper(str(yaml_path))
+    assert g.actuated == ["panda_finger_joint1"]
+    config = EvalConfig(
+        objects=[_box_object()],
+        specs=spec_entries([str(yaml_path)], paper=False),
+        trials=2,
+        seed=0,
+        params=SimParams(hold_time=2.0),
+        workers=min(2, os.cpu_count() or 1),
+    )
+    records, _ = run_eval(config, progress=False)
+    assert [r["outcome"] for r in records] == ["success", "success"], records
