@@ -93,8 +93,12 @@ def test_bundled_scenes(pipelines, gripper, scene):
     assert all(len(c.points) for c in result.contacts)
     assert result.timing_ms["total"] > 0
     hist = result.candidates.histogram()
-    flips = 2 if pipelines[gripper].spec.sampling.flip else 1
-    assert sum(hist.values()) == len(result.candidates) == 147 * 4 * flips
+    sampling = pipelines[gripper].spec.sampling
+    assert sum(hist.values()) == len(result.candidates)
+    assert len(result.candidates) == sampling.points * result.info["orientations"]
+    # every candidate approaches from above the table or level with it
+    up = result.candidates.T_world_gwc[:, :3, 2] @ result.info["table_normal"]
+    assert up.max() <= np.sin(np.deg2rad(sampling.upward_tolerance_deg)) + 1e-9
 
 
 def test_cone_views_scene_yaml(pipelines):

@@ -11,10 +11,25 @@ from scipy.spatial.transform import Rotation
 from wsgrasp_scorers import CentroidDistanceScorer
 
 from wsgrasp.geometry import transform_points
-from wsgrasp.planning.candidates import candidate_poses, orientation_angles
+from wsgrasp.planning.candidates import candidate_poses, orientation_set
 from wsgrasp.planning.evaluate import TableSE, evaluate_candidates
-from wsgrasp.planning.reference import reference_search
+from wsgrasp.planning.reference import paper_orientation, reference_search
 from wsgrasp.planning.search import SearchInput, run_search
+from wsgrasp.spec import Sampling
+
+#: one sampling per mode, small enough for the loop-by-loop oracle
+MODES = {
+    "major_axis": {"mode": "major_axis", "orientations": 4},
+    "major_axis_flip": {"mode": "major_axis", "orientations": 4, "flip": True},
+    "xyz": {"mode": "xyz", "steps": (3, 4, 3)},
+    "approach_sphere": {"mode": "approach_sphere", "directions": 10, "orientations": 3},
+}
+
+
+def _orientations(sampling: dict, T_world_object, table):
+    return orientation_set(
+        Sampling(**sampling), T_world_object, table.T_world_table[:3, 2]
+    )
 
 
 def _scene(seed: int, T_world_scene: np.ndarray, obstacles: bool):
@@ -41,15 +56,15 @@ def _scene(seed: int, T_world_scene: np.ndarray, obstacles: bool):
     )
 
 
-def _check(gripper, seed, T_world_scene, obstacles, orientations=4, flip=False):
+def _check(gripper, seed, T_world_scene, obstacles, sampling=None):
     obj, T_world_object, samples, obs, table = _scene(seed, T_world_scene, obstacles)
-    thetas = orientation_angles(orientations, 360)
-    _, T_world_gripper, _, _, _ = candidate_poses(
-        T_world_object, samples, thetas, gripper.T_gripper_gwc, flip
+    o = _orientations(sampling or MODES["major_axis"], T_world_object, table)
+    _, T_world_gripper, _, _ = candidate_poses(
+        T_world_object, samples, o.R_object_gwc, gripper.T_gripper_gwc
     )
     fast = evaluate_candidates(T_world_gripper, gripper, obj, obs, table)
     ref = reference_search(
-        gripper, T_world_object, samples, thetas, obj, obs, table, flip
+        gripper, T_world_object, samples, o.R_object_gwc, obj, obs, table
     )
     np.testing.assert_array_equal(fast.reason, ref.reason)
     np.testing.assert_array_equal(fast.contacts, ref.contacts)
@@ -59,11 +74,10 @@ def _check(gripper, seed, T_world_scene, obstacles, orientations=4, flip=False):
             T_world_object,
             np.ptp(obj, axis=0),
             samples,
-            thetas,
+            o,
             obj,
             obs,
             table,
-            flip,
         ),
         [("centroid_distance", CentroidDistanceScorer(), None, 1.0)],
     )
@@ -73,9 +87,27 @@ def _check(gripper, seed, T_world_scene, obstacles, orientations=4, flip=False):
 
 @pytest.mark.parametrize("seed", range(8), ids=lambda s: f"seed{s}")
 @pytest.mark.parametrize("obstacles", [False, True], ids=["alone", "clutter"])
+@pytest.mark.parametrize("mode", list(MODES))
+def test_fast_search_matches_reference(jaw_gripper, seed, obstacles, mode):
+    _check(jaw_gripper, seed, np.eye(4), obstacles, MODES[mode])
+
+
 @pytest.mark.parametrize("flip", [False, True], ids=["once", "flipped"])
-def test_fast_search_matches_reference(jaw_gripper, seed, obstacles, flip):
-    _check(jaw_gripper, seed, np.eye(4), obstacles, flip=flip)
+def test_major_axis_mode_is_algorithm_1(flip):
+    """The vectorised major-axis orientations are the paper's, in the loop order
+    (angles outer, the turned pose inner)."""
+    o = orientation_set(
+        Sampling(orientations=6, angle_range_deg=180, flip=flip),
+        np.eye(4),
+        np.array([0.0, 1.0, 0.0]),  # major axis level: nothing from below dropped
+    )
+    thetas = np.pi * np.arange(6) / 6
+    expected = [
+        paper_orientation(t, turned)
+        for t in thetas
+        for turned in ((False, True) if flip else (False,))
+    ]
+    np.testing.assert_allclose(o.R_object_gwc, np.array(expected), atol=1e-15)
 
 
 def test_sweep_finds_feasible_and_rejected(jaw_gripper):
@@ -83,9 +115,9 @@ def test_sweep_finds_feasible_and_rejected(jaw_gripper):
     seen = np.zeros(5, dtype=int)
     for seed in range(8):
         obj, T_wo, samples, obs, table = _scene(seed, np.eye(4), True)
-        thetas = orientation_angles(4, 360)
-        _, T_wg, _, _, _ = candidate_poses(
-            T_wo, samples, thetas, jaw_gripper.T_gripper_gwc
+        o = _orientations(MODES["major_axis"], T_wo, table)
+        _, T_wg, _, _ = candidate_poses(
+            T_wo, samples, o.R_object_gwc, jaw_gripper.T_gripper_gwc
         )
         seen += np.bincount(
             evaluate_candidates(T_wg, jaw_gripper, obj, obs, table).reason, minlength=5
@@ -99,15 +131,25 @@ def test_sweep_finds_feasible_and_rejected(jaw_gripper):
     rotvec=st.tuples(*[st.floats(-3.0, 3.0)] * 3),
     shift=st.tuples(*[st.floats(-2.0, 2.0)] * 3),
     orientations=st.integers(1, 8),
+    mode=st.sampled_from(["major_axis", "xyz", "approach_sphere"]),
     flip=st.booleans(),
 )
-def test_reference_agreement_in_any_frame(seed, rotvec, shift, orientations, flip):
-    """Any rigid frame for the whole scene, any number of orientations."""
+def test_reference_agreement_in_any_frame(
+    seed, rotvec, shift, orientations, mode, flip
+):
+    """Any rigid frame for the whole scene, any mode and number of orientations."""
     T = np.eye(4)
     T[:3, :3] = Rotation.from_rotvec(rotvec).as_matrix()
     T[:3, 3] = shift
     gripper = make_jaw_gripper(spheres_per_finger=1 + seed % 12)
-    _check(gripper, seed, T, bool(seed % 2), orientations=orientations, flip=flip)
+    sampling: dict = {"mode": mode}
+    if mode == "major_axis":
+        sampling.update(orientations=orientations, flip=flip)
+    elif mode == "xyz":
+        sampling.update(steps=(1 + orientations % 3, orientations, 2))
+    else:
+        sampling.update(directions=2 + orientations, orientations=1 + seed % 3)
+    _check(gripper, seed, T, bool(seed % 2), sampling)
 
 
 def test_frame_invariance(jaw_gripper):

@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 from wsgrasp.errors import InputError, PluginError, WsgraspError
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.perception.types import Plane, Scene
-from wsgrasp.planning.candidates import orientation_angles
+from wsgrasp.planning.candidates import orientation_set
 from wsgrasp.planning.evaluate import FingerSpheres, TableSE
 from wsgrasp.planning.observer import PlanObserver
 from wsgrasp.planning.result import PlanResult
@@ -35,6 +35,7 @@ from wsgrasp.planning.search import (
     no_grasp_hint,
     run_search,
 )
+from wsgrasp.planning.targets import grasp_targets
 from wsgrasp.spec import PipelineSpec, load_spec
 
 __all__ = ["Pipeline", "Prepared", "plan", "load_spec", "as_scene"]
@@ -200,8 +201,8 @@ class Pipeline:
         T_world_table = table_frame(segmentation.table, frame.centroid)
         se_center, se_axes, se_exp = table_superellipsoid(spec.table)
         table = TableSE(T_world_table, se_center, se_axes, se_exp)
-        thetas = orientation_angles(
-            spec.sampling.orientations, spec.sampling.angle_range_deg
+        orientations = orientation_set(
+            spec.sampling, frame.T_world_object, T_world_table[:3, 2]
         )
         lap(
             "object_frame",
@@ -211,6 +212,7 @@ class Pipeline:
                 "samples_world": samples_object @ frame.T_world_object[:3, :3].T
                 + frame.T_world_object[:3, 3],
                 "T_world_table": T_world_table,
+                "R_world_gwc": frame.T_world_object[:3, :3] @ orientations.R_object_gwc,
             },
         )
         search_input = SearchInput(
@@ -218,11 +220,10 @@ class Pipeline:
             T_world_object=frame.T_world_object,
             extents=frame.extents,
             samples_object=samples_object,
-            thetas=thetas,
+            orientations=orientations,
             object_points=object_points,
             obstacle_points=obstacle_points,
             table=table,
-            flip=spec.sampling.flip,
         )
         return Prepared(
             search_input=search_input,
@@ -251,21 +252,47 @@ class Pipeline:
         for o in observers:
             o.on_stage("candidates", {"candidates": out.candidates})
         timing = {**prep.timing_ms, **out.timing_ms}
-        timing["total"] = (time.perf_counter() - t_start) * 1e3
 
         inp = prep.search_input
         hist = out.candidates.histogram()
         rejections = {k: v for k, v in hist.items() if k != "feasible"}
         found = out.best is not None
-        T_world_gripper = T_world_gwc = T_world_tcp = None
+        T_world_gripper = T_world_gwc = T_world_tcp = T_world_pregrasp = None
+        joints_pregrasp: dict[str, float] = {}
+        joints_grasp: dict[str, float] = {}
+        finger_targets: list[dict[str, Any]] = []
         hint = ""
         if out.best is not None:
             T_world_gripper = out.candidates.T_world_ee[out.best]
             T_world_gwc = out.candidates.T_world_gwc[out.best]
             T_world_tcp = T_world_gripper @ g.T_gripper_tcp
+            t = time.perf_counter()
+            targets = grasp_targets(
+                g,
+                T_world_gripper,
+                out.contacts,
+                approach_distance=self.spec.approach.distance,
+                squeeze=self.spec.approach.squeeze,
+            )
+            timing["targets"] = (time.perf_counter() - t) * 1e3
+            T_world_pregrasp = targets.T_world_pregrasp
+            joints_pregrasp = targets.joints_pregrasp
+            joints_grasp = targets.joints_grasp
+            finger_targets = [
+                {
+                    "finger": f.finger,
+                    "contact": f.contact,
+                    "grasp": f.grasp,
+                    "pad_world": f.pad_world.tolist(),
+                    "gap": f.gap,
+                    "squeeze": f.squeeze,
+                }
+                for f in targets.fingers
+            ]
         else:
             heights = prep.table_plane.signed_distance(inp.object_points)
             hint = no_grasp_hint(hist, inp.extents, g, float(heights.max()))
+        timing["total"] = (time.perf_counter() - t_start) * 1e3
         return PlanResult(
             found=found,
             gripper=g.name,
@@ -291,7 +318,14 @@ class Pipeline:
                 "scene_points": int(len(scene.points)),
                 "downsampled_points": int(len(prep.downsampled)),
                 "dropped_nonfinite": int(scene.dropped_nonfinite),
+                "sampling_mode": inp.orientations.mode,
+                "orientations": len(inp.orientations),
+                "table_normal": inp.table.T_world_table[:3, 2].tolist(),
             },
+            T_world_pregrasp=T_world_pregrasp,
+            joints_pregrasp=joints_pregrasp,
+            joints_grasp=joints_grasp,
+            finger_targets=finger_targets,
         )
 
 

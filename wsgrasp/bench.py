@@ -18,7 +18,7 @@ import numpy as np
 
 from wsgrasp.api import Pipeline, as_scene
 from wsgrasp.perception.frame import sample_box
-from wsgrasp.planning.candidates import orientation_angles
+from wsgrasp.planning.candidates import orientation_set
 from wsgrasp.planning.reference import reference_search
 from wsgrasp.spec import load_spec
 
@@ -34,7 +34,12 @@ class BenchCase:
     spec: Path
     scene: Path
     label: str = ""
-    flip: bool | None = None  # override the spec's sampling.flip
+    #: fields of the spec's ``sampling`` to override (the paper's Table I setting)
+    sampling: dict[str, Any] | None = None
+
+
+#: the paper's Table I: 147 samples x 4 orientations about the major axis
+TABLE_I = {"mode": "major_axis", "points": 147, "orientations": 4, "flip": False}
 
 
 @dataclass
@@ -55,18 +60,12 @@ def project_root() -> Path:
 def default_cases() -> list[BenchCase]:
     root = project_root()
     scene = root / "examples" / "scenes" / "box_upright.npz"
-    return [
-        BenchCase("franka_hand", root / "examples/specs/franka.yaml", scene),
-        BenchCase("allegro_right", root / "examples/specs/allegro.yaml", scene),
-        # the paper's Table I exactly: 147 samples x 4 orientations, no flipped poses
-        BenchCase(
-            "allegro_right",
-            root / "examples/specs/allegro.yaml",
-            scene,
-            label="allegro_right_table1",
-            flip=False,
-        ),
-    ]
+    cases = []
+    for gripper, spec in (("franka_hand", "franka"), ("allegro_right", "allegro")):
+        path = root / "examples" / "specs" / f"{spec}.yaml"
+        cases.append(BenchCase(gripper, path, scene))
+        cases.append(BenchCase(gripper, path, scene, f"{gripper}_table1", TABLE_I))
+    return cases
 
 
 def _median_ms(fn: Callable[[], Any], repeat: int, warmup: int = 1) -> float:
@@ -95,8 +94,10 @@ def run_bench(
         label = case.label or case.gripper
         say(f"{label}: loading")
         spec = load_spec(case.spec)
-        if case.flip is not None:
-            spec.sampling.flip = case.flip
+        if case.sampling is not None:
+            spec.sampling = spec.sampling.model_validate(
+                {**spec.sampling.model_dump(), **case.sampling}
+            )
         pipe = Pipeline(spec)
         scene = as_scene(case.scene)
         say(f"{label}: whole plan ×{repeat}")
@@ -115,11 +116,10 @@ def run_bench(
                 inp.gripper,
                 inp.T_world_object,
                 inp.samples_object,
-                inp.thetas,
+                inp.orientations.R_object_gwc,
                 inp.object_points,
                 inp.obstacle_points,
                 inp.table,
-                inp.flip,
             ),
             reference_repeat,
             warmup=0,
@@ -129,9 +129,8 @@ def run_bench(
             "search_ms": search_ms,
             "reference_search_ms": ref_ms,
             "speedup": ref_ms / search_ms,
-            "candidates": float(
-                len(inp.samples_object) * len(inp.thetas) * (2 if inp.flip else 1)
-            ),
+            "candidates": float(inp.num_candidates),
+            "orientations": float(len(inp.orientations)),
             "object_points": float(len(inp.object_points)),
             "scene_points": float(len(scene.points)),
             "paper_plan_ms": PAPER_PLAN_S.get(case.gripper, float("nan")) * 1e3,
@@ -159,13 +158,15 @@ def _scaling(pipe: Pipeline, prep: Any, scene: Any) -> list[dict[str, Any]]:
     rng = np.random.default_rng(0)
     frame = object_frame(inp.object_points, pipe.spec.object_frame.method)
     for ns, nos in ((147, 4), (500, 8), (1000, 8), (2000, 16)):
-        sampling = pipe.spec.sampling.model_copy(
-            update={"points": ns, "orientations": nos}
-        )
+        sampling = pipe.spec.sampling.model_validate(
+            {**pipe.spec.sampling.model_dump(), **TABLE_I, "points": ns}
+        ).model_copy(update={"orientations": nos})
         case = replace(
             inp,
             samples_object=sample_box(frame, sampling),
-            thetas=orientation_angles(nos, sampling.angle_range_deg),
+            orientations=orientation_set(
+                sampling, inp.T_world_object, inp.table.T_world_table[:3, 2]
+            ),
         )
         p = replace(prep, search_input=case)
         ms = _median_ms(lambda: pipe.search(p), 5)
@@ -173,7 +174,7 @@ def _scaling(pipe: Pipeline, prep: Any, scene: Any) -> list[dict[str, Any]]:
             {
                 "gripper": pipe.gripper.name,
                 "samples": len(case.samples_object),
-                "orientations": nos,
+                "orientations": len(case.orientations),
                 "object_points": len(inp.object_points),
                 "search_ms": ms,
             }
@@ -188,7 +189,7 @@ def _scaling(pipe: Pipeline, prep: Any, scene: Any) -> list[dict[str, Any]]:
             {
                 "gripper": pipe.gripper.name,
                 "samples": len(inp.samples_object),
-                "orientations": len(inp.thetas),
+                "orientations": len(inp.orientations),
                 "object_points": take,
                 "search_ms": ms,
             }

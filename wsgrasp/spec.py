@@ -229,8 +229,19 @@ class ObjectFrame(_Model):
 
 
 class Sampling(_Model):
-    """Candidate sampling: points in the object's box times orientations."""
+    """Candidate sampling: points in the object's box times orientations.
 
+    ``mode`` chooses the orientations: ``major_axis`` (the paper: ``orientations``
+    about the object's major axis, the gripper perpendicular to it), ``xyz`` (the
+    authors' follow-up: rotations about the object frame's x, y and z axes,
+    ``steps`` each) or ``approach_sphere`` (``directions`` approach directions
+    spread evenly over those that do not come from under the table, times
+    ``orientations`` rolls about each over ``angle_range_deg``).
+    """
+
+    mode: Literal["major_axis", "xyz", "approach_sphere"] = Field(
+        "major_axis", description="how candidate orientations are sampled"
+    )
     points: int = Field(147, ge=1, le=100000, description="ns")
     grid: tuple[int, int, int] | None = Field(
         None, description="explicit grid along object x, y, z; overrides points"
@@ -238,14 +249,79 @@ class Sampling(_Model):
     scale: Vec3 = Field(
         (0.95, 0.95, 0.70), description="fraction of the object extents sampled"
     )
-    orientations: int = Field(4, ge=1, le=360, description="nos")
+    orientations: int = Field(
+        4,
+        ge=1,
+        le=360,
+        description="nos: angles about the major axis (major_axis), or rolls about "
+        "each approach direction (approach_sphere)",
+    )
     angle_range_deg: float = Field(
-        360.0, gt=0.0, le=360.0, description="orientations span this about z"
+        360.0,
+        gt=0.0,
+        le=360.0,
+        description="the orientations (major_axis) or rolls (approach_sphere) span "
+        "this",
     )
     flip: bool = Field(
         False,
-        description="also try each pose turned half a turn about the approach axis "
-        "(for grippers not symmetric about it, e.g. hands with a thumb)",
+        description="major_axis: also try each pose turned half a turn about the "
+        "approach axis (for grippers not symmetric about it, e.g. hands with a "
+        "thumb)",
+    )
+    steps: tuple[int, int, int] | None = Field(
+        None,
+        description="xyz: angles about the object's x, y and z axes, each over a "
+        "full turn (default [4, 4, 4]); repeated rotations are tried once",
+    )
+    directions: int | None = Field(
+        None,
+        ge=1,
+        le=5000,
+        description="approach_sphere: approach directions over the half-sphere "
+        "above the table (default 24)",
+    )
+    upward_tolerance_deg: float = Field(
+        5.0,
+        ge=0.0,
+        le=45.0,
+        description="no candidate approaches pointing up (from under the table) by "
+        "more than this",
+    )
+
+    @model_validator(mode="after")
+    def _mode_fields(self) -> Sampling:
+        if self.steps is not None:
+            if self.mode != "xyz":
+                raise ValueError(f"steps is for mode xyz, not {self.mode}")
+            if min(self.steps) < 1 or max(self.steps) > 72:
+                raise ValueError("steps are 1 to 72 angles about each axis")
+        if self.directions is not None and self.mode != "approach_sphere":
+            raise ValueError(f"directions is for mode approach_sphere, not {self.mode}")
+        if self.flip and self.mode != "major_axis":
+            raise ValueError(
+                f"flip is for mode major_axis; mode {self.mode} already tries both "
+                "turns (xyz) or sets them with angle_range_deg (approach_sphere)"
+            )
+        return self
+
+
+class Approach(_Model):
+    """How the gripper reaches and closes on the chosen grasp."""
+
+    distance: float = Field(
+        0.10,
+        ge=0.0,
+        le=1.0,
+        description="the pre-grasp pose stands back this far (m) along the "
+        "approach axis",
+    )
+    squeeze: float = Field(
+        0.01,
+        ge=0.0,
+        le=0.1,
+        description="each pad's grasp target lies this far (m) past its contact, "
+        "so that position-controlled fingers press",
     )
 
 
@@ -278,6 +354,7 @@ class PipelineSpec(_Model):
     preprocess: Preprocess = Preprocess()
     object_frame: ObjectFrame = ObjectFrame()
     sampling: Sampling = Sampling()
+    approach: Approach = Approach()
     table: TableSettings = TableSettings()
     scorers: list[ScorerRef] = Field(
         default_factory=lambda: [ScorerRef(name="centroid_distance")], min_length=1

@@ -36,7 +36,7 @@ Array = NDArray[np.float64]
 Progress = Callable[[str], None]
 
 #: bumped whenever the builder's output changes for the same inputs (cache key)
-BUILDER_VERSION = 1
+BUILDER_VERSION = 2
 
 
 def _noop(_: str) -> None:
@@ -179,6 +179,7 @@ def build_model(
         np.fill_diagonal(span, -np.inf)
     max_opening = float(max(span.max(), 0.0))
 
+    config_pad, config_finger, ptr, index = _sphere_configurations(workspaces, fills)
     inside = points_in_superellipsoids(cloud, se_centers, se_axes, se.exponent)
     fingers_stats: list[dict[str, Any]] = []
     for finger, ws, fill in zip(desc.fingers, workspaces, fills, strict=True):
@@ -228,7 +229,53 @@ def build_model(
         max_opening=max_opening,
         stats=stats,
         description=desc.model_dump(mode="json"),
+        finger_joints=[list(ws.joints) for ws in workspaces],
+        finger_limits=[np.stack([ws.lower, ws.upper], axis=1) for ws in workspaces],
+        joint_samples=desc.joint_samples,
+        config_pad=config_pad,
+        config_finger=config_finger,
+        sphere_config_ptr=ptr,
+        sphere_config_index=index,
     )
+
+
+def _sphere_configurations(
+    workspaces: list[Workspace], fills: list[SphereFill]
+) -> tuple[Array, NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+    """For each sphere, the finger configurations with a pad sample inside it.
+
+    Returns
+    -------
+    config_pad : (Q, 3) float
+        Pad centres of every finger's joint grid, finger after finger.
+    config_finger : (Q,) int
+    sphere_config_ptr : (S + 1,) int
+    sphere_config_index : (M,) int
+        CSR lists of indices into ``config_pad``, sphere after sphere.
+    """
+    from scipy.spatial import cKDTree
+
+    lists: list[NDArray[np.int64]] = []
+    offset = 0
+    for ws, fill in zip(workspaces, fills, strict=True):
+        per = ws.points_per_configuration
+        tree = cKDTree(ws.points)
+        # a sample exactly on a sphere's surface counts, as in points_in_spheres
+        hits = tree.query_ball_point(fill.centers, fill.radii * (1 + 1e-9))
+        for h in hits:
+            lists.append(offset + np.unique(np.asarray(h, dtype=np.int64) // per))
+        offset += len(ws.pad_centers)
+    counts = np.array([len(x) for x in lists], dtype=np.int64)
+    ptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    index = np.concatenate(lists) if lists else np.zeros(0, dtype=np.int64)
+    # float32 values, as the model file keeps them: a built and a loaded model
+    # plan identically
+    config_pad = np.concatenate([ws.pad_centers for ws in workspaces])
+    config_pad = config_pad.astype(np.float32).astype(np.float64)
+    config_finger = np.repeat(
+        np.arange(len(workspaces)), [len(ws.pad_centers) for ws in workspaces]
+    ).astype(np.int64)
+    return config_pad, config_finger, ptr, index
 
 
 def sample_workspace(

@@ -55,6 +55,18 @@ class Workspace:
         Distance (voxels) from each voxel centre to the nearest empty voxel centre.
     closing : int
         Radius (voxels) of the morphological closing applied.
+    joints : list of str
+        The actuated joints the finger samples (mimics replaced by masters).
+    lower, upper : (d,) float
+        Their limits: the grid's ends.
+    samples : int
+        Grid points per joint; configuration ``k`` is row ``k`` of
+        ``grid_configurations(lower, upper, samples)``.
+    pad_centers : (K, 3) float
+        The pad's centre at each configuration of the grid, gripper frame.
+
+    ``points`` holds ``K`` blocks of the pad's ``P`` sample points, configuration
+    after configuration, so point ``i`` belongs to configuration ``i // P``.
     """
 
     finger: str
@@ -64,6 +76,20 @@ class Workspace:
     voxel: float
     distance: Array
     closing: int
+    joints: list[str]
+    lower: Array
+    upper: Array
+    samples: int
+    pad_centers: Array
+
+    @property
+    def configurations(self) -> Array:
+        """The joint grid, ``(K, d)``."""
+        return grid_configurations(self.lower, self.upper, self.samples)
+
+    @property
+    def points_per_configuration(self) -> int:
+        return len(self.points) // len(self.pad_centers)
 
     def centers(self, index: NDArray[np.int64]) -> Array:
         """Voxel centres ``(k, 3)`` of voxel indices ``(k, 3)``."""
@@ -145,6 +171,7 @@ def sample_workspace(
     pad = finger.pad
     pad_pts = box_grid_points(pad.center, pad.size, pad.samples)  # (P, 3)
     pts = transform_points(T, pad_pts)  # (K, P, 3)
+    pad_centers = transform_points(T, np.asarray(pad.center, float)[None])[:, 0]
     where = f"gripper {desc.name!r}: fingers[{finger.name}]"
     travel = float(np.linalg.norm(np.ptp(pts[:, 0, :], axis=0)))
     if travel < MIN_PAD_TRAVEL:
@@ -179,7 +206,20 @@ def sample_workspace(
         ) <= (closing**2)  # (2c+1, 2c+1, 2c+1)
         occupied = ndimage.binary_closing(occupied, structure=ball)
     distance = ndimage.distance_transform_edt(occupied)
-    return Workspace(finger.name, flat, occupied, origin, v, distance, closing)
+    return Workspace(
+        finger.name,
+        flat,
+        occupied,
+        origin,
+        v,
+        distance,
+        closing,
+        joints=masters,
+        lower=lower,
+        upper=upper,
+        samples=n,
+        pad_centers=pad_centers,
+    )
 
 
 @dataclass

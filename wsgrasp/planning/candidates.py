@@ -1,9 +1,13 @@
-"""Candidate gripper poses: bounding-box samples × orientations about the major axis.
+"""Candidate gripper poses: bounding-box samples × orientations.
 
-The gripper-workspace-centroid (GWC) frame of a candidate has its x axis along the
-object's major axis (object z), so the gripper stands perpendicular to it, and its
-approach axis (GWC z) points towards the axis from the direction ``theta`` in the
-object's xy plane (Algorithm 1, lines 2–6)::
+An orientation is a rotation ``R_object_gwc`` of the gripper-workspace-centroid
+(GWC) frame, whose z axis is the approach direction and whose y axis is the
+closing direction. Three ways to sample them (``sampling.mode``):
+
+``major_axis`` (the paper, Algorithm 1, lines 2–6): the GWC x axis along the
+object's major axis (object z), so the gripper stands perpendicular to it, and the
+approach axis points towards the axis from the direction ``theta`` in the object's
+xy plane::
 
     x_gwc = z_obj
     z_gwc = -(cos θ x_obj + sin θ y_obj)
@@ -12,16 +16,40 @@ object's xy plane (Algorithm 1, lines 2–6)::
 With ``flip``, each pose is also tried turned half a turn about its approach axis
 (``x_gwc = -z_obj``): the same grasp for a gripper that is symmetric about its
 approach axis, a different one for a hand with a thumb on one side.
+
+``xyz`` (the authors' follow-up): ``R_object_gwc = Rz(γ) Ry(β) Rx(α)``, rotations
+about the object frame's fixed x, y and z axes over a full turn each; the grid
+reaches some rotations twice (Euler angles cover them twice), which are kept once.
+
+``approach_sphere``: approach directions spread evenly (a Fibonacci lattice, equal
+area per direction) over the directions that do not point up from under the table,
+times rolls about each; roll 0 puts the GWC x axis along the object's major axis
+projected across the approach (the paper's choice where it applies).
+
+No orientation whose approach points up, from under the table, by more than
+``upward_tolerance_deg`` is generated, in any mode.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Any
+
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation
 
 from wsgrasp.geometry import invert_transforms
 
-__all__ = ["orientation_angles", "candidate_poses"]
+__all__ = [
+    "Orientations",
+    "orientation_angles",
+    "orientation_set",
+    "major_axis_orientations",
+    "xyz_orientations",
+    "approach_sphere_orientations",
+    "candidate_poses",
+]
 
 Array = NDArray[np.float64]
 
@@ -36,13 +64,203 @@ def orientation_angles(count: int, range_deg: float) -> Array:
     return np.deg2rad(range_deg) * np.arange(count, dtype=np.float64) / count
 
 
+@dataclass
+class Orientations:
+    """A set of candidate orientations ``O``.
+
+    Attributes
+    ----------
+    R_object_gwc : (O, 3, 3) float
+    theta : (O,) float
+        The angle that names each within its mode (rad): about the major axis
+        (``major_axis``), the roll about the approach (``approach_sphere``), or γ
+        about object z (``xyz``).
+    flipped : (O,) bool
+        Turned half a turn about the approach axis (``major_axis`` with flip).
+    mode : str
+    """
+
+    R_object_gwc: Array
+    theta: Array
+    flipped: NDArray[np.bool_]
+    mode: str = "major_axis"
+
+    def __len__(self) -> int:
+        return int(self.R_object_gwc.shape[0])
+
+    def select(self, keep: NDArray[np.bool_]) -> Orientations:
+        return Orientations(
+            self.R_object_gwc[keep], self.theta[keep], self.flipped[keep], self.mode
+        )
+
+
+def major_axis_orientations(thetas: Array, flip: bool = False) -> Orientations:
+    """The paper's orientations about the major axis (then turned, with ``flip``).
+
+    Parameters
+    ----------
+    thetas : (nos,) float
+    flip : bool
+
+    Returns
+    -------
+    Orientations
+        ``nos * (2 if flip else 1)``: each angle, then (with ``flip``) turned.
+    """
+    nf = 2 if flip else 1
+    thetas = np.repeat(np.asarray(thetas, dtype=np.float64), nf)
+    flipped = np.tile(np.arange(nf) == 1, len(thetas) // nf)
+    nos = len(thetas)  # orientations × flips
+    c, s = np.cos(thetas), np.sin(thetas)
+    R = np.zeros((nos, 3, 3))
+    R[:, 2, 0] = 1.0  # x_gwc = z_obj
+    R[:, 0, 2] = -c  # z_gwc = -(cos θ, sin θ, 0)
+    R[:, 1, 2] = -s
+    R[:, 0, 1] = -s  # y_gwc = z_gwc × x_gwc = (-sin θ, cos θ, 0)
+    R[:, 1, 1] = c
+    # half a turn about z_gwc: x_gwc and y_gwc change sign
+    R[flipped, :, :2] *= -1.0
+    return Orientations(R, thetas, flipped, "major_axis")
+
+
+def xyz_orientations(steps: tuple[int, int, int]) -> Orientations:
+    """Rotations about the object's x, y and z axes, ``steps`` angles each over a
+    full turn, repeated rotations kept once (first in grid order).
+
+    Returns
+    -------
+    Orientations
+        At most ``nx * ny * nz``, α slowest, γ fastest.
+    """
+    axes = [2.0 * np.pi * np.arange(n) / n for n in steps]
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    # extrinsic x, then y, then z: R = Rz(γ) Ry(β) Rx(α)
+    R = Rotation.from_euler("xyz", grid).as_matrix()  # (n, 3, 3)
+    key = np.round(R.reshape(len(R), 9), 9) + 0.0  # -0.0 and 0.0 alike
+    _, first = np.unique(key, axis=0, return_index=True)
+    keep = np.sort(first)
+    R = R[keep]
+    return Orientations(R, grid[keep, 2].copy(), np.zeros(len(R), dtype=bool), "xyz")
+
+
+def approach_sphere_orientations(
+    directions: int,
+    rolls: int,
+    roll_range_deg: float,
+    T_world_object: Array,
+    table_normal: Array,
+    upward_tolerance_deg: float,
+) -> Orientations:
+    """Approach directions spread evenly over those not from under the table,
+    times rolls about each.
+
+    The directions are a Fibonacci lattice on the spherical cap of unit vectors
+    ``d`` with ``d · n <= sin(upward_tolerance_deg)`` (``n`` the table normal,
+    towards the object): equal area per direction, from straight down to level
+    (and a little above, within the tolerance).
+
+    Parameters
+    ----------
+    directions : int
+    rolls : int
+    roll_range_deg : float
+    T_world_object : (4, 4) float
+    table_normal : (3,) float
+    upward_tolerance_deg : float
+
+    Returns
+    -------
+    Orientations
+        ``directions * rolls``: directions outer, rolls inner.
+    """
+    n = np.asarray(table_normal, dtype=np.float64)
+    n = n / np.linalg.norm(n)
+    top = np.sin(np.deg2rad(upward_tolerance_deg))
+    i = np.arange(directions, dtype=np.float64)
+    # heights along n uniform in [-1, top]: equal area bands of the cap
+    h = -1.0 + (top + 1.0) * (i + 0.5) / directions  # (D,)
+    phi = i * np.pi * (3.0 - np.sqrt(5.0))  # golden angle
+    r = np.sqrt(np.clip(1.0 - h * h, 0.0, None))
+    u = _perpendicular(n)
+    v = np.cross(n, u)
+    d = (
+        (r * np.cos(phi))[:, None] * u + (r * np.sin(phi))[:, None] * v + h[:, None] * n
+    )  # (D, 3) world
+    R_wo = np.asarray(T_world_object, dtype=np.float64)[:3, :3]
+    # roll 0: x_gwc along the major axis (object z) across the approach, else x
+    x0 = _across(d, R_wo[:, 2], R_wo[:, 0])  # (D, 3)
+    y0 = np.cross(d, x0)
+    psi = np.deg2rad(roll_range_deg) * np.arange(rolls, dtype=np.float64) / rolls
+    c, s = np.cos(psi)[None, :, None], np.sin(psi)[None, :, None]  # (1, M, 1)
+    x = c * x0[:, None, :] + s * y0[:, None, :]  # (D, M, 3)
+    z = np.broadcast_to(d[:, None, :], x.shape)
+    y = np.cross(z, x)
+    R_world_gwc = np.stack([x, y, z], axis=-1).reshape(-1, 3, 3)  # (D*M, 3, 3)
+    R = np.einsum("ji,njk->nik", R_wo, R_world_gwc)  # R_object_gwc = R_wo^T R_wg
+    theta = np.tile(psi, directions)
+    return Orientations(R, theta, np.zeros(len(R), dtype=bool), "approach_sphere")
+
+
+def _perpendicular(n: Array) -> Array:
+    """A unit vector perpendicular to ``n`` (3,)."""
+    e = np.eye(3)[int(np.argmin(np.abs(n)))]
+    u = e - (e @ n) * n
+    return u / np.linalg.norm(u)
+
+
+def _across(d: Array, first: Array, second: Array) -> Array:
+    """``first`` made perpendicular to each direction ``d`` (D, 3), unit; where it
+    is (nearly) parallel to ``d``, ``second`` instead."""
+    a = first[None, :] - (d @ first)[:, None] * d  # (D, 3)
+    b = second[None, :] - (d @ second)[:, None] * d
+    na = np.linalg.norm(a, axis=1, keepdims=True)
+    use_b = na[:, 0] < 1e-3
+    a[use_b] = b[use_b]
+    return a / np.linalg.norm(a, axis=1, keepdims=True)
+
+
+def orientation_set(
+    sampling: Any, T_world_object: Array, table_normal: Array
+) -> Orientations:
+    """The orientations a spec's ``sampling`` asks for, none from under the table.
+
+    Parameters
+    ----------
+    sampling
+        The spec's ``Sampling``.
+    T_world_object : (4, 4) float
+    table_normal : (3,) float
+        Unit normal of the table, towards the object.
+    """
+    mode = getattr(sampling, "mode", "major_axis")
+    tol = float(getattr(sampling, "upward_tolerance_deg", 5.0))
+    if mode == "xyz":
+        o = xyz_orientations(tuple(sampling.steps or (4, 4, 4)))
+    elif mode == "approach_sphere":
+        o = approach_sphere_orientations(
+            int(sampling.directions or 24),
+            int(sampling.orientations),
+            float(sampling.angle_range_deg),
+            T_world_object,
+            table_normal,
+            tol,
+        )
+    else:
+        o = major_axis_orientations(
+            orientation_angles(sampling.orientations, sampling.angle_range_deg),
+            bool(sampling.flip),
+        )
+    approach = np.asarray(T_world_object)[:3, :3] @ o.R_object_gwc[:, :, 2].T
+    up = np.asarray(table_normal, dtype=np.float64) @ approach  # (O,)
+    return o.select(up <= np.sin(np.deg2rad(tol)) + 1e-12)
+
+
 def candidate_poses(
     T_world_object: Array,
     samples_object: Array,
-    thetas: Array,
+    R_object_gwc: Array,
     T_gripper_gwc: Array,
-    flip: bool = False,
-) -> tuple[Array, Array, NDArray[np.int64], Array, NDArray[np.bool_]]:
+) -> tuple[Array, Array, NDArray[np.int64], NDArray[np.int64]]:
     """All candidate poses, samples outer and orientations inner.
 
     Parameters
@@ -50,42 +268,27 @@ def candidate_poses(
     T_world_object : (4, 4) float
     samples_object : (ns, 3) float
         Bounding-box samples in the object frame.
-    thetas : (nos,) float
+    R_object_gwc : (O, 3, 3) float
     T_gripper_gwc : (4, 4) float
-    flip : bool
-        Also try every pose turned half a turn about the approach axis.
 
     Returns
     -------
     T_world_gwc : (C, 4, 4) float
-        ``C = ns * nos * (2 if flip else 1)``; samples outermost, then
-        orientations, then (with ``flip``) unflipped before flipped.
+        ``C = ns * O``; samples outermost, then orientations.
     T_world_gripper : (C, 4, 4) float
     sample : (C,) int
-    theta : (C,) float
-    flipped : (C,) bool
+    orientation : (C,) int
+        Index into the orientations.
     """
     ns = len(samples_object)
-    nf = 2 if flip else 1
-    thetas = np.repeat(np.asarray(thetas, dtype=np.float64), nf)
-    flipped = np.tile(np.arange(nf) == 1, len(thetas) // nf)
-    nos = len(thetas)  # orientations × flips
-    c, s = np.cos(thetas), np.sin(thetas)
-    R_object_gwc = np.zeros((nos, 3, 3))
-    R_object_gwc[:, 2, 0] = 1.0  # x_gwc = z_obj
-    R_object_gwc[:, 0, 2] = -c  # z_gwc = -(cos θ, sin θ, 0)
-    R_object_gwc[:, 1, 2] = -s
-    R_object_gwc[:, 0, 1] = -s  # y_gwc = z_gwc × x_gwc = (-sin θ, cos θ, 0)
-    R_object_gwc[:, 1, 1] = c
-    # half a turn about z_gwc: x_gwc and y_gwc change sign
-    R_object_gwc[flipped, :, :2] *= -1.0
+    nos = len(R_object_gwc)
     T_object_gwc = np.zeros((ns, nos, 4, 4))
-    T_object_gwc[:, :, :3, :3] = R_object_gwc[None]
-    T_object_gwc[:, :, :3, 3] = samples_object[:, None, :]
+    T_object_gwc[:, :, :3, :3] = np.asarray(R_object_gwc)[None]
+    T_object_gwc[:, :, :3, 3] = np.asarray(samples_object)[:, None, :]
     T_object_gwc[:, :, 3, 3] = 1.0
     T_object_gwc_flat = T_object_gwc.reshape(ns * nos, 4, 4)  # (C, 4, 4)
     T_world_gwc = T_world_object @ T_object_gwc_flat
     T_world_gripper = T_world_gwc @ invert_transforms(T_gripper_gwc)
     sample = np.repeat(np.arange(ns, dtype=np.int64), nos)
-    theta = np.tile(thetas, ns)
-    return T_world_gwc, T_world_gripper, sample, theta, np.tile(flipped, ns)
+    orientation = np.tile(np.arange(nos, dtype=np.int64), ns)
+    return T_world_gwc, T_world_gripper, sample, orientation

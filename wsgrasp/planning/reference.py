@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.planning.evaluate import TableSE
 
-__all__ = ["ReferenceResult", "reference_search"]
+__all__ = ["ReferenceResult", "reference_search", "paper_orientation"]
 
 Array = NDArray[np.float64]
 
@@ -47,22 +47,33 @@ def _inv(T: Array) -> Array:
     return out
 
 
+def paper_orientation(theta: float, turned: bool = False) -> Array:
+    """``R_object_gwc`` (3, 3) of Algorithm 1, lines 2–6: x along the major axis,
+    approaching it from the direction ``theta``; ``turned`` half a turn about the
+    approach axis."""
+    c, sn = np.cos(theta), np.sin(theta)
+    sign = -1.0 if turned else 1.0
+    R = np.zeros((3, 3))
+    R[:, 0] = [0.0, 0.0, sign]
+    R[:, 1] = [-sn * sign, c * sign, 0.0]
+    R[:, 2] = [-c, -sn, 0.0]
+    return R
+
+
 def reference_search(
     gripper: GripperModel,
     T_world_object: Array,
     samples_object: Array,
-    thetas: Array,
+    R_object_gwc: Array,
     object_points: Array,
     obstacle_points: Array,
     table: TableSE,
-    flip: bool = False,
 ) -> ReferenceResult:
     """Algorithm 1, one candidate at a time; same candidate order as the fast path
-    (samples outer, orientations inner, then the flipped pose when ``flip``)."""
+    (samples outer, orientations ``R_object_gwc`` (O, 3, 3) inner)."""
     g = gripper
     nf = g.num_fingers
-    flips = (False, True) if flip else (False,)
-    C = len(samples_object) * len(thetas) * len(flips)
+    C = len(samples_object) * len(R_object_gwc)
     reason = np.zeros(C, dtype=np.int64)
     contacts = np.zeros((C, nf), dtype=np.int64)
     T_table_world = _inv(table.T_world_table)
@@ -70,14 +81,10 @@ def reference_search(
     centroid = T_world_object[:3, 3]
     best, best_d = None, np.inf
     k = -1
-    for s, theta, turned in itertools.product(samples_object, thetas, flips):
+    for s, R in itertools.product(samples_object, R_object_gwc):
         k += 1
-        c, sn = np.cos(theta), np.sin(theta)
-        sign = -1.0 if turned else 1.0
         T_object_gwc = np.eye(4)
-        T_object_gwc[:3, 0] = [0.0, 0.0, sign]
-        T_object_gwc[:3, 1] = [-sn * sign, c * sign, 0.0]
-        T_object_gwc[:3, 2] = [-c, -sn, 0.0]
+        T_object_gwc[:3, :3] = R
         T_object_gwc[:3, 3] = s
         T_world_gwc = T_world_object @ T_object_gwc
         T_world_gripper = T_world_gwc @ T_gwc_gripper

@@ -31,7 +31,8 @@ class CandidateSet:
     sample : (C,) int
         Index of the bounding-box sample point.
     theta : (C,) float
-        Orientation about the object's major axis (rad).
+        The orientation's angle within its sampling mode (rad): about the
+        object's major axis, or the roll about the approach direction.
     reason : (C,) int
         Code into :data:`REASONS`.
     contacts : (C, nf) int
@@ -42,6 +43,9 @@ class CandidateSet:
         Each scorer's term; NaN for rejected candidates.
     flipped : (C,) bool
         Turned half a turn about the approach axis (``sampling.flip``).
+    orientation : (C,) int
+        Index of the candidate's orientation in the sampled set (candidates are
+        samples outer, orientations inner).
     """
 
     T_world_gwc: NDArray[np.float64]
@@ -53,10 +57,13 @@ class CandidateSet:
     score: NDArray[np.float64]
     terms: dict[str, NDArray[np.float64]] = field(default_factory=dict)
     flipped: NDArray[np.bool_] | None = None
+    orientation: NDArray[np.int64] | None = None
 
     def __post_init__(self) -> None:
         if self.flipped is None:
             self.flipped = np.zeros(len(self.reason), dtype=bool)
+        if self.orientation is None:  # a recording from before orientation sets
+            self.orientation = np.zeros(len(self.reason), dtype=np.int64)
 
     def __len__(self) -> int:
         return int(self.reason.shape[0])
@@ -126,6 +133,15 @@ class PlanResult:
     T_world_object: NDArray[np.float64] | None = None
     object_extents: NDArray[np.float64] | None = None
     info: dict[str, Any] = field(default_factory=dict)
+    #: the grasp pose backed off along the approach axis by ``approach.distance``
+    T_world_pregrasp: NDArray[np.float64] | None = None
+    #: every actuated joint in the posture the gripper approaches in
+    joints_pregrasp: dict[str, float] = field(default_factory=dict)
+    #: every actuated joint in the posture it closes to: each finger's pad at its
+    #: contacts and driven ``approach.squeeze`` through them, within the limits
+    joints_grasp: dict[str, float] = field(default_factory=dict)
+    #: per finger: contact posture, pad position, gap to the contacts, squeeze
+    finger_targets: list[dict[str, Any]] = field(default_factory=list)
 
     def to_json(self) -> dict[str, Any]:
         """Plain data: what ``wsgrasp plan --json`` prints."""
@@ -139,6 +155,10 @@ class PlanResult:
             "T_world_ee": m(self.T_world_ee),
             "T_world_gwc": m(self.T_world_gwc),
             "T_world_tcp": m(self.T_world_tcp),
+            "T_world_pregrasp": m(self.T_world_pregrasp),
+            "joints_pregrasp": self.joints_pregrasp,
+            "joints_grasp": self.joints_grasp,
+            "finger_targets": self.finger_targets,
             "pregrasp": self.pregrasp,
             "closed": self.closed,
             "score": self.score,

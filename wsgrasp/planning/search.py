@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 from wsgrasp.geometry import invert_transforms, points_in_spheres, transform_points
 from wsgrasp.gripper.model import GripperModel
-from wsgrasp.planning.candidates import candidate_poses
+from wsgrasp.planning.candidates import Orientations, candidate_poses
 from wsgrasp.planning.evaluate import FingerSpheres, TableSE, evaluate_candidates
 from wsgrasp.planning.result import REASONS, Alternative, CandidateSet, Contact
 from wsgrasp.planning.scoring import CandidateBatch, combine_scores
@@ -35,23 +35,25 @@ class SearchInput:
     T_world_object : (4, 4) float
     extents : (3,) float
     samples_object : (ns, 3) float
-    thetas : (nos,) float
+    orientations : Orientations
+        ``O`` orientations of the GWC frame in the object frame.
     object_points : (no, 3) float
     obstacle_points : (k, 3) float
     table : TableSE
-    flip : bool
-        Also try each pose turned half a turn about the approach axis.
     """
 
     gripper: GripperModel
     T_world_object: Array
     extents: Array
     samples_object: Array
-    thetas: Array
+    orientations: Orientations
     object_points: Array
     obstacle_points: Array
     table: TableSE
-    flip: bool = False
+
+    @property
+    def num_candidates(self) -> int:
+        return len(self.samples_object) * len(self.orientations)
 
 
 @dataclass
@@ -79,9 +81,12 @@ def run_search(
     now = clock or time.perf_counter
     g = inp.gripper
     t0 = now()
-    T_world_gwc, T_world_gripper, sample, theta, flipped = candidate_poses(
-        inp.T_world_object, inp.samples_object, inp.thetas, g.T_gripper_gwc, inp.flip
+    o = inp.orientations
+    T_world_gwc, T_world_gripper, sample, orientation = candidate_poses(
+        inp.T_world_object, inp.samples_object, o.R_object_gwc, g.T_gripper_gwc
     )
+    theta = o.theta[orientation]
+    flipped = o.flipped[orientation]
     ev = evaluate_candidates(
         T_world_gripper, g, inp.object_points, inp.obstacle_points, inp.table, spheres
     )
@@ -142,6 +147,7 @@ def run_search(
         score=score,
         terms=terms_all,
         flipped=flipped,
+        orientation=orientation,
     )
     return SearchOutput(
         candidates=cands,

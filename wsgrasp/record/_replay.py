@@ -122,12 +122,17 @@ _COMPARED = (
     "hint",
     "T_world_object",
     "object_extents",
+    "T_world_pregrasp",
+    "joints_pregrasp",
+    "joints_grasp",
+    "finger_targets",
 )
 _CANDIDATE_FIELDS = (
     "T_world_gwc",
     "T_world_ee",
     "sample",
     "theta",
+    "orientation",
     "reason",
     "contacts",
     "score",

@@ -1,0 +1,243 @@
+"""What the hand does for one grasp: joint targets from the holding spheres.
+
+Each workspace sphere of the gripper model remembers the finger configurations
+whose pad samples fell inside it (``GripperModel.sphere_config_index``). For the
+chosen grasp, each finger's contact posture is the configuration, among those of
+the spheres holding object points, whose pad centre lies nearest the points the
+finger holds. The grasp posture drives it further towards the gripper's ``closed``
+posture until the pad has travelled ``squeeze`` metres through the contact (or the
+joint limit stops it): a position-controlled finger whose target lies inside the
+object presses on it. The pre-grasp pose backs the gripper off along its approach
+axis. No inverse kinematics is solved: the finger's pad positions over its joint
+grid, kept in the model, are interpolated (multilinear) between grid points.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.interpolate import RegularGridInterpolator
+
+from wsgrasp.geometry import invert_transforms, transform_points
+from wsgrasp.gripper.model import GripperModel
+from wsgrasp.planning.result import Contact
+
+__all__ = ["FingerTarget", "GraspTargets", "grasp_targets", "pad_positions"]
+
+Array = NDArray[np.float64]
+
+#: points along the joint-space ray towards ``closed`` searched for the squeeze
+_SQUEEZE_STEPS = 129
+
+
+@dataclass
+class FingerTarget:
+    """One finger's part of a grasp.
+
+    Attributes
+    ----------
+    finger : str
+    contact : dict of str to float
+        The finger's joints at the contact posture.
+    grasp : dict of str to float
+        The same joints driven ``squeeze`` through the contact.
+    pad_world : (3,) float
+        The pad centre at the contact posture, world frame.
+    gap : float
+        Distance (m) from that pad centre to the nearest point the finger holds.
+    squeeze : float
+        How far (m) the pad travels from the contact to the grasp posture.
+    """
+
+    finger: str
+    contact: dict[str, float]
+    grasp: dict[str, float]
+    pad_world: Array
+    gap: float
+    squeeze: float
+
+
+@dataclass
+class GraspTargets:
+    """The pre-grasp pose and both postures of a grasp.
+
+    Attributes
+    ----------
+    T_world_pregrasp : (4, 4) float
+        The grasp pose backed off along the approach axis.
+    joints_pregrasp, joints_grasp : dict of str to float
+        Every actuated joint: the posture the gripper approaches in, and the one
+        it closes to.
+    fingers : list of FingerTarget
+    """
+
+    T_world_pregrasp: Array
+    joints_pregrasp: dict[str, float]
+    joints_grasp: dict[str, float]
+    fingers: list[FingerTarget]
+
+
+def grasp_targets(
+    gripper: GripperModel,
+    T_world_gripper: Array,
+    contacts: list[Contact],
+    *,
+    approach_distance: float,
+    squeeze: float,
+) -> GraspTargets:
+    """Joint targets and pre-grasp pose for a chosen grasp.
+
+    Parameters
+    ----------
+    gripper : GripperModel
+    T_world_gripper : (4, 4) float
+    contacts : list of Contact
+        Per finger, the object points its spheres hold and those spheres.
+    approach_distance : float
+        How far (m) the pre-grasp pose stands back along the approach axis.
+    squeeze : float
+        How far (m) each pad is driven through its contact.
+    """
+    g = gripper
+    T = np.asarray(T_world_gripper, dtype=np.float64)
+    T_pre = T.copy()
+    T_pre[:3, 3] -= approach_distance * (T[:3, :3] @ g.approach_axis)
+    pre = _pregrasp(g)
+    grasp = dict(pre)
+    fingers: list[FingerTarget] = []
+    if g.has_configurations:
+        T_gripper_world = invert_transforms(T)
+        for f, contact in enumerate(contacts):
+            held = transform_points(T_gripper_world, contact.points)  # (k, 3)
+            ft = _finger_target(g, f, held, contact.spheres, squeeze, pre)
+            ft.pad_world = transform_points(T, ft.pad_world[None])[0]
+            fingers.append(ft)
+        for ft in fingers:
+            for j, v in ft.grasp.items():
+                # a joint several fingers share closes as far as any asks
+                if _closure(g, j, v) > _closure(g, j, grasp[j]) or j not in pre:
+                    grasp[j] = v
+    return GraspTargets(T_pre, pre, grasp, fingers)
+
+
+def _pregrasp(g: GripperModel) -> dict[str, float]:
+    """Every actuated joint in the pre-grasp posture, within its limits."""
+    limits = _limits(g)
+    out: dict[str, float] = {}
+    for j in g.actuated_joints:
+        v = float(g.pregrasp.get(j, 0.0))
+        if j in limits:
+            v = float(np.clip(v, *limits[j]))
+        out[j] = v
+    return out
+
+
+def _limits(g: GripperModel) -> dict[str, tuple[float, float]]:
+    out: dict[str, tuple[float, float]] = {}
+    for joints, lim in zip(g.finger_joints, g.finger_limits, strict=True):
+        for j, (lo, hi) in zip(joints, np.asarray(lim), strict=True):
+            out[j] = (float(lo), float(hi))
+    return out
+
+
+def _closure(g: GripperModel, joint: str, value: float) -> float:
+    """How far ``value`` lies from the pre-grasp value towards the closed one."""
+    p = float(g.pregrasp.get(joint, 0.0))
+    c = float(g.closed.get(joint, p))
+    return (value - p) * np.sign(c - p)
+
+
+def _finger_target(
+    g: GripperModel,
+    f: int,
+    held: Array,
+    spheres: NDArray[np.int64],
+    squeeze: float,
+    pre: dict[str, float],
+) -> FingerTarget:
+    """The contact and grasp postures of finger ``f`` holding ``held`` (k, 3),
+    gripper frame."""
+    joints = g.finger_joints[f]
+    start = int(g.config_offsets[f])
+    q_grid = g.finger_configurations(f)  # (K, d)
+    local = g.sphere_configurations(spheres) - start  # (c,) into the finger's grid
+    if len(local) == 0 or len(held) == 0:
+        local = np.arange(len(q_grid))
+    pads = g.config_pad[start + local]  # (c, 3)
+    if len(held):
+        d2 = ((pads[:, None, :] - held[None, :, :]) ** 2).sum(-1)  # (c, k)
+        nearest = d2.min(axis=1)  # (c,)
+    else:
+        nearest = np.zeros(len(local))
+    best = int(np.argmin(nearest))
+    q_contact = q_grid[local[best]]  # (d,)
+    closed = np.array(
+        [g.closed.get(j, pre.get(j, q)) for j, q in zip(joints, q_contact, strict=True)]
+    )
+    lim = np.asarray(g.finger_limits[f], dtype=np.float64)
+    closed = np.clip(closed, lim[:, 0], lim[:, 1])
+    t = np.linspace(0.0, 1.0, _SQUEEZE_STEPS)
+    ray = q_contact + t[:, None] * (closed - q_contact)  # (T, d)
+    p_ray = pad_positions(g, f, ray)  # (T, 3)
+    travel = np.linalg.norm(p_ray - p_ray[0], axis=1)  # (T,)
+    reach = np.flatnonzero(travel >= squeeze)
+    k = int(reach[0]) if len(reach) else len(t) - 1
+    return FingerTarget(
+        finger=g.finger_names[f],
+        contact={j: float(v) for j, v in zip(joints, q_contact, strict=True)},
+        grasp={j: float(v) for j, v in zip(joints, ray[k], strict=True)},
+        pad_world=pads[best].copy(),
+        gap=float(np.sqrt(nearest[best])),
+        squeeze=float(travel[k]),
+    )
+
+
+def pad_positions(g: GripperModel, finger: int, q: Array) -> Array:
+    """The pad centre of ``finger`` at joint values ``q`` ``(n, d)``, gripper frame,
+    ``(n, 3)``: multilinear between the model's joint-grid samples."""
+    return _interpolator(g, finger)(np.asarray(q, dtype=np.float64))
+
+
+def _interpolator(g: GripperModel, finger: int) -> _PadInterpolator:
+    """One interpolator per model and finger, kept on the model (built once)."""
+    cache: dict[int, _PadInterpolator] = g.__dict__.setdefault("_pad_interp", {})
+    if finger not in cache:
+        cache[finger] = _PadInterpolator(g, finger)
+    return cache[finger]
+
+
+class _PadInterpolator:
+    """Multilinear interpolation of one finger's pad centre over its joint grid."""
+
+    def __init__(self, g: GripperModel, finger: int) -> None:
+        lim = np.asarray(g.finger_limits[finger], dtype=np.float64)  # (d, 2)
+        n = g.joint_samples
+        d = len(lim)
+        start, stop = g.config_offsets[finger], g.config_offsets[finger + 1]
+        grid = g.config_pad[start:stop].reshape((n,) * d + (3,))  # (n, ..., n, 3)
+        # a joint whose limits coincide has one distinct grid value: drop its axis
+        self.moving = lim[:, 1] > lim[:, 0]
+        index = tuple(slice(None) if m else 0 for m in self.moving)
+        axes = [
+            np.linspace(lo, hi, n)
+            for (lo, hi), m in zip(lim, self.moving, strict=True)
+            if m
+        ]
+        self.lim = lim
+        if axes:
+            self.fn: RegularGridInterpolator | None = RegularGridInterpolator(
+                axes, grid[index], method="linear"
+            )
+            self.const: Array | None = None
+        else:
+            self.fn = None
+            self.const = grid.reshape(-1, 3)[0]
+
+    def __call__(self, q: Array) -> Array:
+        q = np.clip(q, self.lim[:, 0], self.lim[:, 1])  # (n, d)
+        if self.fn is None:
+            assert self.const is not None
+            return np.broadcast_to(self.const, (len(q), 3)).copy()
+        return np.asarray(self.fn(q[:, self.moving]), dtype=np.float64)
