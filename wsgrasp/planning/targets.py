@@ -114,11 +114,13 @@ def grasp_targets(
             ft = _finger_target(g, f, held, contact.spheres, squeeze, pre)
             ft.pad_world = transform_points(T, ft.pad_world[None])[0]
             fingers.append(ft)
+        asked: dict[str, list[float]] = {}
         for ft in fingers:
             for j, v in ft.grasp.items():
-                # a joint several fingers share closes as far as any asks
-                if _closure(g, j, v) > _closure(g, j, grasp[j]) or j not in pre:
-                    grasp[j] = v
+                asked.setdefault(j, []).append(v)
+        for j, values in asked.items():
+            # a joint several fingers share closes as far as any of them asks
+            grasp[j] = max(values, key=lambda v, j=j: _closure(g, j, v))
     return GraspTargets(T_pre, pre, grasp, fingers)
 
 

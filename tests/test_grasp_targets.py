@@ -1,0 +1,137 @@
+"""Per-grasp joint targets: within the URDF's limits, and forward kinematics of
+``joints_grasp`` puts each pad at its contacts."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import wsgrasp_grippers
+
+import wsgrasp
+from wsgrasp.geometry import transform_points
+from wsgrasp.gripper import load_gripper
+from wsgrasp.gripper._build import urdf_path
+from wsgrasp.gripper._urdf import load_kinematics
+from wsgrasp.perception.synth import synth_scene
+from wsgrasp.spec import load_gripper_description, load_spec
+
+ROOT = Path(__file__).resolve().parent.parent
+SPECS = {
+    "franka_hand": ROOT / "examples/specs/franka.yaml",
+    "allegro_right": ROOT / "examples/specs/allegro.yaml",
+}
+
+
+@pytest.fixture(scope="module")
+def plans():
+    out = {}
+    scene = synth_scene("box", size=(0.05, 0.06, 0.11), seed=1).points
+    for name, spec in SPECS.items():
+        pipe = wsgrasp.Pipeline(load_spec(spec))
+        out[name] = (pipe, pipe.plan(scene))
+    return out
+
+
+def _kinematics(gripper):
+    """The gripper's own URDF, read independently of the model."""
+    yaml = (
+        Path(wsgrasp_grippers.__file__).parent / gripper.name / f"{gripper.name}.yaml"
+    )
+    desc, base = load_gripper_description(yaml)
+    return desc, load_kinematics(urdf_path(desc, base), desc.name)
+
+
+@pytest.mark.parametrize("name", list(SPECS))
+def test_joint_targets_within_limits_and_complete(plans, name):
+    pipe, result = plans[name]
+    assert result.found, result.hint
+    g = pipe.gripper
+    _, kin = _kinematics(g)
+    assert set(result.joints_grasp) == set(result.joints_pregrasp)
+    assert set(result.joints_grasp) >= {j for js in g.finger_joints for j in js}
+    for j, v in result.joints_grasp.items():
+        lo, hi = kin.joints[j].lower, kin.joints[j].upper
+        assert lo - 1e-12 <= v <= hi + 1e-12, (j, v, lo, hi)
+        assert lo - 1e-12 <= result.joints_pregrasp[j] <= hi + 1e-12
+
+
+@pytest.mark.parametrize("name", list(SPECS))
+def test_forward_kinematics_puts_pads_at_their_contacts(plans, name):
+    """At the contact posture each pad centre is within a sphere's reach of the
+    points its finger holds; the grasp posture moves it ``squeeze`` further."""
+    pipe, result = plans[name]
+    g = pipe.gripper
+    desc, kin = _kinematics(g)
+    squeeze = pipe.spec.approach.squeeze
+    reach = float(g.sphere_radii.max()) * 2
+    T = result.T_world_ee
+    for finger, contact, target in zip(
+        desc.fingers, result.contacts, result.finger_targets, strict=True
+    ):
+        posture_c = {**result.joints_pregrasp, **target["contact"]}
+        posture_g = {**result.joints_grasp}
+        pad_c = _pad_world(kin, desc, finger, posture_c, T)
+        pad_g = _pad_world(kin, desc, finger, posture_g, T)
+        gap = np.linalg.norm(contact.points - pad_c, axis=1).min()
+        assert gap < reach, (finger.name, gap)
+        # the interpolated pad the planner used agrees with the URDF's
+        np.testing.assert_allclose(pad_c, target["pad_world"], atol=2e-3)
+        moved = np.linalg.norm(pad_g - pad_c)
+        shared = sum(
+            j in t["grasp"] for t in result.finger_targets for j in target["grasp"]
+        )
+        if shared == len(target["grasp"]):  # the finger's joints are its own
+            assert moved == pytest.approx(squeeze, abs=2e-3)
+        else:  # a joint another finger shares closes as far as either asks
+            assert moved >= squeeze - 2e-3
+
+
+def _pad_world(kin, desc, finger, posture, T_world_gripper):
+    T = kin.chain_poses(desc.base_link, finger.pad.link, posture)
+    T = np.asarray(T).reshape(-1, 4, 4)[0]
+    return transform_points(T_world_gripper @ T, np.array([finger.pad.center]))[0]
+
+
+def test_pregrasp_pose_backs_off_along_the_approach(plans):
+    pipe, result = plans["franka_hand"]
+    g = pipe.gripper
+    d = pipe.spec.approach.distance
+    approach = result.T_world_ee[:3, :3] @ g.approach_axis
+    np.testing.assert_allclose(
+        result.T_world_pregrasp[:3, 3], result.T_world_ee[:3, 3] - d * approach
+    )
+    np.testing.assert_allclose(
+        result.T_world_pregrasp[:3, :3], result.T_world_ee[:3, :3]
+    )
+
+
+def test_parallel_jaw_closes_past_the_object_width(plans):
+    """For the Franka hand the grasp width is narrower than the contact width by
+    the squeeze, and the open posture is the YAML's pregrasp."""
+    pipe, result = plans["franka_hand"]
+    j = "panda_finger_joint1"
+    contact = min(t["contact"][j] for t in result.finger_targets)
+    assert result.joints_pregrasp[j] == pytest.approx(0.04)
+    assert result.joints_grasp[j] == pytest.approx(
+        max(contact - pipe.spec.approach.squeeze, 0.0), abs=1e-3
+    )
+    assert "joints_grasp" in result.to_json()
+
+
+def test_model_keeps_each_spheres_configurations():
+    g = load_gripper("allegro_right")
+    assert g.has_configurations
+    counts = np.diff(g.sphere_config_ptr)
+    assert len(counts) == len(g.sphere_radii) and counts.min() > 0
+    # each listed configuration's pad samples reach into its sphere: its pad
+    # centre lies within the pad's half-diagonal of the sphere
+    for s in (0, 100, 250):
+        k = g.sphere_configurations(np.array([s]))
+        d = np.linalg.norm(g.config_pad[k] - g.sphere_centers[s], axis=1)
+        assert d.max() < g.sphere_radii[s] + 0.02
+        assert set(g.config_finger[k]) == {g.sphere_finger[s]}
+    again = type(g).from_bytes(g.to_bytes())
+    np.testing.assert_array_equal(again.sphere_config_index, g.sphere_config_index)
+    np.testing.assert_array_equal(again.config_pad, g.config_pad)

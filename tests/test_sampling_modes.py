@@ -1,0 +1,134 @@
+"""Each orientation mode covers the directions it claims, and none comes from
+under the table."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from pydantic import ValidationError
+from scipy.spatial import cKDTree
+from scipy.spatial.transform import Rotation
+
+from wsgrasp.planning.candidates import orientation_set
+from wsgrasp.spec import Sampling
+
+UP = np.array([0.0, 0.0, 1.0])
+
+
+def _approach_world(o, T_world_object):
+    return o.R_object_gwc[:, :, 2] @ T_world_object[:3, :3].T  # (O, 3)
+
+
+def _frame(rotvec):
+    T = np.eye(4)
+    T[:3, :3] = Rotation.from_rotvec(rotvec).as_matrix()
+    return T
+
+
+def test_approach_sphere_spreads_evenly_over_the_upper_half():
+    s = Sampling(mode="approach_sphere", directions=200, orientations=1)
+    o = orientation_set(s, np.eye(4), UP)
+    assert len(o) == 200
+    d = _approach_world(o, np.eye(4))
+    np.testing.assert_allclose(np.linalg.norm(d, axis=1), 1.0, atol=1e-12)
+    top = np.sin(np.deg2rad(s.upward_tolerance_deg))
+    assert d[:, 2].max() <= top + 1e-12
+    # straight down and level are both reached
+    assert d[:, 2].min() < -0.99 and d[:, 2].max() > 0.0
+    # neighbour angles: even spacing (equal-area cell of the cap ~ 2π(1+top)/N)
+    cell = np.sqrt(2 * np.pi * (1 + top) / 200)
+    dist, _ = cKDTree(d).query(d, k=2)
+    nn = 2 * np.arcsin(dist[:, 1] / 2)
+    assert nn.min() > 0.5 * cell and nn.max() < 1.5 * cell
+    # covering: any direction of the cap is near a sampled one
+    rng = np.random.default_rng(0)
+    probe = rng.normal(size=(5000, 3))
+    probe /= np.linalg.norm(probe, axis=1, keepdims=True)
+    probe = probe[probe[:, 2] <= top]
+    far, _ = cKDTree(d).query(probe)
+    assert 2 * np.arcsin(far.max() / 2) < 1.2 * cell
+
+
+def test_approach_sphere_rolls_turn_evenly_about_the_approach():
+    s = Sampling(
+        mode="approach_sphere", directions=7, orientations=6, angle_range_deg=180
+    )
+    o = orientation_set(s, _frame([0.3, -0.2, 0.5]), UP)
+    R = o.R_object_gwc.reshape(7, 6, 3, 3)
+    # one approach per direction, x axes 30 degrees apart about it
+    np.testing.assert_allclose(R[:, :, :, 2], R[:, :1, :, 2].repeat(6, 1), atol=1e-12)
+    cos = np.einsum("dri,dri->dr", R[:, 1:, :, 0], R[:, :-1, :, 0])
+    np.testing.assert_allclose(cos, np.cos(np.pi / 6), atol=1e-12)
+    # proper rotations
+    np.testing.assert_allclose(np.linalg.det(o.R_object_gwc), 1.0, atol=1e-12)
+
+
+def test_approach_sphere_roll_zero_closes_across_the_major_axis():
+    """Roll 0 from the side of an upright object: the closing axis is level."""
+    s = Sampling(mode="approach_sphere", directions=40, orientations=1)
+    T = np.eye(4)  # major axis (object z) along the table normal
+    o = orientation_set(s, T, UP)
+    d = _approach_world(o, T)
+    side = np.abs(d[:, 2]) < 0.3
+    closing = o.R_object_gwc[side][:, :, 1]
+    np.testing.assert_allclose(closing[:, 2], 0.0, atol=1e-9)
+
+
+def test_xyz_covers_rotations_about_the_object_axes_once():
+    s = Sampling(mode="xyz", steps=(4, 4, 4), upward_tolerance_deg=45)
+    o = orientation_set(s, np.eye(4), np.array([0.0, 0.0, -1.0]))
+    R = o.R_object_gwc
+    np.testing.assert_allclose(np.linalg.det(R), 1.0, atol=1e-12)
+    q = Rotation.from_matrix(R).as_quat()
+    q *= np.sign(q[:, [3]] + 1e-12)
+    dist, _ = cKDTree(q).query(q, k=2)
+    assert dist[:, 1].min() > 1e-6, "a rotation is repeated"
+    # the table's normal is -z, so approaching along -z points up from under
+    # it: the other five object axes are approach directions
+    d = R[:, :, 2]
+    assert d[:, 2].min() > -np.sin(np.deg2rad(45)) - 1e-9
+    for axis in np.vstack([np.eye(3), -np.eye(3)]):
+        if axis[2] < 0:
+            continue
+        assert np.max(d @ axis) > 1 - 1e-9, axis
+    assert len(o) < 64  # Euler angles reach some rotations twice
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    mode=st.sampled_from(["major_axis", "xyz", "approach_sphere"]),
+    rotvec=st.tuples(*[st.floats(-3.0, 3.0)] * 3),
+    normal=st.tuples(*[st.floats(-1.0, 1.0)] * 3).filter(
+        lambda v: np.linalg.norm(v) > 0.1
+    ),
+    tol=st.floats(0.0, 30.0),
+)
+def test_no_mode_approaches_from_under_the_table(mode, rotvec, normal, tol):
+    n = np.asarray(normal) / np.linalg.norm(normal)
+    extra = {
+        "major_axis": {"orientations": 8, "flip": True},
+        "xyz": {"steps": (4, 3, 4)},
+        "approach_sphere": {"directions": 30, "orientations": 4},
+    }[mode]
+    s = Sampling(mode=mode, upward_tolerance_deg=tol, **extra)
+    T = _frame(rotvec)
+    o = orientation_set(s, T, n)
+    up = _approach_world(o, T) @ n
+    assert up.size == 0 or up.max() <= np.sin(np.deg2rad(tol)) + 1e-9
+
+
+@pytest.mark.parametrize(
+    "fields",
+    [
+        {"mode": "major_axis", "steps": (2, 2, 2)},
+        {"mode": "xyz", "directions": 10},
+        {"mode": "approach_sphere", "flip": True},
+        {"mode": "xyz", "steps": (0, 2, 2)},
+    ],
+    ids=["steps-not-xyz", "directions-not-sphere", "flip-not-major", "zero-steps"],
+)
+def test_fields_of_another_mode_are_spec_errors(fields):
+    with pytest.raises(ValidationError):
+        Sampling(**fields)
