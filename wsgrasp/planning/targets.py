@@ -120,7 +120,8 @@ def grasp_targets(
                 asked.setdefault(j, []).append(v)
         for j, values in asked.items():
             # a joint several fingers share closes as far as any of them asks
-            grasp[j] = max(values, key=lambda v, j=j: _closure(g, j, v))
+            closure = [_closure(g, j, v) for v in values]
+            grasp[j] = values[int(np.argmax(closure))]
     return GraspTargets(T_pre, pre, grasp, fingers)
 
 
