@@ -40,6 +40,17 @@ def print_result(result: Any, title: str = "plan") -> None:
         table.add_row("found", "[green]yes[/]")
         table.add_row("T_world_ee", _pose_text(result.T_world_ee))
         table.add_row("T_world_tcp", _pose_text(result.T_world_tcp))
+        if result.T_world_pregrasp is not None:
+            table.add_row("T_world_pregrasp", _pose_text(result.T_world_pregrasp))
+        if result.joints_grasp:
+            table.add_row(
+                "joints",
+                ", ".join(
+                    f"{j} {result.joints_pregrasp.get(j, float('nan')):+.3f} -> {v:+.3f}"
+                    for j, v in result.joints_grasp.items()
+                )
+                + "  (pregrasp -> grasp)",
+            )
         table.add_row(
             "score",
             f"{result.score:.4f} = "
@@ -56,9 +67,11 @@ def print_result(result: Any, title: str = "plan") -> None:
         table.add_row("found", "[red]no[/]")
         table.add_row("why", result.hint)
     n = len(result.candidates)
+    mode = result.info.get("sampling_mode")
     table.add_row(
         "candidates",
-        f"{n} evaluated, {int(result.candidates.feasible.sum())} feasible; rejected: "
+        (f"{mode}: {result.info.get('orientations')} orientations; " if mode else "")
+        + f"{n} evaluated, {int(result.candidates.feasible.sum())} feasible; rejected: "
         + ", ".join(f"{k} {v}" for k, v in result.rejections.items() if v),
     )
     table.add_row(

@@ -39,6 +39,8 @@ class CandidateBatch:
         Unit normal of the table, pointing to the object.
     min_table_height : (F,) float
         Lowest gripper point above the table surface.
+    T_world_table : (4, 4) float or None
+        The table frame: origin on the surface, z its normal towards the object.
     """
 
     gripper: GripperModel
@@ -52,6 +54,7 @@ class CandidateBatch:
     table_normal: Array
     min_table_height: Array
     normals_fn: Callable[[Array], Array] | None = field(default=None, repr=False)
+    T_world_table: Array | None = None
 
     def __len__(self) -> int:
         return int(self.T_world_gwc.shape[0])
@@ -90,6 +93,52 @@ class CandidateBatch:
         n = self._held_weights @ self.object_normals  # (F, nf, 3)
         norm = np.linalg.norm(n, axis=-1, keepdims=True)
         return np.divide(n, norm, out=np.zeros_like(n), where=norm > 0)
+
+    @cached_property
+    def contact_centroids_gripper(self) -> Array:
+        """``contact_centroids`` in each candidate's gripper frame, ``(F, nf, 3)``."""
+        R = self.T_world_gripper[:, :3, :3]  # (F, 3, 3)
+        t = self.T_world_gripper[:, None, :3, 3]  # (F, 1, 3)
+        # p_gripper = R^T (p_world - t)
+        return np.einsum("fji,fnj->fni", R, self.contact_centroids - t)
+
+    @cached_property
+    def contact_configurations(self) -> NDArray[np.int64]:
+        """Per candidate and finger, the finger configuration (index into the
+        model's ``config_pad``) whose pad centre lies nearest the points the
+        finger holds, ``(F, nf)``; -1 where the model keeps no configurations."""
+        g = self.gripper
+        out = np.full(self.contacts.shape, -1, dtype=np.int64)
+        if not g.has_configurations:
+            return out
+        from scipy.spatial import cKDTree
+
+        offsets = g.config_offsets
+        trees = g.__dict__.setdefault("_config_trees", {})
+        for f in range(g.num_fingers):
+            if f not in trees:
+                trees[f] = cKDTree(g.config_pad[offsets[f] : offsets[f + 1]])
+            _, k = trees[f].query(self.contact_centroids_gripper[:, f])
+            out[:, f] = offsets[f] + np.asarray(k, dtype=np.int64)
+        return out
+
+    @cached_property
+    def mass_center(self) -> Array:
+        """Estimated centre of mass of the object, world frame, ``(3,)``.
+
+        The middle of the object's box in the object frame, lowered or raised
+        along the table normal to half the object's height above the table (a
+        resting object reaches down to the table, whatever the camera saw).
+        """
+        R = self.T_world_object[:3, :3]
+        p = (self.object_points - self.T_world_object[:3, 3]) @ R  # (no, 3) object
+        mid = self.T_world_object[:3, 3] + R @ (0.5 * (p.min(axis=0) + p.max(axis=0)))
+        if self.T_world_table is None:
+            return mid
+        n = self.T_world_table[:3, 2]
+        origin = self.T_world_table[:3, 3]
+        top = float(((self.object_points - origin) @ n).max())
+        return mid + (0.5 * top - float((mid - origin) @ n)) * n
 
     @property
     def approach(self) -> Array:

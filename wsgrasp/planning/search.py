@@ -112,6 +112,7 @@ def run_search(
             table_normal=inp.table.T_world_table[:3, 2],
             min_table_height=ev.min_table_height,
             normals_fn=normals_fn,
+            T_world_table=inp.table.T_world_table,
         )
         total, terms = combine_scores(batch, scorers)
         score[f] = total

@@ -19,6 +19,8 @@ __all__ = ["RunLayers", "run_layers", "render_png", "REASON_COLOURS"]
 Array = NDArray[np.float64]
 
 #: colour of each candidate outcome (the same as the Foxglove channels)
+#: feasible approach directions drawn at most
+MAX_DIRECTIONS = 150
 REASON_COLOURS: dict[str, str] = {
     "feasible": "#1abf33",
     "table_collision": "#8c5926",
@@ -57,6 +59,10 @@ class RunLayers:
         Spheres holding object points.
     contacts : (q, 3) float
     T_world_object, T_world_ee : (4, 4) float or None
+    approach : (2, 3) float
+        Pre-grasp and grasp origins of the chosen pose (empty if none).
+    directions : (k, 2, 3) float
+        Short strokes along the approach of the feasible candidates.
     """
 
     scene: Array
@@ -76,6 +82,8 @@ class RunLayers:
     T_world_ee: Array | None
     title: str
     notes: list[str] = field(default_factory=list)
+    approach: Array = field(default_factory=lambda: np.zeros((0, 3)))
+    directions: Array = field(default_factory=lambda: np.zeros((0, 2, 3)))
 
 
 def _pts(x: Any) -> Array:
@@ -146,10 +154,27 @@ def run_layers(run: Run) -> RunLayers:
         else ("no grasp found" if res is not None else run.status)
     )
     T_obj = frame.get("T_world_object")
+    approach = np.zeros((0, 3))
+    if T_ee is not None and getattr(res, "T_world_pregrasp", None) is not None:
+        approach = np.stack([np.asarray(res.T_world_pregrasp)[:3, 3], T_ee[:3, 3]])
+    directions = np.zeros((0, 2, 3))
+    obj = _pts(seg.get("object_points"))
+    if cs is not None and len(cs) and len(obj):
+        ok = np.flatnonzero(np.asarray(cs.reason) == 0)
+        ok = ok[:: max(1, len(ok) // MAX_DIRECTIONS)]
+        T = np.asarray(cs.T_world_gwc)[ok]  # (k, 4, 4)
+        stroke = 0.25 * float(np.ptp(obj, axis=0).max())
+        directions = np.stack([T[:, :3, 3] - stroke * T[:, :3, 2], T[:, :3, 3]], 1)
+    mode = (getattr(res, "info", None) or {}).get("sampling_mode")
+    if mode:
+        notes.append(
+            f"sampling {mode}: {res.info.get('orientations')} orientations, "
+            f"{len(cands)} candidates"
+        )
     return RunLayers(
         scene=_thin(scene, MAX_SCENE_POINTS),
         table=_thin(_pts(seg.get("table_points")), MAX_SCENE_POINTS // 2),
-        object=_pts(seg.get("object_points")),
+        object=obj,
         obstacles=_pts(seg.get("obstacles")),
         samples=_pts(frame.get("samples_world")),
         candidates=cands,
@@ -164,6 +189,8 @@ def run_layers(run: Run) -> RunLayers:
         T_world_ee=T_ee,
         title=f"{run.path.name}: {status}",
         notes=notes,
+        approach=approach,
+        directions=directions,
     )
 
 
@@ -248,6 +275,10 @@ def render_png(run: Run, path: str | Path, *, dpi: int = 100) -> Path:
                     ax.plot(*np.stack([T[:3, 3], end]).T, color=col, lw=2)
         if len(L.contacts):
             ax.scatter(*L.contacts.T, s=8, c="#10c030", depthshade=False)
+        for a, b in L.directions:
+            ax.plot(*np.stack([a, b]).T, color=REASON_COLOURS["feasible"], lw=0.4)
+        if len(L.approach):
+            ax.plot(*L.approach.T, color="#d02090", lw=2, ls="--")
         for k in range(3):
             getattr(ax, f"set_{'xyz'[k]}lim")(centre[k] - half, centre[k] + half)
         ax.set_box_aspect((1, 1, 1))
@@ -273,6 +304,25 @@ def render_png(run: Run, path: str | Path, *, dpi: int = 100) -> Path:
         ),
         Line2D([], [], ls="", marker="o", color="0.25", label="gripper (chosen)"),
         Line2D([], [], ls="-", color="#10c030", label="spheres holding the object"),
+        *(
+            [Line2D([], [], ls="--", color="#d02090", label="approach from pre-grasp")]
+            if len(L.approach)
+            else []
+        ),
+        *(
+            [
+                Line2D(
+                    [],
+                    [],
+                    ls="-",
+                    lw=0.6,
+                    color=REASON_COLOURS["feasible"],
+                    label="feasible approach directions",
+                )
+            ]
+            if len(L.directions)
+            else []
+        ),
     ]
     fig.legend(handles=handles, loc="lower center", ncol=4, frameon=False)
     title = L.title + ("" if not L.notes else "\n" + "; ".join(L.notes))

@@ -19,6 +19,8 @@ __all__ = [
     "ApproachDirectionScorer",
     "CentroidDistanceScorer",
     "ContactBalanceScorer",
+    "JointMarginScorer",
+    "MassCenterScorer",
     "TableClearanceScorer",
 ]
 
@@ -109,6 +111,58 @@ class ApproachDirectionScorer:
         return 0.5 * (1.0 + batch.approach @ d)
 
 
+class JointMarginScorer:
+    """Fingers that reach their contacts well inside their joint range.
+
+    Per finger, the configuration whose pad lies nearest the points it holds
+    (``batch.contact_configurations``); per joint, ``2 min(u, 1 - u)`` with ``u``
+    its place between the limits (1 mid-range, 0 at a limit); the finger's term is
+    its worst joint and the candidate's the worst finger. A jaw barely wide enough
+    for the object, or closing on a sliver, scores low.
+    """
+
+    class Options(_Options):
+        pass
+
+    def score(self, batch: Any, options: Options) -> np.ndarray:
+        g = batch.gripper
+        k = batch.contact_configurations  # (F, nf)
+        out = np.ones(len(batch))
+        if not g.has_configurations:
+            return out
+        offsets = g.config_offsets
+        for f in range(g.num_fingers):
+            lim = np.asarray(g.finger_limits[f], dtype=np.float64)  # (d, 2)
+            span = lim[:, 1] - lim[:, 0]
+            moving = span > 0
+            if not moving.any():
+                continue
+            q = g.finger_configurations(f)[k[:, f] - offsets[f]]  # (F, d)
+            u = (q[:, moving] - lim[moving, 0]) / span[moving]
+            margin = (2.0 * np.minimum(u, 1.0 - u)).min(axis=1)  # (F,)
+            out = np.minimum(out, np.clip(margin, 0.0, 1.0))
+        return out
+
+
+class MassCenterScorer:
+    """The grasp near the object's estimated centre of mass.
+
+    ``1 / (1 + d / d_ref)`` with ``d`` the distance from the centre of the
+    fingers' contacts to ``batch.mass_center`` (the object's box middle, at half
+    its height above the table) and ``d_ref`` half the object's diagonal: less
+    torque about the grip when the object is lifted.
+    """
+
+    class Options(_Options):
+        pass
+
+    def score(self, batch: Any, options: Options) -> np.ndarray:
+        centre = np.nanmean(batch.contact_centroids, axis=1)  # (F, 3)
+        d = np.linalg.norm(centre - batch.mass_center, axis=-1)
+        d_ref = max(0.5 * float(np.linalg.norm(batch.extents)), 1e-6)
+        return 1.0 / (1.0 + d / d_ref)
+
+
 @hookimpl
 def wsgrasp_register_scorers(register: Any) -> None:
     register("centroid_distance", CentroidDistanceScorer)
@@ -116,3 +170,5 @@ def wsgrasp_register_scorers(register: Any) -> None:
     register("antipodal", AntipodalScorer)
     register("table_clearance", TableClearanceScorer)
     register("approach_direction", ApproachDirectionScorer)
+    register("joint_margin", JointMarginScorer)
+    register("mass_center", MassCenterScorer)
