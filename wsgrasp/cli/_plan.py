@@ -46,7 +46,7 @@ def print_result(result: Any, title: str = "plan") -> None:
             table.add_row(
                 "joints",
                 ", ".join(
-                    f"{j} {result.joints_pregrasp.get(j, float('nan')):+.3f} -> {v:+.3f}"
+                    f"{j} {result.joints_pregrasp[j]:+.3f} -> {v:+.3f}"
                     for j, v in result.joints_grasp.items()
                 )
                 + "  (pregrasp -> grasp)",

@@ -155,7 +155,7 @@ def run_layers(run: Run) -> RunLayers:
     )
     T_obj = frame.get("T_world_object")
     approach = np.zeros((0, 3))
-    if T_ee is not None and getattr(res, "T_world_pregrasp", None) is not None:
+    if res is not None and T_ee is not None and res.T_world_pregrasp is not None:
         approach = np.stack([np.asarray(res.T_world_pregrasp)[:3, 3], T_ee[:3, 3]])
     directions = np.zeros((0, 2, 3))
     obj = _pts(seg.get("object_points"))
@@ -165,8 +165,8 @@ def run_layers(run: Run) -> RunLayers:
         T = np.asarray(cs.T_world_gwc)[ok]  # (k, 4, 4)
         stroke = 0.25 * float(np.ptp(obj, axis=0).max())
         directions = np.stack([T[:, :3, 3] - stroke * T[:, :3, 2], T[:, :3, 3]], 1)
-    mode = (getattr(res, "info", None) or {}).get("sampling_mode")
-    if mode:
+    mode = None if res is None else res.info.get("sampling_mode")
+    if res is not None and mode:
         notes.append(
             f"sampling {mode}: {res.info.get('orientations')} orientations, "
             f"{len(cands)} candidates"
