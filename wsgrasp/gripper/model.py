@@ -163,10 +163,10 @@ class GripperModel:
         """Indices into ``config_pad`` of the configurations that put a pad sample
         point inside any of ``spheres`` (sorted, unique)."""
         ptr = self.sphere_config_ptr
-        parts = [self.sphere_config_index[ptr[s] : ptr[s + 1]] for s in spheres]
-        if not parts:
-            return np.zeros(0, dtype=np.int64)
-        return np.unique(np.concatenate(parts))
+        mask = np.zeros(len(self.config_pad), dtype=bool)
+        for s in np.asarray(spheres, dtype=np.int64):
+            mask[self.sphere_config_index[ptr[s] : ptr[s + 1]]] = True
+        return np.flatnonzero(mask)
 
     @property
     def actuated_joints(self) -> list[str]:

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 from scipy.interpolate import RegularGridInterpolator
+from scipy.spatial import cKDTree
 
 from wsgrasp.geometry import invert_transforms, transform_points
 from wsgrasp.gripper.model import GripperModel
@@ -170,8 +171,7 @@ def _finger_target(
         local = np.arange(len(q_grid))
     pads = g.config_pad[start + local]  # (c, 3)
     if len(held):
-        d2 = ((pads[:, None, :] - held[None, :, :]) ** 2).sum(-1)  # (c, k)
-        nearest = d2.min(axis=1)  # (c,)
+        nearest, _ = cKDTree(held).query(pads)  # (c,) distance to the held points
     else:
         nearest = np.zeros(len(local))
     best = int(np.argmin(nearest))
@@ -192,7 +192,7 @@ def _finger_target(
         contact={j: float(v) for j, v in zip(joints, q_contact, strict=True)},
         grasp={j: float(v) for j, v in zip(joints, ray[k], strict=True)},
         pad_world=pads[best].copy(),
-        gap=float(np.sqrt(nearest[best])),
+        gap=float(nearest[best]),
         squeeze=float(travel[k]),
     )
 
