@@ -132,3 +132,13 @@ def test_no_mode_approaches_from_under_the_table(mode, rotvec, normal, tol):
 def test_fields_of_another_mode_are_spec_errors(fields):
     with pytest.raises(ValidationError):
         Sampling(**fields)
+
+
+def test_depths_move_the_gwc_along_the_approach_over_the_workspace():
+    s = Sampling(mode="approach_sphere", directions=5, orientations=2, depths=3)
+    o = orientation_set(s, np.eye(4), UP, reach=(-0.04, 0.02))
+    assert len(o) == 5 * 2 * 3
+    np.testing.assert_allclose(o.depth.reshape(10, 3), [[0.04, 0.01, -0.02]] * 10)
+    # each rotation is repeated at every depth
+    R = o.R_object_gwc.reshape(10, 3, 3, 3)
+    np.testing.assert_array_equal(R[:, 0], R[:, 2])

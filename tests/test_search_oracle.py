@@ -23,12 +23,18 @@ MODES = {
     "major_axis_flip": {"mode": "major_axis", "orientations": 4, "flip": True},
     "xyz": {"mode": "xyz", "steps": (3, 4, 3)},
     "approach_sphere": {"mode": "approach_sphere", "directions": 10, "orientations": 3},
+    "sphere_depths": {
+        "mode": "approach_sphere",
+        "directions": 6,
+        "orientations": 2,
+        "depths": 3,
+    },
 }
 
 
 def _orientations(sampling: dict, T_world_object, table):
     return orientation_set(
-        Sampling(**sampling), T_world_object, table.T_world_table[:3, 2]
+        Sampling(**sampling), T_world_object, table.T_world_table[:3, 2], (-0.03, 0.02)
     )
 
 
@@ -60,11 +66,11 @@ def _check(gripper, seed, T_world_scene, obstacles, sampling=None):
     obj, T_world_object, samples, obs, table = _scene(seed, T_world_scene, obstacles)
     o = _orientations(sampling or MODES["major_axis"], T_world_object, table)
     _, T_world_gripper, _, _ = candidate_poses(
-        T_world_object, samples, o.R_object_gwc, gripper.T_gripper_gwc
+        T_world_object, samples, o.R_object_gwc, gripper.T_gripper_gwc, o.depth
     )
     fast = evaluate_candidates(T_world_gripper, gripper, obj, obs, table)
     ref = reference_search(
-        gripper, T_world_object, samples, o.R_object_gwc, obj, obs, table
+        gripper, T_world_object, samples, o.R_object_gwc, obj, obs, table, o.depth
     )
     np.testing.assert_array_equal(fast.reason, ref.reason)
     np.testing.assert_array_equal(fast.contacts, ref.contacts)
@@ -148,7 +154,9 @@ def test_reference_agreement_in_any_frame(
     elif mode == "xyz":
         sampling.update(steps=(1 + orientations % 3, orientations, 2))
     else:
-        sampling.update(directions=2 + orientations, orientations=1 + seed % 3)
+        sampling.update(
+            directions=2 + orientations, orientations=1 + seed % 3, depths=1 + seed % 3
+        )
     _check(gripper, seed, T, bool(seed % 2), sampling)
 
 

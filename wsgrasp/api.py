@@ -100,6 +100,11 @@ class Pipeline:
             gripper = load_gripper(name, registry=self.registry)
         self.gripper = gripper
         self._spheres = FingerSpheres(gripper)
+        # the workspace spheres' extent along the approach, GWC frame
+        z = (gripper.sphere_centers - gripper.T_gripper_gwc[:3, 3]) @ (
+            gripper.T_gripper_gwc[:3, 2]
+        )
+        self._reach = (float(z.min()), float(z.max())) if len(z) else (0.0, 0.0)
         # open3d's first calls cost ~1 s once per process: pay it here, not in the
         # first plan's timings
         from wsgrasp.perception.process import warm_up
@@ -202,7 +207,7 @@ class Pipeline:
         se_center, se_axes, se_exp = table_superellipsoid(spec.table)
         table = TableSE(T_world_table, se_center, se_axes, se_exp)
         orientations = orientation_set(
-            spec.sampling, frame.T_world_object, T_world_table[:3, 2]
+            spec.sampling, frame.T_world_object, T_world_table[:3, 2], self._reach
         )
         lap(
             "object_frame",

@@ -120,6 +120,7 @@ def run_bench(
                 inp.object_points,
                 inp.obstacle_points,
                 inp.table,
+                inp.orientations.depth,
             ),
             reference_repeat,
             warmup=0,

@@ -281,6 +281,14 @@ class Sampling(_Model):
         description="approach_sphere: approach directions over the half-sphere "
         "above the table (default 24)",
     )
+    depths: int = Field(
+        1,
+        ge=1,
+        le=16,
+        description="each orientation also tried with the gripper this many depths "
+        "along its approach, over the fingers' workspace extent (1: the box "
+        "sample at the workspace centroid, as the paper)",
+    )
     upward_tolerance_deg: float = Field(
         5.0,
         ge=0.0,

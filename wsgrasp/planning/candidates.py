@@ -28,6 +28,12 @@ projected across the approach (the paper's choice where it applies).
 
 No orientation whose approach points up, from under the table, by more than
 ``upward_tolerance_deg`` is generated, in any mode.
+
+With ``sampling.depths`` above 1, each orientation is also tried with the GWC
+moved along its approach axis, at offsets spread evenly over the extent of the
+fingers' workspace spheres along that axis: the object then sits nearer the palm
+or nearer the fingertips (a long-fingered hand pinches a small object with its
+fingertips). An orientation of the set is a rotation and such an offset.
 """
 
 from __future__ import annotations
@@ -49,6 +55,7 @@ __all__ = [
     "xyz_orientations",
     "approach_sphere_orientations",
     "candidate_poses",
+    "depth_offsets",
 ]
 
 Array = NDArray[np.float64]
@@ -78,19 +85,45 @@ class Orientations:
     flipped : (O,) bool
         Turned half a turn about the approach axis (``major_axis`` with flip).
     mode : str
+    depth : (O,) float
+        Offset (m) of the GWC along its approach axis from the box sample.
     """
 
     R_object_gwc: Array
     theta: Array
     flipped: NDArray[np.bool_]
     mode: str = "major_axis"
+    depth: Array | None = None
+
+    def __post_init__(self) -> None:
+        if self.depth is None:
+            self.depth = np.zeros(len(self.R_object_gwc))
 
     def __len__(self) -> int:
         return int(self.R_object_gwc.shape[0])
 
     def select(self, keep: NDArray[np.bool_]) -> Orientations:
+        assert self.depth is not None
         return Orientations(
-            self.R_object_gwc[keep], self.theta[keep], self.flipped[keep], self.mode
+            self.R_object_gwc[keep],
+            self.theta[keep],
+            self.flipped[keep],
+            self.mode,
+            self.depth[keep],
+        )
+
+    def with_depths(self, offsets: Array) -> Orientations:
+        """Every orientation at each of ``offsets`` (m) along its approach:
+        orientations outer, offsets inner."""
+        k = len(offsets)
+        rep = np.repeat(np.arange(len(self)), k)
+        assert self.depth is not None
+        return Orientations(
+            self.R_object_gwc[rep],
+            self.theta[rep],
+            self.flipped[rep],
+            self.mode,
+            self.depth[rep] + np.tile(np.asarray(offsets, dtype=np.float64), len(self)),
         )
 
 
@@ -219,8 +252,23 @@ def _across(d: Array, first: Array, second: Array) -> Array:
     return a / np.linalg.norm(a, axis=1, keepdims=True)
 
 
+def depth_offsets(count: int, reach: tuple[float, float]) -> Array:
+    """``count`` GWC offsets (m) along the approach, evenly over ``reach`` (the
+    span of the workspace spheres along the approach axis, GWC frame); one
+    offset is 0."""
+    if count <= 1:
+        return np.zeros(1)
+    lo, hi = reach
+    # moving the GWC by -z along the approach brings the object to GWC z: the
+    # offsets that put the object at each depth of the workspaces
+    return -np.linspace(lo, hi, count)
+
+
 def orientation_set(
-    sampling: Any, T_world_object: Array, table_normal: Array
+    sampling: Any,
+    T_world_object: Array,
+    table_normal: Array,
+    reach: tuple[float, float] = (0.0, 0.0),
 ) -> Orientations:
     """The orientations a spec's ``sampling`` asks for, none from under the table.
 
@@ -231,6 +279,9 @@ def orientation_set(
     T_world_object : (4, 4) float
     table_normal : (3,) float
         Unit normal of the table, towards the object.
+    reach : (float, float)
+        Lowest and highest workspace sphere centre along the approach axis, GWC
+        frame (m); the span ``sampling.depths`` offsets cover.
     """
     mode = getattr(sampling, "mode", "major_axis")
     tol = float(getattr(sampling, "upward_tolerance_deg", 5.0))
@@ -252,7 +303,9 @@ def orientation_set(
         )
     approach = np.asarray(T_world_object)[:3, :3] @ o.R_object_gwc[:, :, 2].T
     up = np.asarray(table_normal, dtype=np.float64) @ approach  # (O,)
-    return o.select(up <= np.sin(np.deg2rad(tol)) + 1e-12)
+    o = o.select(up <= np.sin(np.deg2rad(tol)) + 1e-12)
+    depths = int(getattr(sampling, "depths", 1))
+    return o.with_depths(depth_offsets(depths, reach)) if depths > 1 else o
 
 
 def candidate_poses(
@@ -260,6 +313,7 @@ def candidate_poses(
     samples_object: Array,
     R_object_gwc: Array,
     T_gripper_gwc: Array,
+    depth: Array | None = None,
 ) -> tuple[Array, Array, NDArray[np.int64], NDArray[np.int64]]:
     """All candidate poses, samples outer and orientations inner.
 
@@ -270,6 +324,8 @@ def candidate_poses(
         Bounding-box samples in the object frame.
     R_object_gwc : (O, 3, 3) float
     T_gripper_gwc : (4, 4) float
+    depth : (O,) float, optional
+        Offset of each orientation's GWC along its approach axis (m).
 
     Returns
     -------
@@ -285,6 +341,9 @@ def candidate_poses(
     T_object_gwc = np.zeros((ns, nos, 4, 4))
     T_object_gwc[:, :, :3, :3] = np.asarray(R_object_gwc)[None]
     T_object_gwc[:, :, :3, 3] = np.asarray(samples_object)[:, None, :]
+    if depth is not None:
+        shift = np.asarray(R_object_gwc)[:, :, 2] * np.asarray(depth)[:, None]
+        T_object_gwc[:, :, :3, 3] += shift[None]  # (ns, O, 3)
     T_object_gwc[:, :, 3, 3] = 1.0
     T_object_gwc_flat = T_object_gwc.reshape(ns * nos, 4, 4)  # (C, 4, 4)
     T_world_gwc = T_world_object @ T_object_gwc_flat

@@ -68,9 +68,11 @@ def reference_search(
     object_points: Array,
     obstacle_points: Array,
     table: TableSE,
+    depth: Array | None = None,
 ) -> ReferenceResult:
     """Algorithm 1, one candidate at a time; same candidate order as the fast path
-    (samples outer, orientations ``R_object_gwc`` (O, 3, 3) inner)."""
+    (samples outer, orientations ``R_object_gwc`` (O, 3, 3) inner, each with its
+    ``depth`` (O,) offset along its approach axis)."""
     g = gripper
     nf = g.num_fingers
     C = len(samples_object) * len(R_object_gwc)
@@ -81,11 +83,14 @@ def reference_search(
     centroid = T_world_object[:3, 3]
     best, best_d = None, np.inf
     k = -1
-    for s, R in itertools.product(samples_object, R_object_gwc):
+    depths = np.zeros(len(R_object_gwc)) if depth is None else depth
+    for s, (R, dz) in itertools.product(
+        samples_object, zip(R_object_gwc, depths, strict=True)
+    ):
         k += 1
         T_object_gwc = np.eye(4)
         T_object_gwc[:3, :3] = R
-        T_object_gwc[:3, 3] = s
+        T_object_gwc[:3, 3] = s + dz * R[:, 2]
         T_world_gwc = T_world_object @ T_object_gwc
         T_world_gripper = T_world_gwc @ T_gwc_gripper
         # table: gripper cloud in the table frame

@@ -83,7 +83,7 @@ def run_search(
     t0 = now()
     o = inp.orientations
     T_world_gwc, T_world_gripper, sample, orientation = candidate_poses(
-        inp.T_world_object, inp.samples_object, o.R_object_gwc, g.T_gripper_gwc
+        inp.T_world_object, inp.samples_object, o.R_object_gwc, g.T_gripper_gwc, o.depth
     )
     theta = o.theta[orientation]
     flipped = o.flipped[orientation]
