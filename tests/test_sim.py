@@ -211,3 +211,124 @@ def test_grasp_execution_outcomes(
     assert ex.outcome == expected, ex.metrics
     if expected == "success":
         assert ex.metrics["rise_after_hold"] > 0.15
+
+
+def test_fingers_are_driven_to_the_plans_joint_targets(jaw_dir: Path):
+    """In the air: the fingers start in ``joints_pregrasp`` and end in
+    ``joints_grasp`` (the mimic following); the approach starts at the plan's
+    pre-grasp pose."""
+    p = SimParams(hold_time=0.5)
+    g = sim_gripper_from_files(jaw_description(), jaw_dir)
+    far = SimObject("box", [Part("box", (0.04, 0.06, 0.08), _T((0.2, 0.2, 0.04)))], 0.2)
+    scene = build_scene(far, g, p)
+    T_world_base = _T((0.0, 0.0, 0.3), R_DOWN)
+    T_pre = T_world_base.copy()
+    T_pre[2, 3] += 0.05  # 5 cm back along the approach axis (world -z)
+    ex = execute_grasp(
+        scene,
+        _T(),
+        T_world_base,
+        p,
+        T_world_pregrasp=T_pre,
+        joints_pregrasp={"j_left": 0.045},
+        joints_grasp={"j_left": 0.015},
+    )
+    closed = ex.metrics["joints_closed"]
+    assert closed["j_left"] == pytest.approx(0.015, abs=5e-4)
+    default = execute_grasp(scene, _T(), T_world_base, p)
+    assert default.metrics["joints_closed"]["j_left"] == pytest.approx(0.0, abs=5e-4)
+    # the approach from 5 cm instead of the 10 cm standoff takes 0.5 s less
+    assert default.metrics["sim_s"] - ex.metrics["sim_s"] == pytest.approx(
+        0.5, abs=0.01
+    )
+    with pytest.raises(SimulationError, match="j_right"):
+        execute_grasp(scene, _T(), T_world_base, p, joints_grasp={"j_right": 0.0})
+
+
+def test_squeeze_past_the_surface_becomes_a_grip(jaw_dir: Path, box_object: SimObject):
+    """Position-controlled fingers whose targets stop at the box's faces barely
+    press on it; 10 mm past them (the planner's default squeeze) they grip."""
+    p = SimParams(hold_time=2.0)
+    g = sim_gripper_from_files(jaw_description(), jaw_dir)
+    scene = build_scene(box_object, g, p)
+    T_world_base = _T((0.0, 0.0, 0.08 + 0.10 - 0.02), R_DOWN)
+    surface = 0.02  # each finger's inner face touches the 4 cm box at q = 2 cm
+    forces = {}
+    for squeeze in (0.0, 0.01):
+        target = surface - squeeze
+        ex = execute_grasp(
+            scene, _T(), T_world_base, p, joints_grasp={"j_left": target}
+        )
+        forces[squeeze] = ex.metrics["grip_force"]
+        # the box stops the fingers short of a target inside it (contacts give
+        # way a few mm)
+        reached = ex.metrics["joints_closed"]["j_left"]
+        assert target - 1e-3 < reached < surface + 1e-3
+    assert forces[0.0] < 2.0
+    assert forces[0.01] > 20.0  # both fingers together; the box weighs 2 N
+    assert ex.outcome == "success", ex.metrics
+
+
+def test_eval_uses_the_plans_targets_and_records_which(monkeypatch):
+    """A plan with joint targets closes to them (``finger_targets: plan``), one
+    without them to the YAML's ``closed`` posture (``closed``); plans with the
+    same pose but other targets are executed apart."""
+    from types import SimpleNamespace
+
+    from wsgrasp.sim import runner
+    from wsgrasp.sim.runner import SpecEntry, Task
+    from wsgrasp.sim.trial import Settled
+
+    T = _T((0.0, 0.0, 0.3), R_DOWN)  # in the air, above a box out of reach
+
+    def result(**targets: float) -> SimpleNamespace:
+        return SimpleNamespace(
+            found=True,
+            T_world_ee=T,
+            timing_ms={"total": 1.0},
+            hint="",
+            T_world_pregrasp=None,
+            joints_pregrasp={},
+            joints_grasp=dict(targets),
+        )
+
+    results = {
+        "yaml": result(),
+        "plan": result(panda_finger_joint1=0.01),
+        "plan_again": result(panda_finger_joint1=0.01),
+        "wider": result(panda_finger_joint1=0.03),
+    }
+
+    class FakePipeline:
+        def __init__(self, r: SimpleNamespace) -> None:
+            self.r = r
+
+        def plan(self, scene: object, observers: object = ()) -> SimpleNamespace:
+            return self.r
+
+    monkeypatch.setattr(runner, "_pipeline", lambda e: FakePipeline(results[e.label]))
+    far = SimObject("box", [Part("box", (0.04, 0.06, 0.08), _T((0.2, 0.2, 0.04)))], 0.2)
+    task = Task(
+        object=far,
+        trial=0,
+        seed=0,
+        specs=[SpecEntry("franka_hand", label, {}) for label in results],
+        params=SimParams(hold_time=0.2),
+    )
+    records: list[dict] = []
+    executed: dict = {}
+    runner._run_specs(task, None, 0.0, Settled(_T(), 1, 0.0), records, executed, [])
+    by = {r["spec"]: r for r in records}
+    assert {k: r["finger_targets"] for k, r in by.items()} == {
+        "yaml": "closed",
+        "plan": "plan",
+        "plan_again": "plan",
+        "wider": "plan",
+    }
+    assert len(executed) == 3  # plan and plan_again share one execution
+    closed = {
+        k: r["metrics"]["joints_closed"]["panda_finger_joint1"] for k, r in by.items()
+    }
+    assert closed == pytest.approx(
+        {"yaml": 0.0, "plan": 0.01, "plan_again": 0.01, "wider": 0.03}, abs=5e-4
+    )

@@ -14,7 +14,6 @@ from urdf_factory import jaw_urdf
 pytest.importorskip("mujoco")
 
 from wsgrasp.sim import (  # noqa: E402
-    OUTCOMES,
     EvalConfig,
     SimParams,
     build_scene,
@@ -205,8 +204,10 @@ def test_scaffold_plan_and_simulate_a_hand_on_an_arm(tmp_path: Path):
     records, _ = run_eval(config, progress=False)
     (rec,) = records
     assert rec["found"], rec.get("hint")
+    # approached from the plan's pre-grasp pose, closed to its joint targets
+    assert rec["approach_from"] == "plan" and rec["finger_targets"] == "plan"
+    assert set(rec["joints_grasp"]) == {"left_joint"}
     assert rec["outcome"] == "success", rec
-    assert rec["outcome"] in OUTCOMES
 
 
 PYBULLET_PANDA = None
@@ -242,4 +243,5 @@ def test_real_panda_urdf_with_base_link_panda_hand(tmp_path: Path):
         workers=min(2, os.cpu_count() or 1),
     )
     records, _ = run_eval(config, progress=False)
+    assert [r["finger_targets"] for r in records] == ["plan", "plan"]
     assert [r["outcome"] for r in records] == ["success", "success"], records

@@ -36,8 +36,25 @@ Finger drive
     joint damping ``damping_prismatic`` / ``damping_revolute`` and armature
     ``armature_prismatic`` / ``armature_revolute``. URDF ``<mimic>`` joints are
     coupled to their master by a joint equality ``q = offset + multiplier *
-    q_master``. Closing ramps the targets from the YAML's ``pregrasp`` to its
-    ``closed`` posture over ``close_time``.
+    q_master``. Closing ramps
+    the targets from the plan's ``joints_pregrasp`` to its ``joints_grasp`` (or,
+    for a plan without them, from the YAML's ``pregrasp`` to its ``closed``
+    posture) over ``close_time``, then waits ``close_wait``.
+
+    A position-controlled finger presses only as far as its target lies past the
+    surface: the plan's ``joints_grasp`` drives each pad ``approach.squeeze``
+    (10 mm by default) through its contact, and the grip is the gain times the
+    part of that margin left when the fingers have sunk into MuJoCo's soft
+    contacts (in series with the actuator: the jaw of ``tests/test_sim.py``,
+    sent 10 mm past the faces of a 4 cm box, stops 4.8 mm in and presses 26 N at
+    5000 N/m; a mimic pair shares its master's force). With
+    ``kp_prismatic`` 2000 N/m a 10 mm squeeze held the Franka hand's paper13
+    grasps with a median 18 N (sum of normal forces over both fingers), half of
+    what closing towards ``closed`` gave (39 N); 5000 N/m gives 34 N (all 26
+    held either way). Raising ``kp_revolute`` does not help the Allegro hand
+    (13, 13, 14, 12 and 10 of 26 held at 0.7, 2, 5, 10 and 20 N·m/rad): its
+    misses are fingers whose targets leave the pad off the object's surface,
+    which no gain changes.
 
 Protocol
     The object is dropped from ``drop_height`` above the table at a random
@@ -45,8 +62,9 @@ Protocol
     to ``drop_tilt_deg`` from its natural resting pose (``drop_pose`` "natural";
     "random" draws any orientation, so mugs land on their sides) and
     settles with extra damping ``settle_damping`` on its free joint (removed for
-    the grasp). The gripper starts ``standoff`` back along its approach axis,
-    approaches, closes, lifts ``lift_height`` and holds for ``hold_time``.
+    the grasp). The gripper starts at the plan's pre-grasp pose (a plan without
+    one: ``standoff`` back along its approach axis), approaches, closes, lifts
+    ``lift_height`` and holds for ``hold_time``.
 """
 
 from __future__ import annotations
@@ -81,7 +99,7 @@ class SimParams:
     drive_damping_angular: float = 3.0
     drive_armature_linear: float = 0.5
     drive_armature_angular: float = 0.01
-    kp_prismatic: float = 2000.0
+    kp_prismatic: float = 5000.0
     kp_revolute: float = 2.0
     damping_prismatic: float = 20.0
     damping_revolute: float = 0.05

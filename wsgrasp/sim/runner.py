@@ -167,7 +167,26 @@ def _run_specs(
             records.append(rec)
             continue
         T = np.asarray(result.T_world_ee, dtype=np.float64)
-        key = (entry.gripper, np.round(T, 9).tobytes())
+        # the plan's per-grasp targets; a plan without them approaches from the
+        # standoff and closes towards the gripper YAML's `closed` posture
+        T_pre = getattr(result, "T_world_pregrasp", None)
+        T_pre = None if T_pre is None else np.asarray(T_pre, dtype=np.float64)
+        joints_pre = dict(getattr(result, "joints_pregrasp", None) or {})
+        joints_grasp = dict(getattr(result, "joints_grasp", None) or {})
+        rec["approach_from"] = "standoff" if T_pre is None else "plan"
+        rec["finger_targets"] = "plan" if joints_grasp else "closed"
+        # one execution per distinct (pose, pre-grasp pose, joint targets)
+        key = (
+            entry.gripper,
+            b"|".join(
+                [
+                    np.round(T, 9).tobytes(),
+                    b"" if T_pre is None else np.round(T_pre, 9).tobytes(),
+                    _joints_key(joints_pre),
+                    _joints_key(joints_grasp),
+                ]
+            ),
+        )
         t1 = time.perf_counter()
         if key not in executed:
             sim_gripper = _cached(
@@ -178,7 +197,15 @@ def _run_specs(
                 ("scene", okey, entry.gripper, p),
                 lambda: build_scene(obj, sim_gripper, p),
             )
-            executed[key] = execute_grasp(world, settled.T_world_object, T, p)
+            executed[key] = execute_grasp(
+                world,
+                settled.T_world_object,
+                T,
+                p,
+                T_world_pregrasp=T_pre,
+                joints_pregrasp=joints_pre,
+                joints_grasp=joints_grasp,
+            )
         ex = executed[key]
         rec.update(
             outcome=ex.outcome,
@@ -186,7 +213,15 @@ def _run_specs(
             exec_s=time.perf_counter() - t1,
             T_world_ee=T.tolist(),
         )
+        if joints_grasp:
+            rec["joints_grasp"] = joints_grasp
         records.append(rec)
+
+
+def _joints_key(joints: dict[str, float]) -> bytes:
+    """Joint targets as bytes for the execution cache (names sorted, values
+    rounded like the poses)."""
+    return repr(sorted((k, round(float(v), 9)) for k, v in joints.items())).encode()
 
 
 def _init_worker() -> None:

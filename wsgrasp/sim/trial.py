@@ -7,10 +7,14 @@
 2. **Look.** Three noisy depth views of the settled scene are rendered with the
    camera model of ``scene synth``; the planner gets only these views.
 3. **Plan.** The pipeline plans a grasp: the pose of the gripper's base link.
-4. **Approach.** The gripper starts ``standoff`` back along its approach axis in
-   the pregrasp posture and is driven in a straight line to the planned pose.
-5. **Close.** Position actuators close the fingers towards the YAML's ``closed``
-   posture.
+4. **Approach.** The gripper starts at the plan's pre-grasp pose
+   (``T_world_pregrasp``; without one, ``standoff`` back along its approach axis)
+   with the fingers in the plan's ``joints_pregrasp`` and is driven in a straight
+   line to the planned pose.
+5. **Close.** The position actuators' targets ramp to the plan's ``joints_grasp``
+   (the fingers at their contacts, squeezed through them) over ``close_time``,
+   then hold ``close_wait`` to build the grip. A plan without joint targets
+   closes towards the gripper YAML's ``closed`` posture instead.
 6. **Lift and hold.** The gripper is driven 20 cm up and held there for 10 s.
 
 Outcomes: ``success`` (object held off the table at the end),
@@ -22,6 +26,7 @@ after the lift) and ``dropped_holding`` (held after the lift, lost during the ho
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -176,7 +181,9 @@ class Execution:
         approach, ``blocked`` (m, gripper's lag behind its target at the planned
         pose), ``rise_after_lift`` and ``rise_after_hold`` (m, object height gain),
         ``contact_after_lift``/``contact_after_hold`` (object touching the
-        gripper), ``sim_s`` (simulated seconds).
+        gripper), ``grip_force`` (N, sum of the normal forces between gripper and
+        object once closed), ``joints_closed`` (actuated joint name to position
+        once closed), ``sim_s`` (simulated seconds).
     """
 
     outcome: str
@@ -205,9 +212,36 @@ def _angle_deg(Ra: Array, Rb: Array) -> float:
 
 
 def execute_grasp(
-    scene: SimScene, T_world_object: Array, T_world_base: Array, p: SimParams
+    scene: SimScene,
+    T_world_object: Array,
+    T_world_base: Array,
+    p: SimParams,
+    *,
+    T_world_pregrasp: Array | None = None,
+    joints_pregrasp: Mapping[str, float] | None = None,
+    joints_grasp: Mapping[str, float] | None = None,
 ) -> Execution:
-    """Run steps 4–6 of the protocol for a planned base pose ``(4, 4)``."""
+    """Run steps 4–6 of the protocol for a planned base pose ``(4, 4)``.
+
+    Parameters
+    ----------
+    scene
+        A world with the gripper (:func:`~wsgrasp.sim.scene.build_scene`).
+    T_world_object : (4, 4) float
+        The settled object's pose.
+    T_world_base : (4, 4) float
+        The planned pose of the gripper's base link.
+    p
+        The trial's parameters.
+    T_world_pregrasp : (4, 4) float, optional
+        Where the approach starts (the plan's pre-grasp pose); the straight line
+        from there to ``T_world_base`` is driven at the grasp's orientation.
+        Default: ``p.standoff`` back along the approach axis.
+    joints_pregrasp, joints_grasp : dict of str to float, optional
+        Actuated joint targets to approach in and to close to (the plan's
+        per-grasp postures); joints they leave out, or all of them when not
+        given, take the gripper YAML's ``pregrasp`` and ``closed`` values.
+    """
     mujoco = require_mujoco()
     g = scene.gripper
     assert g is not None and scene.gripper_qpos is not None
@@ -215,10 +249,22 @@ def execute_grasp(
     mujoco.mj_resetData(m, d)
     m.dof_damping[scene.object_dof] = 0.0
     d.qpos[scene.object_qpos] = _pose_to_qpos(T_world_object)
-    T_goal = T_world_base @ np.linalg.inv(g.T_root_base)  # root pose at the grasp
-    approach = T_world_base[:3, :3] @ g.approach_axis  # (3,) world
+    T_base_root = np.linalg.inv(g.T_root_base)
+    T_goal = T_world_base @ T_base_root  # root pose at the grasp
     T_start = T_goal.copy()
-    T_start[:3, 3] -= p.standoff * approach
+    if T_world_pregrasp is None:
+        approach = T_world_base[:3, :3] @ g.approach_axis  # (3,) world
+        T_start[:3, 3] -= p.standoff * approach
+    else:  # its position; the orientation stays the grasp's
+        T_start[:3, 3] = (np.asarray(T_world_pregrasp, np.float64) @ T_base_root)[:3, 3]
+    ctrl_pre = g.pregrasp
+    qpos_pre = g.qpos_pregrasp
+    if joints_pregrasp:
+        ctrl_pre = g.targets(joints_pregrasp, g.pregrasp, "joints_pregrasp")
+        qpos_pre = g.joint_qpos(ctrl_pre)
+    ctrl_grasp = g.closed
+    if joints_grasp:
+        ctrl_grasp = g.targets(joints_grasp, g.closed, "joints_grasp")
     from wsgrasp.sim._xml import quat_wxyz
 
     m.body_quat[scene.root_body] = quat_wxyz(T_goal[:3, :3])
@@ -226,9 +272,9 @@ def execute_grasp(
     d.qpos[scene.gripper_qpos][:3] = T_start[:3, 3]
     d.ctrl[:6] = 0.0
     d.ctrl[:3] = T_start[:3, 3]
-    for jn, v in g.qpos_pregrasp.items():
+    for jn, v in qpos_pre.items():
         d.qpos[scene.joint_qpos[jn]] = v
-    d.ctrl[6:] = g.pregrasp
+    d.ctrl[6:] = ctrl_pre
     mujoco.mj_forward(m, d)
     z0 = float(d.xpos[scene.object_body][2])
     p0 = d.xpos[scene.object_body].copy()
@@ -260,9 +306,13 @@ def execute_grasp(
     # 5. close: ramp the targets, then let the grip build up
     n = max(1, int(round(p.close_time / dt)))
     for i in range(1, n + 1):
-        d.ctrl[6:] = g.pregrasp + (g.closed - g.pregrasp) * (i / n)
+        d.ctrl[6:] = ctrl_pre + (ctrl_grasp - ctrl_pre) * (i / n)
         mujoco.mj_step(m, d)
     wait(p.close_wait)
+    joints_closed = {
+        jn: float(d.qpos[scene.joint_qpos[jn]]) for jn in g.actuated
+    }  # where the fingers stopped
+    grip_force = _grip_force(scene)
     # 6. lift, then hold
     top = T_goal[:3, 3] + np.array([0.0, 0.0, p.lift_height])
     move(T_goal[:3, 3], top, p.lift_speed)
@@ -293,6 +343,26 @@ def execute_grasp(
             "rise_after_hold": rise_hold,
             "contact_after_lift": bool(grip),
             "contact_after_hold": bool(grip2),
+            "grip_force": grip_force,
+            "joints_closed": joints_closed,
             "sim_s": float(d.time),
         },
     )
+
+
+def _grip_force(scene: SimScene) -> float:
+    """Sum (N) of the normal forces of the gripper's contacts with the object."""
+    mujoco = require_mujoco()
+    m, d = scene.model, scene.data
+    n = d.ncon
+    if n == 0:
+        return 0.0
+    bodies = m.geom_bodyid[np.asarray(d.contact.geom[:n])]  # (n, 2)
+    obj = (bodies == scene.object_body).any(axis=1)
+    grip = np.isin(bodies, scene.gripper_bodies).any(axis=1)
+    wrench = np.zeros(6)
+    total = 0.0
+    for i in np.flatnonzero(obj & grip):
+        mujoco.mj_contactForce(m, d, int(i), wrench)
+        total += float(wrench[0])  # normal component, contact frame
+    return total
