@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 export MPLBACKEND := Agg
 
-.PHONY: demo test lint bench eval schema clean sysdeps
+.PHONY: demo test lint bench eval eval-random schema clean sysdeps
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -35,6 +35,13 @@ eval: $(STAMP)
 	$(BIN)/wsgrasp eval --gripper franka_hand --gripper allegro_right --objects paper13 \
 		--trials 10 --seed 0 --json-out eval-results/paper13.json \
 		--md-out eval-results/paper13.md
+
+# pybullet_data's random objects, development range (000-299; 300-999 is held out)
+eval-random: $(STAMP)
+	$(BIN)/python -m pip install -q -e '.[sim]'
+	$(BIN)/wsgrasp eval --gripper franka_hand --gripper allegro_right \
+		--objects random:000-299 --trials 3 --seed 0 \
+		--json-out eval-results/random-dev.json --md-out eval-results/random-dev.md
 
 bench: $(STAMP)
 	$(BIN)/wsgrasp bench

@@ -4,10 +4,14 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import typer
 
 from wsgrasp.cli._common import console, err_console, print_json
+
+if TYPE_CHECKING:
+    from wsgrasp.sim.objects import ObjectList
 
 
 def register(app: typer.Typer) -> None:
@@ -26,7 +30,8 @@ def eval_command(
         ["paper13"],
         "--objects",
         "-o",
-        help="Object set (paper13), object names of paper13, or mesh files "
+        help="Object set (paper13; random: pybullet_data's 1,000 objects, or a "
+        "range random:000-299, random:7), object names of paper13, or mesh files "
         "(OBJ/STL/PLY, metres); repeat for several.",
     ),
     trials: int = typer.Option(10, "--trials", "-n", min=1, help="Trials per object."),
@@ -77,7 +82,6 @@ def eval_command(
         EvalConfig,
         SimParams,
         build_report,
-        load_objects,
         load_sim_gripper,
         report_markdown,
         report_table,
@@ -85,6 +89,7 @@ def eval_command(
         run_eval,
         spec_entries,
     )
+    from wsgrasp.sim.objects import resolve_objects
 
     require_mujoco()
     if drop not in ("natural", "random"):
@@ -93,7 +98,19 @@ def eval_command(
             hint="pass --drop natural",
         )
     params = SimParams(drop_pose=drop)
-    objs = load_objects(list(objects), mass=mass, friction=friction)
+    resolved = resolve_objects(
+        list(objects),
+        mass=mass,
+        friction=friction,
+        workers=workers,
+        progress=not quiet and not as_json,
+    )
+    objs = resolved.objects
+    skipped_note = _skipped_note(resolved)
+    if not as_json:
+        for note in (skipped_note, _decomposition_note(resolved)):
+            if note:
+                err_console.print(note)
     for g in grippers:  # fail early: unknown gripper, URDF, no closed posture
         load_sim_gripper(g, params)
     entries = spec_entries(list(grippers), list(specs) or None, paper=paper)
@@ -116,7 +133,10 @@ def eval_command(
         records,
         primary=primary,
         meta={
-            "objects": ", ".join(objects),
+            "objects": ", ".join(objects)
+            + (f" ({len(objs)} objects; {skipped_note})" if skipped_note else ""),
+            "objects_skipped": {k.name: k.reason for k in resolved.skipped},
+            "decomposition": _decomposition_meta(resolved),
             "grippers": list(grippers),
             "specs": {e.label: e.source for e in entries},
             "trials_per_object": trials,
@@ -146,3 +166,48 @@ def eval_command(
     for path in (json_out, md_out):
         if path is not None:
             err_console.print(f"wrote {path}")
+
+
+def _skipped_note(resolved: ObjectList) -> str:
+    """One line on the objects of a set left out, by reason."""
+    from collections import Counter
+
+    if not resolved.skipped:
+        return ""
+    by_reason = Counter(k.reason for k in resolved.skipped)
+    names = [k.name for k in resolved.skipped]
+    return (
+        f"skipped {len(names)} objects: "
+        + ", ".join(f"{n} {reason}" for reason, n in sorted(by_reason.items()))
+        + f" ({', '.join(names[:8])}{', ...' if len(names) > 8 else ''})"
+    )
+
+
+def _decomposition_note(resolved: ObjectList) -> str:
+    """One line on the meshes decomposed (none when all came from the cache)."""
+    d = _decomposition_meta(resolved)
+    if not d["computed"]:
+        return ""
+    return (
+        f"coacd decomposed {d['computed']} meshes ({d['compute_s_total']:.0f} s "
+        f"in all, median {d['compute_s_median']:.2f} s, {d['parts_median']:.0f} "
+        f"parts); {d['cached']} from the cache"
+    )
+
+
+def _decomposition_meta(resolved: ObjectList) -> dict[str, Any]:
+    """Counts and times of the mesh objects' convex decompositions."""
+    import numpy as np
+
+    ds = list(resolved.decompositions.values())
+    computed = [d.seconds for d in ds if d.status in ("miss", "off", "convex")]
+    parts = [len(d.hulls) for d in ds]
+    return {
+        "meshes": len(ds),
+        "computed": len(computed),
+        "cached": sum(d.status == "hit" for d in ds),
+        "compute_s_total": round(float(np.sum(computed)), 2) if computed else 0.0,
+        "compute_s_median": round(float(np.median(computed)), 3) if computed else 0.0,
+        "parts_median": float(np.median(parts)) if parts else 0.0,
+        "parts_max": max(parts, default=0),
+    }

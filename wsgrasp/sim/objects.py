@@ -1,9 +1,12 @@
-"""Objects for the grasp trials: the ``paper13`` set, generated in code, and meshes.
+"""Objects for the grasp trials: the ``paper13`` set, generated in code, the
+``random`` set (pybullet_data, :mod:`wsgrasp.sim.random_objects`), and meshes.
 
 An object is a rigid body made of convex parts (MuJoCo collides convex shapes):
 primitives (box, cylinder, capsule, sphere, ellipsoid) and convex hulls. The same
 parts, as triangle meshes, are what the virtual depth cameras see. Hollow things
 (mug, bin, cup, pot) are walls made of convex segments, so fingers can go inside.
+Mesh objects (files, the ``random`` set) collide as their coacd convex
+decomposition (:mod:`wsgrasp.sim._meshes`) and are seen as the mesh itself.
 
 ``paper13`` models the 13 objects of Sorour et al. (IROS 2019), Table II, with
 plausible sizes and masses (metres, kilograms); the paper chose them "within the
@@ -14,7 +17,7 @@ Allegro hand).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -23,15 +26,26 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wsgrasp.errors import InputError
+from wsgrasp.sim._meshes import (
+    Decomposition,
+    MeshSource,
+    convex_decomposition,
+    decompose_meshes,
+)
 from wsgrasp.sim._xml import attrs, fmt, pose_attrs
+from wsgrasp.sim.random_objects import RANDOM_SET, Skipped, random_objects
 
 __all__ = [
     "OBJECT_SETS",
+    "ObjectList",
     "Part",
     "SimObject",
     "load_objects",
+    "mesh_source",
     "object_from_mesh",
+    "object_from_source",
     "paper13",
+    "resolve_objects",
 ]
 
 Array = NDArray[np.float64]
@@ -351,17 +365,35 @@ def paper13() -> list[SimObject]:
     return [build() for build in PAPER13.values()]
 
 
-#: named object sets
-OBJECT_SETS: dict[str, Callable[[], list[SimObject]]] = {"paper13": paper13}
+# --------------------------------------------------------------------------------
+# object sets and mesh files
+# --------------------------------------------------------------------------------
+#: what a set yields: objects (built) and meshes (to decompose), and the skipped
+SetItems = tuple[Sequence[SimObject | MeshSource], Sequence[Skipped]]
 
 
-def object_from_mesh(
+def _paper13_set(selection: str) -> SetItems:
+    if selection:
+        raise InputError(
+            f"object set 'paper13:{selection}': paper13 takes no selection",
+            hint="name its objects one by one instead (--objects mug --objects "
+            "thermos)",
+        )
+    return paper13(), []
+
+
+#: named object sets for ``--objects``: ``NAME`` or ``NAME:SELECTION`` → items
+OBJECT_SETS: dict[str, Callable[[str], SetItems]] = {
+    "paper13": _paper13_set,
+    RANDOM_SET: random_objects,
+}
+_SET_NAMES = f"paper13, {RANDOM_SET}, {RANDOM_SET}:000-299"
+
+
+def mesh_source(
     path: str | Path, *, mass: float = 0.2, friction: float = 0.8
-) -> SimObject:
-    """An object from a mesh file (OBJ/STL/PLY, metres).
-
-    The mesh must be watertight and enclose a volume; it collides as its convex
-    hull (MuJoCo's model of a mesh) and is seen by the cameras as it is.
+) -> MeshSource:
+    """A mesh file (OBJ/STL/PLY, metres), checked, as a mesh to decompose.
 
     Raises
     ------
@@ -374,7 +406,7 @@ def object_from_mesh(
     if not p.exists():
         raise InputError(
             f"object mesh {str(p)!r} does not exist",
-            hint=f"pass a named set ({', '.join(OBJECT_SETS)}) or OBJ/STL/PLY files",
+            hint=f"pass a named set ({_SET_NAMES}) or OBJ/STL/PLY files",
         )
     try:
         mesh = trimesh.load(p, force="mesh")
@@ -409,41 +441,134 @@ def object_from_mesh(
             f"--mass {mass} and --friction {friction} must be positive",
             hint="e.g. --mass 0.2 --friction 0.8",
         )
-    mesh = mesh.copy()
-    lo = mesh.bounds[0]
-    mesh.apply_translation([-mesh.centroid[0], -mesh.centroid[1], -lo[2]])
-    hull = np.asarray(mesh.convex_hull.vertices, dtype=np.float64)
-    return SimObject(
-        p.stem, [Part("hull", vertices=hull)], mass, friction, render_mesh=mesh
-    )
+    return MeshSource(p.stem, mesh, np.ones(3), mass, friction, origin=str(p))
 
 
-def load_objects(
-    names: list[str], *, mass: float | None = None, friction: float | None = None
-) -> list[SimObject]:
-    """Objects from set names (``paper13``) and mesh files, in the given order.
+def object_from_source(source: MeshSource, decomposition: Decomposition) -> SimObject:
+    """The object of a mesh and its convex parts, placed base-down on z = 0 with
+    its centroid over the origin; the cameras see the mesh itself."""
+    mesh = source.scaled()
+    lo = np.asarray(mesh.bounds[0], dtype=np.float64)
+    shift = np.array([-mesh.centroid[0], -mesh.centroid[1], -lo[2]])  # (3,)
+    mesh.apply_translation(shift)
+    parts = [Part("hull", vertices=h + shift) for h in decomposition.hulls]
+    return SimObject(source.name, parts, source.mass, source.friction, render_mesh=mesh)
 
-    ``mass`` and ``friction`` override the objects' own values when given.
+
+def object_from_mesh(
+    path: str | Path, *, mass: float = 0.2, friction: float = 0.8
+) -> SimObject:
+    """An object from a mesh file (OBJ/STL/PLY, metres).
+
+    The mesh must be watertight and enclose a volume; it collides as its coacd
+    convex decomposition (:func:`wsgrasp.sim._meshes.convex_decomposition`,
+    cached) and is seen by the cameras as it is.
+
+    Raises
+    ------
+    InputError
+        The file is missing, not a mesh, open, or without volume.
+    SimulationError
+        The mesh is concave and coacd is not installed.
     """
-    out: list[SimObject] = []
+    source = mesh_source(path, mass=mass, friction=friction)
+    return object_from_source(source, convex_decomposition(source.mesh, source.scale))
+
+
+@dataclass
+class ObjectList:
+    """Objects resolved from ``--objects`` names.
+
+    Attributes
+    ----------
+    objects : list of SimObject
+    skipped : list of Skipped
+        Objects of a set left out (too small, unreadable), with the reason.
+    decompositions : dict of str to Decomposition
+        The convex decomposition of each mesh object, by object name.
+    """
+
+    objects: list[SimObject]
+    skipped: list[Skipped] = field(default_factory=list)
+    decompositions: dict[str, Decomposition] = field(default_factory=dict)
+
+
+def resolve_objects(
+    names: list[str],
+    *,
+    mass: float | None = None,
+    friction: float | None = None,
+    workers: int = 0,
+    progress: bool = False,
+) -> ObjectList:
+    """Objects from set names, paper13 object names and mesh files, in order.
+
+    A name is a set (``paper13``, ``random``) or a set with a selection after a
+    colon (``random:000-299``) when its part before the colon names a set and it
+    is not an existing file; else a ``paper13`` object's name; else a mesh file.
+    The meshes of all names are decomposed together (:func:`decompose_meshes`:
+    cached, cache misses in ``workers`` processes, with a progress bar when
+    ``progress``). ``mass`` and ``friction`` override the objects' own values.
+
+    Raises
+    ------
+    InputError
+        An unknown name, a missing or bad mesh, a bad selection, or no objects.
+    SimulationError
+        A set whose data or a library it needs is not installed.
+    """
+    items: list[SimObject | MeshSource] = []
+    skipped: list[Skipped] = []
     for name in names:
-        if name in OBJECT_SETS:
-            out.extend(OBJECT_SETS[name]())
+        base, sep, selection = name.partition(":")
+        if base in OBJECT_SETS and not (sep and Path(name).exists()):
+            got, left_out = OBJECT_SETS[base](selection)
+            items.extend(got)
+            skipped.extend(left_out)
         elif name in PAPER13:
-            out.append(PAPER13[name]())
+            items.append(PAPER13[name]())
         else:
-            out.append(
-                object_from_mesh(
+            items.append(
+                mesh_source(
                     name,
                     mass=0.2 if mass is None else mass,
                     friction=0.8 if friction is None else friction,
                 )
             )
-    if not out:
-        raise InputError("no objects given", hint="pass --objects paper13")
-    for o in out:
+    if not items:
+        raise InputError(
+            f"no objects given{' (all skipped)' if skipped else ''}",
+            hint="pass --objects paper13 or --objects random:000-299",
+        )
+    sources = [it for it in items if isinstance(it, MeshSource)]
+    decomposed = decompose_meshes(sources, workers=workers, progress=progress)
+    by_source = {id(s): d for s, d in zip(sources, decomposed, strict=True)}
+    out = ObjectList([])
+    for it in items:
+        if isinstance(it, MeshSource):
+            d = by_source[id(it)]
+            out.objects.append(object_from_source(it, d))
+            out.decompositions[it.name] = d
+        else:
+            out.objects.append(it)
+    out.skipped = skipped
+    for o in out.objects:
         if mass is not None:
             o.mass = mass
         if friction is not None:
             o.friction = friction
     return out
+
+
+def load_objects(
+    names: list[str],
+    *,
+    mass: float | None = None,
+    friction: float | None = None,
+    workers: int = 0,
+    progress: bool = False,
+) -> list[SimObject]:
+    """The objects of :func:`resolve_objects` (without the skipped ones' list)."""
+    return resolve_objects(
+        names, mass=mass, friction=friction, workers=workers, progress=progress
+    ).objects
