@@ -123,3 +123,21 @@ def test_spec_entries_default_paper_and_files(tmp_path: Path):
     assert entry.label == "x" and entry.spec["gripper"] == "allegro_right"
     with pytest.raises(InputError, match="labels repeat"):
         spec_entries(["franka_hand"], [str(spec), str(spec)])
+
+
+def test_spec_entries_followup_sampling():
+    """--followup adds the follow-up's xyz sampling beside default and paper, for
+    a gripper with its own follow-up spec and for one that borrows Franka's."""
+    barrett = str(
+        Path(__file__).resolve().parent.parent
+        / "examples/plugins/barrett_bh8_like/wsgrasp_barrett_bh8_like"
+        / "barrett_bh8_like.yaml"
+    )
+    entries = spec_entries(["allegro_right", barrett], followup=True)
+    assert [e.label for e in entries] == ["default", "paper", "followup"] * 2
+    for e in entries:
+        if e.label == "followup":
+            assert e.spec["sampling"]["mode"] == "xyz"
+            assert e.source.endswith("_followup.yaml")
+        else:
+            assert e.spec["sampling"].get("mode", "major_axis") != "xyz"

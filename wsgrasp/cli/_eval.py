@@ -46,7 +46,13 @@ def eval_command(
     paper: bool = typer.Option(
         True,
         "--paper/--no-paper",
-        help="Also run the paper's scorer alone (without --spec).",
+        help="Also run the paper's sampling and scorer alone (without --spec).",
+    ),
+    followup: bool = typer.Option(
+        False,
+        "--followup",
+        help="Also run the authors' follow-up sampling (xyz orientations, "
+        "<gripper>_followup.yaml; without --spec).",
     ),
     mass: float | None = typer.Option(
         None, "--mass", help="Object mass (kg), overriding the objects' own."
@@ -113,7 +119,9 @@ def eval_command(
                 err_console.print(note)
     for g in grippers:  # fail early: unknown gripper, URDF, no closed posture
         load_sim_gripper(g, params)
-    entries = spec_entries(list(grippers), list(specs) or None, paper=paper)
+    entries = spec_entries(
+        list(grippers), list(specs) or None, paper=paper, followup=followup
+    )
     if record_dir is not None:
         record_dir.mkdir(parents=True, exist_ok=True)
     config = EvalConfig(

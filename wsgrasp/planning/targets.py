@@ -110,9 +110,12 @@ def grasp_targets(
     fingers: list[FingerTarget] = []
     if g.has_configurations:
         T_gripper_world = invert_transforms(T)
+        held_all = [transform_points(T_gripper_world, c.points) for c in contacts]
+        # the middle of the grasp: the mean of the fingers' contact centroids
+        centre = np.mean([h.mean(axis=0) for h in held_all if len(h)], axis=0)
         for f, contact in enumerate(contacts):
-            held = transform_points(T_gripper_world, contact.points)  # (k, 3)
-            ft = _finger_target(g, f, held, contact.spheres, squeeze, pre)
+            held = held_all[f]  # (k, 3)
+            ft = _finger_target(g, f, held, contact.spheres, squeeze, pre, centre)
             ft.pad_world = transform_points(T, ft.pad_world[None])[0]
             fingers.append(ft)
         asked: dict[str, list[float]] = {}
@@ -160,9 +163,17 @@ def _finger_target(
     spheres: NDArray[np.int64],
     squeeze: float,
     pre: dict[str, float],
+    centre: Array,
 ) -> FingerTarget:
     """The contact and grasp postures of finger ``f`` holding ``held`` (k, 3),
-    gripper frame."""
+    gripper frame, in a grasp whose contacts centre on ``centre`` (3,).
+
+    The contact posture is the configuration whose pad centre lies nearest the
+    held points among those whose pad stays on the outer side of them (not
+    nearer the grasp's middle than they are), so that the finger presses on the
+    surface from outside rather than sitting inside the object; where no
+    configuration does, the nearest of all.
+    """
     joints = g.finger_joints[f]
     start = int(g.config_offsets[f])
     q_grid = g.finger_configurations(f)  # (K, d)
@@ -172,6 +183,13 @@ def _finger_target(
     pads = g.config_pad[start + local]  # (c, 3)
     if len(held):
         nearest, _ = cKDTree(held).query(pads)  # (c,) distance to the held points
+        c_f = held.mean(axis=0)
+        out = c_f - centre
+        norm = float(np.linalg.norm(out))
+        if norm > 1e-9:
+            outside = (pads - c_f) @ (out / norm) >= 0.0  # (c,)
+            if outside.any():
+                nearest = np.where(outside, nearest, np.inf)
     else:
         nearest = np.zeros(len(local))
     best = int(np.argmin(nearest))

@@ -1,10 +1,11 @@
 """Which pipeline specs an evaluation runs, per gripper.
 
-By default two: ``default`` (wsgrasp's scorers: the gripper's example spec
+By default two: ``default`` (wsgrasp's defaults: the gripper's example spec
 ``examples/specs/<x>.yaml``, e.g. ``allegro.yaml``) and ``paper`` (the paper's
-criterion alone, ``<x>_paper.yaml``); a gripper without example specs gets the
-Franka ones with its ``gripper`` replaced. Both run on the same scenes, so the
-effect of the added scorers is measured, not claimed.
+sampling and criterion alone, ``<x>_paper.yaml``), and with ``followup`` a third
+(the authors' follow-up sampling, ``<x>_followup.yaml``); a gripper without
+example specs gets the Franka ones with its ``gripper`` replaced. All run on the
+same scenes, so what each change does is measured, not claimed.
 ``--spec FILE`` (or ``LABEL=FILE``) replaces them.
 """
 
@@ -19,7 +20,13 @@ from wsgrasp.sim.runner import SpecEntry
 __all__ = ["BUILTIN_SPECS", "spec_entries"]
 
 #: label → template file in examples/specs (with an in-code fallback)
-BUILTIN_SPECS = {"default": "franka.yaml", "paper": "franka_paper.yaml"}
+BUILTIN_SPECS = {
+    "default": "franka.yaml",
+    "paper": "franka_paper.yaml",
+    "followup": "franka_followup.yaml",
+}
+#: label → the suffix of its file name (``<x><suffix>.yaml``)
+_SUFFIX = {"default": "", "paper": "_paper", "followup": "_followup"}
 
 _FALLBACK: dict[str, dict[str, Any]] = {
     "default": {
@@ -31,6 +38,10 @@ _FALLBACK: dict[str, dict[str, Any]] = {
         ]
     },
     "paper": {"scorers": [{"name": "centroid_distance", "weight": 1.0}]},
+    "followup": {
+        "sampling": {"mode": "xyz", "grid": [5, 5, 5], "steps": [8, 8, 8]},
+        "scorers": [{"name": "centroid_distance", "weight": 1.0}],
+    },
 }
 
 
@@ -44,7 +55,10 @@ def _template(label: str, gripper: str) -> tuple[dict[str, Any], str]:
     folder = project_root() / "examples" / "specs"
     if folder.is_dir():
         for path in sorted(folder.glob("*.yaml")):
-            if path.stem.endswith("_paper") != (label == "paper"):
+            suffix = next(
+                (x for x in _SUFFIX.values() if x and path.stem.endswith(x)), ""
+            )
+            if suffix != _SUFFIX[label]:
                 continue
             data, _ = load_document(path)
             if data.get("gripper") == gripper:
@@ -69,16 +83,21 @@ def _gripper_ref(gripper: str) -> str:
 
 
 def spec_entries(
-    grippers: list[str], specs: list[str] | None = None, *, paper: bool = True
+    grippers: list[str],
+    specs: list[str] | None = None,
+    *,
+    paper: bool = True,
+    followup: bool = False,
 ) -> list[SpecEntry]:
     """Spec entries for every gripper: the built-in ``default`` (and ``paper``
-    unless ``paper`` is False), or the given ``LABEL=FILE`` / ``FILE`` specs."""
+    unless ``paper`` is False, ``followup`` when asked), or the given
+    ``LABEL=FILE`` / ``FILE`` specs."""
     from wsgrasp._loading import load_document
     from wsgrasp.spec import load_spec
 
     def sources_for(gripper: str) -> list[tuple[str, dict[str, Any], str]]:
         if not specs:
-            labels = ["default", "paper"] if paper else ["default"]
+            labels = ["default"] + ["paper"] * paper + ["followup"] * followup
             return [(lb, *_template(lb, gripper)) for lb in labels]
         out = []
         for item in specs:
