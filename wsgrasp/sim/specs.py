@@ -53,6 +53,7 @@ def _template(label: str, gripper: str) -> tuple[dict[str, Any], str]:
     from wsgrasp.bench import project_root
 
     folder = project_root() / "examples" / "specs"
+    names = {gripper, _gripper_name(gripper)}
     if folder.is_dir():
         for path in sorted(folder.glob("*.yaml")):
             suffix = next(
@@ -61,7 +62,8 @@ def _template(label: str, gripper: str) -> tuple[dict[str, Any], str]:
             if suffix != _SUFFIX[label]:
                 continue
             data, _ = load_document(path)
-            if data.get("gripper") == gripper:
+            ref = str(data.get("gripper", ""))
+            if ref in names or _gripper_name(str(path.parent / ref)) in names:
                 return dict(data), str(path)
         path = folder / BUILTIN_SPECS[label]
         if path.exists():
@@ -73,6 +75,16 @@ def _template(label: str, gripper: str) -> tuple[dict[str, Any], str]:
         "sampling": {"points": 147, "orientations": 4, "angle_range_deg": 360},
     }
     return {**base, **_FALLBACK[label]}, f"built-in {label}"
+
+
+def _gripper_name(gripper: str) -> str:
+    """The registered name of a gripper given by name or by its YAML's path."""
+    p = Path(gripper)
+    if p.suffix in (".yaml", ".yml", ".json", ".toml") and p.exists():
+        from wsgrasp.spec import load_gripper_description
+
+        return load_gripper_description(p)[0].name
+    return gripper
 
 
 def _gripper_ref(gripper: str) -> str:

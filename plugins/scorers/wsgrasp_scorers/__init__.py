@@ -145,12 +145,13 @@ class JointMarginScorer:
 
 
 class MassCenterScorer:
-    """The grasp near the object's estimated centre of mass.
+    """The grasp axis passing near the object's estimated centre of mass.
 
-    ``1 / (1 + d / d_ref)`` with ``d`` the distance from the centre of the
-    fingers' contacts to ``batch.mass_center`` (the object's box middle, at half
-    its height above the table) and ``d_ref`` half the object's diagonal: less
-    torque about the grip when the object is lifted.
+    ``1 / (1 + d / d_ref)`` with ``d`` the distance from ``batch.mass_center``
+    (the object's box middle, at half its height above the table) to the grasp
+    axis, the line along the closing direction through the centre of the fingers'
+    contacts, and ``d_ref`` half the object's diagonal. Gravity then pulls
+    through the grip instead of twisting the object about it.
     """
 
     class Options(_Options):
@@ -158,7 +159,10 @@ class MassCenterScorer:
 
     def score(self, batch: Any, options: Options) -> np.ndarray:
         centre = np.nanmean(batch.contact_centroids, axis=1)  # (F, 3)
-        d = np.linalg.norm(centre - batch.mass_center, axis=-1)
+        r = batch.mass_center - centre  # (F, 3)
+        a = batch.closing  # (F, 3) unit
+        across = r - np.einsum("fj,fj->f", r, a)[:, None] * a
+        d = np.linalg.norm(across, axis=-1)
         d_ref = max(0.5 * float(np.linalg.norm(batch.extents)), 1e-6)
         return 1.0 / (1.0 + d / d_ref)
 
