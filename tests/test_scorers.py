@@ -104,3 +104,62 @@ def test_weighted_sum_and_a_failing_scorer_named():
 
     with pytest.raises(PluginError, match="scorer 'broken'"):
         combine_scores(b, [("broken", Broken(), None, 1.0)])
+
+
+def test_mass_center_prefers_a_grasp_axis_through_the_centre():
+    """Two pairs of opposite points, 4 cm apart in height, on an object resting
+    on a table 4 cm below the lower pair: the estimated centre of mass lies at
+    half the object's height, on the lower pair's axis."""
+    scorer, opts = _scorer("mass_center")
+    points = np.array([[0, 0.03, 0], [0, -0.03, 0], [0, 0.03, 0.04], [0, -0.03, 0.04]])
+    holding = np.zeros((2, 4, 2), dtype=bool)
+    holding[0, 0, 0] = holding[0, 1, 1] = True  # the lower pair
+    holding[1, 2, 0] = holding[1, 3, 1] = True  # the upper pair
+    T = np.tile(np.eye(4), (2, 1, 1))  # closing along y
+    T_world_table = np.eye(4)
+    T_world_table[2, 3] = -0.04
+    batch = CandidateBatch(
+        gripper=make_jaw_gripper(),
+        T_world_gwc=T,
+        T_world_gripper=T,
+        theta=np.zeros(2),
+        holding=holding,
+        object_points=points,
+        T_world_object=np.eye(4),
+        extents=np.array([0.01, 0.06, 0.04]),
+        table_normal=np.array([0.0, 0.0, 1.0]),
+        min_table_height=np.zeros(2),
+        T_world_table=T_world_table,
+    )
+    np.testing.assert_allclose(batch.mass_center, [0.0, 0.0, 0.0], atol=1e-12)
+    s = scorer.score(batch, opts)
+    assert s[0] == pytest.approx(1.0) and s[1] < 0.7
+
+
+def test_joint_margin_prefers_contacts_inside_the_joint_range():
+    """On the Franka hand, an object as wide as the opening and a sliver both sit
+    at a joint limit; one 4 cm wide sits mid-range."""
+    from wsgrasp.gripper import load_gripper
+
+    g = load_gripper("franka_hand")
+    scorer, opts = _scorer("joint_margin")
+    y = g.closing_axis
+    ws = (g.sphere_centers - g.T_gripper_gwc[:3, 3]) @ g.approach_axis
+    depth = g.T_gripper_gwc[:3, 3] + g.approach_axis * float(np.median(ws))
+    scores = []
+    for half in (0.039, 0.02, 0.002):
+        points = np.array([depth + half * y, depth - half * y])
+        batch = CandidateBatch(
+            gripper=g,
+            T_world_gwc=g.T_gripper_gwc[None],
+            T_world_gripper=np.eye(4)[None],
+            theta=np.zeros(1),
+            holding=np.array([[[True, False], [False, True]]]),
+            object_points=points,
+            T_world_object=np.eye(4),
+            extents=np.array([0.08, 0.05, 0.05]),
+            table_normal=np.array([0.0, 0.0, 1.0]),
+            min_table_height=np.zeros(1),
+        )
+        scores.append(float(scorer.score(batch, opts)[0]))
+    assert scores[1] > 0.8 and scores[0] < 0.2 and scores[2] < 0.2, scores
