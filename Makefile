@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 export MPLBACKEND := Agg
 
-.PHONY: demo test lint bench eval eval-random schema clean sysdeps
+.PHONY: demo test lint bench eval eval-random eval-heldout schema clean sysdeps
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -30,18 +30,30 @@ lint: $(STAMP)
 test: $(STAMP) lint
 	$(BIN)/python -m pytest -q -m "not slow"
 
+BARRETT := examples/plugins/barrett_bh8_like/wsgrasp_barrett_bh8_like/barrett_bh8_like.yaml
+EVAL_GRIPPERS := --gripper franka_hand --gripper allegro_right --gripper $(BARRETT)
+
+# each gripper with its default spec, the paper's sampling and the follow-up's
 eval: $(STAMP)
 	$(BIN)/python -m pip install -q -e '.[sim]'
-	$(BIN)/wsgrasp eval --gripper franka_hand --gripper allegro_right --objects paper13 \
+	$(BIN)/wsgrasp eval $(EVAL_GRIPPERS) --objects paper13 --followup \
 		--trials 10 --seed 0 --json-out eval-results/paper13.json \
 		--md-out eval-results/paper13.md
 
 # pybullet_data's random objects, development range (000-299; 300-999 is held out)
 eval-random: $(STAMP)
 	$(BIN)/python -m pip install -q -e '.[sim]'
-	$(BIN)/wsgrasp eval --gripper franka_hand --gripper allegro_right \
+	$(BIN)/wsgrasp eval $(EVAL_GRIPPERS) --followup \
 		--objects random:000-299 --trials 3 --seed 0 \
 		--json-out eval-results/random-dev.json --md-out eval-results/random-dev.md
+
+# the held-out range, once, with the defaults chosen on the development range
+eval-heldout: $(STAMP)
+	$(BIN)/python -m pip install -q -e '.[sim]'
+	$(BIN)/wsgrasp eval $(EVAL_GRIPPERS) --no-paper \
+		--objects random:300-999 --trials 1 --seed 1 \
+		--json-out eval-results/random-heldout.json \
+		--md-out eval-results/random-heldout.md
 
 bench: $(STAMP)
 	$(BIN)/wsgrasp bench

@@ -33,8 +33,6 @@ _FALLBACK: dict[str, dict[str, Any]] = {
         "scorers": [
             {"name": "centroid_distance", "weight": 1.0},
             {"name": "antipodal", "weight": 1.0},
-            {"name": "contact_balance", "weight": 0.5},
-            {"name": "table_clearance", "weight": 0.5},
         ]
     },
     "paper": {"scorers": [{"name": "centroid_distance", "weight": 1.0}]},
