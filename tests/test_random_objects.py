@@ -209,6 +209,18 @@ def test_ring_splits_box_stays_one_part(cache: Path):
     )
 
 
+def test_missing_coacd_says_how_to_install(
+    cache: Path, monkeypatch: pytest.MonkeyPatch
+):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "coacd", None)
+    with pytest.raises(SimulationError, match=r"pip install 'wsgrasp\[sim\]'"):
+        convex_decomposition(u_shape())
+    box = trimesh.creation.box(extents=(0.05, 0.05, 0.1))
+    assert len(convex_decomposition(box).hulls) == 1  # convex: coacd not needed
+
+
 def test_mesh_file_collides_as_its_decomposition(tmp_path: Path, cache: Path):
     u = u_shape()
     u.export(tmp_path / "u.stl")

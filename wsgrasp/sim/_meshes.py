@@ -8,17 +8,19 @@ SIGGRAPH 2022) before it becomes a MuJoCo body:
    closed surface with manifold3d's boolean union;
 2. a surface that fills its convex hull (volume ratio above ``1 -
    CONVEX_TOLERANCE``) is one part, without coacd;
-3. otherwise coacd cuts it (``COACD``: concavity threshold 0.05, at most 32 hulls;
-   its own remeshing is off, because step 1 already gave it a manifold; a mesh whose
-   bodies cannot be joined is remeshed by coacd instead).
+3. otherwise coacd cuts it (``COACD``: concavity threshold 0.05, at most 32 hulls).
+   Its own voxel remeshing is off, because step 1 already gave it a manifold: on
+   the random objects remeshing took 5-7 times as long and swelled them by 10-13 %,
+   and coacd without it on the raw, overlapping pieces ran for over 10 minutes. A
+   mesh whose bodies cannot be joined is remeshed by coacd instead.
 
 Decompositions are cached as ``.npz`` under ``$WSGRASP_CACHE_DIR/meshes`` (else
 ``~/.cache/wsgrasp/meshes``), keyed by the mesh's vertex and face bytes, the scale,
 the coacd parameters and the coacd version. :func:`decompose_meshes` decomposes many
 meshes in worker processes with a progress bar.
 
-Measured on 2 cores (pybullet_data ``random_urdfs``, 6-8 cm blobs of 4-8 pieces):
-see the README's "Objects: pybullet_data random objects".
+Times and part counts, measured on 2 cores on pybullet_data's random objects: see
+the README's "Objects: pybullet_data random objects".
 """
 
 from __future__ import annotations
@@ -203,7 +205,9 @@ def _solid(mesh: Any) -> Any | None:
     return solid if solid.is_volume else None
 
 
-def _compute(vertices: Array, faces: NDArray[np.int64], params: CoacdParams) -> Any:
+def _compute(
+    vertices: Array, faces: NDArray[np.int64], params: CoacdParams
+) -> tuple[list[Array], bool]:
     """``(hulls, used_coacd)`` of a scaled mesh ``(n, 3)``, ``(m, 3)``."""
     import trimesh
 
@@ -292,7 +296,11 @@ def convex_decomposition(
 
 
 def _decompose_arrays(
-    vertices: Array, faces: NDArray[np.int64], scale: Array, params: Any, cache: str
+    vertices: Array,
+    faces: NDArray[np.int64],
+    scale: Array,
+    params: CoacdParams,
+    cache: str,
 ) -> Decomposition:
     key = decomposition_key(vertices, faces, scale, params)
     path = Path(cache) / f"{key[:32]}.npz"
@@ -308,7 +316,11 @@ def _decompose_arrays(
 
 
 def _cached_only(
-    vertices: Array, faces: NDArray[np.int64], scale: Array, params: Any, cache: str
+    vertices: Array,
+    faces: NDArray[np.int64],
+    scale: Array,
+    params: CoacdParams,
+    cache: str,
 ) -> Decomposition | None:
     key = decomposition_key(vertices, faces, scale, params)
     hulls = _read(Path(cache) / f"{key[:32]}.npz", key)
