@@ -10,7 +10,7 @@ SIGGRAPH 2022) before it becomes a MuJoCo body:
    CONVEX_TOLERANCE``) is one part, without coacd;
 3. otherwise coacd cuts it (``COACD``: concavity threshold 0.05, at most 32 hulls).
    Its own voxel remeshing is off, because step 1 already gave it a manifold: on
-   the random objects remeshing took 5-7 times as long and swelled them by 10-13 %,
+   the random objects remeshing took 6-8 times as long and swelled them by 11-13 %,
    and coacd without it on the raw, overlapping pieces ran for over 10 minutes. A
    mesh whose bodies cannot be joined is remeshed by coacd instead.
 
