@@ -30,7 +30,7 @@ import json
 import os
 import tempfile
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -39,6 +39,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from wsgrasp.errors import SimulationError
+from wsgrasp.sim._pool import progress_bar, run_in_processes
 
 __all__ = [
     "COACD",
@@ -349,95 +350,17 @@ def decompose_meshes(
     if not todo:
         return [d for d in out if d is not None]
     n = max(1, min(workers or (os.cpu_count() or 1), len(todo)))
-    with _bar(progress, len(todo)) as advance:
+
+    def done(i: int, d: Decomposition) -> None:
+        out[i] = d
+        advance(sources[i].name)
+
+    with progress_bar(progress, "convex decomposition (coacd)", len(todo)) as advance:
         if n == 1:
             for i in todo:
-                out[i] = _decompose_arrays(*jobs[i])
-                advance(sources[i].name)
+                done(i, _decompose_arrays(*jobs[i]))
         else:
-            _pool(jobs, todo, n, out, lambda i: advance(sources[i].name))
-    return [d for d in out if d is not None]
-
-
-_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
-
-
-def _pool(
-    jobs: list[Any],
-    todo: list[int],
-    workers: int,
-    out: list[Decomposition | None],
-    advance: Callable[[int], None],
-) -> None:
-    import multiprocessing
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-
-    saved = {k: os.environ.get(k) for k in _THREAD_VARS}
-    for k in _THREAD_VARS:  # coacd is single-threaded; the processes are the speed
-        os.environ[k] = "1"
-    try:
-        ctx = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(workers, mp_context=ctx) as ex:
             # largest meshes first, so that the last worker does not finish alone
             order = sorted(todo, key=lambda i: -len(jobs[i][1]))
-            pending = {ex.submit(_decompose_arrays, *jobs[i]): i for i in order}
-            try:
-                while pending:
-                    done, _ = wait(pending, return_when=FIRST_COMPLETED)
-                    for fut in done:
-                        i = pending.pop(fut)
-                        out[i] = fut.result()
-                        advance(i)
-            except BaseException:
-                for fut in pending:
-                    fut.cancel()
-                raise
-    finally:
-        for k, v in saved.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
-
-
-class _bar:
-    """A rich progress bar over decompositions (a no-op when disabled)."""
-
-    def __init__(self, enabled: bool, total: int) -> None:
-        self.enabled = enabled
-        self.total = total
-        self._bar: Any = None
-        self._task: Any = None
-
-    def __enter__(self) -> Callable[[str], None]:
-        if self.enabled:
-            from rich.console import Console
-            from rich.progress import (
-                BarColumn,
-                MofNCompleteColumn,
-                Progress,
-                TextColumn,
-                TimeElapsedColumn,
-                TimeRemainingColumn,
-            )
-
-            self._bar = Progress(
-                TextColumn("[bold]convex decomposition (coacd)"),
-                BarColumn(),
-                MofNCompleteColumn(),
-                TextColumn("{task.fields[status]}"),
-                TimeElapsedColumn(),
-                TimeRemainingColumn(),
-                console=Console(stderr=True),
-            )
-            self._bar.__enter__()
-            self._task = self._bar.add_task("coacd", total=self.total, status="")
-        return self._advance
-
-    def _advance(self, name: str) -> None:
-        if self._bar is not None:
-            self._bar.update(self._task, advance=1, status=name)
-
-    def __exit__(self, *exc: object) -> None:
-        if self._bar is not None:
-            self._bar.__exit__(None, None, None)
+            run_in_processes(_decompose_arrays, jobs, n, done, order=order)
+    return [d for d in out if d is not None]

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from wsgrasp.sim._pool import progress_bar, run_in_processes
 from wsgrasp.sim.objects import SimObject
 from wsgrasp.sim.params import SimParams
 
@@ -233,9 +234,6 @@ def _init_worker() -> None:
 # --------------------------------------------------------------------------------
 # the parent
 # --------------------------------------------------------------------------------
-_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
-
-
 def run_eval(
     config: EvalConfig,
     *,
@@ -266,15 +264,22 @@ def run_eval(
     workers = max(1, min(workers, len(tasks)))
     start = time.perf_counter()
     results: list[list[dict[str, Any]] | None] = [None] * len(tasks)
-    with _progress(progress, len(tasks)) as advance:
+    tally = _Tally()
+
+    with progress_bar(progress, "trials", len(tasks)) as advance:
+
+        def done(i: int, recs: list[dict[str, Any]]) -> None:
+            results[i] = recs
+            _emit(recs, on_record)
+            advance(tally.add(recs))
+
         if workers == 1:
             for i, task in enumerate(tasks):
-                recs = run_task(task)
-                results[i] = recs
-                _emit(recs, on_record)
-                advance(recs)
+                done(i, run_task(task))
         else:
-            _run_pool(tasks, workers, results, advance, on_record)
+            run_in_processes(
+                run_task, [(t,) for t in tasks], workers, done, initializer=_init_worker
+            )
     wall = time.perf_counter() - start
     return [r for rs in results for r in (rs or [])], wall
 
@@ -288,94 +293,15 @@ def _emit(
             on_record(r)
 
 
-def _run_pool(
-    tasks: list[Task],
-    workers: int,
-    results: list[list[dict[str, Any]] | None],
-    advance: Callable[[list[dict[str, Any]]], None],
-    on_record: Callable[[dict[str, Any]], None] | None,
-) -> None:
-    import multiprocessing
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+class _Tally:
+    """Grasps held so far, as the progress bar's status."""
 
-    saved = {k: os.environ.get(k) for k in _THREAD_VARS}
-    for k in _THREAD_VARS:  # one thread per worker: the workers are the parallelism
-        os.environ[k] = "1"
-    try:
-        ctx = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(
-            workers, mp_context=ctx, initializer=_init_worker
-        ) as ex:
-            pending = {ex.submit(run_task, t): i for i, t in enumerate(tasks)}
-            try:
-                while pending:
-                    done, _ = wait(pending, return_when=FIRST_COMPLETED)
-                    for fut in done:
-                        i = pending.pop(fut)
-                        recs = fut.result()
-                        results[i] = recs
-                        _emit(recs, on_record)
-                        advance(recs)
-            except BaseException:
-                for fut in pending:
-                    fut.cancel()
-                raise
-    finally:
-        for k, v in saved.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
-
-
-class _progress:
-    """A rich progress bar over tasks (a no-op when disabled)."""
-
-    def __init__(self, enabled: bool, total: int) -> None:
-        self.enabled = enabled
-        self.total = total
+    def __init__(self) -> None:
         self.successes = 0
         self.trials = 0
-        self._bar: Any = None
-        self._task: Any = None
 
-    def __enter__(self) -> Callable[[list[dict[str, Any]]], None]:
-        if self.enabled:
-            from rich.console import Console
-            from rich.progress import (
-                BarColumn,
-                MofNCompleteColumn,
-                Progress,
-                TextColumn,
-                TimeElapsedColumn,
-                TimeRemainingColumn,
-            )
-
-            self._bar = Progress(
-                TextColumn("[bold]trials"),
-                BarColumn(),
-                MofNCompleteColumn(),
-                TextColumn("{task.fields[status]}"),
-                TimeElapsedColumn(),
-                TimeRemainingColumn(),
-                console=Console(stderr=True),
-                transient=False,
-            )
-            self._bar.__enter__()
-            self._task = self._bar.add_task("eval", total=self.total, status="")
-        return self._advance
-
-    def _advance(self, records: list[dict[str, Any]]) -> None:
+    def add(self, records: list[dict[str, Any]]) -> str:
         self.trials += len(records)
         self.successes += sum(r.get("outcome") == "success" for r in records)
-        if self._bar is not None:
-            last = records[0]["object"] if records else ""
-            self._bar.update(
-                self._task,
-                advance=1,
-                status=f"{self.successes}/{self.trials} grasps held · {last}",
-            )
-
-    def __exit__(self, *exc: object) -> None:
-        if self._bar is not None:
-            self._bar.__exit__(None, None, None)
+        last = records[0]["object"] if records else ""
+        return f"{self.successes}/{self.trials} grasps held · {last}"
