@@ -30,6 +30,10 @@ def _one_thread_each() -> Iterator[None]:
                 os.environ[k] = v
 
 
+#: a job whose process dies this many times is given up (``on_crash``)
+MAX_ATTEMPTS = 2
+
+
 def run_in_processes(
     fn: Callable[..., Any],
     jobs: Sequence[tuple[Any, ...]],
@@ -38,29 +42,57 @@ def run_in_processes(
     *,
     order: Sequence[int] | None = None,
     initializer: Callable[[], None] | None = None,
+    on_crash: Callable[[int], None] | None = None,
 ) -> None:
     """``fn(*jobs[i])`` for each ``i`` of ``order`` (default: all, in order) in
-    ``workers`` spawned processes; ``on_done(i, result)`` as each finishes. The
-    first error cancels what has not started and is raised."""
+    ``workers`` spawned processes; ``on_done(i, result)`` as each finishes.
+
+    A process that dies (a crash in a compiled library, the out-of-memory killer)
+    costs only the jobs it was running: the pool is started again and they are
+    tried again; a job whose process dies ``MAX_ATTEMPTS`` times is handed to
+    ``on_crash(i)`` (raised as an error without one). Any other error from ``fn``
+    cancels what has not started and is raised.
+    """
     import multiprocessing
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
 
-    todo = range(len(jobs)) if order is None else order
+    todo = list(range(len(jobs)) if order is None else order)
+    attempts = dict.fromkeys(todo, 0)
     with _one_thread_each():
         ctx = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(
-            workers, mp_context=ctx, initializer=initializer
-        ) as ex:
-            pending = {ex.submit(fn, *jobs[i]): i for i in todo}
-            try:
-                while pending:
-                    done, _ = wait(pending, return_when=FIRST_COMPLETED)
-                    for fut in done:
-                        on_done(pending.pop(fut), fut.result())
-            except BaseException:
-                for fut in pending:
-                    fut.cancel()
-                raise
+        while todo:
+            crashed: list[int] = []
+            with ProcessPoolExecutor(
+                workers, mp_context=ctx, initializer=initializer
+            ) as ex:
+                pending = {ex.submit(fn, *jobs[i]): i for i in todo}
+                try:
+                    while pending:
+                        done, _ = wait(pending, return_when=FIRST_COMPLETED)
+                        for fut in done:
+                            i = pending.pop(fut)
+                            try:
+                                result = fut.result()
+                            except BrokenProcessPool:
+                                crashed.append(i)
+                                continue
+                            on_done(i, result)
+                except BaseException:
+                    for fut in pending:
+                        fut.cancel()
+                    raise
+            todo = []
+            for i in crashed:
+                attempts[i] += 1
+                if attempts[i] < MAX_ATTEMPTS:
+                    todo.append(i)
+                elif on_crash is not None:
+                    on_crash(i)
+                else:
+                    raise BrokenProcessPool(
+                        f"job {i} crashed its process {attempts[i]} times"
+                    )
 
 
 @contextmanager

@@ -278,10 +278,33 @@ def run_eval(
                 done(i, run_task(task))
         else:
             run_in_processes(
-                run_task, [(t,) for t in tasks], workers, done, initializer=_init_worker
+                run_task,
+                [(t,) for t in tasks],
+                workers,
+                done,
+                initializer=_init_worker,
+                on_crash=lambda i: done(i, _crashed(tasks[i])),
             )
     wall = time.perf_counter() - start
     return [r for rs in results for r in (rs or [])], wall
+
+
+def _crashed(task: Task) -> list[dict[str, Any]]:
+    """The records of a task whose process died twice (MuJoCo or the system
+    killed it): one ``sim_crashed`` record per spec, so the report counts it."""
+    return [
+        {
+            "object": task.object.name,
+            "trial": task.trial,
+            "gripper": e.gripper,
+            "spec": e.label,
+            "outcome": "sim_crashed",
+            "found": None,
+            "plan_ms": None,
+            "hint": "the worker process running this trial died twice",
+        }
+        for e in task.specs
+    ]
 
 
 def _emit(

@@ -56,6 +56,7 @@ OUTCOMES = (
     "approach_collision",
     "slipped_lifting",
     "dropped_holding",
+    "sim_crashed",
 )
 
 
