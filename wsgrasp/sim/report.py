@@ -165,7 +165,7 @@ def _failure_rows(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
             c["spec"],
             str(c["trials"]),
             str(c["successes"]),
-            *[str(c["failures"][k]) for k in FAILURES],
+            *[str(c["failures"].get(k, 0)) for k in FAILURES],
         ]
         for c in _columns(report)
     ]
