@@ -135,3 +135,18 @@ def test_model_keeps_each_spheres_configurations():
     again = type(g).from_bytes(g.to_bytes())
     np.testing.assert_array_equal(again.sphere_config_index, g.sphere_config_index)
     np.testing.assert_array_equal(again.config_pad, g.config_pad)
+
+
+def test_close_to_closed_takes_the_closed_posture_and_keeps_the_contacts():
+    """``approach.close_to: closed``: joints_grasp is the gripper's closed
+    posture (within limits); each finger's contact posture is still reported."""
+    g = load_gripper("allegro_right")
+    spec = load_spec(SPECS["allegro_right"]).model_dump()
+    spec["approach"] = {"squeeze": 0.06, "close_to": "closed"}
+    pipe = wsgrasp.Pipeline(load_spec(spec), gripper=g)
+    result = pipe.plan(synth_scene("box", size=(0.05, 0.06, 0.11), seed=1).points)
+    assert result.found
+    for j, v in result.joints_grasp.items():
+        assert v == pytest.approx(g.closed.get(j, result.joints_pregrasp[j]))
+    assert len(result.finger_targets) == g.num_fingers
+    assert all(t["contact"] for t in result.finger_targets)

@@ -278,6 +278,7 @@ class Pipeline:
                 out.contacts,
                 approach_distance=self.spec.approach.distance,
                 squeeze=self.spec.approach.squeeze,
+                close_to=self.spec.approach.close_to,
             )
             timing["targets"] = (time.perf_counter() - t) * 1e3
             T_world_pregrasp = targets.T_world_pregrasp

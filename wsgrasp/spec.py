@@ -331,6 +331,11 @@ class Approach(_Model):
         description="each pad's grasp target lies this far (m) past its contact, "
         "so that position-controlled fingers press",
     )
+    close_to: Literal["contacts", "closed"] = Field(
+        "contacts",
+        description="joints_grasp: each finger at its contacts plus the squeeze, "
+        "or the gripper's closed posture (a hand that wraps the object)",
+    )
 
 
 class TableSettings(_Model):

@@ -87,6 +87,7 @@ def grasp_targets(
     *,
     approach_distance: float,
     squeeze: float,
+    close_to: str = "contacts",
 ) -> GraspTargets:
     """Joint targets and pre-grasp pose for a chosen grasp.
 
@@ -100,6 +101,9 @@ def grasp_targets(
         How far (m) the pre-grasp pose stands back along the approach axis.
     squeeze : float
         How far (m) each pad is driven through its contact.
+    close_to : {"contacts", "closed"}
+        ``joints_grasp`` from the contacts, or the gripper's ``closed`` posture
+        (the fingers' contact postures are still reported).
     """
     g = gripper
     T = np.asarray(T_world_gripper, dtype=np.float64)
@@ -126,6 +130,13 @@ def grasp_targets(
             # a joint several fingers share closes as far as any of them asks
             closure = [_closure(g, j, v) for v in values]
             grasp[j] = values[int(np.argmax(closure))]
+    if close_to == "closed":
+        limits = _limits(g)
+        grasp = {j: float(g.closed.get(j, v)) for j, v in pre.items()}
+        grasp = {
+            j: float(np.clip(v, *limits[j])) if j in limits else v
+            for j, v in grasp.items()
+        }
     return GraspTargets(T_pre, pre, grasp, fingers)
 
 
