@@ -29,7 +29,10 @@ def plans():
     out = {}
     scene = synth_scene("box", size=(0.05, 0.06, 0.11), seed=1).points
     for name, spec in SPECS.items():
-        pipe = wsgrasp.Pipeline(load_spec(spec))
+        # joint targets from the contacts (the Allegro spec closes to `closed`)
+        data = load_spec(spec).model_dump()
+        data["approach"]["close_to"] = "contacts"
+        pipe = wsgrasp.Pipeline(load_spec(data))
         out[name] = (pipe, pipe.plan(scene))
     return out
 
