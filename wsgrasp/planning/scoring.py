@@ -111,14 +111,11 @@ class CandidateBatch:
         out = np.full(self.contacts.shape, -1, dtype=np.int64)
         if not g.has_configurations:
             return out
-        from scipy.spatial import cKDTree
+        from wsgrasp.planning.targets import config_tree
 
         offsets = g.config_offsets
-        trees = g.__dict__.setdefault("_config_trees", {})
         for f in range(g.num_fingers):
-            if f not in trees:
-                trees[f] = cKDTree(g.config_pad[offsets[f] : offsets[f + 1]])
-            _, k = trees[f].query(self.contact_centroids_gripper[:, f])
+            _, k = config_tree(g, f).query(self.contact_centroids_gripper[:, f])
             out[:, f] = offsets[f] + np.asarray(k, dtype=np.int64)
         return out
 

@@ -25,12 +25,20 @@ from wsgrasp.geometry import invert_transforms, transform_points
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.planning.result import Contact
 
-__all__ = ["FingerTarget", "GraspTargets", "grasp_targets", "pad_positions"]
+__all__ = [
+    "FingerTarget",
+    "GraspTargets",
+    "config_tree",
+    "grasp_targets",
+    "pad_positions",
+]
 
 Array = NDArray[np.float64]
 
 #: points along the joint-space ray towards ``closed`` searched for the squeeze
 _SQUEEZE_STEPS = 129
+#: configurations nearest each held point tried first for the contact posture
+_NEAR = 16
 
 
 @dataclass
@@ -188,22 +196,25 @@ def _finger_target(
     joints = g.finger_joints[f]
     start = int(g.config_offsets[f])
     q_grid = g.finger_configurations(f)  # (K, d)
-    local = g.sphere_configurations(spheres) - start  # (c,) into the finger's grid
-    if len(local) == 0 or len(held) == 0:
-        local = np.arange(len(q_grid))
-    pads = g.config_pad[start + local]  # (c, 3)
-    if len(held):
-        nearest, _ = cKDTree(held).query(pads)  # (c,) distance to the held points
-        c_f = held.mean(axis=0)
-        out = c_f - centre
-        norm = float(np.linalg.norm(out))
-        if norm > 1e-9:
-            outside = (pads - c_f) @ (out / norm) >= 0.0  # (c,)
-            if outside.any():
-                nearest = np.where(outside, nearest, np.inf)
-    else:
-        nearest = np.zeros(len(local))
+    allowed = g.sphere_configurations(spheres) - start  # (c,) into the finger's grid
+    if len(allowed) == 0 or len(held) == 0:
+        allowed = np.arange(len(q_grid))
+    # first the few configurations nearest each held point (the finger's pad tree,
+    # built once per model), then, if none of them qualifies, all allowed ones
+    _, near = config_tree(g, f).query(held, k=min(_NEAR, len(q_grid)))  # (k, m)
+    is_allowed = np.zeros(len(q_grid), dtype=bool)
+    is_allowed[allowed] = True
+    is_near = np.zeros(len(q_grid), dtype=bool)
+    is_near[np.asarray(near).reshape(-1)] = True
+    first = np.flatnonzero(is_near & is_allowed)
+    for local in (first, allowed):
+        if len(local) == 0:
+            continue
+        nearest = _pad_distances(g.config_pad[start + local], held, centre)
+        if np.isfinite(nearest).any():
+            break
     best = int(np.argmin(nearest))
+    pads = g.config_pad[start + local]
     q_contact = q_grid[local[best]]  # (d,)
     closed = np.array(
         [g.closed.get(j, pre.get(j, q)) for j, q in zip(joints, q_contact, strict=True)]
@@ -224,6 +235,32 @@ def _finger_target(
         gap=float(nearest[best]),
         squeeze=float(travel[k]),
     )
+
+
+def _pad_distances(pads: Array, held: Array, centre: Array) -> Array:
+    """Distance of each pad centre ``(c, 3)`` to the nearest held point ``(k, 3)``;
+    infinite for pads nearer the grasp's middle ``centre`` than the held points'
+    centroid (inside the object)."""
+    if len(held) == 0:
+        return np.zeros(len(pads))
+    nearest, _ = cKDTree(held).query(pads)  # (c,)
+    c_f = held.mean(axis=0)
+    out = c_f - centre
+    norm = float(np.linalg.norm(out))
+    if norm > 1e-9:
+        outside = (pads - c_f) @ (out / norm) >= 0.0  # (c,)
+        nearest = np.where(outside, nearest, np.inf)
+    return np.asarray(nearest, dtype=np.float64)
+
+
+def config_tree(g: GripperModel, finger: int) -> cKDTree:
+    """A KD-tree over one finger's pad centres (``config_pad``), built once per
+    model and kept on it."""
+    trees: dict[int, cKDTree] = g.__dict__.setdefault("_config_trees", {})
+    if finger not in trees:
+        o = g.config_offsets
+        trees[finger] = cKDTree(g.config_pad[o[finger] : o[finger + 1]])
+    return trees[finger]
 
 
 def pad_positions(g: GripperModel, finger: int, q: Array) -> Array:
