@@ -30,10 +30,6 @@ def _one_thread_each() -> Iterator[None]:
                 os.environ[k] = v
 
 
-#: a job whose process dies this many times is given up (``on_crash``)
-MAX_ATTEMPTS = 2
-
-
 def run_in_processes(
     fn: Callable[..., Any],
     jobs: Sequence[tuple[Any, ...]],
@@ -47,52 +43,78 @@ def run_in_processes(
     """``fn(*jobs[i])`` for each ``i`` of ``order`` (default: all, in order) in
     ``workers`` spawned processes; ``on_done(i, result)`` as each finishes.
 
-    A process that dies (a crash in a compiled library, the out-of-memory killer)
-    costs only the jobs it was running: the pool is started again and they are
-    tried again; a job whose process dies ``MAX_ATTEMPTS`` times is handed to
-    ``on_crash(i)`` (raised as an error without one). Any other error from ``fn``
-    cancels what has not started and is raised.
+    At most ``workers`` jobs are in flight, so a process that dies (a crash in a
+    compiled library, the out-of-memory killer) can only have been running one of
+    them: those are run again one at a time, each in a process of its own, and a
+    job whose process dies again is handed to ``on_crash(i)`` (raised as an error
+    without one); then the pool starts again for the rest. Any other error from
+    ``fn`` cancels what has not started and is raised.
     """
+    from concurrent.futures.process import BrokenProcessPool
+
+    todo = list(range(len(jobs)) if order is None else order)
+    with _one_thread_each():
+        while todo:
+            suspects = _run_pool(fn, jobs, todo, workers, on_done, initializer)
+            finished = set(todo) - set(suspects.unstarted) - set(suspects.running)
+            todo = [i for i in todo if i not in finished and i not in suspects.running]
+            for i in suspects.running:  # alone, so that a crash names its job
+                again = _run_pool(fn, jobs, [i], 1, on_done, initializer)
+                if again.running:
+                    if on_crash is None:
+                        raise BrokenProcessPool(f"job {i} crashed its process twice")
+                    on_crash(i)
+
+
+class _Broken:
+    """What a pool left undone when a process died."""
+
+    def __init__(self, running: list[int], unstarted: list[int]) -> None:
+        self.running = running
+        self.unstarted = unstarted
+
+
+def _run_pool(
+    fn: Callable[..., Any],
+    jobs: Sequence[tuple[Any, ...]],
+    todo: Sequence[int],
+    workers: int,
+    on_done: Callable[[int, Any], None],
+    initializer: Callable[[], None] | None,
+) -> _Broken:
+    """One pool over ``todo``, at most ``workers`` jobs in flight; returns the jobs
+    in flight and those not started when a process died (both empty if none)."""
     import multiprocessing
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
 
-    todo = list(range(len(jobs)) if order is None else order)
-    attempts = dict.fromkeys(todo, 0)
-    with _one_thread_each():
-        ctx = multiprocessing.get_context("spawn")
-        while todo:
-            crashed: list[int] = []
-            with ProcessPoolExecutor(
-                workers, mp_context=ctx, initializer=initializer
-            ) as ex:
-                pending = {ex.submit(fn, *jobs[i]): i for i in todo}
-                try:
-                    while pending:
-                        done, _ = wait(pending, return_when=FIRST_COMPLETED)
-                        for fut in done:
-                            i = pending.pop(fut)
-                            try:
-                                result = fut.result()
-                            except BrokenProcessPool:
-                                crashed.append(i)
-                                continue
-                            on_done(i, result)
-                except BaseException:
-                    for fut in pending:
-                        fut.cancel()
-                    raise
-            todo = []
-            for i in crashed:
-                attempts[i] += 1
-                if attempts[i] < MAX_ATTEMPTS:
-                    todo.append(i)
-                elif on_crash is not None:
-                    on_crash(i)
-                else:
-                    raise BrokenProcessPool(
-                        f"job {i} crashed its process {attempts[i]} times"
-                    )
+    ctx = multiprocessing.get_context("spawn")
+    queue = list(todo)[::-1]  # popped from the end: in order
+    with ProcessPoolExecutor(workers, mp_context=ctx, initializer=initializer) as ex:
+        pending: dict[Any, int] = {}
+        try:
+            while queue or pending:
+                while queue and len(pending) < workers:
+                    i = queue.pop()
+                    pending[ex.submit(fn, *jobs[i])] = i
+                done, _ = wait(pending, return_when=FIRST_COMPLETED)
+                broken: list[int] = []
+                for fut in done:
+                    i = pending.pop(fut)
+                    try:
+                        result = fut.result()
+                    except BrokenProcessPool:
+                        broken.append(i)
+                        continue
+                    on_done(i, result)
+                if broken:
+                    running = broken + list(pending.values())
+                    return _Broken(running, queue[::-1])
+        except BaseException:
+            for fut in pending:
+                fut.cancel()
+            raise
+    return _Broken([], [])
 
 
 @contextmanager
