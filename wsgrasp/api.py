@@ -105,8 +105,11 @@ class Pipeline:
             gripper.T_gripper_gwc[:3, 2]
         )
         self._reach = (float(z.min()), float(z.max())) if len(z) else (0.0, 0.0)
-        # open3d's first calls cost ~1 s once per process: pay it here, not in the
-        # first plan's timings
+        # the joint targets' lookups, and open3d's first calls (~1 s once per
+        # process): paid here, not in the first plan's timings
+        from wsgrasp.planning.targets import prepare
+
+        prepare(gripper)
         from wsgrasp.perception.process import warm_up
 
         warm_up()

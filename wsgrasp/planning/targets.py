@@ -30,6 +30,7 @@ __all__ = [
     "GraspTargets",
     "config_tree",
     "grasp_targets",
+    "prepare",
     "pad_positions",
 ]
 
@@ -267,6 +268,15 @@ def pad_positions(g: GripperModel, finger: int, q: Array) -> Array:
     """The pad centre of ``finger`` at joint values ``q`` ``(n, d)``, gripper frame,
     ``(n, 3)``: multilinear between the model's joint-grid samples."""
     return _interpolator(g, finger)(np.asarray(q, dtype=np.float64))
+
+
+def prepare(g: GripperModel) -> None:
+    """Build the per-finger lookups the joint targets use (pad KD-trees and
+    interpolators), so that the first plan does not pay for them."""
+    if g.has_configurations:
+        for f in range(g.num_fingers):
+            config_tree(g, f)
+            _interpolator(g, f)
 
 
 def _interpolator(g: GripperModel, finger: int) -> _PadInterpolator:
