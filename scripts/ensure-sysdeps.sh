@@ -2,7 +2,10 @@
 # open3d needs libusb-1.0 at import time. Install it with apt when running as root,
 # otherwise print the one command that installs it.
 set -euo pipefail
-if ldconfig -p 2>/dev/null | grep -q 'libusb-1.0.so.0'; then
+# read the whole list first: `ldconfig -p | grep -q` under pipefail fails whenever
+# grep exits at the first match and ldconfig gets SIGPIPE (a false "missing")
+libs=$(ldconfig -p 2>/dev/null || true)
+if [[ "$libs" == *libusb-1.0.so.0* ]]; then
   exit 0
 fi
 if [ "$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then
