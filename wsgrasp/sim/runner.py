@@ -70,25 +70,21 @@ def task_seed(seed: int, object_name: str, trial: int) -> list[int]:
 # inside a worker
 # --------------------------------------------------------------------------------
 _CACHE: dict[Any, Any] = {}
-#: the object whose worlds ``_cached`` keeps (one object's at a time)
-_CACHE_OBJECT: list[Any] = [None]
+#: kinds of cache key ``(kind, object key, ...)`` that hold one object's MuJoCo
+#: worlds: tasks come object after object, so a worker keeps one object's worlds
+#: at a time (it kept every world it built: 12 GB after 650 tasks of 297 objects)
+_WORLDS = ("bare", "scene")
 
 
-def _cached(key: Any, make: Callable[[], Any], object_key: Any = None) -> Any:
-    """A worker's cache of pipelines, grippers and worlds. Worlds belong to one
-    object (``object_key``): tasks come object after object, so the worlds of
-    the previous object are dropped when the next one's are made (a worker kept
-    every world it had built, 12 GB after 650 tasks of 297 objects)."""
-    if object_key is not None and object_key != _CACHE_OBJECT[0]:
-        for k in [k for k in _CACHE if isinstance(k, tuple) and k[0] in _WORLDS]:
+def _cached(key: tuple[Any, ...], make: Callable[[], Any]) -> Any:
+    """A worker's cache of pipelines, grippers and worlds (keys are tuples whose
+    first item names the kind)."""
+    if key[0] in _WORLDS:
+        for k in [k for k in _CACHE if k[0] in _WORLDS and k[1] != key[1]]:
             del _CACHE[k]
-        _CACHE_OBJECT[0] = object_key
     if key not in _CACHE:
         _CACHE[key] = make()
     return _CACHE[key]
-
-
-_WORLDS = ("bare", "scene")
 
 
 def _pipeline(entry: SpecEntry) -> Any:
@@ -113,7 +109,7 @@ def run_task(task: Task) -> list[dict[str, Any]]:
     obj = task.object
     okey = _object_key(obj)
     rng = np.random.default_rng(task_seed(task.seed, obj.name, task.trial))
-    bare = _cached(("bare", okey, p), lambda: build_scene(obj, None, p), okey)
+    bare = _cached(("bare", okey, p), lambda: build_scene(obj, None, p))
     t0 = time.perf_counter()
     settled = settle_object(bare, obj, rng, p)
     views = render_views(obj, settled.T_world_object, rng, p)
@@ -183,10 +179,10 @@ def _run_specs(
         T = np.asarray(result.T_world_ee, dtype=np.float64)
         # the plan's per-grasp targets; a plan without them approaches from the
         # standoff and closes towards the gripper YAML's `closed` posture
-        T_pre = getattr(result, "T_world_pregrasp", None)
+        T_pre = result.T_world_pregrasp
         T_pre = None if T_pre is None else np.asarray(T_pre, dtype=np.float64)
-        joints_pre = dict(getattr(result, "joints_pregrasp", None) or {})
-        joints_grasp = dict(getattr(result, "joints_grasp", None) or {})
+        joints_pre = dict(result.joints_pregrasp)
+        joints_grasp = dict(result.joints_grasp)
         rec["approach_from"] = "standoff" if T_pre is None else "plan"
         rec["finger_targets"] = "plan" if joints_grasp else "closed"
         # one execution per distinct (pose, pre-grasp pose, joint targets)
@@ -210,7 +206,6 @@ def _run_specs(
             world = _cached(
                 ("scene", okey, entry.gripper, p),
                 lambda: build_scene(obj, sim_gripper, p),
-                okey,
             )
             executed[key] = execute_grasp(
                 world,
