@@ -160,3 +160,21 @@ def test_close_to_closed_takes_the_closed_posture_and_keeps_the_contacts():
         assert v == pytest.approx(g.closed.get(j, result.joints_pregrasp[j]))
     assert len(result.finger_targets) == g.num_fingers
     assert all(t["contact"] for t in result.finger_targets)
+
+
+def test_a_model_without_configurations_closes_to_closed():
+    """A format-1 model (no finger configurations) cannot place the pads: its
+    grasp posture is the closed one, not the pre-grasp it approaches in."""
+    import dataclasses
+
+    from wsgrasp.planning.result import Contact
+    from wsgrasp.planning.targets import grasp_targets
+
+    g = load_gripper("franka_hand")
+    bare = dataclasses.replace(g, config_pad=np.zeros((0, 3)))
+    assert not bare.has_configurations
+    contacts = [Contact(f, np.zeros((1, 3)), np.zeros(0, np.int64)) for f in "ab"]
+    t = grasp_targets(bare, np.eye(4), contacts, approach_distance=0.1, squeeze=0.01)
+    assert t.joints_grasp == {"panda_finger_joint1": 0.0}
+    assert t.joints_pregrasp == {"panda_finger_joint1": 0.04}
+    assert t.fingers == []

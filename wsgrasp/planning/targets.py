@@ -112,13 +112,14 @@ def grasp_targets(
         How far (m) each pad is driven through its contact.
     close_to : {"contacts", "closed"}
         ``joints_grasp`` from the contacts, or the gripper's ``closed`` posture
-        (the fingers' contact postures are still reported).
+        (the fingers' contact postures are still reported). A model that keeps
+        no finger configurations (format 1) closes to ``closed`` either way.
     """
     g = gripper
     T = np.asarray(T_world_gripper, dtype=np.float64)
     T_pre = T.copy()
     T_pre[:3, 3] -= approach_distance * (T[:3, :3] @ g.approach_axis)
-    pre = _pregrasp(g)
+    pre = _within_limits(g, {j: g.pregrasp.get(j, 0.0) for j in g.actuated_joints})
     grasp = dict(pre)
     fingers: list[FingerTarget] = []
     if g.has_configurations:
@@ -139,26 +140,18 @@ def grasp_targets(
             # a joint several fingers share closes as far as any of them asks
             closure = [_closure(g, j, v) for v in values]
             grasp[j] = values[int(np.argmax(closure))]
-    if close_to == "closed":
-        limits = _limits(g)
-        grasp = {j: float(g.closed.get(j, v)) for j, v in pre.items()}
-        grasp = {
-            j: float(np.clip(v, *limits[j])) if j in limits else v
-            for j, v in grasp.items()
-        }
+    if close_to == "closed" or not g.has_configurations:
+        grasp = _within_limits(g, {j: g.closed.get(j, v) for j, v in pre.items()})
     return GraspTargets(T_pre, pre, grasp, fingers)
 
 
-def _pregrasp(g: GripperModel) -> dict[str, float]:
-    """Every actuated joint in the pre-grasp posture, within its limits."""
+def _within_limits(g: GripperModel, posture: dict[str, float]) -> dict[str, float]:
+    """``posture`` with each finger joint clipped to its limits."""
     limits = _limits(g)
-    out: dict[str, float] = {}
-    for j in g.actuated_joints:
-        v = float(g.pregrasp.get(j, 0.0))
-        if j in limits:
-            v = float(np.clip(v, *limits[j]))
-        out[j] = v
-    return out
+    return {
+        j: float(np.clip(v, *limits[j])) if j in limits else float(v)
+        for j, v in posture.items()
+    }
 
 
 def _limits(g: GripperModel) -> dict[str, tuple[float, float]]:
@@ -211,11 +204,11 @@ def _finger_target(
     for local in (first, allowed):
         if len(local) == 0:
             continue
-        nearest = _pad_distances(g.config_pad[start + local], held, centre)
+        pads = g.config_pad[start + local]  # (c, 3)
+        nearest = _pad_distances(pads, held, centre)
         if np.isfinite(nearest).any():
             break
     best = int(np.argmin(nearest))
-    pads = g.config_pad[start + local]
     q_contact = q_grid[local[best]]  # (d,)
     closed = np.array(
         [g.closed.get(j, pre.get(j, q)) for j, q in zip(joints, q_contact, strict=True)]
