@@ -84,47 +84,36 @@ class Orientations:
         about object z (``xyz``).
     flipped : (O,) bool
         Turned half a turn about the approach axis (``major_axis`` with flip).
-    mode : str
     depth : (O,) float
         Offset (m) of the GWC along its approach axis from the box sample.
+    mode : str
     """
 
     R_object_gwc: Array
     theta: Array
     flipped: NDArray[np.bool_]
+    depth: Array
     mode: str = "major_axis"
-    depth: Array | None = None
-
-    def __post_init__(self) -> None:
-        if self.depth is None:
-            self.depth = np.zeros(len(self.R_object_gwc))
 
     def __len__(self) -> int:
         return int(self.R_object_gwc.shape[0])
 
-    def select(self, keep: NDArray[np.bool_]) -> Orientations:
-        assert self.depth is not None
+    def select(self, index: NDArray[np.bool_] | NDArray[np.int64]) -> Orientations:
+        """The orientations a mask or an index array picks, in its order."""
         return Orientations(
-            self.R_object_gwc[keep],
-            self.theta[keep],
-            self.flipped[keep],
+            self.R_object_gwc[index],
+            self.theta[index],
+            self.flipped[index],
+            self.depth[index],
             self.mode,
-            self.depth[keep],
         )
 
     def with_depths(self, offsets: Array) -> Orientations:
         """Every orientation at each of ``offsets`` (m) along its approach:
         orientations outer, offsets inner."""
-        k = len(offsets)
-        rep = np.repeat(np.arange(len(self)), k)
-        assert self.depth is not None
-        return Orientations(
-            self.R_object_gwc[rep],
-            self.theta[rep],
-            self.flipped[rep],
-            self.mode,
-            self.depth[rep] + np.tile(np.asarray(offsets, dtype=np.float64), len(self)),
-        )
+        out = self.select(np.repeat(np.arange(len(self)), len(offsets)))
+        out.depth = out.depth + np.tile(np.asarray(offsets, np.float64), len(self))
+        return out
 
 
 def major_axis_orientations(thetas: Array, flip: bool = False) -> Orientations:
@@ -153,7 +142,7 @@ def major_axis_orientations(thetas: Array, flip: bool = False) -> Orientations:
     R[:, 1, 1] = c
     # half a turn about z_gwc: x_gwc and y_gwc change sign
     R[flipped, :, :2] *= -1.0
-    return Orientations(R, thetas, flipped, "major_axis")
+    return Orientations(R, thetas, flipped, np.zeros(nos), "major_axis")
 
 
 def xyz_orientations(steps: tuple[int, int, int]) -> Orientations:
@@ -173,7 +162,8 @@ def xyz_orientations(steps: tuple[int, int, int]) -> Orientations:
     _, first = np.unique(key, axis=0, return_index=True)
     keep = np.sort(first)
     R = R[keep]
-    return Orientations(R, grid[keep, 2].copy(), np.zeros(len(R), dtype=bool), "xyz")
+    none = np.zeros(len(R))
+    return Orientations(R, grid[keep, 2].copy(), none.astype(bool), none, "xyz")
 
 
 def approach_sphere_orientations(
@@ -231,7 +221,8 @@ def approach_sphere_orientations(
     R_world_gwc = np.stack([x, y, z], axis=-1).reshape(-1, 3, 3)  # (D*M, 3, 3)
     R = np.einsum("ji,njk->nik", R_wo, R_world_gwc)  # R_object_gwc = R_wo^T R_wg
     theta = np.tile(psi, directions)
-    return Orientations(R, theta, np.zeros(len(R), dtype=bool), "approach_sphere")
+    none = np.zeros(len(R))
+    return Orientations(R, theta, none.astype(bool), none, "approach_sphere")
 
 
 def _perpendicular(n: Array) -> Array:
@@ -253,9 +244,9 @@ def _across(d: Array, first: Array, second: Array) -> Array:
 
 
 def depth_offsets(count: int, reach: tuple[float, float]) -> Array:
-    """``count`` GWC offsets (m) along the approach, evenly over ``reach`` (the
-    span of the workspace spheres along the approach axis, GWC frame); one
-    offset is 0."""
+    """``count`` GWC offsets (m) along the approach that put the box sample at
+    evenly spaced depths over ``reach`` (the span of the workspace spheres along
+    the approach axis, GWC frame, ends included); ``[0]`` for one."""
     if count <= 1:
         return np.zeros(1)
     lo, hi = reach
