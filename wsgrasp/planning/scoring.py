@@ -12,6 +12,7 @@ from numpy.typing import NDArray
 from pydantic import BaseModel
 
 from wsgrasp.errors import PluginError
+from wsgrasp.geometry import invert_transforms, transform_points
 from wsgrasp.gripper.model import GripperModel
 
 __all__ = ["CandidateBatch", "Scorer", "combine_scores"]
@@ -97,10 +98,8 @@ class CandidateBatch:
     @cached_property
     def contact_centroids_gripper(self) -> Array:
         """``contact_centroids`` in each candidate's gripper frame, ``(F, nf, 3)``."""
-        R = self.T_world_gripper[:, :3, :3]  # (F, 3, 3)
-        t = self.T_world_gripper[:, None, :3, 3]  # (F, 1, 3)
-        # p_gripper = R^T (p_world - t)
-        return np.einsum("fji,fnj->fni", R, self.contact_centroids - t)
+        T_gripper_world = invert_transforms(self.T_world_gripper)  # (F, 4, 4)
+        return transform_points(T_gripper_world, self.contact_centroids)
 
     @cached_property
     def contact_configurations(self) -> NDArray[np.int64]:

@@ -275,8 +275,11 @@ def render_png(run: Run, path: str | Path, *, dpi: int = 100) -> Path:
                     ax.plot(*np.stack([T[:3, 3], end]).T, color=col, lw=2)
         if len(L.contacts):
             ax.scatter(*L.contacts.T, s=8, c="#10c030", depthshade=False)
-        for a, b in L.directions:
-            ax.plot(*np.stack([a, b]).T, color=REASON_COLOURS["feasible"], lw=0.4)
+        if len(L.directions):
+            # one line with a break (NaN) after each stroke: (k, 3, 3) -> (3k, 3)
+            gap = np.full((len(L.directions), 1, 3), np.nan)
+            strokes = np.concatenate([L.directions, gap], axis=1).reshape(-1, 3)
+            ax.plot(*strokes.T, color=REASON_COLOURS["feasible"], lw=0.4)
         if len(L.approach):
             ax.plot(*L.approach.T, color="#d02090", lw=2, ls="--")
         for k in range(3):
