@@ -6,36 +6,30 @@ the failures by kind. ``python benchmarks/eval_summary.py eval-results/*.json``
 from __future__ import annotations
 
 import json
-import statistics
 import sys
-from collections import defaultdict
 from pathlib import Path
 
 from wsgrasp.sim.report import FAILURES
 
 
 def summary_rows(report: dict, label: str) -> list[list[str]]:
-    groups: dict[tuple[str, str], list[dict]] = defaultdict(list)
-    for r in report["trial_records"]:
-        groups[(Path(r["gripper"]).stem, r["spec"])].append(r)
+    """One row per gripper × spec from the report's own ``results``."""
     rows = []
-    for (gripper, spec), recs in groups.items():
-        ok = sum(r["outcome"] == "success" for r in recs)
-        plans = [r["plan_ms"] for r in recs if r.get("plan_ms") is not None]
-        et = f"{statistics.median(plans) / 1e3:.2f} s" if plans else "-"
+    for res in report["results"]:
+        ms = res["plan_ms_median"]
         fails = ", ".join(
             f"{k.replace('_', ' ')} {n}"
             for k in FAILURES
-            if (n := sum(r["outcome"] == k for r in recs))
+            if (n := res["failures"].get(k, 0))
         )
         rows.append(
             [
                 label,
-                gripper,
-                spec,
-                str(len(recs)),
-                f"{100 * ok / len(recs):.0f} %",
-                et,
+                Path(res["gripper"]).stem,
+                res["spec"],
+                str(res["trials"]),
+                f"{100 * res['success_rate']:.0f} %",
+                "-" if ms is None else f"{ms / 1e3:.2f} s",
                 fails or "none",
             ]
         )
