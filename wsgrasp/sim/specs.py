@@ -77,15 +77,16 @@ def _template(label: str, gripper: str) -> tuple[dict[str, Any], str]:
 
 def _gripper_name(gripper: str) -> str:
     """The registered name of a gripper given by name or by its YAML's path."""
-    p = Path(gripper)
-    if p.suffix in (".yaml", ".yml", ".json", ".toml") and p.exists():
+    path = Path(_gripper_ref(gripper))  # absolute only for a YAML
+    if path.is_absolute() and path.exists():
         from wsgrasp.spec import load_gripper_description
 
-        return load_gripper_description(p)[0].name
+        return load_gripper_description(path)[0].name
     return gripper
 
 
 def _gripper_ref(gripper: str) -> str:
+    """A gripper YAML's absolute path, or the registered name as it is."""
     p = Path(gripper)
     if p.suffix in (".yaml", ".yml", ".json", ".toml"):
         return str(p.resolve())
