@@ -20,7 +20,6 @@ from wsgrasp.record import (
     open_run,
     summarize_run,
 )
-from wsgrasp.record._mcapio import ChunkWriter
 
 FOXGLOVE_SCHEMAS = {
     "foxglove.PointCloud",
@@ -100,15 +99,53 @@ def test_every_channel_decodes_with_its_declared_schema(recorded) -> None:
         assert ch.message_encoding == "protobuf"
 
 
-def test_chunks_are_zstd(recorded) -> None:
+def test_clouds_are_stored_uncompressed_and_structured_records_with_zstd(
+    recorded,
+) -> None:
     from mcap.reader import make_reader
 
     with open(recorded[0], "rb") as fh:
-        summary = make_reader(fh).get_summary()
-    assert summary is not None and summary.chunk_indexes
-    assert {c.compression for c in summary.chunk_indexes} == {"zstd"}
-    # one chunk per stage: inputs, preprocess, segmentation, frame, candidates, result
-    assert len(summary.chunk_indexes) >= 6
+        reader = make_reader(fh)
+        summary = reader.get_summary()
+        assert summary is not None and summary.chunk_indexes
+        kinds: dict[str, set[str]] = {}
+        for c in summary.chunk_indexes:
+            topics = {summary.channels[i].topic for i in c.message_index_offsets}
+            for topic in topics:
+                kinds.setdefault(topic, set()).add(c.compression)
+    assert kinds["/wsgrasp/inputs"] == {""} and kinds["/inputs/view0"] == {""}
+    assert kinds["/scene/object"] == {""}
+    assert kinds["/wsgrasp/stage/candidates"] == {"zstd"}
+    assert kinds["/wsgrasp/run"] == {"zstd"} and kinds["/grasp/gripper"] == {"zstd"}
+    # one chunk per stage: run, inputs, preprocess, segmentation, frame,
+    # candidates, result
+    assert len(summary.chunk_indexes) >= 7
+
+
+def test_every_message_reads_with_mcaps_stock_reader(recorded) -> None:
+    from mcap.reader import make_reader
+
+    run = open_run(recorded[0])
+    with open(recorded[0], "rb") as fh:
+        stock = [(c.topic, m.data) for _, c, m in make_reader(fh).iter_messages()]
+    assert sorted(stock) == sorted((m.topic, m.data) for m in run.messages)
+
+
+def test_mcaps_stock_reader_fails_on_a_cut_file_and_open_run_does_not(
+    recorded, tmp_path: Path
+) -> None:
+    """The case the reader's own failure handling is for: ``make_reader`` needs
+    the summary, which a cut file lacks."""
+    from mcap.reader import make_reader
+
+    data = recorded[0].read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: int(len(data) * 0.9)])
+    with open(cut, "rb") as fh, pytest.raises(Exception):  # noqa: B017, PT011
+        list(make_reader(fh).iter_messages())
+    run = open_run(cut)
+    assert run.truncated and run.result is not None
+    assert run.scene.points.tobytes() == box_scene().points.tobytes()
 
 
 def test_record_refuses_an_existing_file_without_force(tmp_path: Path) -> None:
@@ -248,8 +285,10 @@ def test_an_mcap_that_is_not_a_run(tmp_path: Path) -> None:
 
 def test_a_newer_format_names_the_version(tmp_path: Path) -> None:
     path = tmp_path / "future.mcap"
+    from mcap.writer import Writer
+
     with open(path, "wb") as fh:
-        w = ChunkWriter(fh)
+        w = Writer(fh)
         w.start("wsgrasp", "wsgrasp 9.0")
         w.add_metadata("wsgrasp", {"format_version": "7", "wsgrasp_version": "9.0"})
         w.finish()

@@ -14,8 +14,9 @@ from __future__ import annotations
 
 from wsgrasp.record._codec import FORMAT_VERSION
 from wsgrasp.record._copy import copy_with_views
-from wsgrasp.record._reader import PARTS, RawMessage, Run, open_run
+from wsgrasp.record._reader import open_run
 from wsgrasp.record._replay import ReplayReport, compare_results, replay_run
+from wsgrasp.record._run import PARTS, RawMessage, Run
 from wsgrasp.record._summary import summarize_run
 from wsgrasp.record._writer import (
     RunRecorder,

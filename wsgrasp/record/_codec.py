@@ -1,15 +1,23 @@
-"""The full-fidelity encoding of a run: exact arrays inside a structured record.
+"""The full-fidelity encoding of a run: exact arrays inside a protobuf record.
 
-Each full-fidelity message is one ``wsgrasp.Record`` (protobuf, see :mod:`._proto`):
-a JSON text for the structure, in which ``{"$array": i}`` stands for the i-th raw
-little-endian array of the record, so arrays decode bit for bit. A float that JSON
-cannot hold (NaN, ±inf) is ``{"$float": "nan"}``. Everything else is plain JSON.
+Each full-fidelity message is one ``wsgrasp.Record``::
 
-A float64 array whose every value is exactly a float32 (sensor clouds usually are)
-is stored as float32, half the bytes, and marked ``{"$array": i, "$as": "<f8"}``:
-it decodes to the very float64 bits it was recorded from. The test is on the bits
-(float64 -> float32 -> float64 gives the same 64 bits), so ``-0.0``, infinities and
-NaNs with the standard payload survive it and any other NaN stays float64.
+    syntax = "proto3";
+    package wsgrasp;
+    message Array  { string dtype = 1; repeated uint64 shape = 2; bytes data = 3; }
+    message Record { uint32 format_version = 1; string kind = 2; string json = 3;
+                     repeated Array arrays = 4; }
+
+The message classes are made at import from that description (``descriptor_pb2``
+and ``message_factory``); :data:`DESCRIPTOR_SET` is the ``FileDescriptorSet`` the
+MCAP schema declares, so any protobuf reader (Foxglove included) decodes it.
+
+``json`` holds the record's structure, in which ``{"$array": i}`` stands for
+``arrays[i]``: the array's raw little-endian bytes, so arrays decode bit for bit.
+A float JSON cannot hold (NaN, ±inf) is ``{"$float": "nan"}``. A float64 array
+whose every value is exactly a float32 (sensor clouds usually are) is stored as
+float32, half the bytes, and marked ``{"$array": i, "$as": "<f8"}``: the test is
+on the bits, so it decodes to the very float64 bits it was recorded from.
 """
 
 from __future__ import annotations
@@ -20,32 +28,33 @@ from dataclasses import fields, is_dataclass
 from typing import Any
 
 import numpy as np
+from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 from numpy.typing import NDArray
 
 from wsgrasp.errors import RecordingError
-from wsgrasp.record._proto import ArrayBytes, decode_record, encode_record_parts
 
 __all__ = [
+    "DESCRIPTOR_SET",
     "FORMAT_VERSION",
     "PROFILE",
+    "SCHEMA_NAME",
     "TOPICS",
-    "encode_value",
-    "decode_value",
     "dumps",
-    "dumps_parts",
     "loads",
 ]
 
 #: Version of the recording layout. A reader refuses files with a larger one.
-#: 2: float64 arrays may be stored as float32 (``"$as"``), the merged scene points
-#: as ``"merge(views)"`` (see :mod:`._writer`). Version 1 files still read.
-FORMAT_VERSION = 2
+#: 3: the merged points always stored; spec and versions in ``/wsgrasp/run``.
+#: 2: float64 arrays as float32 (``"$as"``), merged points as ``"merge(views)"``.
+FORMAT_VERSION = 3
 
 #: MCAP header profile of wsgrasp runs.
 PROFILE = "wsgrasp"
+SCHEMA_NAME = "wsgrasp.Record"
 
 #: Full-fidelity channels, in the order they are written.
 TOPICS = {
+    "run": "/wsgrasp/run",
     "inputs": "/wsgrasp/inputs",
     "preprocess": "/wsgrasp/stage/preprocess",
     "segmentation": "/wsgrasp/stage/segmentation",
@@ -55,98 +64,87 @@ TOPICS = {
     "error": "/wsgrasp/error",
 }
 
-_DTYPES = {"<f8", "<i8", "|b1", "<f4", "<i4", "|u1"}
 
-#: float64 arrays at least this long are tried as float32 (smaller ones gain little,
-#: and trying costs tens of microseconds an array)
+def _file_descriptor() -> descriptor_pb2.FileDescriptorProto:
+    F = descriptor_pb2.FieldDescriptorProto
+    fdp = descriptor_pb2.FileDescriptorProto(
+        name="wsgrasp/record.proto", package="wsgrasp", syntax="proto3"
+    )
+    array = fdp.message_type.add(name="Array")
+    array.field.add(name="dtype", number=1, type=F.TYPE_STRING, label=F.LABEL_OPTIONAL)
+    array.field.add(name="shape", number=2, type=F.TYPE_UINT64, label=F.LABEL_REPEATED)
+    array.field.add(name="data", number=3, type=F.TYPE_BYTES, label=F.LABEL_OPTIONAL)
+    record = fdp.message_type.add(name="Record")
+    for name, number, type_ in (
+        ("format_version", 1, F.TYPE_UINT32),
+        ("kind", 2, F.TYPE_STRING),
+        ("json", 3, F.TYPE_STRING),
+    ):
+        record.field.add(name=name, number=number, type=type_, label=F.LABEL_OPTIONAL)
+    record.field.add(
+        name="arrays",
+        number=4,
+        type=F.TYPE_MESSAGE,
+        label=F.LABEL_REPEATED,
+        type_name=".wsgrasp.Array",
+    )
+    return fdp
+
+
+_FILE = _file_descriptor()
+_POOL = descriptor_pool.DescriptorPool()
+_POOL.Add(_FILE)
+Record = message_factory.GetMessageClass(_POOL.FindMessageTypeByName(SCHEMA_NAME))
+Array = message_factory.GetMessageClass(_POOL.FindMessageTypeByName("wsgrasp.Array"))
+
+#: Serialized ``google.protobuf.FileDescriptorSet`` of ``wsgrasp/record.proto``.
+DESCRIPTOR_SET: bytes = descriptor_pb2.FileDescriptorSet(
+    file=[_FILE]
+).SerializeToString()
+
+_DTYPES = {"<f8", "<i8", "|b1", "<f4", "<i4", "|u1"}
+#: float64 arrays at least this long are tried as float32 (smaller ones gain little)
 F32_MIN_SIZE = 1024
-_PROBE = 64
-_BLOCK = 32768
 
 
 def as_float32_exact(a: NDArray[Any]) -> NDArray[np.float32] | None:
     """``a`` (contiguous ``<f8``) as float32 when that keeps every bit, else None.
-
     The first values are tried first, so an array that is not float32 at heart
-    costs almost nothing; the rest is converted and checked block by block.
-    """
+    costs almost nothing."""
     with np.errstate(over="ignore", invalid="ignore"):  # those fail the test
-        return _as_float32_exact(a)
-
-
-def _as_float32_exact(a: NDArray[Any]) -> NDArray[np.float32] | None:
-    flat = a.reshape(-1)
-    head = flat[:_PROBE]
-    if not _same_bits(head.astype("<f4").astype("<f8"), head):
-        return None
-    out = np.empty(a.shape, dtype="<f4")
-    out_flat = out.reshape(-1)
-    same = np.empty(min(_BLOCK, flat.size), dtype=bool)
-    back: NDArray[np.float64] | None = None
-    for i in range(0, flat.size, _BLOCK):  # a block stays in cache
-        seg = flat[i : i + _BLOCK]
-        f32 = out_flat[i : i + _BLOCK]
-        np.copyto(f32, seg, casting="same_kind")  # rounds to float32
-        # Equal values are equal bits, save for NaN (never equal) and zeros
-        # (float32 keeps a zero's sign); only a block with a NaN or a value
-        # float32 cannot hold needs its bits compared.
-        eq = same[: len(seg)]
-        np.equal(f32, seg, out=eq)
-        if eq.all():
-            continue
-        if back is None:
-            back = np.empty(min(_BLOCK, flat.size), dtype="<f8")
-        b = back[: len(seg)]
-        np.copyto(b, f32)  # exact
-        if not _same_bits(b, seg):
+        head = a.reshape(-1)[:64]
+        if not _same_bits(head.astype("<f4").astype("<f8"), head):
             return None
-    return out
+        f32 = a.astype("<f4")
+        return f32 if _same_bits(f32.astype("<f8"), a) else None
 
 
 def _same_bits(x: NDArray[Any], y: NDArray[Any]) -> bool:
     return bool(np.array_equal(x.view("<i8"), y.view("<i8")))
 
 
-#: the little-endian dtype an array is stored as, by its dtype (None: refused)
-_STORED: dict[np.dtype[Any], str | None] = {}
-
-
-def _stored_dtype(dtype: np.dtype[Any]) -> str | None:
-    out = _STORED.get(dtype)
-    if out is None and dtype not in _STORED:
-        if dtype.kind == "f":
-            out = "<f8" if dtype.itemsize == 8 else "<f4"
-        elif dtype.kind in "iu" and dtype != np.uint8:
-            out = "<i8" if dtype.itemsize == 8 else "<i4"
-        elif dtype.kind == "b":
-            out = "|b1"
-        else:
-            out = dtype.str
-        if out not in _DTYPES:
-            out = None
-        _STORED[dtype] = out
+def _stored_dtype(dtype: np.dtype[Any]) -> str:
+    """The little-endian dtype an array of ``dtype`` is stored as."""
+    if dtype.kind == "f":
+        out = "<f8" if dtype.itemsize == 8 else "<f4"
+    elif dtype.kind in "iu" and dtype != np.uint8:
+        out = "<i8" if dtype.itemsize == 8 else "<i4"
+    else:
+        out = "|b1" if dtype.kind == "b" else dtype.str
+    if out not in _DTYPES:
+        raise RecordingError(f"cannot record an array of dtype {dtype}")
     return out
 
 
-def _encode_array(a: NDArray[Any], arrays: list[ArrayBytes]) -> dict[str, Any]:
-    stored = _stored_dtype(a.dtype)
-    if stored is None:
-        raise RecordingError(f"cannot record an array of dtype {a.dtype}")
-    if a.dtype.str != stored:
-        a = a.astype(stored)
-    a = np.ascontiguousarray(a)
+def _encode_array(a: NDArray[Any], arrays: list[Any]) -> dict[str, Any]:
+    a = np.ascontiguousarray(a, dtype=_stored_dtype(a.dtype))
     ref: dict[str, Any] = {"$array": len(arrays)}
-    if stored == "<f8" and a.size >= F32_MIN_SIZE:
+    if a.dtype.str == "<f8" and a.size >= F32_MIN_SIZE:
         f32 = as_float32_exact(a)
         if f32 is not None:
             a, ref["$as"] = f32, "<f8"
-    raw = a.reshape(-1).view(np.uint8).data  # (nbytes,) view, no copy
-    arrays.append(ArrayBytes(a.dtype.str, a.shape, raw))
+    arrays.append(Array(dtype=a.dtype.str, shape=a.shape, data=a.tobytes()))
     return ref
-
-
-#: field names of the dataclasses met so far
-_FIELDS: dict[type, tuple[str, ...]] = {}
 
 
 def _float(f: float) -> Any:
@@ -155,30 +153,27 @@ def _float(f: float) -> Any:
     return {"$float": "nan" if math.isnan(f) else ("inf" if f > 0 else "-inf")}
 
 
-def encode_value(value: Any, arrays: list[ArrayBytes]) -> Any:
+def encode_value(value: Any, arrays: list[Any]) -> Any:
     """Turn ``value`` into plain JSON data, moving arrays into ``arrays``.
 
     Dataclasses become dicts of their fields, pydantic models their JSON dump, numpy
     scalars Python numbers; anything else its ``repr``.
     """
     t = type(value)
-    # plain scalars by exact type first (a run's records hold thousands)
-    if t is float:
+    if t is float:  # plain scalars by exact type first (a record holds thousands)
         return _float(value)
     if t is int or t is str or t is bool or value is None:
         return value
     if isinstance(value, np.ndarray):
-        return _encode_array(np.asarray(value), arrays)
+        return _encode_array(value, arrays)
     if isinstance(value, dict):
         return {str(k): encode_value(v, arrays) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
         return [encode_value(v, arrays) for v in value]
-    names = _FIELDS.get(t)
-    if names is None and is_dataclass(value) and not isinstance(value, type):
-        names = _FIELDS[t] = tuple(f.name for f in fields(value))
-    if names is not None:
-        return {n: encode_value(getattr(value, n), arrays) for n in names}
-    # numpy scalars and subclasses of the plain types
+    if is_dataclass(value) and not isinstance(value, type):
+        return {
+            f.name: encode_value(getattr(value, f.name), arrays) for f in fields(value)
+        }
     if isinstance(value, (bool, np.bool_)):
         return bool(value)
     if isinstance(value, (int, np.integer)):
@@ -192,16 +187,15 @@ def encode_value(value: Any, arrays: list[ArrayBytes]) -> Any:
     return repr(value)
 
 
-def decode_value(data: Any, arrays: list[ArrayBytes]) -> Any:
+def decode_value(data: Any, arrays: list[Any]) -> Any:
     """Inverse of :func:`encode_value` (dataclasses come back as dicts)."""
     if isinstance(data, dict):
         if "$array" in data and set(data) <= {"$array", "$as"}:
             a = arrays[int(data["$array"])]
             if a.dtype not in _DTYPES:
                 raise ValueError(f"unknown array dtype {a.dtype!r}")
-            flat = np.frombuffer(a.data, dtype=np.dtype(a.dtype))
             # the record's own shape, e.g. (n, 3) points or (C, 4, 4) poses
-            out = flat.reshape(a.shape)
+            out = np.frombuffer(a.data, dtype=a.dtype).reshape(tuple(a.shape))
             cast = data.get("$as")
             if cast is None:
                 return out.copy()
@@ -218,20 +212,15 @@ def decode_value(data: Any, arrays: list[ArrayBytes]) -> Any:
 
 def dumps(value: Any, kind: str = "") -> bytes:
     """Encode ``value`` to the bytes of one ``wsgrasp.Record``."""
-    return b"".join(dumps_parts(value, kind))
-
-
-def dumps_parts(value: Any, kind: str = "") -> list[bytes | memoryview]:
-    """:func:`dumps` in pieces: the arrays' bytes are views of the arrays (or of
-    their float32 copies), valid while those arrays are unchanged."""
-    arrays: list[ArrayBytes] = []
+    arrays: list[Any] = []
     text = json.dumps(
         encode_value(value, arrays), allow_nan=False, separators=(",", ":")
     )
-    return encode_record_parts(kind, text, arrays, FORMAT_VERSION)
+    msg = Record(format_version=FORMAT_VERSION, kind=kind, json=text, arrays=arrays)
+    return bytes(msg.SerializeToString())
 
 
-def loads(data: bytes | memoryview) -> Any:
+def loads(data: bytes) -> Any:
     """Decode the bytes of one ``wsgrasp.Record``."""
-    _, _, text, arrays = decode_record(data)
-    return decode_value(json.loads(text), arrays)
+    msg = Record.FromString(data)
+    return decode_value(json.loads(msg.json), list(msg.arrays))

@@ -14,11 +14,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from wsgrasp.errors import RecordingError
-from wsgrasp.record._reader import PARTS
+from wsgrasp.record._run import PARTS
 from wsgrasp.record._writer import RunRecorder
 
 if TYPE_CHECKING:
-    from wsgrasp.record._reader import Run
+    from wsgrasp.record._run import Run
 
 __all__ = ["copy_with_views"]
 

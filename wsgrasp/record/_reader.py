@@ -1,319 +1,32 @@
 """Reading a recorded run back: :func:`open_run`.
 
-The file is read record by record. A file that stops early (a crash, a copy cut
-short) is read up to its last complete record and marked truncated, with what is
-missing; a file that is not MCAP, is MCAP but not a wsgrasp run, is corrupt, or was
-written in a newer format gets one :class:`~wsgrasp.errors.RecordingError`.
+The file is read with mcap's ``StreamReader``, record by record, chunk CRCs
+checked. A file that stops early (a crash, a copy cut short) is read up to its last
+complete record and marked truncated, with what is missing; a file that is not
+MCAP, is MCAP but not a wsgrasp run, is corrupt, or was written in a newer format
+gets one :class:`~wsgrasp.errors.RecordingError`.
+
+mcap's ``make_reader`` refuses a file without its summary (one cut short); the
+stream reader reads it up to the cut and then fails like it does on a damaged
+record, so the record where it stopped is looked at here: one that runs past the
+end of the file is a cut, anything else is corruption.
 """
 
 from __future__ import annotations
 
-import json
-import zlib
-from dataclasses import dataclass, field, fields
-from functools import cached_property
-from io import BytesIO
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import IO, Any
 
-import numpy as np
-from mcap.data_stream import ReadDataStream
-from mcap.opcode import Opcode
-from mcap.records import (
-    Attachment,
-    Channel,
-    Chunk,
-    Footer,
-    Header,
-    Message,
-    Metadata,
-    Schema,
-)
-from mcap.stream_reader import breakup_chunk
+from mcap.records import Attachment, Channel, Footer, Header, Message, Metadata, Schema
+from mcap.stream_reader import StreamReader
+from mcap.writer import MCAP0_MAGIC
 
 from wsgrasp.errors import RecordingError
-from wsgrasp.record._codec import FORMAT_VERSION, PROFILE, TOPICS, loads
-from wsgrasp.record._proto import SCHEMA_NAME
+from wsgrasp.record._codec import FORMAT_VERSION, PROFILE, SCHEMA_NAME, TOPICS, loads
+from wsgrasp.record._run import PARTS, RawMessage, Run
 
-if TYPE_CHECKING:
-    from wsgrasp.gripper.model import GripperModel
-    from wsgrasp.perception.types import Scene
-    from wsgrasp.planning.result import CandidateSet, PlanResult
-    from wsgrasp.spec import PipelineSpec
-
-__all__ = ["Run", "RawMessage", "open_run", "PARTS"]
-
-MAGIC = b"\x89MCAP0\r\n"
-
-#: What a complete run holds, in the order it is written.
-PARTS = (
-    "metadata",
-    "spec",
-    "inputs",
-    "gripper model",
-    "preprocess",
-    "segmentation",
-    "object_frame",
-    "candidates",
-    "result",
-)
-
-
-@dataclass
-class RawMessage:
-    """One message as stored, with its channel's schema."""
-
-    topic: str
-    schema_name: str
-    schema_encoding: str
-    schema_data: bytes
-    message_encoding: str
-    log_time: int
-    data: bytes
-
-
-@dataclass
-class Run:
-    """A recorded run, as read by :func:`open_run`.
-
-    Attributes
-    ----------
-    path : Path
-    format_version : int
-    wsgrasp_version : str
-        Version of wsgrasp that recorded the run.
-    metadata : dict of str to dict of str to str
-        The MCAP metadata records by name (``wsgrasp``, ``spec``, ``plugins``,
-        ``run_end``).
-    attachments : dict of str to bytes
-    inputs : dict or None
-        The decoded inputs record (views, merged points).
-    stages : dict of str to dict
-        Each recorded stage's data (arrays exact; the candidates as a dict).
-    result_data : dict or None
-        The decoded result record.
-    error : dict or None
-        What stopped the plan (``type``, ``message``, ``hint``), if it failed.
-    truncated : bool
-        The file ends before its footer (e.g. the process crashed).
-    truncated_at : int or None
-        Byte offset of the first incomplete record.
-    missing : list of str
-        Parts of a complete run (:data:`PARTS`) this file lacks.
-    messages : list of RawMessage
-        Every message, in file order.
-    """
-
-    path: Path
-    format_version: int
-    wsgrasp_version: str
-    metadata: dict[str, dict[str, str]]
-    attachments: dict[str, bytes]
-    inputs: dict[str, Any] | None
-    stages: dict[str, dict[str, Any]]
-    result_data: dict[str, Any] | None
-    error: dict[str, Any] | None
-    truncated: bool
-    truncated_at: int | None
-    missing: list[str]
-    messages: list[RawMessage] = field(repr=False, default_factory=list)
-
-    # -- typed views ----------------------------------------------------------------
-    @property
-    def status(self) -> str:
-        """``"ok"`` (a result), ``"error"`` (the plan raised) or ``"truncated"``."""
-        if self.result_data is not None:
-            return "ok"
-        if self.error is not None:
-            return "error"
-        return "truncated"
-
-    @cached_property
-    def spec_data(self) -> dict[str, Any] | None:
-        """The resolved spec as plain data."""
-        raw = self.metadata.get("spec", {}).get("json")
-        return None if raw is None else json.loads(raw)
-
-    @cached_property
-    def spec(self) -> PipelineSpec:
-        """The recorded spec (validated; plugins are not looked up).
-
-        Raises
-        ------
-        RecordingError
-            The file holds no spec, or it does not validate with this wsgrasp.
-        """
-        from wsgrasp.errors import SpecError
-        from wsgrasp.spec import load_spec
-
-        if self.spec_data is None:
-            raise RecordingError(
-                f"{self.path}: holds no spec (the file was cut before it)",
-                hint="replay needs a run recorded at least up to its inputs",
-            )
-        try:
-            return load_spec(self.spec_data, check_plugins=False)
-        except SpecError as exc:
-            raise RecordingError(
-                f"{self.path}: the recorded spec does not validate with this "
-                f"wsgrasp: {exc.message}",
-                hint=f"use wsgrasp {self.wsgrasp_version}, which recorded it",
-            ) from None
-
-    @property
-    def plugins(self) -> list[dict[str, Any]]:
-        """Every plugin loaded when the run was recorded (distribution, version)."""
-        out = []
-        for key, raw in sorted(self.metadata.get("plugins", {}).items()):
-            try:
-                out.append(json.loads(raw))
-            except ValueError:
-                out.append({"name": key, "error": raw})
-        return out
-
-    @cached_property
-    def gripper(self) -> GripperModel:
-        """The gripper model from the attachment (no plugin needed).
-
-        Raises
-        ------
-        RecordingError
-            The file holds no gripper model.
-        """
-        from wsgrasp.errors import GripperError
-        from wsgrasp.gripper.model import GripperModel
-
-        data = self.attachments.get("gripper/model.npz")
-        if data is None:
-            raise RecordingError(
-                f"{self.path}: holds no gripper model"
-                + (" (the file is truncated)" if self.truncated else ""),
-                hint="replay needs a run recorded at least up to its inputs",
-            )
-        try:
-            return GripperModel.from_bytes(data)
-        except GripperError as exc:
-            raise RecordingError(
-                f"{self.path}: the recorded gripper model is unreadable: {exc.message}"
-            ) from None
-
-    @cached_property
-    def scene(self) -> Scene:
-        """The planner's input, bit for bit.
-
-        Raises
-        ------
-        RecordingError
-            The file holds no inputs.
-        """
-        from wsgrasp.perception.types import Scene, View
-
-        if self.inputs is None:
-            raise RecordingError(
-                f"{self.path}: holds no inputs (the file was cut before them)",
-                hint="nothing of this run can be replayed",
-            )
-        d = self.inputs
-        if d.get("points_mismatch"):
-            raise RecordingError(
-                f"{self.path}: {d['points_mismatch']}",
-                hint="replay the run where it was recorded (same numpy and BLAS)",
-            )
-        views = [
-            View(points=v["points"], T_world_camera=v["T_world_camera"], name=v["name"])
-            for v in d["views"]
-        ]
-        return Scene(
-            views=views,
-            points=d["points"],
-            dropped_nonfinite=int(d.get("dropped_nonfinite", 0)),
-        )
-
-    @cached_property
-    def candidates(self) -> CandidateSet | None:
-        """Every candidate evaluated, or None if the file stops before them."""
-        if self.result_data is not None:
-            cs = self.result_data.get("candidates")
-            if isinstance(cs, dict):
-                return _candidate_set(cs)
-        stage = self.stages.get("candidates")
-        if stage is not None and isinstance(stage.get("candidates"), dict):
-            return _candidate_set(stage["candidates"])
-        return None
-
-    @cached_property
-    def result(self) -> PlanResult | None:
-        """The plan's result, or None if the plan failed or the file stops early."""
-        from wsgrasp.planning.result import (
-            Alternative,
-            CandidateSet,
-            Contact,
-            PlanResult,
-        )
-
-        if self.result_data is None:
-            return None
-        d = dict(self.result_data)
-        cs = self.candidates
-        d["candidates"] = cs if cs is not None else _empty_candidates(CandidateSet)
-        d["contacts"] = [Contact(**_known(Contact, c)) for c in d.get("contacts", [])]
-        d["alternatives"] = [
-            Alternative(**_known(Alternative, a)) for a in d.get("alternatives", [])
-        ]
-        try:
-            return PlanResult(**_known(PlanResult, d))
-        except TypeError as exc:
-            raise RecordingError(
-                f"{self.path}: the recorded result does not fit this wsgrasp: {exc}",
-                hint=f"use wsgrasp {self.wsgrasp_version}, which recorded it",
-            ) from None
-
-    @property
-    def timing_ms(self) -> dict[str, float]:
-        """The plan's stage timings, the recorder's time in the plan
-        (``recorder``) and, after it, building the Foxglove views (``views``)."""
-        out: dict[str, float] = {}
-        if self.result_data is not None:
-            out.update(
-                {k: float(v) for k, v in self.result_data.get("timing_ms", {}).items()}
-            )
-        end = self.metadata.get("run_end", {})
-        for key, name in (("recorder_ms", "recorder"), ("views_ms", "views")):
-            if end.get(key) is not None:
-                out[name] = float(end[key])
-        return out
-
-    def topics(self) -> dict[str, tuple[str, int]]:
-        """Topic → (schema name, message count)."""
-        out: dict[str, tuple[str, int]] = {}
-        for m in self.messages:
-            name, n = out.get(m.topic, (m.schema_name, 0))
-            out[m.topic] = (name, n + 1)
-        return out
-
-
-def _known(cls: Any, d: dict[str, Any]) -> dict[str, Any]:
-    names = {f.name for f in fields(cls)}
-    return {k: v for k, v in d.items() if k in names}
-
-
-def _candidate_set(d: dict[str, Any]) -> CandidateSet:
-    from wsgrasp.planning.result import CandidateSet
-
-    d = _known(CandidateSet, d)
-    d["terms"] = dict(d.get("terms") or {})
-    return CandidateSet(**d)
-
-
-def _empty_candidates(cls: Any) -> CandidateSet:
-    z = np.zeros((0, 4, 4))
-    e = np.zeros(0)
-    i = np.zeros(0, dtype=np.int64)
-    return cls(z, z.copy(), i, e, i.copy(), np.zeros((0, 0), np.int64), e.copy())
-
-
-# -- the file ------------------------------------------------------------------------
-_KNOWN_OPCODES = {int(o) for o in Opcode}
+__all__ = ["open_run"]
 
 
 @dataclass
@@ -328,54 +41,6 @@ class _Scan:
     truncated_at: int | None = None
 
 
-def _records(path: Path, data: bytes) -> _Scan:
-    """Split ``data`` into MCAP records; stop at the first incomplete one."""
-    if len(data) == 0:
-        raise RecordingError(
-            f"{path}: the file is empty",
-            hint="the run was not recorded (it stopped before its first write?)",
-        )
-    if not data.startswith(MAGIC[: min(len(data), len(MAGIC))]):
-        raise RecordingError(
-            f"{path}: not an MCAP file (it starts with {data[:8]!r}, MCAP files "
-            f"start with {MAGIC!r})",
-            hint="give a run recorded by `wsgrasp plan` (runs/*.mcap)",
-        )
-    scan = _Scan()
-    pos = len(MAGIC)
-    if len(data) < pos:
-        scan.truncated_at = 0
-        return scan
-    while pos < len(data):
-        if pos + 9 > len(data):
-            scan.truncated_at = pos
-            break
-        opcode = data[pos]
-        length = int.from_bytes(data[pos + 1 : pos + 9], "little")
-        end = pos + 9 + length
-        if opcode not in _KNOWN_OPCODES:
-            raise _corrupt(path, pos, f"unknown record type 0x{opcode:02x}")
-        if end > len(data):
-            scan.truncated_at = pos
-            break
-        body = data[pos + 9 : end]
-        try:
-            _record(scan, opcode, body)
-        except RecordingError:
-            raise
-        except Exception as exc:  # noqa: BLE001 - any decoding failure
-            raise _corrupt(path, pos, f"{Opcode(opcode).name} record: {exc}") from None
-        if opcode == Opcode.FOOTER:
-            scan.footer = True
-            if data[end : end + len(MAGIC)] != MAGIC:
-                raise _corrupt(path, end, "no closing magic after the footer")
-            break
-        pos = end
-    else:
-        scan.truncated_at = pos
-    return scan
-
-
 def _corrupt(path: Path, offset: int, what: str) -> RecordingError:
     return RecordingError(
         f"{path}: corrupt MCAP file at byte {offset}: {what}",
@@ -383,34 +48,44 @@ def _corrupt(path: Path, offset: int, what: str) -> RecordingError:
     )
 
 
-def _record(scan: _Scan, opcode: int, body: bytes) -> None:
-    stream = ReadDataStream(BytesIO(body))
-    if opcode == Opcode.HEADER:
-        scan.header = Header.read(stream)
-    elif opcode == Opcode.SCHEMA:
-        _add(scan, Schema.read(stream))
-    elif opcode == Opcode.CHANNEL:
-        _add(scan, Channel.read(stream))
-    elif opcode == Opcode.MESSAGE:
-        _add(scan, Message.read(stream, len(body)))
-    elif opcode == Opcode.CHUNK:
-        for rec in breakup_chunk(Chunk.read(stream), validate_crc=True):
+def _scan(path: Path, fh: IO[bytes], size: int) -> _Scan:
+    """Every complete record of the file; where it stops, if it is cut."""
+    head = fh.read(len(MCAP0_MAGIC))
+    if not MCAP0_MAGIC.startswith(head):
+        raise RecordingError(
+            f"{path}: not an MCAP file (it starts with {head!r}, MCAP files "
+            f"start with {MCAP0_MAGIC!r})",
+            hint="give a run recorded by `wsgrasp plan` (runs/*.mcap)",
+        )
+    fh.seek(0)
+    scan = _Scan()
+    pos = 0  # the end of the last complete record
+    try:
+        for rec in StreamReader(fh, validate_crcs=True).records:
             _add(scan, rec)
-    elif opcode == Opcode.METADATA:
-        meta = Metadata.read(stream)
-        scan.metadata[meta.name] = dict(meta.metadata)
-    elif opcode == Opcode.ATTACHMENT:
-        att = Attachment.read(stream)
-        crc = int.from_bytes(body[-4:], "little")
-        if crc != 0 and zlib.crc32(body[:-4]) != crc:
-            raise ValueError(f"attachment {att.name!r} fails its CRC check")
-        scan.attachments[att.name] = att.data
-    elif opcode == Opcode.FOOTER:
-        Footer.read(stream)
+            pos = fh.tell()
+    except RecordingError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - any failure: a cut or damage
+        if not _runs_past_the_end(fh, pos, size):
+            raise _corrupt(path, pos, f"{type(exc).__name__}: {exc}") from None
+        scan.truncated_at = pos
+    return scan
+
+
+def _runs_past_the_end(fh: IO[bytes], pos: int, size: int) -> bool:
+    """Whether the record at ``pos`` (or the magic there) ends after ``size``
+    bytes: an MCAP record starts with its opcode (1 byte) and length (8)."""
+    if pos + 9 > size:
+        return True
+    fh.seek(pos + 1)
+    return pos + 9 + int.from_bytes(fh.read(8), "little") > size
 
 
 def _add(scan: _Scan, rec: Any) -> None:
-    if isinstance(rec, Schema):
+    if isinstance(rec, Header):
+        scan.header = rec
+    elif isinstance(rec, Schema):
         scan.schemas[rec.id] = rec
     elif isinstance(rec, Channel):
         scan.channels[rec.id] = rec
@@ -430,35 +105,40 @@ def _add(scan: _Scan, rec: Any) -> None:
                 data=rec.data,
             )
         )
+    elif isinstance(rec, Metadata):
+        scan.metadata[rec.name] = dict(rec.metadata)
+    elif isinstance(rec, Attachment):
+        scan.attachments[rec.name] = rec.data
+    elif isinstance(rec, Footer):
+        scan.footer = True
 
 
 def _rebuild_points(inputs: dict[str, Any]) -> None:
-    """Put the merged scene points back into ``inputs`` when the file stores how to
-    make them rather than them (see :func:`wsgrasp.record._writer._inputs_record`).
+    """Formats 1 and 2: the merged scene points, stored as how to make them,
+    made again with the loader's merge; ``points_mismatch`` says when this
+    machine's merge does not give the recorded check value (:attr:`Run.scene`
+    refuses such points). Format 3 stores them."""
+    import numpy as np
 
-    When this machine's merge does not give the recorded check value (another
-    numpy or BLAS than the recording machine's), ``points`` is still the merge and
-    ``points_mismatch`` says so; :attr:`Run.scene` then refuses to pass it off as
-    the planner's input.
-    """
-    from wsgrasp.record._writer import MERGED, merge_views, points_check
+    from wsgrasp.perception.io import _to_world
+    from wsgrasp.perception.types import View
 
-    rule = inputs["points"]
-    views = inputs.get("views") or []
-    if rule == "views[0].points" and views:  # format 1
+    rule, views = inputs["points"], inputs.get("views") or []
+    if rule == "views[0].points" and views:
         inputs["points"] = views[0]["points"]
         return
-    if rule != MERGED or not views:
+    if rule != "merge(views)" or not views:
         raise ValueError(f"unknown rule for the merged points: {rule!r}")
-    merged = merge_views([(v["points"], v["T_world_camera"]) for v in views])
-    inputs["points"] = merged
-    want = inputs.get("points_check")
-    if want is not None and points_check(merged) != want:
+    world = [_to_world(View(v["points"], v["T_world_camera"])) for v in views]
+    merged = inputs["points"] = np.concatenate(world, axis=0)
+    words = np.ascontiguousarray(merged, dtype="<f8").reshape(-1).view("<u8")
+    total = int(np.add.reduce(words, dtype=np.uint64))
+    check = f"{total:016x}{int(np.bitwise_xor.reduce(words)) if words.size else 0:016x}"
+    if inputs.get("points_check") not in (None, check):
         inputs["points_mismatch"] = (
-            "the recording stores the merged scene points as the merge of its "
-            "views, and merging them here does not give the recorded bits "
-            f"(check value {points_check(merged)}, recorded {want}); this "
-            "machine's numpy/BLAS computes the merge differently"
+            "the recording stores the merged scene points as the merge of its views, "
+            "and merging them here does not give the recorded bits (this machine's "
+            "numpy/BLAS computes the merge differently)"
         )
 
 
@@ -479,8 +159,9 @@ def open_run(path: str | Path) -> Run:
     Raises
     ------
     RecordingError
-        The file is missing, not MCAP, corrupt, not a wsgrasp run, or recorded in a
-        newer format than this wsgrasp reads.
+        The file is missing, not MCAP, corrupt (a changed byte in a record, the
+        spec and versions included), not a wsgrasp run, or recorded in a newer
+        format than this wsgrasp reads.
     """
     from wsgrasp.record._writer import wait_for_recorders
 
@@ -492,23 +173,25 @@ def open_run(path: str | Path) -> Run:
             hint="check the path; runs are recorded under runs/ by default",
         )
     try:
-        data = p.read_bytes()
+        size = p.stat().st_size
+        if size == 0:
+            raise RecordingError(
+                f"{p}: the file is empty",
+                hint="the run was not recorded (it stopped before its first write?)",
+            )
+        with open(p, "rb") as fh:
+            scan = _scan(p, fh, size)
     except OSError as exc:
         raise RecordingError(f"{p}: cannot read: {exc.strerror}") from None
-    scan = _records(p, data)
     return _run_from_scan(p, scan)
 
 
-def _run_from_scan(p: Path, scan: _Scan) -> Run:
-    header = scan.header
-    meta = scan.metadata.get("wsgrasp")
-    is_ours = (header is not None and header.profile == PROFILE) or meta is not None
-    if not is_ours:
+def _check_version(p: Path, scan: _Scan) -> tuple[int, str]:
+    header, meta = scan.header, scan.metadata.get("wsgrasp")
+    if not ((header is not None and header.profile == PROFILE) or meta is not None):
         if header is None:
             raise RecordingError(
-                f"{p}: the file stops before its MCAP header "
-                f"({len(MAGIC) if scan.truncated_at is None else scan.truncated_at} "
-                "bytes); nothing was recorded",
+                f"{p}: the file stops before its MCAP header; nothing was recorded",
                 hint="the run crashed as it started; plan again",
             )
         topics = sorted({m.topic for m in scan.messages})
@@ -522,13 +205,9 @@ def _run_from_scan(p: Path, scan: _Scan) -> Run:
             "on a ROS 2 bag use `wsgrasp plan BAG --topic TOPIC`",
         )
     version_text = (meta or {}).get("format_version", str(FORMAT_VERSION))
-    try:
-        version = int(version_text)
-    except ValueError:
-        raise _corrupt(
-            p, 0, f"format_version {version_text!r} is not a number"
-        ) from None
-    recorded_by = (meta or {}).get("wsgrasp_version", "unknown")
+    if not version_text.isdigit():
+        raise _corrupt(p, 0, f"format_version {version_text!r} is not a number")
+    version, recorded_by = int(version_text), (meta or {}).get("wsgrasp_version", "?")
     if version > FORMAT_VERSION:
         from wsgrasp import __version__
 
@@ -537,7 +216,11 @@ def _run_from_scan(p: Path, scan: _Scan) -> Run:
             f"this wsgrasp ({__version__}) reads run formats up to {FORMAT_VERSION}",
             hint=f"upgrade wsgrasp to {recorded_by} or newer (pip install -U wsgrasp)",
         )
+    return version, recorded_by
 
+
+def _run_from_scan(p: Path, scan: _Scan) -> Run:
+    version, recorded_by = _check_version(p, scan)
     by_topic: dict[str, Any] = {}
     stages: dict[str, dict[str, Any]] = {}
     for m in scan.messages:
@@ -552,10 +235,19 @@ def _run_from_scan(p: Path, scan: _Scan) -> Run:
             by_topic[m.topic] = value
             if m.topic.startswith("/wsgrasp/stage/"):
                 stages[m.topic.removeprefix("/wsgrasp/stage/")] = value
+    metadata = dict(scan.metadata)
+    if version >= 3:  # the checked record is the run's metadata
+        for name in ("wsgrasp", "spec", "plugins"):
+            metadata.pop(name, None)
+        for name, part in (by_topic.get(TOPICS["run"]) or {}).items():
+            if scan.metadata.get(name, part) != part:
+                raise _corrupt(
+                    p, 0, f"metadata {name!r} differs from the run's checked record"
+                )
+            metadata[name] = part
     result_data = by_topic.get(TOPICS["result"])
     if result_data is not None and isinstance(result_data.get("candidates"), str):
-        stage = stages.get("candidates", {})
-        result_data["candidates"] = stage.get("candidates")
+        result_data["candidates"] = stages.get("candidates", {}).get("candidates")
     error = by_topic.get(TOPICS["error"])
     inputs = by_topic.get(TOPICS["inputs"])
     if inputs is not None and isinstance(inputs.get("points"), str):
@@ -563,32 +255,27 @@ def _run_from_scan(p: Path, scan: _Scan) -> Run:
             _rebuild_points(inputs)
         except (ValueError, KeyError, TypeError) as exc:
             raise _corrupt(p, 0, f"the inputs record: {exc}") from None
-
-    truncated = not scan.footer
     present = {
-        "metadata": meta is not None,
-        "spec": "spec" in scan.metadata,
+        "metadata": "wsgrasp" in metadata,
+        "spec": "spec" in metadata,
         "inputs": inputs is not None,
         "gripper model": "gripper/model.npz" in scan.attachments,
         "result": result_data is not None,
         **{s: s in stages for s in PARTS[4:8]},
     }
-    if error is not None:
-        # the plan stopped; the parts after the failure were never meant to exist
-        missing = []
-    else:
-        missing = [part for part in PARTS if not present[part]]
+    # a plan that stopped: the parts after the failure were never meant to exist
+    missing = [] if error is not None else [s for s in PARTS if not present[s]]
     return Run(
         path=p,
         format_version=version,
         wsgrasp_version=recorded_by,
-        metadata=scan.metadata,
+        metadata=metadata,
         attachments=scan.attachments,
         inputs=inputs,
         stages=stages,
         result_data=result_data,
         error=error,
-        truncated=truncated,
+        truncated=not scan.footer,
         truncated_at=scan.truncated_at,
         missing=missing,
         messages=scan.messages,

@@ -10,7 +10,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from wsgrasp.errors import RecordingError, WsgraspError
-from wsgrasp.record._reader import Run, open_run
+from wsgrasp.record._reader import open_run
+from wsgrasp.record._run import Run
 
 if TYPE_CHECKING:
     from wsgrasp.planning.result import PlanResult

@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from wsgrasp.record._reader import Run
+from wsgrasp.record._run import Run
 
 __all__ = ["summarize_run", "histogram"]
 

@@ -1,0 +1,287 @@
+"""A recorded run as :func:`~wsgrasp.record.open_run` reads it: :class:`Run`."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field, fields
+from functools import cached_property
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from wsgrasp.errors import RecordingError
+
+if TYPE_CHECKING:
+    from wsgrasp.gripper.model import GripperModel
+    from wsgrasp.perception.types import Scene
+    from wsgrasp.planning.result import CandidateSet, PlanResult
+    from wsgrasp.spec import PipelineSpec
+
+__all__ = ["PARTS", "RawMessage", "Run"]
+
+#: What a complete run holds, in the order it is written.
+PARTS = (
+    "metadata",
+    "spec",
+    "inputs",
+    "gripper model",
+    "preprocess",
+    "segmentation",
+    "object_frame",
+    "candidates",
+    "result",
+)
+
+
+@dataclass
+class RawMessage:
+    """One message as stored, with its channel's schema."""
+
+    topic: str
+    schema_name: str
+    schema_encoding: str
+    schema_data: bytes
+    message_encoding: str
+    log_time: int
+    data: bytes
+
+
+@dataclass
+class Run:
+    """A recorded run, as read by :func:`open_run`.
+
+    Attributes
+    ----------
+    path : Path
+    format_version : int
+    wsgrasp_version : str
+        Version of wsgrasp that recorded the run.
+    metadata : dict of str to dict of str to str
+        The MCAP metadata records by name (``wsgrasp``, ``spec``, ``plugins``,
+        ``run_end``).
+    attachments : dict of str to bytes
+    inputs : dict or None
+        The decoded inputs record (views, merged points).
+    stages : dict of str to dict
+        Each recorded stage's data (arrays exact; the candidates as a dict).
+    result_data : dict or None
+        The decoded result record.
+    error : dict or None
+        What stopped the plan (``type``, ``message``, ``hint``), if it failed.
+    truncated : bool
+        The file ends before its footer (e.g. the process crashed).
+    truncated_at : int or None
+        Byte offset of the first incomplete record.
+    missing : list of str
+        Parts of a complete run (:data:`PARTS`) this file lacks.
+    messages : list of RawMessage
+        Every message, in file order.
+    """
+
+    path: Path
+    format_version: int
+    wsgrasp_version: str
+    metadata: dict[str, dict[str, str]]
+    attachments: dict[str, bytes]
+    inputs: dict[str, Any] | None
+    stages: dict[str, dict[str, Any]]
+    result_data: dict[str, Any] | None
+    error: dict[str, Any] | None
+    truncated: bool
+    truncated_at: int | None
+    missing: list[str]
+    messages: list[RawMessage] = field(repr=False, default_factory=list)
+
+    # -- typed views ----------------------------------------------------------------
+    @property
+    def status(self) -> str:
+        """``"ok"`` (a result), ``"error"`` (the plan raised) or ``"truncated"``."""
+        if self.result_data is not None:
+            return "ok"
+        if self.error is not None:
+            return "error"
+        return "truncated"
+
+    @cached_property
+    def spec_data(self) -> dict[str, Any] | None:
+        """The resolved spec as plain data."""
+        raw = self.metadata.get("spec", {}).get("json")
+        return None if raw is None else json.loads(raw)
+
+    @cached_property
+    def spec(self) -> PipelineSpec:
+        """The recorded spec (validated; plugins are not looked up).
+
+        Raises
+        ------
+        RecordingError
+            The file holds no spec, or it does not validate with this wsgrasp.
+        """
+        from wsgrasp.errors import SpecError
+        from wsgrasp.spec import load_spec
+
+        if self.spec_data is None:
+            raise RecordingError(
+                f"{self.path}: holds no spec (the file was cut before it)",
+                hint="replay needs a run recorded at least up to its inputs",
+            )
+        try:
+            return load_spec(self.spec_data, check_plugins=False)
+        except SpecError as exc:
+            raise RecordingError(
+                f"{self.path}: the recorded spec does not validate with this "
+                f"wsgrasp: {exc.message}",
+                hint=f"use wsgrasp {self.wsgrasp_version}, which recorded it",
+            ) from None
+
+    @property
+    def plugins(self) -> list[dict[str, Any]]:
+        """Every plugin loaded when the run was recorded (distribution, version)."""
+        out = []
+        for key, raw in sorted(self.metadata.get("plugins", {}).items()):
+            try:
+                out.append(json.loads(raw))
+            except ValueError:
+                out.append({"name": key, "error": raw})
+        return out
+
+    @cached_property
+    def gripper(self) -> GripperModel:
+        """The gripper model from the attachment (no plugin needed).
+
+        Raises
+        ------
+        RecordingError
+            The file holds no gripper model.
+        """
+        from wsgrasp.errors import GripperError
+        from wsgrasp.gripper.model import GripperModel
+
+        data = self.attachments.get("gripper/model.npz")
+        if data is None:
+            raise RecordingError(
+                f"{self.path}: holds no gripper model"
+                + (" (the file is truncated)" if self.truncated else ""),
+                hint="replay needs a run recorded at least up to its inputs",
+            )
+        try:
+            return GripperModel.from_bytes(data)
+        except GripperError as exc:
+            raise RecordingError(
+                f"{self.path}: the recorded gripper model is unreadable: {exc.message}"
+            ) from None
+
+    @cached_property
+    def scene(self) -> Scene:
+        """The planner's input, bit for bit.
+
+        Raises
+        ------
+        RecordingError
+            The file holds no inputs.
+        """
+        from wsgrasp.perception.types import Scene, View
+
+        if self.inputs is None:
+            raise RecordingError(
+                f"{self.path}: holds no inputs (the file was cut before them)",
+                hint="nothing of this run can be replayed",
+            )
+        d = self.inputs
+        if d.get("points_mismatch"):
+            raise RecordingError(
+                f"{self.path}: {d['points_mismatch']}",
+                hint="replay the run where it was recorded (same numpy and BLAS)",
+            )
+        views = [
+            View(points=v["points"], T_world_camera=v["T_world_camera"], name=v["name"])
+            for v in d["views"]
+        ]
+        return Scene(
+            views=views,
+            points=d["points"],
+            dropped_nonfinite=int(d.get("dropped_nonfinite", 0)),
+        )
+
+    @cached_property
+    def candidates(self) -> CandidateSet | None:
+        """Every candidate evaluated, or None if the file stops before them."""
+        if self.result_data is not None:
+            cs = self.result_data.get("candidates")
+            if isinstance(cs, dict):
+                return _candidate_set(cs)
+        stage = self.stages.get("candidates")
+        if stage is not None and isinstance(stage.get("candidates"), dict):
+            return _candidate_set(stage["candidates"])
+        return None
+
+    @cached_property
+    def result(self) -> PlanResult | None:
+        """The plan's result, or None if the plan failed or the file stops early."""
+        from wsgrasp.planning.result import (
+            Alternative,
+            CandidateSet,
+            Contact,
+            PlanResult,
+        )
+
+        if self.result_data is None:
+            return None
+        d = dict(self.result_data)
+        cs = self.candidates
+        d["candidates"] = cs if cs is not None else _empty_candidates(CandidateSet)
+        d["contacts"] = [Contact(**_known(Contact, c)) for c in d.get("contacts", [])]
+        d["alternatives"] = [
+            Alternative(**_known(Alternative, a)) for a in d.get("alternatives", [])
+        ]
+        try:
+            return PlanResult(**_known(PlanResult, d))
+        except TypeError as exc:
+            raise RecordingError(
+                f"{self.path}: the recorded result does not fit this wsgrasp: {exc}",
+                hint=f"use wsgrasp {self.wsgrasp_version}, which recorded it",
+            ) from None
+
+    @property
+    def timing_ms(self) -> dict[str, float]:
+        """The plan's stage timings, the recorder's time in the plan
+        (``recorder``) and, after it, building the Foxglove views (``views``)."""
+        out: dict[str, float] = {}
+        if self.result_data is not None:
+            out.update(
+                {k: float(v) for k, v in self.result_data.get("timing_ms", {}).items()}
+            )
+        end = self.metadata.get("run_end", {})
+        for key, name in (("recorder_ms", "recorder"), ("views_ms", "views")):
+            if end.get(key) is not None:
+                out[name] = float(end[key])
+        return out
+
+    def topics(self) -> dict[str, tuple[str, int]]:
+        """Topic → (schema name, message count)."""
+        out: dict[str, tuple[str, int]] = {}
+        for m in self.messages:
+            name, n = out.get(m.topic, (m.schema_name, 0))
+            out[m.topic] = (name, n + 1)
+        return out
+
+
+def _known(cls: Any, d: dict[str, Any]) -> dict[str, Any]:
+    names = {f.name for f in fields(cls)}
+    return {k: v for k, v in d.items() if k in names}
+
+
+def _candidate_set(d: dict[str, Any]) -> CandidateSet:
+    from wsgrasp.planning.result import CandidateSet
+
+    d = _known(CandidateSet, d)
+    d["terms"] = dict(d.get("terms") or {})
+    return CandidateSet(**d)
+
+
+def _empty_candidates(cls: Any) -> CandidateSet:
+    z = np.zeros((0, 4, 4))
+    e = np.zeros(0)
+    i = np.zeros(0, dtype=np.int64)
+    return cls(z, z.copy(), i, e, i.copy(), np.zeros((0, 0), np.int64), e.copy())

@@ -1,0 +1,302 @@
+"""The Foxglove views of a run: messages in Foxglove's well-known schemas
+(``foxglove.PointCloud``, ``PoseInFrame``, ``PosesInFrame``, ``FrameTransform``,
+``SceneUpdate``), built with foxglove-sdk's message classes, so that Foxglove
+shows a run as it is.
+
+Each builder returns ``(topic, message)`` pairs; the recorder writes
+``message.encode()`` under the schema ``type(message).get_schema()``. Quaternions
+come from scipy's ``Rotation`` (``q_xyzw``, Foxglove's order).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
+
+try:  # foxglove-sdk >= 0.16 names them ``messages``
+    import foxglove.messages as fm
+except ImportError:  # pragma: no cover - older foxglove-sdk
+    import foxglove.schemas as fm  # type: ignore[no-redef]
+
+if TYPE_CHECKING:
+    from wsgrasp.gripper.model import GripperModel
+
+__all__ = [
+    "FOXGLOVE_MAX_POINTS",
+    "REASON_RGBA",
+    "input_views",
+    "point_cloud",
+    "result_views",
+    "stage_views",
+]
+
+#: Most points of the input views, all together, in their Foxglove channels
+#: (``/inputs/view<i>``; the exact views are in ``/wsgrasp/inputs``).
+FOXGLOVE_MAX_POINTS = 30_000
+
+#: Colour (r, g, b, a in 0..1) of each rejection reason, feasible first; the same
+#: order as :data:`wsgrasp.planning.result.REASONS`.
+REASON_RGBA: dict[str, tuple[float, float, float, float]] = {
+    "feasible": (0.10, 0.75, 0.20, 1.0),
+    "table_collision": (0.55, 0.35, 0.15, 0.8),
+    "object_collision": (0.90, 0.15, 0.15, 0.8),
+    "obstacle_collision": (0.60, 0.20, 0.75, 0.8),
+    "finger_without_contact": (0.55, 0.60, 0.70, 0.8),
+}
+_OTHER_RGBA = (0.3, 0.3, 0.3, 0.8)
+
+View = tuple[str, Any]  # (topic, foxglove-sdk message)
+
+
+def _stamp(t_ns: int) -> Any:
+    return fm.Timestamp(sec=t_ns // 1_000_000_000, nsec=t_ns % 1_000_000_000)
+
+
+def _pq(T: ArrayLike) -> tuple[list[list[float]], list[list[float]]]:
+    """Positions ``(k, 3)`` and quaternions ``q_xyzw`` ``(k, 4)`` of ``(k, 4, 4)``."""
+    T = np.asarray(T, dtype=np.float64).reshape(-1, 4, 4)  # (k, 4, 4)
+    if len(T) == 0:
+        return [], []
+    return T[:, :3, 3].tolist(), Rotation.from_matrix(T[:, :3, :3]).as_quat().tolist()
+
+
+def _poses(T: ArrayLike) -> list[Any]:
+    """Foxglove poses of transforms ``(k, 4, 4)``."""
+    return [
+        fm.Pose(
+            position=fm.Vector3(x=p[0], y=p[1], z=p[2]),
+            orientation=fm.Quaternion(x=q[0], y=q[1], z=q[2], w=q[3]),
+        )
+        for p, q in zip(*_pq(T), strict=True)
+    ]
+
+
+def _vector3(v: ArrayLike) -> Any:
+    x, y, z = np.asarray(v, dtype=np.float64).reshape(3).tolist()
+    return fm.Vector3(x=x, y=y, z=z)
+
+
+def _color(rgba: tuple[float, ...]) -> Any:
+    return fm.Color(r=rgba[0], g=rgba[1], b=rgba[2], a=rgba[3])
+
+
+def point_cloud(
+    points: ArrayLike, frame_id: str, t_ns: int, *, rgba: ArrayLike | None = None
+) -> Any:
+    """A ``foxglove.PointCloud`` of float32 x, y, z and optional uint8 colours.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+    rgba : (4,) or (n, 4) float in 0..1, optional
+    """
+    p = np.asarray(points).reshape(-1, 3)  # (n, 3)
+    F = fm.PackedElementFieldNumericType
+    fields = [
+        fm.PackedElementField(name=axis, offset=4 * i, type=F.Float32)
+        for i, axis in enumerate("xyz")
+    ]
+    if rgba is None:
+        rows = np.ascontiguousarray(p, dtype="<f4")  # (n, 3)
+    else:
+        # one row per point: x, y, z (float32), r, g, b, a (uint8)
+        rows = np.empty(len(p), dtype=[("xyz", "<f4", 3), ("rgba", "u1", 4)])
+        rows["xyz"] = p
+        rows["rgba"] = np.clip(np.round(np.asarray(rgba, np.float64) * 255), 0, 255)
+        fields += [
+            fm.PackedElementField(name=ch, offset=12 + i, type=F.Uint8)
+            for i, ch in enumerate(("red", "green", "blue", "alpha"))
+        ]
+    return fm.PointCloud(
+        timestamp=_stamp(t_ns),
+        frame_id=frame_id,
+        pose=_poses(np.eye(4))[0],
+        point_stride=12 if rgba is None else 16,
+        fields=fields,
+        data=rows.tobytes(),
+    )
+
+
+def frame_transform(T_parent_child: ArrayLike, parent: str, child: str, t: int) -> Any:
+    """A ``foxglove.FrameTransform``: ``T_parent_child`` (4, 4)."""
+    (p,), (q,) = _pq(T_parent_child)
+    return fm.FrameTransform(
+        timestamp=_stamp(t),
+        parent_frame_id=parent,
+        child_frame_id=child,
+        translation=fm.Vector3(x=p[0], y=p[1], z=p[2]),
+        rotation=fm.Quaternion(x=q[0], y=q[1], z=q[2], w=q[3]),
+    )
+
+
+def _pose_in_frame(T: ArrayLike, frame_id: str, t: int) -> Any:
+    return fm.PoseInFrame(timestamp=_stamp(t), frame_id=frame_id, pose=_poses(T)[0])
+
+
+def _cube(T: ArrayLike, size: ArrayLike, rgba: tuple[float, ...]) -> Any:
+    """A cube primitive at pose ``T`` (4, 4) with full extents ``size`` (3,)."""
+    return fm.CubePrimitive(pose=_poses(T)[0], size=_vector3(size), color=_color(rgba))
+
+
+def _entity(eid: str, frame_id: str, t: int, **shapes: Any) -> Any:
+    return fm.SceneEntity(
+        timestamp=_stamp(t), frame_id=frame_id, id=eid, frame_locked=False, **shapes
+    )
+
+
+def input_views(views: list[tuple[NDArray[Any], NDArray[Any]]], t: int) -> list[View]:
+    """The input views ``(points (n, 3), T_world_camera (4, 4))``, thinned by one
+    step to at most :data:`FOXGLOVE_MAX_POINTS` points in all."""
+    step = max(1, -(-sum(len(p) for p, _ in views) // FOXGLOVE_MAX_POINTS))
+    out: list[View] = []
+    for i, (points, T_world_camera) in enumerate(views):
+        frame = f"camera{i}"
+        out.append(("/tf", frame_transform(T_world_camera, "world", frame, t)))
+        out.append((f"/inputs/view{i}", point_cloud(points[::step], frame, t)))
+    return out
+
+
+def stage_views(
+    stage: str, d: dict[str, Any], t: int, table_axes: tuple[float, float, float]
+) -> list[View]:
+    """The views of one stage's data ``d`` (the semi-axes of the spec's table
+    superellipsoid for the table's shape)."""
+    out: list[View] = []
+
+    def cloud(topic: str, pts: Any, rgba: tuple[float, ...]) -> None:
+        if pts is not None:
+            out.append((topic, point_cloud(pts, "world", t, rgba=rgba)))
+
+    if stage == "preprocess":
+        cloud("/scene/downsampled", d.get("points"), (0.7, 0.7, 0.7, 1.0))
+    elif stage == "segmentation":
+        cloud("/scene/table_points", d.get("table_points"), (0.6, 0.5, 0.4, 1))
+        cloud("/scene/object", d.get("object_points"), (0.1, 0.4, 0.9, 1))
+        obstacles = [np.asarray(o).reshape(-1, 3) for o in d.get("obstacles") or []]
+        if obstacles:  # (k, 3) in all
+            cloud("/scene/obstacles", np.concatenate(obstacles), (0.9, 0.5, 0.1, 1.0))
+    elif stage == "object_frame":
+        out += _object_frame_views(d, t, table_axes)
+    elif stage == "candidates":
+        out += _candidate_views(d.get("candidates"), t)
+    return out
+
+
+def _object_frame_views(
+    d: dict[str, Any], t: int, table_axes: tuple[float, float, float]
+) -> list[View]:
+    out: list[View] = []
+    ents = []
+    if d.get("T_world_object") is not None:
+        T = np.asarray(d["T_world_object"], dtype=np.float64)
+        out.append(("/tf", frame_transform(T, "world", "object", t)))
+        out.append(("/object/frame", _pose_in_frame(T, "world", t)))
+        if d.get("extents") is not None:
+            box = _cube(T, d["extents"], (0.1, 0.4, 0.9, 0.15))
+            ents.append(_entity("object_box", "world", t, cubes=[box]))
+    if d.get("samples_world") is not None:
+        rgba = (1.0, 0.85, 0.1, 1)
+        out.append(
+            ("/object/samples", point_cloud(d["samples_world"], "world", t, rgba=rgba))
+        )
+    if d.get("T_world_table") is not None:
+        T = np.asarray(d["T_world_table"], dtype=np.float64)
+        out.append(("/tf", frame_transform(T, "world", "table", t)))
+        a, b, c = table_axes
+        T_centre = T.copy()  # the superellipsoid's centre, c below the surface
+        T_centre[:3, 3] = T[:3, :3] @ np.array([0.0, 0.0, -c]) + T[:3, 3]
+        slab = _cube(T_centre, (2 * a, 2 * b, 2 * c), (0.6, 0.5, 0.4, 0.3))
+        ents.append(_entity("table_se", "world", t, cubes=[slab]))
+    if ents:
+        out.append(("/scene/shapes", fm.SceneUpdate(entities=ents)))
+    return out
+
+
+def _candidate_views(cs: Any, t: int) -> list[View]:
+    """Every candidate's pose (``cs``: the recorded candidates), one
+    ``PosesInFrame`` per rejection reason, and their grasp centres coloured by
+    reason."""
+    from wsgrasp.planning.result import REASONS
+
+    if not isinstance(cs, dict) or len(cs["reason"]) == 0:
+        return []
+    reason = np.asarray(cs["reason"])
+    T_world_ee = np.asarray(cs["T_world_ee"])
+    out: list[View] = []
+    names = [*REASONS, *(f"reason_{i}" for i in range(len(REASONS), reason.max() + 1))]
+    for code, name in enumerate(names):
+        picked = T_world_ee[reason == code]
+        if len(picked):
+            msg = fm.PosesInFrame(
+                timestamp=_stamp(t), frame_id="world", poses=_poses(picked)
+            )
+            out.append((f"/candidates/{name}", msg))
+    colors = np.array([REASON_RGBA.get(n, _OTHER_RGBA) for n in REASONS])  # (R, 4)
+    rgba = colors[np.clip(reason, 0, len(REASONS) - 1)]  # (C, 4)
+    pts = np.asarray(cs["T_world_gwc"])[:, :3, 3]  # (C, 3)
+    out.append(("/candidates/points", point_cloud(pts, "world", t, rgba=rgba)))
+    return out
+
+
+def result_views(result: dict[str, Any], g: GripperModel, t: int) -> list[View]:
+    """Of the recorded ``result``: the chosen pose, the gripper there (its cloud,
+    body superellipsoids as boxes and workspace spheres, the ones holding object
+    points highlighted) and the contacts. The gripper is drawn in frame
+    ``gripper``, which ``/tf`` puts at the chosen pose."""
+    if not result.get("found") or result.get("T_world_ee") is None:
+        return []
+    T = np.asarray(result["T_world_ee"], dtype=np.float64)
+    out: list[View] = [
+        ("/grasp/pose", _pose_in_frame(T, "world", t)),
+        ("/tf", frame_transform(T, "world", "gripper", t)),
+        ("/grasp/gripper_cloud", point_cloud(g.cloud, "gripper", t)),
+    ]
+    body = []
+    for c, s in zip(np.asarray(g.se_centers), np.asarray(g.se_semi_axes), strict=True):
+        Tc = np.eye(4)
+        Tc[:3, 3] = c
+        body.append(_cube(Tc, 2 * s, (0.5, 0.5, 0.55, 0.35)))
+    centers = np.asarray(g.sphere_centers, dtype=np.float64).reshape(-1, 3)  # (S, 3)
+    radii = np.asarray(g.sphere_radii, dtype=np.float64).reshape(-1)  # (S,)
+    held = np.zeros(len(radii), dtype=bool)
+    contacts = result.get("contacts") or []
+    for contact in contacts:
+        held[np.asarray(contact["spheres"], dtype=np.int64)] = True
+
+    def spheres(mask: NDArray[np.bool_], rgba: tuple[float, ...]) -> list[Any]:
+        color = _color(rgba)
+        return [
+            fm.SpherePrimitive(pose=pose, size=_vector3((2 * r,) * 3), color=color)
+            for pose, r in zip(
+                _poses(_translations(centers[mask])), radii[mask].tolist(), strict=True
+            )
+        ]
+
+    ents = [
+        _entity("gripper_body", "gripper", t, cubes=body),
+        _entity(
+            "workspace_spheres",
+            "gripper",
+            t,
+            spheres=spheres(~held, (0.3, 0.6, 1.0, 0.15)),
+        ),
+        _entity(
+            "holding_spheres", "gripper", t, spheres=spheres(held, (0.1, 0.9, 0.2, 0.6))
+        ),
+    ]
+    out.append(("/grasp/gripper", fm.SceneUpdate(entities=ents)))
+    pts = [np.asarray(c["points"]).reshape(-1, 3) for c in contacts]
+    if pts:
+        cloud = point_cloud(np.concatenate(pts), "world", t, rgba=(0.1, 0.9, 0.2, 1.0))
+        out.append(("/grasp/contacts", cloud))
+    return out
+
+
+def _translations(p: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Transforms ``(k, 4, 4)`` that translate by ``p`` (k, 3)."""
+    T = np.broadcast_to(np.eye(4), (len(p), 4, 4)).copy()
+    T[:, :3, 3] = p
+    return T
