@@ -71,18 +71,32 @@ def load_document(path: str | Path) -> tuple[dict[str, Any], DocumentLines]:
             f"{p}: file not found",
             hint="check the path (relative to the current directory)",
         )
-    text = p.read_text(encoding="utf-8")
+    try:
+        text = p.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise SpecError(
+            f"{p}: not a text file (byte {exc.start} is not UTF-8)",
+            hint="give a YAML, TOML or JSON text file",
+        ) from None
     suffix = p.suffix.lower()
     node: yaml.Node | None = None
     try:
         if suffix == ".toml":
             data: Any = tomllib.loads(text)
         elif suffix == ".json":
-            data = json.loads(text)
+            data = json.loads(text, object_pairs_hook=_unique_pairs)
             node = yaml.compose(text, Loader=yaml.SafeLoader)
         else:
-            data = yaml.safe_load(text)
             node = yaml.compose(text, Loader=yaml.SafeLoader)
+            _refuse_duplicate_keys(node)
+            data = yaml.safe_load(text)
+    except _DuplicateKey as exc:
+        where = f"{p}:{exc.line}" if exc.line else str(p)
+        raise SpecError(
+            f"{where}: key {exc.key!r} is given twice in one mapping"
+            + (f" (first at line {exc.first})" if exc.first else ""),
+            hint="keep one of them; a later one would silently replace the first",
+        ) from None
     except (yaml.YAMLError, json.JSONDecodeError, tomllib.TOMLDecodeError) as exc:
         line = _parse_error_line(exc)
         where = f"{p}:{line}" if line else str(p)
@@ -100,6 +114,41 @@ def load_document(path: str | Path) -> tuple[dict[str, Any], DocumentLines]:
             hint="start the file with `key: value` lines",
         )
     return data, DocumentLines(p, text, node)
+
+
+class _DuplicateKey(Exception):
+    def __init__(self, key: str, line: int | None, first: int | None) -> None:
+        super().__init__(key)
+        self.key, self.line, self.first = key, line, first
+
+
+def _refuse_duplicate_keys(node: yaml.Node | None) -> None:
+    """Raise ``_DuplicateKey`` for a key given twice in one YAML mapping (PyYAML
+    keeps the last one without a word)."""
+    stack = [node] if node is not None else []
+    while stack:
+        n = stack.pop()
+        if isinstance(n, yaml.MappingNode):
+            seen: dict[str, int] = {}
+            for k, v in n.value:
+                key = str(getattr(k, "value", k))
+                line = k.start_mark.line + 1
+                if isinstance(k, yaml.ScalarNode) and key != "<<":
+                    if key in seen:
+                        raise _DuplicateKey(key, line, seen[key])
+                    seen[key] = line
+                stack.append(v)
+        elif isinstance(n, yaml.SequenceNode):
+            stack.extend(n.value)
+
+
+def _unique_pairs(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for k, v in pairs:
+        if k in out:
+            raise _DuplicateKey(k, None, None)
+        out[k] = v
+    return out
 
 
 def _parse_error_line(exc: Exception) -> int | None:
@@ -133,11 +182,16 @@ def format_validation_error(
         text = f"unknown key {key!r} in {what}"
     elif kind == "missing":
         text = f"missing key {key!r} in {what}"
+    elif kind == "value_error" and isinstance(found, (dict, list, BaseModel)):
+        # a check of a whole section: its message says what and why
+        msg = str(err["msg"]).removeprefix("Value error, ").rstrip(".")
+        text = f"{key}: {msg}"
     else:
         shown = repr(found)
         if len(shown) > 60:
             shown = shown[:57] + "..."
-        text = f"{key}: {err['msg'].rstrip('.')}; found {shown}"
+        msg = str(err["msg"]).removeprefix("Value error, ").rstrip(".")
+        text = f"{key}: {msg}; found {shown}"
     more = len(exc.errors()) - 1
     if more:
         text += f" (and {more} more problem{'s' if more > 1 else ''})"

@@ -6,6 +6,8 @@ fix. The CLI prints these in one line without a traceback and exits with status 
 
 from __future__ import annotations
 
+import errno
+
 __all__ = [
     "WsgraspError",
     "SpecError",
@@ -14,6 +16,7 @@ __all__ = [
     "GripperError",
     "RecordingError",
     "SimulationError",
+    "os_error_message",
 ]
 
 
@@ -61,3 +64,28 @@ class RecordingError(WsgraspError):
 
 class SimulationError(WsgraspError):
     """A physics trial that cannot be set up."""
+
+
+_OS_FIXES = {
+    errno.EACCES: "choose a location you may write to, or change its permissions",
+    errno.EPERM: "choose a location you may write to, or change its permissions",
+    errno.EROFS: "the file system is read-only; choose another location",
+    errno.ENOTDIR: "a part of the path is a file, not a folder; choose another path",
+    errno.EEXIST: "a file of that name is in the way; choose another path or remove it",
+    errno.EISDIR: "the path is a folder; give a file name",
+    errno.ENOENT: "check the path (relative paths are from the current directory)",
+    errno.ENOSPC: "the disk is full; free space or choose another location",
+    errno.ENAMETOOLONG: "choose a shorter path",
+}
+
+
+def os_error_message(exc: OSError) -> str:
+    """One line for an operating-system error on a path: the path, what the
+    system said, and the fix."""
+    path = exc.filename if exc.filename is not None else ""
+    what = exc.strerror or type(exc).__name__
+    fix = _OS_FIXES.get(exc.errno or -1, "check the path and its permissions")
+    where = f"{path}: " if path else ""
+    if exc.filename2 is not None:
+        where = f"{path} -> {exc.filename2}: "
+    return f"{where}{what} (fix: {fix})"

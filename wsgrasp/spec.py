@@ -8,10 +8,21 @@ model when the spec loads, not halfway through a run.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    NonNegativeFloat,
+    PositiveFloat,
+    PositiveInt,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from wsgrasp._loading import (
     DocumentLines,
@@ -31,10 +42,12 @@ __all__ = [
 ]
 
 Vec3 = tuple[float, float, float]
+#: three sizes, each above zero
+Size3 = tuple[PositiveFloat, PositiveFloat, PositiveFloat]
 
 
 class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=False)
+    model_config = ConfigDict(extra="forbid", frozen=False, allow_inf_nan=False)
 
 
 # --------------------------------------------------------------------------------
@@ -45,7 +58,9 @@ class PadRegion(_Model):
 
     link: str = Field(description="URDF link that carries the pad")
     center: Vec3 = Field((0.0, 0.0, 0.0), description="box centre in the link frame")
-    size: Vec3 = Field(description="full box extents along the link's x, y, z")
+    size: tuple[NonNegativeFloat, NonNegativeFloat, NonNegativeFloat] = Field(
+        description="full box extents along the link's x, y, z (0: a flat pad)"
+    )
     samples: int = Field(
         3, ge=1, le=12, description="points per box edge when sampling the pad"
     )
@@ -75,7 +90,7 @@ class BodyEllipsoid(_Model):
     """A body superellipsoid given by hand, in the base frame."""
 
     center: Vec3
-    semi_axes: Vec3
+    semi_axes: Size3
 
 
 class EllipsoidSettings(_Model):
@@ -243,10 +258,10 @@ class Sampling(_Model):
         "major_axis", description="how candidate orientations are sampled"
     )
     points: int = Field(147, ge=1, le=100000, description="ns")
-    grid: tuple[int, int, int] | None = Field(
+    grid: tuple[PositiveInt, PositiveInt, PositiveInt] | None = Field(
         None, description="explicit grid along object x, y, z; overrides points"
     )
-    scale: Vec3 = Field(
+    scale: Size3 = Field(
         (0.95, 0.95, 0.70), description="fraction of the object extents sampled"
     )
     orientations: int = Field(
@@ -341,7 +356,9 @@ class Approach(_Model):
 class TableSettings(_Model):
     """The table's special ellipsoid, under the table surface."""
 
-    semi_axes: Vec3 = Field((0.35, 0.35, 0.05), description="in-plane a, b; depth c")
+    semi_axes: Size3 = Field(
+        (0.35, 0.35, 0.05), description="in-plane a, b; depth c (m)"
+    )
     exponent: float = Field(10.0, ge=2.0)
     clearance: float = Field(
         0.0, ge=0.0, description="raise the SE's top by this (m) for a safety margin"
@@ -379,10 +396,70 @@ class PipelineSpec(_Model):
     #: where the spec was loaded from (not part of the file)
     _source: Path | None = None
 
+    @field_validator("scorers")
+    @classmethod
+    def _some_weight(cls, scorers: list[ScorerRef]) -> list[ScorerRef]:
+        if sum(ref.weight for ref in scorers) <= 0.0:
+            raise ValueError(
+                "every scorer has weight 0, so every candidate would score the same; "
+                "give at least one scorer a weight above 0"
+            )
+        return scorers
+
+    @field_validator("sampling")
+    @classmethod
+    def _budget(cls, sampling: Sampling) -> Sampling:
+        need = candidate_count(sampling) * _BYTES_PER_CANDIDATE
+        have = _physical_memory()
+        if have and need > _MEMORY_SHARE * have:
+            raise ValueError(
+                f"sampling makes {candidate_count(sampling):,} candidates, about "
+                f"{need / 2**30:.1f} GiB of arrays, more than {_MEMORY_SHARE:.0%} "
+                f"of this machine's {have / 2**30:.1f} GiB; lower points, "
+                "orientations, directions, steps or depths"
+            )
+        return sampling
+
     @property
     def source(self) -> Path | None:
         """The file this spec was loaded from, if any."""
         return self._source
+
+
+#: a spec whose candidate arrays would take more than this share of the
+#: machine's memory is refused
+_MEMORY_SHARE = 0.5
+#: bytes the search holds per candidate: poses (GWC, gripper, their inverses
+#: and table-frame copies, 128 B each), sample and orientation indices, reasons,
+#: contact counts, scores, with headroom for scorer terms
+_BYTES_PER_CANDIDATE = 1024
+
+
+def candidate_count(s: Sampling) -> int:
+    """How many candidates a sampling makes at most: positions times orientations
+    times depths (``xyz`` counts repeated rotations, which the search tries once,
+    so this is an upper bound)."""
+    if s.grid is not None:
+        positions = s.grid[0] * s.grid[1] * s.grid[2]
+    else:
+        positions = s.points
+    if s.mode == "major_axis":
+        orientations = s.orientations * (2 if s.flip else 1)
+    elif s.mode == "xyz":
+        steps = s.steps or (4, 4, 4)
+        orientations = steps[0] * steps[1] * steps[2]
+    else:
+        orientations = (s.directions or 24) * s.orientations
+    return int(positions) * int(orientations) * int(s.depths)
+
+
+def _physical_memory() -> int:
+    import os
+
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE")) * int(os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):  # not reported here
+        return 0
 
 
 def load_spec(
@@ -465,6 +542,13 @@ def _check_plugin(
     lines: DocumentLines | None,
 ) -> None:
     entry = _check_name(reg, kind, ref.name, (*loc, "name"), lines)
+    for key, value in _floats(ref.options, (*loc, "options")):
+        if not math.isfinite(value):
+            raise SpecError(
+                _where(lines, key) + ".".join(map(str, key)) + f": {value} is not a "
+                "finite number",
+                hint="give a finite value",
+            )
     options_model = getattr(entry.obj, "Options", None)
     if options_model is None:
         return
@@ -478,6 +562,19 @@ def _check_plugin(
             msg,
             hint=f"see the options of {ref.name!r} in `wsgrasp plugins --options`",
         ) from None
+
+
+def _floats(
+    value: Any, loc: tuple[str | int, ...]
+) -> list[tuple[tuple[Any, ...], float]]:
+    """Every float inside nested dicts and lists, with its key path."""
+    if isinstance(value, float):
+        return [(loc, value)]
+    if isinstance(value, dict):
+        return [x for k, v in value.items() for x in _floats(v, (*loc, k))]
+    if isinstance(value, (list, tuple)):
+        return [x for i, v in enumerate(value) for x in _floats(v, (*loc, i))]
+    return []
 
 
 def json_schemas() -> dict[str, dict[str, Any]]:

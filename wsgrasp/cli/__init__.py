@@ -12,7 +12,7 @@ import sys
 import typer
 
 from wsgrasp.cli._common import console, err_console, state
-from wsgrasp.errors import WsgraspError
+from wsgrasp.errors import WsgraspError, os_error_message
 
 __all__ = ["app", "main"]
 
@@ -47,7 +47,12 @@ for _name in _COMMAND_MODULES:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``wsgrasp`` console script."""
+    """Entry point of the ``wsgrasp`` console script.
+
+    Exit status: 0 done; 1 a run whose result is "no" (``replay`` differing, a
+    failed check) or an internal error; 2 a usage error or a ``WsgraspError``;
+    130 interrupted.
+    """
     args = sys.argv[1:] if argv is None else argv
     state.debug = "--debug" in args
     try:
@@ -58,29 +63,55 @@ def main(argv: list[str] | None = None) -> int:
     except WsgraspError as exc:
         if state.debug:
             err_console.print_exception()
-        err_console.print(f"[bold red]error:[/] {exc}", highlight=False, soft_wrap=True)
+        _print_error(str(exc))
         return 2
     except typer.Exit as exc:
         return int(exc.exit_code or 0)
-    except typer.Abort:
+    except (typer.Abort, KeyboardInterrupt):
         err_console.print("aborted")
         return 130
+    except OSError as exc:
+        # a path the user gave (or a folder under it) that cannot be read or
+        # written: the path and the fix, not a traceback
+        if state.debug:
+            err_console.print_exception()
+        _print_error(os_error_message(exc))
+        return 2
     except Exception as exc:  # noqa: BLE001 - click usage errors and the like
-        import click
-
-        if isinstance(exc, click.exceptions.ClickException):
-            exc.show()
-            return 2
+        if _is_usage_error(exc):
+            exc.show()  # type: ignore[attr-defined]
+            return int(getattr(exc, "exit_code", 2))
         if state.debug:
             raise
-        err_console.print(
-            f"[bold red]internal error:[/] {type(exc).__name__}: {exc} "
+        _print_error(
+            f"internal error: {type(exc).__name__}: {exc} "
             "(run again with --debug for the traceback, and please report it)",
-            highlight=False,
-            soft_wrap=True,
+            bold=False,
         )
         return 1
     return 0
+
+
+def _print_error(text: str, *, bold: bool = True) -> None:
+    from rich.markup import escape
+
+    label = "error" if bold else "internal error"
+    if not bold:
+        text = text.removeprefix("internal error: ")
+    err_console.print(
+        f"[bold red]{label}:[/] {escape(text)}", highlight=False, soft_wrap=True
+    )
+
+
+def _is_usage_error(exc: BaseException) -> bool:
+    """click's usage errors, from click itself or the copy vendored by typer."""
+    import click
+
+    classes: list[type] = [click.exceptions.ClickException]
+    vendored = getattr(typer, "TyperException", None)
+    if isinstance(vendored, type):
+        classes.append(vendored)
+    return isinstance(exc, tuple(classes)) and hasattr(exc, "show")
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import json
+import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import typer
 from rich.console import Console
 
 console = Console()
@@ -32,3 +35,27 @@ def _default(o: Any) -> Any:
 def print_json(data: Any) -> None:
     """Print ``data`` as JSON on stdout (numpy arrays as nested lists)."""
     print(json.dumps(data, indent=2, default=_default))
+
+
+def number(
+    lo: float | None = None, hi: float | None = None, *, above: bool = False
+) -> Callable[[Any], Any]:
+    """A typer callback refusing NaN, inf and values outside ``lo``..``hi``
+    (``above``: strictly greater than ``lo``), as a usage error."""
+
+    def check(value: Any) -> Any:
+        if value is None:
+            return value
+        v = float(value)
+        if not math.isfinite(v):
+            raise typer.BadParameter(f"{value} is not a finite number")
+        if lo is not None and (v <= lo if above else v < lo):
+            least = "above" if above else "of at least"
+            raise typer.BadParameter(
+                f"{value:g} is too small; give a value {least} {lo:g}"
+            )
+        if hi is not None and v > hi:
+            raise typer.BadParameter(f"{value:g} is too large; give at most {hi:g}")
+        return value
+
+    return check

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 import typer
 
-from wsgrasp.cli._common import console, err_console, print_json
+from wsgrasp.cli._common import console, err_console, number, print_json
 
 if TYPE_CHECKING:
     from wsgrasp.sim.objects import ObjectList
@@ -55,10 +55,16 @@ def eval_command(
         "<gripper>_followup.yaml; without --spec).",
     ),
     mass: float | None = typer.Option(
-        None, "--mass", help="Object mass (kg), overriding the objects' own."
+        None,
+        "--mass",
+        callback=number(0.0, 100.0, above=True),
+        help="Object mass (kg), overriding the objects' own.",
     ),
     friction: float | None = typer.Option(
-        None, "--friction", help="Object friction coefficient, overriding defaults."
+        None,
+        "--friction",
+        callback=number(0.0, 10.0, above=True),
+        help="Object friction coefficient, overriding defaults.",
     ),
     drop: str = typer.Option(
         "natural",

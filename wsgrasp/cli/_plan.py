@@ -9,7 +9,7 @@ import numpy as np
 import typer
 from rich.table import Table
 
-from wsgrasp.cli._common import console, err_console, print_json
+from wsgrasp.cli._common import console, err_console, number, print_json
 from wsgrasp.errors import InputError
 
 
@@ -118,7 +118,10 @@ def plan(
         None, "--frame", help="World frame of the bag's /tf tree."
     ),
     at: float | None = typer.Option(
-        None, "--at", help="Bag time (s) to plan at; the latest cloud by default."
+        None,
+        "--at",
+        callback=number(),
+        help="Bag time (s) to plan at; the latest cloud by default.",
     ),
     as_json: bool = typer.Option(False, "--json", help="Print the result as JSON."),
 ) -> None:
@@ -196,7 +199,7 @@ def demo(
 
 def bench(
     as_json: bool = typer.Option(False, "--json", help="Print JSON."),
-    repeat: int = typer.Option(15, help="Runs per median."),
+    repeat: int = typer.Option(15, min=1, help="Runs per median."),
     scaling: bool = typer.Option(True, help="Also measure the scaling table."),
 ) -> None:
     """Time the whole plan, the search and the loop-by-loop reference (medians)."""

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import typer
+from rich.markup import escape
 
 from wsgrasp.cli._common import console, err_console, print_json
 
@@ -59,6 +60,15 @@ def new(
     )
     for w in scaffold.warnings:
         console.print(w, style="yellow", highlight=False, markup=False)
+    if scaffold.build_error is not None:
+        err_console.print(
+            f"[bold red]error:[/] the guessed model does not build: "
+            f"{escape(scaffold.build_error)} (the package is written; fix "
+            f"{yaml_path} and run `wsgrasp gripper check {yaml_path}`)",
+            highlight=False,
+            soft_wrap=True,
+        )
+        raise typer.Exit(2)
     console.print(
         f"next: read the guesses in {yaml_path}, then\n"
         f"  wsgrasp gripper check {yaml_path} -o {name}.png\n"

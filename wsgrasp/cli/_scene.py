@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from wsgrasp.cli._common import console, print_json
+from wsgrasp.cli._common import console, number, print_json
 
 scene_app = typer.Typer(
     help="Scenes: render synthetic ones, inspect segmentation.", no_args_is_help=True
@@ -50,15 +50,34 @@ def synth(
         "ring r_in,r_out,h; sphere r.",
     ),
     pose: str = typer.Option("upright", "--pose", help="upright, lying or random."),
-    views: int = typer.Option(3, "--views", help="Number of cameras."),
-    noise: float = typer.Option(0.001, "--noise", help="Depth noise std (m)."),
+    views: int = typer.Option(3, "--views", min=1, max=64, help="Number of cameras."),
+    noise: float = typer.Option(
+        0.001, "--noise", callback=number(0.0, 0.1), help="Depth noise std (m)."
+    ),
     seed: int = typer.Option(0, "--seed", help="Random seed."),
-    table_size: float = typer.Option(0.6, "--table-size", help="Table side (m)."),
-    width: int = typer.Option(320, "--width", help="Image width (px)."),
-    height: int = typer.Option(240, "--height", help="Image height (px)."),
-    distance: float = typer.Option(0.55, "--distance", help="Camera distance (m)."),
+    table_size: float = typer.Option(
+        0.6,
+        "--table-size",
+        callback=number(0.0, 10.0, above=True),
+        help="Table side (m).",
+    ),
+    width: int = typer.Option(
+        320, "--width", min=8, max=8192, help="Image width (px)."
+    ),
+    height: int = typer.Option(
+        240, "--height", min=8, max=8192, help="Image height (px)."
+    ),
+    distance: float = typer.Option(
+        0.55,
+        "--distance",
+        callback=number(0.0, 20.0, above=True),
+        help="Camera distance (m).",
+    ),
     elevation: float = typer.Option(
-        45.0, "--elevation", help="Camera elevation above the table (deg)."
+        45.0,
+        "--elevation",
+        callback=number(0.0, 90.0, above=True),
+        help="Camera elevation above the table (deg).",
     ),
     views_out: Path | None = typer.Option(
         None,

@@ -57,11 +57,14 @@ class Scaffold:
         Field name -> how its value was guessed (written as YAML comments).
     warnings : list of str
         Things the user should look at, naming the link or joint and the fix.
+    build_error : str or None
+        Why the guessed description does not build into a model, if it does not.
     """
 
     data: dict[str, Any]
     notes: dict[str, str] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    build_error: str | None = None
 
 
 @dataclass

@@ -351,6 +351,17 @@ def load_kinematics(path: Path, gripper: str) -> Kinematics:
             if j.limit is None or j.limit.lower is None or j.limit.upper is None:
                 raise fail(f"has {j.type} joint {j.name!r} without <limit lower upper>")
             lower, upper = float(j.limit.lower), float(j.limit.upper)
+        numbers = [*axis, lower, upper, effort, *_origin(j.origin).ravel()]
+        if not np.isfinite(numbers).all():
+            raise fail(
+                f"has joint {j.name!r} with a value that is not a finite number "
+                "(NaN or inf in its origin, axis or limits)"
+            )
+        if lower > upper:
+            raise fail(
+                f"has joint {j.name!r} with lower limit {lower:g} above upper "
+                f"limit {upper:g}"
+            )
         mimic = None
         if j.mimic is not None:
             mimic = (
@@ -358,6 +369,8 @@ def load_kinematics(path: Path, gripper: str) -> Kinematics:
                 float(1.0 if j.mimic.multiplier is None else j.mimic.multiplier),
                 float(0.0 if j.mimic.offset is None else j.mimic.offset),
             )
+            if not np.isfinite(mimic[1:]).all():
+                raise fail(f"has joint {j.name!r} with a non-finite mimic factor")
         joints[j.name] = Joint(
             j.name,
             kind,

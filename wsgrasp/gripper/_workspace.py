@@ -30,6 +30,13 @@ Array = NDArray[np.float64]
 
 #: a pad must move at least this far (m) over its joint range to count as moving
 MIN_PAD_TRAVEL = 1e-4
+#: pad points computed per finger at most (joint grid times pad samples)
+MAX_WORKSPACE_SAMPLES = 20_000_000
+#: voxels of one finger's workspace grid at most (about 20 bytes each while
+#: closing and distance-transforming)
+MAX_WORKSPACE_VOXELS = 100_000_000
+#: a pad moving farther than this (m) over its joint range is not a fingertip
+MAX_FINGER_SPAN = 1.5
 #: the largest gap-closing radius (voxels) applied before giving up on closing more
 MAX_CLOSING_VOXELS = 6
 #: candidates whose exact coverage gain is evaluated together in the greedy loop
@@ -163,6 +170,16 @@ def sample_workspace(
     upper = np.array([kin.joints[m].upper for m in masters])
     n = desc.joint_samples
     d = len(masters)
+    where = f"gripper {desc.name!r}: fingers[{finger.name}]"
+    samples = n**d * finger.pad.samples**3
+    if samples > MAX_WORKSPACE_SAMPLES:
+        fit = max(2, int((MAX_WORKSPACE_SAMPLES / finger.pad.samples**3) ** (1 / d)))
+        raise GripperError(
+            f"{where}: joint_samples {n} over {d} joints and pad.samples "
+            f"{finger.pad.samples} make {samples:,} pad points to compute, more "
+            f"than {MAX_WORKSPACE_SAMPLES:,}",
+            hint=f"lower joint_samples to {fit} or less, or pad.samples",
+        )
     q = grid_configurations(lower, upper, n)  # (n**d, d)
     values: dict[str, Any] = dict(desc.pregrasp)
     for i, m in enumerate(masters):
@@ -172,7 +189,6 @@ def sample_workspace(
     pad_pts = box_grid_points(pad.center, pad.size, pad.samples)  # (P, 3)
     pts = transform_points(T, pad_pts)  # (K, P, 3)
     pad_centers = transform_points(T, np.asarray(pad.center, float)[None])[:, 0]
-    where = f"gripper {desc.name!r}: fingers[{finger.name}]"
     travel = float(np.linalg.norm(np.ptp(pts[:, 0, :], axis=0)))
     if travel < MIN_PAD_TRAVEL:
         raise GripperError(
@@ -190,10 +206,29 @@ def sample_workspace(
     sizes = np.asarray(pad.size, dtype=np.float64)
     if pad.samples > 1:
         gap = max(gap, float(sizes.max()) / (pad.samples - 1))
+    flat = pts.reshape(-1, 3)  # (K * P, 3)
+    span = np.ptp(flat, axis=0)  # (3,)
+    if float(span.max()) > MAX_FINGER_SPAN:
+        raise GripperError(
+            f"{where}: the pad of link {pad.link!r} moves over "
+            f"{float(span.max()):.4g} m; fingertips move centimetres, so the URDF "
+            "is probably in millimetres (URDF lengths are metres), or the pad sits "
+            "on the wrong link",
+            hint="convert the URDF to metres (scale the origins and meshes by "
+            "0.001), or fix fingers.pad.link",
+        )
     v = desc.workspace_voxel
     closing = int(min(MAX_CLOSING_VOXELS, max(1, np.ceil(gap / (2.0 * v)))))
-    flat = pts.reshape(-1, 3)  # (K * P, 3)
     margin = closing + 2
+    voxels = float(np.prod(span / v + 2 * margin + 1))
+    if voxels > MAX_WORKSPACE_VOXELS:
+        fit = float((np.prod(span) / MAX_WORKSPACE_VOXELS) ** (1 / 3))
+        raise GripperError(
+            f"{where}: workspace_voxel {v:g} m over the pad's "
+            f"{' x '.join(f'{x * 1000:.0f}' for x in span)} mm workspace makes "
+            f"{voxels:.3g} voxels, more than {MAX_WORKSPACE_VOXELS:.0e}",
+            hint=f"raise workspace_voxel to {max(fit * 1.2, 1e-4):.2g} m or more",
+        )
     origin = flat.min(axis=0) - margin * v
     idx = np.rint((flat - origin) / v).astype(np.int64)  # (K * P, 3)
     shape = tuple(int(s) for s in idx.max(axis=0) + margin + 1)

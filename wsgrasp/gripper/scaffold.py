@@ -327,7 +327,7 @@ def _write_package(
             report = check_gripper(str(yaml_path))
         except WsgraspError as exc:  # the guess does not build: say so, keep it
             lines = [f"`wsgrasp gripper check` cannot build this guess: {exc}"]
-            scaffold.warnings.append(f"error: the model does not build: {exc}")
+            scaffold.build_error = str(exc)
         else:
             report = _refit_ellipsoids(scaffold, yaml_path, header, report)
             lines = [

@@ -190,7 +190,7 @@ def _check_shape(arr: ArrayLike, name: str) -> Array:
 # scenes
 # --------------------------------------------------------------------------------
 class _ViewEntry(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
     cloud: str = Field(description="cloud file, relative to the scene YAML")
     T_world_camera: list[list[float]] = Field(
@@ -203,7 +203,7 @@ class _ViewEntry(BaseModel):
 class SceneFile(BaseModel):
     """A scene YAML: views with their camera poses."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
     version: Literal[1] = 1
     units: Literal["m", "cm", "mm"] = Field(

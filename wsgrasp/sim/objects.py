@@ -17,6 +17,7 @@ Allegro hand).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -517,6 +518,12 @@ def resolve_objects(
     SimulationError
         A set whose data or a library it needs is not installed.
     """
+    for label, value in (("mass", mass), ("friction", friction)):
+        if value is not None and not (math.isfinite(value) and value > 0.0):
+            raise InputError(
+                f"object {label} {value} is not a positive finite number",
+                hint=f"give a {label} above 0, or leave it out to use the objects' own",
+            )
     items: list[SimObject | MeshSource] = []
     skipped: list[Skipped] = []
     for name in names:

@@ -26,7 +26,7 @@ __all__ = [
 
 
 class _Options(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
 class CentroidDistanceScorer:

@@ -16,7 +16,7 @@ Vec3 = tuple[float, float, float]
 class GivenTableOptions(BaseModel):
     """The table plane ``normal · p + offset = 0`` in the input frame."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
     normal: Vec3 = Field(description="table normal (need not be unit; either sign)")
     offset: float | None = Field(None, description="plane offset (m), or give point")

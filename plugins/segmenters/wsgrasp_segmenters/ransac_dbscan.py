@@ -32,7 +32,7 @@ _OTHER_PLANE_FRACTION = 0.25
 class RansacDbscanOptions(BaseModel):
     """Options of ``ransac_dbscan`` (metres)."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
     plane_distance: float = Field(
         0.005, gt=0.0, le=0.1, description="RANSAC inlier distance to the plane"
