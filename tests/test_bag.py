@@ -6,9 +6,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from bag_factory import write_cloud_bag
 
 from wsgrasp.errors import InputError
-from wsgrasp.record.bag import read_bag_scene, write_cloud_bag
+from wsgrasp.record.bag import read_bag_scene
 
 S = 1_000_000_000
 
@@ -105,6 +106,37 @@ def test_not_a_bag(tmp_path: Path) -> None:
     f.write_text("hello")
     with pytest.raises(InputError, match="not an MCAP file"):
         read_bag_scene(f, "/x")
+
+
+def test_a_bag_cut_short_is_read_up_to_where_it_stops(
+    bag: Path, cloud: np.ndarray
+) -> None:
+    data = bag.read_bytes()
+    bag.write_bytes(data[: len(data) - 100])  # the summary and footer cut off
+    scene = read_bag_scene(bag, "/camera/points", at=1.5)
+    np.testing.assert_array_equal(scene.views[0].points, cloud.astype(np.float32))
+
+
+def test_only_the_chunks_of_the_cloud_and_its_transforms_are_read(
+    tmp_path: Path, cloud: np.ndarray, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import mcap.reader
+
+    clouds = [("/camera/points", "camera", cloud + i, i * S) for i in range(1, 41)]
+    tf = [("/tf", "world", "camera", _T([0.0, 0.0, 0.1 * i]), i * S) for i in (0, 20)]
+    bag = write_cloud_bag(tmp_path / "long.mcap", clouds, tf, chunk_size=1)
+    read: list[int] = []
+    real = mcap.reader.breakup_chunk
+
+    def counted(chunk, *args, **kwargs):  # noqa: ANN001, ANN202
+        read.append(1)
+        return real(chunk, *args, **kwargs)
+
+    monkeypatch.setattr(mcap.reader, "breakup_chunk", counted)
+    scene = read_bag_scene(bag, "/camera/points", at=10.0)
+    np.testing.assert_array_equal(scene.views[0].points, (cloud + 10).astype("f4"))
+    np.testing.assert_allclose(scene.views[0].T_world_camera, _T([0, 0, 0]))
+    assert len(read) <= 4, "one chunk a message: the bag is not read whole"
 
 
 def test_plan_cli_on_a_bag_is_recorded(tmp_path: Path) -> None:

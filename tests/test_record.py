@@ -274,7 +274,7 @@ def test_corrupt_chunk_is_one_clear_error(recorded, tmp_path: Path) -> None:
 
 
 def test_an_mcap_that_is_not_a_run(tmp_path: Path) -> None:
-    from wsgrasp.record.bag import write_cloud_bag
+    from bag_factory import write_cloud_bag
 
     bag = write_cloud_bag(
         tmp_path / "bag.mcap", [("/camera/points", "cam", np.zeros((5, 3)), 1)]

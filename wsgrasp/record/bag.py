@@ -9,19 +9,28 @@ The latest cloud on each topic is used, or the latest at or before ``at``. The
 camera pose is the transform from ``frame`` (by default the root of the cloud's
 transform tree, or the cloud's own frame when the bag has no transforms) to the
 cloud's ``header.frame_id``, at the cloud's time.
+
+A bag is read through its summary (topics, start time) and chunk index: only the
+chunks with the cloud wanted and the transforms up to its time are read. A bag
+without a summary (cut short) is read from the start up to where it stops.
 """
 
 from __future__ import annotations
 
+import struct
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from mcap.writer import MCAP0_MAGIC
 from numpy.typing import NDArray
 
 from wsgrasp.errors import InputError
+
+if TYPE_CHECKING:
+    from collections.abc import Iterator
 
 __all__ = [
     "POINTCLOUD2",
@@ -31,7 +40,6 @@ __all__ = [
     "is_mcap",
     "read_bag_clouds",
     "read_bag_scene",
-    "write_cloud_bag",
 ]
 
 Array = NDArray[np.float64]
@@ -76,7 +84,7 @@ def is_mcap(path: str | Path) -> bool:
     """Whether ``path`` starts with the MCAP magic."""
     try:
         with open(path, "rb") as fh:
-            return fh.read(8) == b"\x89MCAP0\r\n"
+            return fh.read(len(MCAP0_MAGIC)) == MCAP0_MAGIC
     except OSError:
         return False
 
@@ -94,61 +102,77 @@ def _open(path: str | Path) -> Path:
     return p
 
 
+def _summary(fh: Any) -> Any:
+    """The bag's summary, or None (a bag cut short has none)."""
+    from mcap.reader import make_reader
+
+    try:
+        return make_reader(fh).get_summary()
+    except Exception:  # noqa: BLE001 - no summary: read the messages
+        return None
+
+
 def _messages(
-    p: Path, topics: Sequence[str] | None = None
-) -> list[tuple[Any, Any, Any]]:
-    """``(schema, channel, message)`` of every message on ``topics`` (all when None),
-    in log-time order. Reads a bag without a summary (cut short) too."""
+    p: Path,
+    topics: Sequence[str] | None = None,
+    *,
+    ending_at: int | None = None,
+    starting_at: int | None = None,
+    reverse: bool = False,
+) -> Iterator[tuple[Any, Any, Any]]:
+    """``(schema, channel, message)`` on ``topics`` (all when None) logged between
+    ``starting_at`` and ``ending_at`` (ns, inclusive), in log-time order (latest
+    first with ``reverse``): through the chunk index, or, in a bag without a
+    summary, read up to where it stops."""
     from mcap.exceptions import McapError
     from mcap.reader import NonSeekingReader, make_reader
 
-    wanted = None if topics is None else set(topics)
+    bounds = {"starting_at": starting_at, "ending_at": ending_at}
     try:
         with open(p, "rb") as fh:
-            reader = make_reader(fh)
-            try:
-                summary = reader.get_summary()
-            except McapError:
-                summary = None
-            if summary is None:
+            if _summary(fh) is not None:
                 fh.seek(0)
-                reader = NonSeekingReader(fh)
-            out = []
+                yield from make_reader(fh).iter_messages(
+                    topics=topics, reverse=reverse, **bounds
+                )
+                return
+            fh.seek(0)
+            out: list[tuple[Any, Any, Any]] = []
+            it = NonSeekingReader(fh).iter_messages(
+                topics, log_time_order=False, **bounds
+            )
             try:
-                for schema, channel, message in reader.iter_messages(
-                    topics=None if wanted is None else list(wanted)
-                ):
-                    out.append((schema, channel, message))
-            except (McapError, EOFError, ValueError) as exc:
+                out.extend(it)
+            except (McapError, EOFError, ValueError, struct.error):
                 if not out:
                     raise
-                _ = exc  # a bag cut short: use what was read
-    except (McapError, OSError, ValueError) as exc:
+            yield from sorted(out, key=lambda m: m[2].log_time, reverse=reverse)
+    except (McapError, OSError, ValueError, struct.error) as exc:
         raise InputError(
             f"{p}: cannot read the bag: {exc}", hint="check the file is a complete MCAP"
         ) from None
-    out.sort(key=lambda m: m[2].log_time)
-    return out
 
 
 def bag_topics(path: str | Path) -> dict[str, str]:
     """Topic → message type of every channel in a bag."""
     p = _open(path)
-    from mcap.reader import make_reader
-
     with open(p, "rb") as fh:
-        try:
-            summary = make_reader(fh).get_summary()
-        except Exception:  # noqa: BLE001 - no summary: scan the messages
-            summary = None
+        summary = _summary(fh)
     if summary is not None:
         return {
-            ch.topic: summary.schemas[ch.schema_id].name
-            if ch.schema_id in summary.schemas
-            else ""
+            ch.topic: getattr(summary.schemas.get(ch.schema_id), "name", "")
             for ch in summary.channels.values()
         }
     return {ch.topic: "" if s is None else s.name for s, ch, _ in _messages(p)}
+
+
+def _first_time(p: Path) -> int:
+    """The log time of the bag's first message (its statistics, when summed up)."""
+    with open(p, "rb") as fh:
+        summary = _summary(fh)
+    if summary is not None and summary.statistics is not None:
+        return int(summary.statistics.message_start_time)
+    return next((int(m.log_time) for _, _, m in _messages(p)), 0)
 
 
 def _decode(schema: Any, channel: Any, message: Any) -> Any:
@@ -262,27 +286,22 @@ def read_bag_clouds(
     """
     p = _open(path)
     tlist = [topics] if isinstance(topics, str) else list(topics)
-    msgs = _messages(p, tlist)
-    available = None
-    out = []
     t_limit: int | None = None
     if at is not None:
-        if at > 1e9:
-            t_limit = int(at * 1e9)
-        else:
-            first = _messages_first_time(p)
-            t_limit = first + int(at * 1e9)
+        t_limit = int(at * 1e9) if at > 1e9 else _first_time(p) + int(at * 1e9)
+    out = []
     for topic in tlist:
-        on_topic = [m for m in msgs if m[1].topic == topic]
-        if not on_topic:
-            available = available or bag_topics(p)
-            listing = ", ".join(f"{t} ({ty})" for t, ty in sorted(available.items()))
+        latest = next(_messages(p, [topic], reverse=True), None)
+        if latest is None:
+            listing = ", ".join(
+                f"{t} ({ty})" for t, ty in sorted(bag_topics(p).items())
+            )
             raise InputError(
                 f"{p}: has no messages on topic {topic!r}; its topics are: "
                 f"{listing or 'none'}",
                 hint="pass --topic with one of the PointCloud2 topics above",
             )
-        schema = on_topic[0][0]
+        schema = latest[0]
         if schema is None or schema.name != POINTCLOUD2:
             raise InputError(
                 f"{p}: topic {topic!r} carries "
@@ -291,13 +310,13 @@ def read_bag_clouds(
                 hint="pass --topic with a PointCloud2 topic",
             )
         if t_limit is not None:
-            on_topic = [m for m in on_topic if m[2].log_time <= t_limit]
-            if not on_topic:
+            latest = next(_messages(p, [topic], ending_at=t_limit, reverse=True), None)
+            if latest is None:
                 raise InputError(
                     f"{p}: no cloud on {topic!r} at or before --at {at}",
                     hint="give a later time, in seconds since the bag's start",
                 )
-        schema, channel, message = on_topic[-1]
+        schema, channel, message = latest
         msg = _decode(schema, channel, message)
         out.append(
             BagCloud(
@@ -310,45 +329,34 @@ def read_bag_clouds(
     return out
 
 
-def _messages_first_time(p: Path) -> int:
-    msgs = _messages(p)
-    return int(msgs[0][2].log_time) if msgs else 0
-
-
 # -- transforms ---------------------------------------------------------------------
 def _tf_edges(p: Path, t_ns: int) -> dict[str, tuple[str, Array]]:
     """child → (parent, T_parent_child): static transforms, and the latest dynamic
     one at or before ``t_ns`` (the earliest after it when none is before)."""
     from scipy.spatial.transform import Rotation
 
-    edges: dict[str, tuple[str, Array, int, bool]] = {}
-    for schema, channel, message in _messages(p, TF_TOPICS):
-        if schema is None or schema.name != TF_MESSAGE:
-            continue
-        static = channel.topic == "/tf_static"
-        msg = _decode(schema, channel, message)
-        for tr in msg.transforms:
-            stamp = _stamp(tr, message.log_time)
-            child = str(tr.child_frame_id).lstrip("/")
-            parent = str(tr.header.frame_id).lstrip("/")
-            q = tr.transform.rotation
-            v = tr.transform.translation
-            T = np.eye(4)
-            T[:3, :3] = Rotation.from_quat([q.x, q.y, q.z, q.w]).as_matrix()
-            T[:3, 3] = [v.x, v.y, v.z]
-            old = edges.get(child)
-            if old is None or static:
-                edges[child] = (parent, T, stamp, static)
+    edges: dict[str, tuple[str, Array]] = {}
+    # static ones first; then the dynamic ones from t_ns back, then after it
+    # (each child keeps the first one met)
+    reads = [
+        _messages(p, ["/tf_static"]),
+        _messages(p, ["/tf"], ending_at=t_ns, reverse=True),
+        _messages(p, ["/tf"], starting_at=t_ns + 1),
+    ]
+    for read in reads:
+        for schema, channel, message in read:
+            if schema is None or schema.name != TF_MESSAGE:
                 continue
-            if old[3]:
-                continue  # a static transform wins
-            old_ok, new_ok = old[2] <= t_ns, stamp <= t_ns
-            better = (new_ok and (not old_ok or stamp >= old[2])) or (
-                not new_ok and not old_ok and stamp < old[2]
-            )
-            if better:
-                edges[child] = (parent, T, stamp, static)
-    return {c: (e[0], e[1]) for c, e in edges.items()}
+            for tr in _decode(schema, channel, message).transforms:
+                child = str(tr.child_frame_id).lstrip("/")
+                if child in edges and channel.topic == "/tf":
+                    continue
+                q, v = tr.transform.rotation, tr.transform.translation
+                T = np.eye(4)
+                T[:3, :3] = Rotation.from_quat([q.x, q.y, q.z, q.w]).as_matrix()
+                T[:3, 3] = [v.x, v.y, v.z]
+                edges[child] = (str(tr.header.frame_id).lstrip("/"), T)
+    return edges
 
 
 def _chain(edges: dict[str, tuple[str, Array]], frame: str) -> list[str]:
@@ -447,117 +455,3 @@ def read_bag_scene(
     for v, c in zip(scene.views, clouds, strict=True):
         v.name = f"{c.topic} ({c.frame_id})"
     return scene
-
-
-# -- writing (tests, examples) ---------------------------------------------------
-_HEADER = "builtin_interfaces/Time stamp\nstring frame_id\n"
-_TIME = "int32 sec\nuint32 nanosec\n"
-_SEP = "=" * 80 + "\n"
-#: the definitions a message with a ``std_msgs/Header`` appends for it
-_HEADER_DEFS = (
-    _SEP + "MSG: std_msgs/Header\n" + _HEADER + _SEP + "MSG: builtin_interfaces/Time\n"
-) + _TIME
-POINTCLOUD2_DEF = (
-    "std_msgs/Header header\nuint32 height\nuint32 width\n"
-    "sensor_msgs/PointField[] fields\nbool is_bigendian\nuint32 point_step\n"
-    "uint32 row_step\nuint8[] data\nbool is_dense\n"
-    + _HEADER_DEFS
-    + _SEP
-    + "MSG: sensor_msgs/PointField\n"
-    "uint8 INT8=1\nuint8 UINT8=2\nuint8 INT16=3\nuint8 UINT16=4\nuint8 INT32=5\n"
-    "uint8 UINT32=6\nuint8 FLOAT32=7\nuint8 FLOAT64=8\n"
-    "string name\nuint32 offset\nuint8 datatype\nuint32 count\n"
-)
-TF_MESSAGE_DEF = (
-    "geometry_msgs/TransformStamped[] transforms\n"
-    + _SEP
-    + "MSG: geometry_msgs/TransformStamped\n"
-    "std_msgs/Header header\nstring child_frame_id\ngeometry_msgs/Transform transform\n"
-    + _HEADER_DEFS
-    + _SEP
-    + "MSG: geometry_msgs/Transform\n"
-    "geometry_msgs/Vector3 translation\ngeometry_msgs/Quaternion rotation\n"
-    + _SEP
-    + "MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n"
-    + _SEP
-    + "MSG: geometry_msgs/Quaternion\n"
-    "float64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1\n"
-)
-
-
-def _time(t_ns: int) -> dict[str, int]:
-    return {"sec": t_ns // 1_000_000_000, "nanosec": t_ns % 1_000_000_000}
-
-
-def write_cloud_bag(
-    path: str | Path,
-    clouds: Sequence[tuple[str, str, Any, int]],
-    transforms: Sequence[tuple[str, str, str, Any, int]] = (),
-    *,
-    fields: Sequence[str] = ("x", "y", "z"),
-) -> Path:
-    """Write a ROS 2 bag (MCAP) of PointCloud2 clouds and transforms.
-
-    Parameters
-    ----------
-    clouds
-        ``(topic, frame_id, points (n, 3), t_ns)``; points stored as float32.
-    transforms
-        ``(topic, parent, child, T_parent_child (4, 4), t_ns)`` with topic ``/tf``
-        or ``/tf_static``.
-    fields
-        Names of the three float32 fields (to write clouds without x/y/z).
-    """
-    from mcap_ros2.writer import Writer
-    from scipy.spatial.transform import Rotation
-
-    out = Path(path)
-    with open(out, "wb") as fh:
-        w = Writer(fh)
-        pc_schema = w.register_msgdef(POINTCLOUD2, POINTCLOUD2_DEF)
-        tf_schema = w.register_msgdef(TF_MESSAGE, TF_MESSAGE_DEF)
-        events: list[tuple[int, int, Any]] = []
-        for i, (topic, frame_id, pts, t) in enumerate(clouds):
-            events.append((t, i, ("cloud", topic, frame_id, pts)))
-        for i, (topic, parent, child, T, t) in enumerate(transforms):
-            events.append((t, len(clouds) + i, ("tf", topic, parent, child, T)))
-        for t, _, ev in sorted(events, key=lambda e: (e[0], e[1])):
-            if ev[0] == "cloud":
-                _, topic, frame_id, pts = ev
-                p32 = np.ascontiguousarray(np.asarray(pts, dtype="<f4").reshape(-1, 3))
-                msg = {
-                    "header": {"stamp": _time(t), "frame_id": frame_id},
-                    "height": 1,
-                    "width": len(p32),
-                    "fields": [
-                        {"name": n, "offset": 4 * k, "datatype": 7, "count": 1}
-                        for k, n in enumerate(fields)
-                    ],
-                    "is_bigendian": False,
-                    "point_step": 12,
-                    "row_step": 12 * len(p32),
-                    "data": p32.tobytes(),
-                    "is_dense": bool(np.isfinite(p32).all()),
-                }
-                w.write_message(topic, pc_schema, msg, log_time=t, publish_time=t)
-            else:
-                _, topic, parent, child, T = ev
-                T = np.asarray(T, dtype=np.float64)
-                q = Rotation.from_matrix(T[:3, :3]).as_quat()
-                msg = {
-                    "transforms": [
-                        {
-                            "header": {"stamp": _time(t), "frame_id": parent},
-                            "child_frame_id": child,
-                            "transform": {
-                                "translation": dict(
-                                    zip("xyz", T[:3, 3].tolist(), strict=True)
-                                ),
-                                "rotation": dict(zip("xyzw", q.tolist(), strict=True)),
-                            },
-                        }
-                    ]
-                }
-                w.write_message(topic, tf_schema, msg, log_time=t, publish_time=t)
-        w.finish()
-    return out

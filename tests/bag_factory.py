@@ -1,0 +1,127 @@
+"""A writer of small ROS 2 bags (MCAP) for the tests: PointCloud2 clouds and
+``/tf`` / ``/tf_static`` transforms, written with ``mcap_ros2.writer``."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from wsgrasp.record.bag import POINTCLOUD2, TF_MESSAGE
+
+_HEADER = "builtin_interfaces/Time stamp\nstring frame_id\n"
+_TIME = "int32 sec\nuint32 nanosec\n"
+_SEP = "=" * 80 + "\n"
+#: the definitions a message with a ``std_msgs/Header`` appends for it
+_HEADER_DEFS = (
+    _SEP + "MSG: std_msgs/Header\n" + _HEADER + _SEP + "MSG: builtin_interfaces/Time\n"
+) + _TIME
+POINTCLOUD2_DEF = (
+    "std_msgs/Header header\nuint32 height\nuint32 width\n"
+    "sensor_msgs/PointField[] fields\nbool is_bigendian\nuint32 point_step\n"
+    "uint32 row_step\nuint8[] data\nbool is_dense\n"
+    + _HEADER_DEFS
+    + _SEP
+    + "MSG: sensor_msgs/PointField\n"
+    "uint8 INT8=1\nuint8 UINT8=2\nuint8 INT16=3\nuint8 UINT16=4\nuint8 INT32=5\n"
+    "uint8 UINT32=6\nuint8 FLOAT32=7\nuint8 FLOAT64=8\n"
+    "string name\nuint32 offset\nuint8 datatype\nuint32 count\n"
+)
+TF_MESSAGE_DEF = (
+    "geometry_msgs/TransformStamped[] transforms\n"
+    + _SEP
+    + "MSG: geometry_msgs/TransformStamped\n"
+    "std_msgs/Header header\nstring child_frame_id\ngeometry_msgs/Transform transform\n"
+    + _HEADER_DEFS
+    + _SEP
+    + "MSG: geometry_msgs/Transform\n"
+    "geometry_msgs/Vector3 translation\ngeometry_msgs/Quaternion rotation\n"
+    + _SEP
+    + "MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n"
+    + _SEP
+    + "MSG: geometry_msgs/Quaternion\n"
+    "float64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1\n"
+)
+
+
+def _time(t_ns: int) -> dict[str, int]:
+    return {"sec": t_ns // 1_000_000_000, "nanosec": t_ns % 1_000_000_000}
+
+
+def write_cloud_bag(
+    path: str | Path,
+    clouds: Sequence[tuple[str, str, Any, int]],
+    transforms: Sequence[tuple[str, str, str, Any, int]] = (),
+    *,
+    fields: Sequence[str] = ("x", "y", "z"),
+    chunk_size: int = 1024 * 1024,
+) -> Path:
+    """Write a ROS 2 bag (MCAP) of PointCloud2 clouds and transforms.
+
+    Parameters
+    ----------
+    clouds
+        ``(topic, frame_id, points (n, 3), t_ns)``; points stored as float32.
+    transforms
+        ``(topic, parent, child, T_parent_child (4, 4), t_ns)`` with topic ``/tf``
+        or ``/tf_static``.
+    fields
+        Names of the three float32 fields (to write clouds without x/y/z).
+    chunk_size
+        Bytes after which a chunk ends.
+    """
+    from mcap_ros2.writer import Writer
+    from scipy.spatial.transform import Rotation
+
+    out = Path(path)
+    with open(out, "wb") as fh:
+        w = Writer(fh, chunk_size=chunk_size)
+        pc_schema = w.register_msgdef(POINTCLOUD2, POINTCLOUD2_DEF)
+        tf_schema = w.register_msgdef(TF_MESSAGE, TF_MESSAGE_DEF)
+        events: list[tuple[int, int, Any]] = []
+        for i, (topic, frame_id, pts, t) in enumerate(clouds):
+            events.append((t, i, ("cloud", topic, frame_id, pts)))
+        for i, (topic, parent, child, T, t) in enumerate(transforms):
+            events.append((t, len(clouds) + i, ("tf", topic, parent, child, T)))
+        for t, _, ev in sorted(events, key=lambda e: (e[0], e[1])):
+            if ev[0] == "cloud":
+                _, topic, frame_id, pts = ev
+                p32 = np.ascontiguousarray(np.asarray(pts, dtype="<f4").reshape(-1, 3))
+                msg = {
+                    "header": {"stamp": _time(t), "frame_id": frame_id},
+                    "height": 1,
+                    "width": len(p32),
+                    "fields": [
+                        {"name": n, "offset": 4 * k, "datatype": 7, "count": 1}
+                        for k, n in enumerate(fields)
+                    ],
+                    "is_bigendian": False,
+                    "point_step": 12,
+                    "row_step": 12 * len(p32),
+                    "data": p32.tobytes(),
+                    "is_dense": bool(np.isfinite(p32).all()),
+                }
+                w.write_message(topic, pc_schema, msg, log_time=t, publish_time=t)
+            else:
+                _, topic, parent, child, T = ev
+                T = np.asarray(T, dtype=np.float64)
+                q = Rotation.from_matrix(T[:3, :3]).as_quat()
+                msg = {
+                    "transforms": [
+                        {
+                            "header": {"stamp": _time(t), "frame_id": parent},
+                            "child_frame_id": child,
+                            "transform": {
+                                "translation": dict(
+                                    zip("xyz", T[:3, 3].tolist(), strict=True)
+                                ),
+                                "rotation": dict(zip("xyzw", q.tolist(), strict=True)),
+                            },
+                        }
+                    ]
+                }
+                w.write_message(topic, tf_schema, msg, log_time=t, publish_time=t)
+        w.finish()
+    return out
