@@ -22,6 +22,7 @@ clouds whose extents suggest millimetres raise ``InputError``.
 
 from __future__ import annotations
 
+import zipfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, Literal
@@ -63,7 +64,8 @@ def load_cloud(path: str | Path) -> Array:
     Parameters
     ----------
     path
-        PLY or PCD (open3d), XYZ/TXT/CSV (whitespace or comma separated, first three
+        PLY (trimesh) or PCD (pypcd4), properties x, y, z read by name,
+        XYZ/TXT/CSV (whitespace or comma separated, first three
         columns, ``#`` comments), NPY (``(n, 3)``) or NPZ (key ``points``, or its only
         array).
 
@@ -83,8 +85,10 @@ def load_cloud(path: str | Path) -> Array:
             hint="give a cloud file such as scene.ply or scene.npz",
         )
     suffix = p.suffix.lower()
-    if suffix in (".ply", ".pcd"):
-        arr = _read_open3d(p)
+    if suffix == ".ply":
+        arr = _read_ply(p)
+    elif suffix == ".pcd":
+        arr = _read_pcd(p)
     elif suffix in (".xyz", ".txt", ".csv"):
         arr = _read_text(p)
     elif suffix == ".npy":
@@ -100,16 +104,69 @@ def load_cloud(path: str | Path) -> Array:
     return _check_shape(arr, str(p))
 
 
-def _read_open3d(p: Path) -> Array:
-    import open3d as o3d
+def _read_ply(p: Path) -> Array:
+    """PLY through trimesh, which reads the vertex properties by name (x, y, z in
+    any order, any numeric type) and refuses a binary file shorter than its
+    header says; an ASCII file with fewer rows than its header is refused here."""
+    import trimesh
 
-    pcd = o3d.io.read_point_cloud(p, remove_nan_points=False)
-    arr = np.asarray(pcd.points, dtype=np.float64)
-    if arr.size == 0 and p.stat().st_size > 0:
-        # open3d reports unreadable files only as a warning with an empty cloud;
-        # a mesh PLY has its vertices as points
-        mesh = o3d.io.read_triangle_mesh(p)
-        arr = np.asarray(mesh.vertices, dtype=np.float64)
+    try:
+        geometry = trimesh.load(p, file_type="ply", process=False)
+    except (ValueError, KeyError, IndexError, TypeError, UnicodeDecodeError) as exc:
+        what = str(exc) or type(exc).__name__
+        if isinstance(exc, KeyError):
+            what = f"it has no vertex property {exc}"
+        raise InputError(
+            f"cloud file {str(p)!r} is not a readable PLY point cloud: {what}",
+            hint="export it again as PLY with vertex properties x, y, z (metres)",
+        ) from None
+    arr = np.asarray(getattr(geometry, "vertices", np.zeros((0, 3))), np.float64)
+    raw = getattr(geometry, "metadata", {}).get("_ply_raw", {}).get("vertex", {})
+    names = list(raw.get("properties", {}))
+    if names and not {"x", "y", "z"} <= set(names):
+        raise InputError(
+            f"cloud file {str(p)!r} has vertex properties {names}, not x, y, z",
+            hint="export it again as PLY with vertex properties x, y, z (metres)",
+        )
+    declared = raw.get("length")
+    if declared is not None and int(declared) != len(arr):
+        raise InputError(
+            f"cloud file {str(p)!r} is truncated: its header declares {declared} "
+            f"vertices, the file holds {len(arr)}",
+            hint="copy or export the file again",
+        )
+    return arr.reshape(-1, 3)
+
+
+def _read_pcd(p: Path) -> Array:
+    """PCD through pypcd4 (ASCII, binary and binary_compressed), fields read by
+    name; a file with fewer points than its header says is refused."""
+    from pypcd4 import PointCloud
+
+    try:
+        cloud = PointCloud.from_path(p)
+    except Exception as exc:  # noqa: BLE001 - the reader's failures, reported
+        what = f"{type(exc).__name__}: {str(exc)[:200]}"
+        if isinstance(exc, UnicodeDecodeError):
+            what = "its header is not PCD text"
+        raise InputError(
+            f"cloud file {str(p)!r} is not a readable PCD file: {what}",
+            hint="export it again as PCD with fields x y z (metres)",
+        ) from None
+    fields = list(cloud.fields)
+    if not {"x", "y", "z"} <= set(fields):
+        raise InputError(
+            f"cloud file {str(p)!r} has fields {fields}, not x, y, z",
+            hint="export it again as PCD with fields x y z (metres)",
+        )
+    arr = np.asarray(cloud.numpy(("x", "y", "z")), dtype=np.float64)
+    declared = int(cloud.metadata.points)
+    if declared != len(arr):
+        raise InputError(
+            f"cloud file {str(p)!r} is truncated: its header declares {declared} "
+            f"points, the file holds {len(arr)}",
+            hint="copy or export the file again",
+        )
     return arr.reshape(-1, 3)
 
 
@@ -135,12 +192,25 @@ def _read_text(p: Path) -> Array:
 def _read_npy(p: Path) -> Array:
     try:
         arr = np.load(p, allow_pickle=False)
-    except ValueError as exc:
+    except (ValueError, EOFError, OSError) as exc:
         raise InputError(
-            f"cloud file {str(p)!r} is not a readable .npy array: {exc}",
+            f"cloud file {str(p)!r} is not a readable .npy array: {_numpy_says(exc)}",
             hint="save it with np.save(path, points) where points is (n, 3)",
         ) from None
     return _as_numeric(arr, str(p))
+
+
+def _numpy_says(exc: BaseException) -> str:
+    """numpy's reason, without its advice to unpickle (never safe on a file
+    from elsewhere, and never needed for a point array)."""
+    text = str(exc) or type(exc).__name__
+    if "allow_pickle" in text or "pickle" in text.lower():
+        return "it holds Python objects, not a numeric array"
+    if isinstance(exc, EOFError) or "No data left" in text:
+        return "it is empty or cut short"
+    if isinstance(exc, zipfile.BadZipFile):
+        return "it is not a complete zip archive (cut short, or another format)"
+    return text
 
 
 def _read_npz(p: Path) -> Array:
@@ -153,23 +223,27 @@ def _read_npz(p: Path) -> Array:
                 arr = data[keys[0]]
             else:
                 raise InputError(
-                    f"cloud file {str(p)!r} holds arrays {keys} and none is named "
-                    "'points'",
+                    f"cloud file {str(p)!r} holds no array"
+                    if not keys
+                    else f"cloud file {str(p)!r} holds arrays {keys} and none is "
+                    "named 'points'",
                     hint="save the cloud with np.savez(path, points=points)",
                 )
-    except (ValueError, OSError) as exc:
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
         raise InputError(
-            f"cloud file {str(p)!r} is not a readable .npz archive: {exc}",
+            f"cloud file {str(p)!r} is not a readable .npz archive: {_numpy_says(exc)}",
             hint="save it with np.savez(path, points=points)",
         ) from None
     return _as_numeric(arr, str(p))
 
 
 def _as_numeric(arr: np.ndarray, name: str) -> Array:
-    if not np.issubdtype(arr.dtype, np.number):
+    if not (
+        np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)
+    ):
         raise InputError(
-            f"cloud {name!r} has dtype {arr.dtype}, expected numbers",
-            hint="store the points as a float (n, 3) array",
+            f"cloud {name!r} has dtype {arr.dtype}, expected real numbers",
+            hint="store the points as a float (n, 3) array of x, y, z in metres",
         )
     return np.asarray(arr, dtype=np.float64)
 
@@ -401,12 +475,17 @@ def check_units(points: Array, name: str = "points") -> None:
     lo, hi = np.percentile(points, [0.5, 99.5], axis=0)
     extent = float(np.max(hi - lo))
     if extent > MAX_SCENE_EXTENT:
-        factor = "1000 (millimetres)" if extent < 20000 else "the unit's size"
+        # the unit that makes the scene closest to a metre-sized tabletop
+        unit, short, scale = min(
+            (("centimetres", "cm", 100.0), ("millimetres", "mm", 1000.0)),
+            key=lambda u: abs(np.log10(extent / u[2])),
+        )
         raise InputError(
             f"cloud {name!r} spans {extent:.4g} units; a tabletop scene in metres "
             f"spans well under {MAX_SCENE_EXTENT:g} m, so it is probably in "
-            "millimetres",
-            hint=f"divide the points by {factor}, or set `units: mm` in a scene YAML",
+            f"{unit} ({extent / scale:.3g} m across)",
+            hint=f"divide the points by {scale:g}, or set `units: {short}` in a "
+            "scene YAML",
         )
 
 
