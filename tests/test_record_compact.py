@@ -453,7 +453,7 @@ def test_a_forked_child_leaves_the_parents_recordings_alone(
 ) -> None:
     import os
 
-    from wsgrasp.record import _writer
+    from wsgrasp.record import _worker
 
     gate = _gate_views(monkeypatch)
     path = tmp_path / "parent.mcap"
@@ -465,8 +465,8 @@ def test_a_forked_child_leaves_the_parents_recordings_alone(
     if pid == 0:  # the child: nothing of the parent's to wait for or finish
         code = 0
         try:
-            _writer.wait_for_recorders()
-            _writer._close_open_recorders()
+            _worker.wait_for_recorders()
+            _worker._close_open_recorders()
             if path.stat().st_size != size_before:
                 code = 5
         except BaseException:  # noqa: BLE001 - reported by the exit code

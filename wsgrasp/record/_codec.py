@@ -136,15 +136,29 @@ def _stored_dtype(dtype: np.dtype[Any]) -> str:
     return out
 
 
-def _encode_array(a: NDArray[Any], arrays: list[Any]) -> dict[str, Any]:
-    a = np.ascontiguousarray(a, dtype=_stored_dtype(a.dtype))
-    ref: dict[str, Any] = {"$array": len(arrays)}
+class _Arrays(list):  # type: ignore[type-arg]
+    """A record's arrays, ``(dtype, shape, bytes)``, and the reference of each
+    array object met so far: one array met twice (a scene whose merged points
+    are its only view's very array) is stored once."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.seen: dict[int, dict[str, Any]] = {}
+
+
+def _encode_array(value: NDArray[Any], arrays: _Arrays) -> dict[str, Any]:
+    ref = arrays.seen.get(id(value))
+    if ref is not None:
+        return dict(ref)
+    a = np.ascontiguousarray(value, dtype=_stored_dtype(value.dtype))
+    ref = {"$array": len(arrays)}
     if a.dtype.str == "<f8" and a.size >= F32_MIN_SIZE:
         f32 = as_float32_exact(a)
         if f32 is not None:
             a, ref["$as"] = f32, "<f8"
-    arrays.append(Array(dtype=a.dtype.str, shape=a.shape, data=a.tobytes()))
-    return ref
+    arrays.append((a.dtype.str, a.shape, a.tobytes()))
+    arrays.seen[id(value)] = ref
+    return dict(ref)
 
 
 def _float(f: float) -> Any:
@@ -153,7 +167,7 @@ def _float(f: float) -> Any:
     return {"$float": "nan" if math.isnan(f) else ("inf" if f > 0 else "-inf")}
 
 
-def encode_value(value: Any, arrays: list[Any]) -> Any:
+def encode_value(value: Any, arrays: _Arrays) -> Any:
     """Turn ``value`` into plain JSON data, moving arrays into ``arrays``.
 
     Dataclasses become dicts of their fields, pydantic models their JSON dump, numpy
@@ -212,11 +226,13 @@ def decode_value(data: Any, arrays: list[Any]) -> Any:
 
 def dumps(value: Any, kind: str = "") -> bytes:
     """Encode ``value`` to the bytes of one ``wsgrasp.Record``."""
-    arrays: list[Any] = []
+    arrays = _Arrays()
     text = json.dumps(
         encode_value(value, arrays), allow_nan=False, separators=(",", ":")
     )
-    msg = Record(format_version=FORMAT_VERSION, kind=kind, json=text, arrays=arrays)
+    msg = Record(format_version=FORMAT_VERSION, kind=kind, json=text)
+    for dtype, shape, data in arrays:  # added in place: the bytes copied once
+        msg.arrays.add(dtype=dtype, shape=shape, data=data)
     return bytes(msg.SerializeToString())
 
 

@@ -113,35 +113,6 @@ def _add(scan: _Scan, rec: Any) -> None:
         scan.footer = True
 
 
-def _rebuild_points(inputs: dict[str, Any]) -> None:
-    """Formats 1 and 2: the merged scene points, stored as how to make them,
-    made again with the loader's merge; ``points_mismatch`` says when this
-    machine's merge does not give the recorded check value (:attr:`Run.scene`
-    refuses such points). Format 3 stores them."""
-    import numpy as np
-
-    from wsgrasp.perception.io import _to_world
-    from wsgrasp.perception.types import View
-
-    rule, views = inputs["points"], inputs.get("views") or []
-    if rule == "views[0].points" and views:
-        inputs["points"] = views[0]["points"]
-        return
-    if rule != "merge(views)" or not views:
-        raise ValueError(f"unknown rule for the merged points: {rule!r}")
-    world = [_to_world(View(v["points"], v["T_world_camera"])) for v in views]
-    merged = inputs["points"] = np.concatenate(world, axis=0)
-    words = np.ascontiguousarray(merged, dtype="<f8").reshape(-1).view("<u8")
-    total = int(np.add.reduce(words, dtype=np.uint64))
-    check = f"{total:016x}{int(np.bitwise_xor.reduce(words)) if words.size else 0:016x}"
-    if inputs.get("points_check") not in (None, check):
-        inputs["points_mismatch"] = (
-            "the recording stores the merged scene points as the merge of its views, "
-            "and merging them here does not give the recorded bits (this machine's "
-            "numpy/BLAS computes the merge differently)"
-        )
-
-
 def open_run(path: str | Path) -> Run:
     """Read a recorded run.
 
@@ -251,10 +222,12 @@ def _run_from_scan(p: Path, scan: _Scan) -> Run:
     error = by_topic.get(TOPICS["error"])
     inputs = by_topic.get(TOPICS["inputs"])
     if inputs is not None and isinstance(inputs.get("points"), str):
-        try:
-            _rebuild_points(inputs)
-        except (ValueError, KeyError, TypeError) as exc:
-            raise _corrupt(p, 0, f"the inputs record: {exc}") from None
+        raise RecordingError(
+            f"{p}: run format {version} stores the merged points as a rule "
+            f"({inputs['points']!r}), made again by a merge that depends on the "
+            "machine; this wsgrasp reads the points a run stores (format 3)",
+            hint=f"read or replay it with wsgrasp {recorded_by}, which recorded it",
+        )
     present = {
         "metadata": "wsgrasp" in metadata,
         "spec": "spec" in metadata,

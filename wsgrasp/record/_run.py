@@ -189,11 +189,6 @@ class Run:
                 hint="nothing of this run can be replayed",
             )
         d = self.inputs
-        if d.get("points_mismatch"):
-            raise RecordingError(
-                f"{self.path}: {d['points_mismatch']}",
-                hint="replay the run where it was recorded (same numpy and BLAS)",
-            )
         views = [
             View(points=v["points"], T_world_camera=v["T_world_camera"], name=v["name"])
             for v in d["views"]

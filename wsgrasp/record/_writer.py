@@ -26,13 +26,9 @@ shapes) zstd-compressed.
 
 from __future__ import annotations
 
-import atexit
-import os
-import queue
 import threading
 import time
-import weakref
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from contextlib import contextmanager, suppress
 from dataclasses import fields
 from datetime import datetime, timezone
@@ -42,7 +38,7 @@ from typing import IO, TYPE_CHECKING, Any
 from mcap.writer import CompressionType, Writer
 
 from wsgrasp.errors import RecordingError
-from wsgrasp.record import _views
+from wsgrasp.record import _views, _worker
 from wsgrasp.record._codec import (
     DESCRIPTOR_SET,
     FORMAT_VERSION,
@@ -53,6 +49,7 @@ from wsgrasp.record._codec import (
     loads,
 )
 from wsgrasp.record._runinfo import gripper_attachments, run_info
+from wsgrasp.record._worker import wait_for_recorders
 
 if TYPE_CHECKING:
     from wsgrasp.gripper.model import GripperModel
@@ -65,78 +62,6 @@ __all__ = ["RunRecorder", "check_record_path", "default_run_path", "wait_for_rec
 #: Full-fidelity channels that are mostly float clouds: stored uncompressed.
 RAW_TOPICS = {TOPICS["inputs"], TOPICS["preprocess"], TOPICS["segmentation"]}
 RAW, ZSTD = CompressionType.NONE, CompressionType.ZSTD
-
-#: Recorders with a file still open (finished at interpreter exit), and those whose
-#: file the writer thread is finishing; ``_REGISTRY`` guards both.
-_OPEN: weakref.WeakSet[RunRecorder] = weakref.WeakSet()
-_PENDING: weakref.WeakSet[RunRecorder] = weakref.WeakSet()
-_REGISTRY = threading.Lock()
-
-
-class _Worker:
-    """The process's writer thread: runs jobs in order (starting a thread can
-    take milliseconds on a busy machine, so one serves every recorder)."""
-
-    jobs: queue.SimpleQueue[Callable[[], None]] = queue.SimpleQueue()
-    thread: threading.Thread | None = None
-    lock = threading.Lock()
-
-    @classmethod
-    def start(cls) -> None:
-        with cls.lock:
-            if cls.thread is None or not cls.thread.is_alive():
-                cls.thread = threading.Thread(
-                    target=cls._serve, name="wsgrasp-recorder", daemon=True
-                )
-                cls.thread.start()
-
-    @classmethod
-    def _serve(cls) -> None:
-        while True:
-            cls.jobs.get()()
-
-    @classmethod
-    def submit(cls, job: Callable[[], None]) -> None:
-        cls.start()
-        cls.jobs.put(job)
-
-
-def wait_for_recorders() -> None:
-    """Wait until the writer thread has finished every recording handed to it
-    (a new recording calls this before its plan starts)."""
-    with _REGISTRY:
-        pending = list(_PENDING)
-    for rec in pending:
-        rec.wait()
-
-
-def _forget_after_fork() -> None:
-    """In a forked child: the parent's recordings are the parent's to finish (a
-    child finishing them at exit would write into the parent's files), and the
-    writer thread was not copied."""
-    global _REGISTRY
-    _REGISTRY = threading.Lock()  # another thread may have held it at the fork
-    _OPEN.clear()
-    _PENDING.clear()
-    _Worker.jobs, _Worker.thread, _Worker.lock = (
-        queue.SimpleQueue(),
-        None,
-        threading.Lock(),
-    )
-
-
-if hasattr(os, "register_at_fork"):
-    os.register_at_fork(after_in_child=_forget_after_fork)
-
-
-@atexit.register
-def _close_open_recorders() -> None:
-    """A recorder left open (no result, no error reported) is finished at exit."""
-    with _REGISTRY:
-        still_open = list(_OPEN)
-    for rec in still_open:
-        with suppress(Exception):  # exiting anyway
-            rec.close()
 
 
 def default_run_path(
@@ -222,7 +147,7 @@ class RunRecorder:
         self._finished = False  # no more hooks taken
         self._done: threading.Event | None = None  # set when the file is finished
         self._error: BaseException | None = None  # a failure on the writer thread
-        _Worker.start()  # now, not in the plan's time
+        _worker.Worker.start()  # now, not in the plan's time
 
     # -- PlanObserver ------------------------------------------------------------
     def on_start(self, spec: PipelineSpec, gripper: GripperModel, scene: Scene) -> None:
@@ -374,8 +299,8 @@ class RunRecorder:
             ) from exc
 
     def _close_stream(self) -> None:
-        with _REGISTRY:
-            _OPEN.discard(self)
+        with _worker.REGISTRY:
+            _worker.OPEN.discard(self)
         if self._stream is not None:
             with suppress(OSError):
                 self._stream.close()
@@ -384,8 +309,8 @@ class RunRecorder:
         """Hand the views and the file's end to the writer thread."""
         self._finished = True
         self._done = threading.Event()
-        with _REGISTRY:
-            _PENDING.add(self)
+        with _worker.REGISTRY:
+            _worker.PENDING.add(self)
 
         def job() -> None:
             t0 = time.perf_counter()
@@ -397,12 +322,12 @@ class RunRecorder:
                 self._close_stream()
             finally:
                 self.finish_ms += (time.perf_counter() - t0) * 1e3
-                with _REGISTRY:
-                    _PENDING.discard(self)
+                with _worker.REGISTRY:
+                    _worker.PENDING.discard(self)
                 assert self._done is not None
                 self._done.set()
 
-        _Worker.submit(job)
+        _worker.Worker.submit(job)
 
     def _write_views(self) -> None:
         """The Foxglove views of every recorded stage, decoded from its record:
@@ -462,8 +387,8 @@ class RunRecorder:
         # chunks end only where _flush ends them: one (or two) per stage
         self._writer = Writer(raw, chunk_size=1 << 62)
         self._writer.start(profile=PROFILE, library=f"wsgrasp {__version__}")
-        with _REGISTRY:
-            _OPEN.add(self)
+        with _worker.REGISTRY:
+            _worker.OPEN.add(self)
 
     def _finish(self, status: str) -> None:
         """Write the file's end (the ``run_end`` metadata, the summary) and close

@@ -127,20 +127,22 @@ def _messages(
     from mcap.exceptions import McapError
     from mcap.reader import NonSeekingReader, make_reader
 
-    bounds = {"starting_at": starting_at, "ending_at": ending_at}
     try:
         with open(p, "rb") as fh:
-            if _summary(fh) is not None:
-                fh.seek(0)
-                yield from make_reader(fh).iter_messages(
-                    topics=topics, reverse=reverse, **bounds
-                )
-                return
+            indexed = _summary(fh) is not None
             fh.seek(0)
-            out: list[tuple[Any, Any, Any]] = []
-            it = NonSeekingReader(fh).iter_messages(
-                topics, log_time_order=False, **bounds
+            reader = make_reader(fh) if indexed else NonSeekingReader(fh)
+            it = reader.iter_messages(
+                topics,
+                log_time_order=indexed,
+                reverse=reverse,
+                starting_at=starting_at,
+                ending_at=ending_at,
             )
+            if indexed:
+                yield from it
+                return
+            out: list[tuple[Any, Any, Any]] = []
             try:
                 out.extend(it)
             except (McapError, EOFError, ValueError, struct.error):
