@@ -108,36 +108,15 @@ def _same(a: Any, b: Any) -> bool:
     return x.shape == y.shape and x.dtype == y.dtype and x.tobytes() == y.tobytes()
 
 
-_COMPARED = (
-    "found",
-    "gripper",
-    "T_world_ee",
-    "T_world_gwc",
-    "T_world_tcp",
-    "pregrasp",
-    "closed",
-    "score",
-    "score_terms",
-    "best_index",
-    "rejections",
-    "hint",
-    "T_world_object",
-    "object_extents",
-    "T_world_pregrasp",
-    "joints_pregrasp",
-    "joints_grasp",
-    "finger_targets",
+_COMPARED = tuple(
+    (
+        "found gripper T_world_ee T_world_gwc T_world_tcp pregrasp closed score "
+        "score_terms best_index rejections hint T_world_object object_extents "
+        "T_world_pregrasp joints_pregrasp joints_grasp finger_targets"
+    ).split()
 )
-_CANDIDATE_FIELDS = (
-    "T_world_gwc",
-    "T_world_ee",
-    "sample",
-    "theta",
-    "orientation",
-    "reason",
-    "contacts",
-    "score",
-    "terms",
+_CANDIDATE_FIELDS = tuple(
+    "T_world_gwc T_world_ee sample theta orientation reason contacts score terms".split()
 )
 
 
