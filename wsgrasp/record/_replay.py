@@ -116,7 +116,8 @@ _COMPARED = tuple(
     ).split()
 )
 _CANDIDATE_FIELDS = tuple(
-    "T_world_gwc T_world_ee sample theta orientation reason contacts score terms".split()
+    "T_world_gwc T_world_ee sample theta orientation reason contacts score "
+    "terms".split()
 )
 
 
