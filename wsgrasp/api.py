@@ -175,9 +175,13 @@ class Pipeline:
         points = downsample(scene.points, spec.preprocess.voxel_size)
         lap("preprocess", {"points": points})
 
+        viewpoints = scene.viewpoints()
+        kwargs: dict[str, Any] = {}
+        if len(viewpoints) and _accepts(self._segmenter.segment, "viewpoints"):
+            kwargs["viewpoints"] = viewpoints
         try:
             segmentation = self._segmenter.segment(
-                points, self._segmenter_options, seed=spec.seed
+                points, self._segmenter_options, seed=spec.seed, **kwargs
             )
         except WsgraspError:
             raise
@@ -188,6 +192,7 @@ class Pipeline:
                 "the plugin's authors",
             ) from exc
         object_points, obstacles = select_target(segmentation, spec.target)
+        _check_table_side(segmentation.table, object_points, viewpoints, spec)
         # farthest-point thinning keeps the object's shape
         object_points = thin(
             object_points, spec.preprocess.max_object_points, spec.seed
@@ -206,6 +211,10 @@ class Pipeline:
 
         frame = object_frame(object_points, spec.object_frame.method)
         samples_object = sample_box(frame, spec.sampling)
+        too_large = _too_large(object_points, self.gripper)
+        if too_large:
+            # no pose can span the object: no candidates, and the result says so
+            samples_object = samples_object[:0]
         T_world_table = table_frame(segmentation.table, frame.centroid)
         se_center, se_axes, se_exp = table_superellipsoid(spec.table)
         table = TableSE(T_world_table, se_center, se_axes, se_exp)
@@ -239,6 +248,7 @@ class Pipeline:
             table_plane=segmentation.table,
             obstacles=obstacles,
             timing_ms=timing,
+            too_large=too_large,
         )
 
     def search(self, prepared: Prepared) -> SearchOutput:
@@ -264,6 +274,9 @@ class Pipeline:
         inp = prep.search_input
         hist = out.candidates.histogram()
         rejections = {k: v for k, v in hist.items() if k != "feasible"}
+        best = _with_clear_pregrasp(out, g, inp.table, self.spec.approach.distance)
+        if best != out.best:
+            out = _choose(out, best, g, inp)
         found = out.best is not None
         T_world_gripper = T_world_gwc = T_world_tcp = T_world_pregrasp = None
         joints_pregrasp: dict[str, float] = {}
@@ -285,6 +298,7 @@ class Pipeline:
             )
             timing["targets"] = (time.perf_counter() - t) * 1e3
             T_world_pregrasp = targets.T_world_pregrasp
+            _guard_table(g, inp.table, T_world_gripper, T_world_pregrasp)
             joints_pregrasp = targets.joints_pregrasp
             joints_grasp = targets.joints_grasp
             finger_targets = [
@@ -298,6 +312,14 @@ class Pipeline:
                 }
                 for f in targets.fingers
             ]
+        elif prep.too_large:
+            hint = prep.too_large
+        elif out.candidates.feasible.any():
+            hint = (
+                "every feasible grasp's pre-grasp pose, "
+                f"{self.spec.approach.distance:g} m back along its approach, hits "
+                "the table; lower approach.distance"
+            )
         else:
             heights = prep.table_plane.signed_distance(inp.object_points)
             hint = no_grasp_hint(hist, inp.extents, g, float(heights.max()))
@@ -347,6 +369,167 @@ class Prepared:
     table_plane: Plane
     obstacles: list[Array]
     timing_ms: dict[str, float]
+    #: why no pose can hold the object, when it is wider than the gripper opens
+    too_large: str = ""
+
+
+def _accepts(method: Any, name: str) -> bool:
+    """Whether a callable takes keyword ``name`` (or any keyword)."""
+    import inspect
+
+    try:
+        params = inspect.signature(method).parameters.values()
+    except (TypeError, ValueError):
+        return False
+    return any(
+        p.name == name or p.kind is inspect.Parameter.VAR_KEYWORD for p in params
+    )
+
+
+def _check_table_side(
+    table: Plane, object_points: Array, viewpoints: Array, spec: PipelineSpec
+) -> None:
+    """The table's upper side from the data: the cameras look at it from above,
+    and the object stands on it. A plane the data puts the other way round is
+    refused, not planned on."""
+    n = np.asarray(table.normal, dtype=np.float64)
+    if n.shape != (3,) or not np.isfinite(n).all() or not np.isfinite(table.offset):
+        raise PluginError(
+            f"segmenter {spec.segmenter.name!r} returned a table plane that is not "
+            f"finite (normal {n.tolist()}, offset {table.offset})",
+            hint="report it to the plugin's authors",
+        )
+    if abs(float(np.linalg.norm(n)) - 1.0) > 1e-6:
+        raise PluginError(
+            f"segmenter {spec.segmenter.name!r} returned a table normal of length "
+            f"{float(np.linalg.norm(n)):.6g}, expected a unit vector",
+            hint="report it to the plugin's authors",
+        )
+    if len(viewpoints):
+        h = table.signed_distance(viewpoints)
+        if (h < 0.0).any():
+            below = int((h < 0.0).sum())
+            raise InputError(
+                f"{below} of {len(h)} cameras look at the table plane from below "
+                f"(heights {', '.join(f'{x:.3f}' for x in h)} m), so what stands on "
+                "it is under the table: no object above the table",
+                hint="check the views' T_world_camera poses, or that the object is "
+                "in view on the table",
+            )
+    heights = table.signed_distance(object_points)
+    if not len(heights) or float(np.median(heights)) <= 0.0:
+        raise InputError(
+            "no object above the table: the object the segmenter chose lies below "
+            "the table plane",
+            hint="check that the object is in view and on the table",
+        )
+
+
+#: an object narrower than the gripper opening plus this (m; noise on the
+#: measured width) may fit between the fingers
+_WIDTH_SLACK = 0.002
+#: points deeper than this (m) inside the object's convex hull are a concavity
+#: (a mug's inside, the gap under a handle) the fingers may hold a wall of
+_CONCAVE_DEPTH = 0.01
+#: fraction of points deeper than ``_CONCAVE_DEPTH`` that makes an object hollow
+_CONCAVE_SHARE = 0.02
+
+
+def _too_large(object_points: Array, g: GripperModel) -> str:
+    """Why no pose can hold the object, or ``""``: a convex object whose narrowest
+    width (over its hull's face normals) exceeds the gripper opening cannot be
+    spanned in any direction. A concave one may still be held by a wall or a
+    handle, so it is left to the search."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    if len(object_points) < 4 or g.max_opening <= 0.0:
+        return ""
+    try:
+        hull = ConvexHull(object_points)
+    except QhullError:  # flat or degenerate: the search decides
+        return ""
+    vertices = object_points[hull.vertices]  # (h, 3)
+    proj = hull.equations[:, :3] @ vertices.T  # (facets, h)
+    width = float((proj.max(axis=1) - proj.min(axis=1)).min())
+    if width <= g.max_opening + _WIDTH_SLACK:
+        return ""
+    depth = -(object_points @ hull.equations[:, :3].T + hull.equations[:, 3]).max(
+        axis=1
+    )  # (n,) how far inside the hull
+    if float(np.mean(depth > _CONCAVE_DEPTH)) >= _CONCAVE_SHARE:
+        return ""
+    return (
+        f"object is too large for {g.name}: it is {width:.3f} m across at its "
+        f"narrowest and the fingers open to at most {g.max_opening:.3f} m"
+    )
+
+
+def _pregrasp(T_world_gripper: Array, g: GripperModel, distance: float) -> Array:
+    T = np.array(T_world_gripper, dtype=np.float64)
+    T[:3, 3] -= distance * (T[:3, :3] @ g.approach_axis)
+    return T
+
+
+def _hits_table(g: GripperModel, table: TableSE, T_world_gripper: Array) -> bool:
+    from wsgrasp.planning.evaluate import table_collisions
+
+    hit, _ = table_collisions(np.asarray(T_world_gripper)[None], g.cloud, table)
+    return bool(hit[0])
+
+
+def _with_clear_pregrasp(
+    out: SearchOutput, g: GripperModel, table: TableSE, distance: float
+) -> int | None:
+    """The best candidate whose pre-grasp pose is clear of the table too: the
+    chosen one, else the first alternative that is, else None."""
+    if out.best is None:
+        return None
+    order = [out.best, *(a.index for a in out.alternatives)]
+    for i in order:
+        T = out.candidates.T_world_ee[i]
+        if not _hits_table(g, table, _pregrasp(T, g, distance)):
+            return int(i)
+    return None
+
+
+def _choose(
+    out: SearchOutput, index: int | None, g: GripperModel, inp: SearchInput
+) -> SearchOutput:
+    """``out`` with candidate ``index`` chosen instead (its contacts found again;
+    the alternatives after it kept)."""
+    from dataclasses import replace
+
+    from wsgrasp.planning.evaluate import evaluate_candidates
+    from wsgrasp.planning.search import _contacts
+
+    if index is None:
+        return replace(out, best=None, alternatives=[], contacts=[], score_terms={})
+    T = out.candidates.T_world_ee[index]
+    ev = evaluate_candidates(
+        T[None], g, inp.object_points, inp.obstacle_points, inp.table
+    )
+    rank = next(k for k, a in enumerate(out.alternatives) if a.index == index)
+    return replace(
+        out,
+        best=index,
+        alternatives=out.alternatives[rank + 1 :],
+        contacts=_contacts(g, T, inp.object_points, ev.holding[0]),
+        score_terms=dict(out.alternatives[rank].terms),
+    )
+
+
+def _guard_table(
+    g: GripperModel, table: TableSE, T_world_gripper: Array, T_world_pregrasp: Array
+) -> None:
+    """The last check of every plan: neither the grasp nor the pre-grasp pose
+    enters the table. The search and the pre-grasp choice exclude both, so a
+    violation here is a bug, raised as one."""
+    for label, T in (("grasp", T_world_gripper), ("pre-grasp", T_world_pregrasp)):
+        if _hits_table(g, table, T):
+            raise AssertionError(
+                f"the chosen {label} pose enters the table; the search should have "
+                "rejected it"
+            )
 
 
 def _normals(points: Array, centroid: Array) -> Array:

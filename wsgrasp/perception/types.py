@@ -68,6 +68,17 @@ class Scene:
             h.update(arr.reshape(-1).view(np.uint8).data)
         return h.intdigest()
 
+    def viewpoints(self) -> Array:
+        """Camera centres ``(k, 3)`` in the world frame, of the views whose pose
+        was given (a view with the identity pose is a cloud without one: its
+        sensor's position is unknown)."""
+        centres = [
+            np.asarray(v.T_world_camera, dtype=np.float64)[:3, 3]
+            for v in self.views
+            if not np.array_equal(v.T_world_camera, np.eye(4))
+        ]
+        return np.array(centres).reshape(-1, 3)
+
     def is_merge(self) -> bool:
         """Whether a loader merged ``points`` from ``views`` and neither changed
         since (:attr:`merged_digest`)."""
@@ -112,5 +123,9 @@ class Segmenter(Protocol):
 
     def segment(self, points: Array, options: Any, *, seed: int) -> Segmentation:
         """Split a scene ``(N, 3)`` into table plane and object clusters, or raise
-        ``InputError`` saying why not."""
+        ``InputError`` saying why not.
+
+        A segmenter may also take ``viewpoints``, the camera centres ``(k, 3)``
+        where they are known: the table's upper side is the one they look from.
+        The pipeline passes it to segmenters whose ``segment`` accepts it."""
         ...

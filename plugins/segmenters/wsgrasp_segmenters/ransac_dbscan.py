@@ -79,9 +79,18 @@ class RansacDbscan:
     Options: ClassVar[type[BaseModel]] = RansacDbscanOptions
 
     def segment(
-        self, points: Array, options: RansacDbscanOptions, *, seed: int
+        self,
+        points: Array,
+        options: RansacDbscanOptions,
+        *,
+        seed: int,
+        viewpoints: Array | None = None,
     ) -> Segmentation:
         """Find the table plane and the clusters standing on it.
+
+        With ``viewpoints`` (camera centres ``(k, 3)``), only clusters on the
+        cameras' side of a plane stand on it: a camera sees a table from above.
+        Without them, the side with more standing points is the upper one.
 
         Raises
         ------
@@ -112,7 +121,7 @@ class RansacDbscan:
                     and other.size >= _OTHER_PLANE_FRACTION * inliers.size
                 ):
                     exclude[other] = True
-            found = self._clusters_on(p, normal, offset, o, exclude)
+            found = self._clusters_on(p, normal, offset, o, exclude, viewpoints)
             tried.append({"inliers": int(inliers.size), **found["why"]})
             if found["clusters"]:
                 plane = Plane(normal=found["normal"], offset=found["offset"])
@@ -154,8 +163,10 @@ class RansacDbscan:
         offset: float,
         o: RansacDbscanOptions,
         exclude: NDArray[np.bool_],
+        viewpoints: Array | None = None,
     ) -> dict[str, Any]:
-        """Clusters standing on either side of a plane; the side with more points."""
+        """Clusters standing on either side of a plane: the cameras' side when
+        ``viewpoints`` are given, else the side with more points."""
         h = p @ normal + offset  # (n,) signed heights
         ah = np.abs(h)
         cand = np.flatnonzero((ah > o.min_height) & (ah < o.max_height) & ~exclude)
@@ -188,6 +199,12 @@ class RansacDbscan:
             }
         )
         standing = ~(small | far | large)
+        if viewpoints is not None and len(viewpoints):
+            # the cameras' side is up; what stands on the other is under the table
+            camera_side = float(np.median(np.asarray(viewpoints) @ normal + offset))
+            below = standing & (np.sign(side) != np.sign(camera_side))
+            why["below the table"] = int(below.sum())
+            standing &= ~below
         if not standing.any():
             return empty
         up = int(counts[standing & (side > 0)].sum())
