@@ -154,13 +154,34 @@ def test_record_refuses_an_existing_file_without_force(tmp_path: Path) -> None:
     with pytest.raises(RecordingError, match="--force"):
         RunRecorder(path)
     assert path.read_bytes() == b"precious"
-    plan_recorded_force = RunRecorder(path, force=True)
+    # --force replaces recordings only, never another file
+    with pytest.raises(RecordingError, match="not an MCAP recording"):
+        RunRecorder(path, force=True)
+    assert path.read_bytes() == b"precious"
     from wsgrasp.api import Pipeline
 
-    Pipeline(fake_spec(), gripper=fake_gripper()).plan(
-        box_scene(), observers=[plan_recorded_force]
-    )
-    assert open_run(path).status == "ok"
+    path.unlink()
+    for _ in range(2):  # a recording, then the same path replaced with --force
+        Pipeline(fake_spec(), gripper=fake_gripper()).plan(
+            box_scene(), observers=[RunRecorder(path, force=True)]
+        )
+        assert open_run(path).status == "ok"
+
+
+def test_record_never_writes_through_a_link_or_over_an_input(tmp_path: Path) -> None:
+    from wsgrasp.record._writer import check_record_path
+
+    target = tmp_path / "target.txt"
+    target.write_text("keep")
+    link = tmp_path / "run.mcap"
+    link.symlink_to(target)
+    with pytest.raises(RecordingError, match="symbolic link"):
+        check_record_path(link, force=True)
+    cloud = tmp_path / "cloud.npy"
+    cloud.write_bytes(b"\x93NUMPY")
+    with pytest.raises(RecordingError, match="input of this run"):
+        check_record_path(cloud, force=True, inputs=[cloud])
+    assert target.read_text() == "keep"
 
 
 def test_default_run_path_is_utc_time_and_gripper() -> None:

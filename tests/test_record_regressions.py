@@ -62,7 +62,6 @@ def test_views_show_the_inputs_and_stages_as_handed_over(tmp_path: Path) -> None
 
 def test_views_show_the_inputs_as_planned_after_plan_returned(tmp_path: Path) -> None:
     from wsgrasp import Pipeline
-
     from wsgrasp.perception.io import scene_from_arrays
 
     small = box_scene(views=1).views[0].points

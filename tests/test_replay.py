@@ -72,7 +72,7 @@ def test_replay_with_another_spec_shows_the_difference(
 
 def test_replay_never_overwrites(run_path: Path) -> None:
     before = run_path.read_bytes()
-    with pytest.raises(RecordingError, match="never overwrites"):
+    with pytest.raises(RecordingError, match="never (overwrites|records over)"):
         replay_run(run_path, record=run_path, force=True)
     with pytest.raises(RecordingError, match="--force"):
         replay_run(run_path, record=run_path)

@@ -87,12 +87,15 @@ def _observers(
     record: Path | None,
     no_record: bool,
     force: bool,
+    inputs: list[Path],
 ) -> tuple[list[Any], Path | None]:
     if no_record or (record is None and not spec.record.enabled):
         return [], None
     from wsgrasp.record import RunRecorder, default_run_path
+    from wsgrasp.record._writer import check_record_path
 
     path = record if record is not None else default_run_path(spec, gripper_name)
+    check_record_path(path, force=force, inputs=inputs)
     return [RunRecorder(path, force=force)], path
 
 
@@ -148,7 +151,9 @@ def plan(
     else:
         scene = load_scene(clouds, icp=spec.preprocess.icp, registered=registered)
     pipeline = Pipeline(spec)
-    observers, path = _observers(spec, pipeline.gripper.name, record, no_record, force)
+    observers, path = _observers(
+        spec, pipeline.gripper.name, record, no_record, force, list(clouds)
+    )
     result = pipeline.plan(scene, observers=observers)
     if as_json:
         data = result.to_json()

@@ -222,12 +222,12 @@ def sample_workspace(
     margin = closing + 2
     voxels = float(np.prod(span / v + 2 * margin + 1))
     if voxels > MAX_WORKSPACE_VOXELS:
-        fit = float((np.prod(span) / MAX_WORKSPACE_VOXELS) ** (1 / 3))
+        coarser = float((np.prod(span) / MAX_WORKSPACE_VOXELS) ** (1 / 3))
         raise GripperError(
             f"{where}: workspace_voxel {v:g} m over the pad's "
             f"{' x '.join(f'{x * 1000:.0f}' for x in span)} mm workspace makes "
             f"{voxels:.3g} voxels, more than {MAX_WORKSPACE_VOXELS:.0e}",
-            hint=f"raise workspace_voxel to {max(fit * 1.2, 1e-4):.2g} m or more",
+            hint=f"raise workspace_voxel to {max(coarser * 1.2, 1e-4):.2g} m or more",
         )
     origin = flat.min(axis=0) - margin * v
     idx = np.rint((flat - origin) / v).astype(np.int64)  # (K * P, 3)

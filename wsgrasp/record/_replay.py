@@ -210,7 +210,7 @@ def replay_run(
     if not isinstance(run, Run):
         run = open_run(run)
     if record is not None:
-        check_record_path(record, force=force)
+        check_record_path(record, force=force, inputs=[run.path])
         if Path(record).resolve() == run.path.resolve():
             raise RecordingError(
                 f"{record}: is the run being replayed; a replay never overwrites it",
@@ -256,6 +256,10 @@ def replay_run(
     new_error: dict[str, Any] | None = None
     try:
         new = Pipeline(use_spec, gripper=model).plan(scene, observers=observers)
+    except RecordingError:
+        # the replay's own recording failed (its file cannot be written): that
+        # is the user's error to fix, not a result of the replay
+        raise
     except WsgraspError as exc:
         new_error = {"type": type(exc).__name__, "message": exc.message}
     finally:

@@ -28,14 +28,14 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager, suppress
 from dataclasses import fields
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import IO, TYPE_CHECKING, Any
 
-from mcap.writer import CompressionType, Writer
+from mcap.writer import MCAP0_MAGIC, CompressionType, Writer
 
 from wsgrasp.errors import RecordingError
 from wsgrasp.record import _views, _worker
@@ -83,22 +83,48 @@ def _exists_error(p: Path) -> RecordingError:
     )
 
 
-def check_record_path(path: str | Path, *, force: bool = False) -> Path:
-    """Refuse to overwrite an existing recording unless ``force``.
+def check_record_path(
+    path: str | Path, *, force: bool = False, inputs: Sequence[str | Path] = ()
+) -> Path:
+    """Refuse to overwrite an existing recording unless ``force``, and never
+    overwrite anything else: ``force`` replaces only an MCAP file that is not
+    one of ``inputs``, and never writes through a symbolic link.
 
     Raises
     ------
     RecordingError
-        ``path`` exists (and ``force`` is False), or is a directory.
+        ``path`` exists (and ``force`` is False), is a directory, a symbolic
+        link, an input of the run, or a file that is not a recording.
     """
     p = Path(path)
+    if p.is_symlink():
+        raise RecordingError(
+            f"{p}: is a symbolic link; wsgrasp writes recordings to plain files only",
+            hint="give the path it points to, or another path",
+        )
     if p.is_dir():
         raise RecordingError(
             f"{p}: is a directory, not a recording file",
             hint="give a file path ending in .mcap",
         )
-    if p.exists() and not force:
+    if not p.exists():
+        return p
+    for source in inputs:
+        if Path(source).exists() and p.samefile(source):
+            raise RecordingError(
+                f"{p}: is an input of this run; wsgrasp never records over its input",
+                hint="choose another path for the recording",
+            )
+    if not force:
         raise _exists_error(p)
+    with open(p, "rb") as fh:
+        head = fh.read(len(MCAP0_MAGIC))
+    if head != MCAP0_MAGIC:
+        raise RecordingError(
+            f"{p}: exists and is not an MCAP recording; --force replaces "
+            "recordings only",
+            hint="choose another path, or remove the file yourself",
+        )
     return p
 
 
