@@ -74,8 +74,12 @@ def test_replay_never_overwrites(run_path: Path) -> None:
     before = run_path.read_bytes()
     with pytest.raises(RecordingError, match="never (overwrites|records over)"):
         replay_run(run_path, record=run_path, force=True)
-    with pytest.raises(RecordingError, match="--force"):
+    with pytest.raises(RecordingError, match="input of this run"):
         replay_run(run_path, record=run_path)
+    other = run_path.with_name("other.mcap")
+    other.write_bytes(before)
+    with pytest.raises(RecordingError, match="--force"):
+        replay_run(run_path, record=other)
     assert run_path.read_bytes() == before
 
 
