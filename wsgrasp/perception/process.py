@@ -131,8 +131,14 @@ def fit_plane_ransac(
     subset of ``score_points`` points, until ``iterations`` or until enough were
     drawn to have hit the best plane's inliers with probability 0.9999; the best
     one's inliers among all points are then refitted twice by least squares.
-    (open3d's ``segment_plane`` runs its iterations in parallel threads and is not
-    reproducible for a seed.)
+
+    Not open3d's ``segment_plane``: on open3d 0.20, seeded with
+    ``o3d.utility.random.seed(7)`` before every call, it gave another plane in 4 of
+    396 calls on two clouds (e.g. 91,277 instead of 91,278 inliers of the
+    ``box_upright`` scene; one in 40 calls under ``OMP_NUM_THREADS=8``): its
+    iterations draw from one generator in parallel threads, so the draws depend on
+    scheduling, and a run would not replay bit for bit. ``benchmarks/open3d_ransac.py``
+    measures it again.
 
     Returns
     -------

@@ -74,7 +74,7 @@ class RansacDbscanOptions(BaseModel):
 
 
 class RansacDbscan:
-    """Table plane by RANSAC (open3d ``segment_plane``), objects by DBSCAN."""
+    """Table plane by a seeded RANSAC (``fit_plane_ransac``), objects by DBSCAN."""
 
     Options: ClassVar[type[BaseModel]] = RansacDbscanOptions
 
