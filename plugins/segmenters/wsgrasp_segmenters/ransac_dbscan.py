@@ -121,7 +121,9 @@ class RansacDbscan:
                     and other.size >= _OTHER_PLANE_FRACTION * inliers.size
                 ):
                     exclude[other] = True
-            found = self._clusters_on(p, normal, offset, o, exclude, viewpoints)
+            found = self._clusters_on(
+                p, normal, offset, o, exclude, viewpoints, p[inliers]
+            )
             tried.append({"inliers": int(inliers.size), **found["why"]})
             if found["clusters"]:
                 plane = Plane(normal=found["normal"], offset=found["offset"])
@@ -164,9 +166,12 @@ class RansacDbscan:
         o: RansacDbscanOptions,
         exclude: NDArray[np.bool_],
         viewpoints: Array | None = None,
+        plane_points: Array | None = None,
     ) -> dict[str, Any]:
         """Clusters standing on either side of a plane: the cameras' side when
-        ``viewpoints`` are given, else the side with more points."""
+        ``viewpoints`` are given, else the side with more points. A cluster
+        stands on a plane that reaches past its footprint (``plane_points``, the
+        inliers): an object's own face is no table for it."""
         h = p @ normal + offset  # (n,) signed heights
         ah = np.abs(h)
         cand = np.flatnonzero((ah > o.min_height) & (ah < o.max_height) & ~exclude)
@@ -199,6 +204,10 @@ class RansacDbscan:
             }
         )
         standing = ~(small | far | large)
+        if plane_points is not None and standing.any():
+            beyond = _reaches_past(plane_points, normal, p, idx, lab, nlab)
+            why["on its own face"] = int((standing & ~beyond).sum())
+            standing &= beyond
         if viewpoints is not None and len(viewpoints):
             # the cameras' side is up; what stands on the other is under the table
             camera_side = float(np.median(np.asarray(viewpoints) @ normal + offset))
@@ -231,6 +240,40 @@ class RansacDbscan:
         clusters = [p[lab_full == c] for c in order]
         clusters.sort(key=lambda c: -c.shape[0])
         return {"clusters": clusters, "why": why, "normal": normal, "offset": offset}
+
+
+#: a table reaches at least this far (m) past a standing cluster's footprint ...
+_FOOTPRINT_MARGIN = 0.02
+#: ... on at least this many of the footprint's four sides
+_FOOTPRINT_SIDES = 2
+
+
+def _reaches_past(
+    plane_points: Array,
+    normal: Array,
+    p: Array,
+    idx: NDArray[np.int64],
+    lab: NDArray[np.int64],
+    nlab: int,
+) -> NDArray[np.bool_]:
+    """Per cluster ``(nlab,)``: whether the plane's inliers reach past the
+    cluster's footprint (its bounding box in the plane) by ``_FOOTPRINT_MARGIN``
+    on ``_FOOTPRINT_SIDES`` or more sides. A table seen around an object does; an
+    object's face, which the rest of the object seems to stand on, does not."""
+    helper = np.eye(3)[int(np.argmin(np.abs(normal)))]
+    u = np.cross(normal, helper)
+    u /= np.linalg.norm(u)
+    v = np.cross(normal, u)
+    basis = np.stack([u, v], axis=1)  # (3, 2)
+    plane_uv = plane_points @ basis  # (m, 2)
+    lo_p, hi_p = np.percentile(plane_uv, [1, 99], axis=0)  # (2,) each
+    uv = p[idx] @ basis  # (k, 2)
+    lo = np.full((nlab, 2), np.inf)
+    hi = np.full((nlab, 2), -np.inf)
+    np.minimum.at(lo, lab, uv)
+    np.maximum.at(hi, lab, uv)
+    sides = np.concatenate([lo - lo_p, hi_p - hi], axis=1)  # (nlab, 4)
+    return np.count_nonzero(sides >= _FOOTPRINT_MARGIN, axis=1) >= _FOOTPRINT_SIDES
 
 
 class _PlaneFinder:

@@ -1,0 +1,558 @@
+"""Bad input never gets a wrong answer: each class of bad input the command line
+and the Python API meet, with the one error (or the honest "no grasp") it gets.
+
+Every case here was a wrong or unclear answer before: an "internal error", a
+grasp under the table, a silently accepted value, or a message that blamed the
+wrong thing. The randomised counterparts are in ``test_fuzz.py``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from test_record_fakes import box_scene, fake_gripper, fake_spec
+
+from wsgrasp.api import Pipeline
+from wsgrasp.cli import main
+from wsgrasp.errors import GripperError, InputError, RecordingError, SpecError
+from wsgrasp.perception.io import load_cloud, load_scene
+from wsgrasp.perception.types import Scene, View
+from wsgrasp.spec import load_spec
+
+ROOT = Path(__file__).resolve().parents[1]
+SPEC = ROOT / "examples" / "specs" / "franka.yaml"
+
+
+def run_cli(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, str]:
+    code = main([str(a) for a in args])
+    out = capsys.readouterr()
+    return code, out.out + out.err
+
+
+# ------------------------------------------------------------------------------
+# 1. usage errors are usage errors
+# ------------------------------------------------------------------------------
+USAGE = [
+    [],
+    ["plan"],
+    ["plan", "x.npz", "--bogus"],
+    ["nosuch"],
+    ["eval", "--objects", "a", "b"],
+    ["plan", "x.npz", "--spec", str(SPEC), "--at", "noon"],
+    ["plan", "x.npz", "--spec", str(SPEC), "--at", "nan"],
+    ["bench", "--repeat", "0"],
+    ["eval", "--friction", "nan"],
+    ["eval", "--mass", "-1"],
+    ["scene", "synth", "--out", "x.npz", "--width", "0"],
+    ["scene", "synth", "--out", "x.npz", "--elevation", "100"],
+    ["scene", "synth", "--out", "x.npz", "--noise", "inf"],
+]
+
+
+@pytest.mark.parametrize("args", USAGE, ids=[" ".join(a) or "(none)" for a in USAGE])
+def test_usage_errors_exit_2_with_clicks_message(capsys, args):
+    code, text = run_cli(capsys, *args)
+    assert code == 2, text
+    assert "internal error" not in text
+    assert "Usage:" in text
+
+
+def test_os_errors_name_the_path_and_the_fix(capsys, tmp_path):
+    blocker = tmp_path / "afile"
+    blocker.write_text("x")
+    cloud = tmp_path / "scene.npy"
+    np.save(cloud, box_scene(views=1).points)
+    spec = tmp_path / "spec.yaml"
+    data = yaml.safe_load(SPEC.read_text())
+    data["record"] = {"dir": str(blocker)}
+    spec.write_text(yaml.safe_dump(data))
+    for args in (
+        ["plan", cloud, "--spec", SPEC, "--record", blocker / "run.mcap"],
+        ["plan", cloud, "--spec", spec],
+    ):
+        code, text = run_cli(capsys, *args)
+        assert code == 2, text
+        assert "internal error" not in text
+        assert str(blocker) in text and "fix:" in text
+
+
+def test_os_error_message_names_path_and_fix():
+    import errno
+
+    from wsgrasp.errors import os_error_message
+
+    text = os_error_message(PermissionError(errno.EACCES, "Permission denied", "/x/y"))
+    assert text.startswith("/x/y: Permission denied (fix: ")
+
+
+# ------------------------------------------------------------------------------
+# 2. a grasp is never under the table
+# ------------------------------------------------------------------------------
+def _posed_scene(world: np.ndarray, camera_z: float) -> Scene:
+    """One view of world points from a camera at height ``camera_z`` (a pose is
+    given, so the camera's side of the table is known)."""
+    T = np.eye(4)
+    T[:3, 3] = [0.05, -0.02, camera_z]
+    cam = world - T[:3, 3]
+    return load_scene_from_view(View(points=cam, T_world_camera=T, name="cam"))
+
+
+def load_scene_from_view(view: View) -> Scene:
+    from wsgrasp.perception.io import scene_from_arrays
+
+    return scene_from_arrays([(view.points, view.T_world_camera)])
+
+
+def _table(rng: np.random.Generator, n: int = 8000) -> np.ndarray:
+    return np.column_stack(
+        [rng.uniform(-0.4, 0.4, n), rng.uniform(-0.4, 0.4, n), np.zeros(n)]
+    )
+
+
+def _box(rng, center, size, n=1500) -> np.ndarray:
+    p = rng.uniform(-0.5, 0.5, size=(n, 3))
+    axis = rng.integers(0, 3, size=n)
+    p[np.arange(n), axis] = np.sign(p[np.arange(n), axis]) * 0.5
+    return p * size + center
+
+
+def test_object_under_the_table_is_not_grasped_when_the_camera_is_above():
+    # the only thing standing on the plane hangs under it (a drawer, a shelf
+    # below): seen from above, nothing stands on the table
+    rng = np.random.default_rng(0)
+    world = np.concatenate([_table(rng), _box(rng, [0, 0, -0.06], [0.04, 0.06, 0.12])])
+    pipeline = Pipeline(fake_spec(), gripper=fake_gripper())
+    with pytest.raises(InputError, match="below the table"):
+        pipeline.plan(_posed_scene(world, camera_z=0.5))
+
+
+def test_object_above_is_chosen_over_one_below_when_the_camera_is_above():
+    rng = np.random.default_rng(1)
+    above = _box(rng, [0.08, 0, 0.06], [0.04, 0.06, 0.12], 800)
+    below = _box(rng, [-0.08, 0, -0.06], [0.05, 0.06, 0.12], 2500)
+    pipeline = Pipeline(fake_spec(), gripper=fake_gripper())
+    result = pipeline.plan(
+        _posed_scene(np.concatenate([_table(rng), above, below]), camera_z=0.5)
+    )
+    assert result.found
+    n = np.asarray(result.info["table_normal"])
+    assert n[2] > 0.99  # up is where the camera is
+    assert result.T_world_object[0, 3] > 0.0  # the box above, not the larger one
+
+
+def test_cameras_below_the_table_are_refused():
+    rng = np.random.default_rng(2)
+    world = np.concatenate([_table(rng), _box(rng, [0, 0, 0.06], [0.04, 0.06, 0.12])])
+    pipeline = Pipeline(fake_spec(), gripper=fake_gripper())
+    with pytest.raises(InputError, match="(?i)below"):
+        pipeline.plan(_posed_scene(world, camera_z=-0.5))
+
+
+def test_a_table_alone_is_no_object(tmp_path):
+    rng = np.random.default_rng(3)
+    world = _table(rng, 20000) + rng.normal(0, 0.001, (20000, 3))
+    pipeline = Pipeline(fake_spec(), gripper=fake_gripper())
+    with pytest.raises(InputError, match="(?i)nothing stands|no object"):
+        pipeline.plan(_posed_scene(world, camera_z=0.5))
+
+
+def test_every_plan_ends_with_the_table_check(monkeypatch):
+    import wsgrasp.api as api
+
+    # a search that (wrongly) puts its chosen pose 20 cm under the table
+    real_search = Pipeline.search
+
+    def sunken(self, prepared):
+        out = real_search(self, prepared)
+        out.candidates.T_world_ee[out.best, 2, 3] -= 0.2
+        return out
+
+    monkeypatch.setattr(Pipeline, "search", sunken)
+    monkeypatch.setattr(api, "_with_clear_pregrasp", lambda out, *a: out.best)
+    pipeline = Pipeline(fake_spec(), gripper=fake_gripper())
+    with pytest.raises(AssertionError, match="enters the table"):
+        pipeline.plan(box_scene())
+
+
+def test_grasps_and_pregrasps_clear_the_table():
+    from wsgrasp.api import _hits_table
+
+    pipeline = Pipeline(fake_spec(), gripper=fake_gripper())
+    result = pipeline.plan(box_scene())
+    assert result.found
+    prep = pipeline.prepare(box_scene())
+    table = prep.search_input.table
+    assert not _hits_table(pipeline.gripper, table, result.T_world_ee)
+    assert not _hits_table(pipeline.gripper, table, result.T_world_pregrasp)
+
+
+# ------------------------------------------------------------------------------
+# 3. specs refuse what cannot work, at load and in `spec check` alike
+# ------------------------------------------------------------------------------
+def _spec_with(tmp_path: Path, name: str, change) -> Path:
+    data = yaml.safe_load(SPEC.read_text())
+    change(data)
+    path = tmp_path / name
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def _set(path: str, value):
+    def change(data):
+        *head, last = path.split(".")
+        node = data
+        for key in head:
+            node = node.setdefault(key, {}) if not key.isdigit() else node[int(key)]
+        node[int(last) if last.isdigit() else last] = value
+
+    return change
+
+
+BAD_SPECS = {
+    "semi_axes_nan": (_set("table.semi_axes", [math.nan, 0.3, 0.05]), "finite"),
+    "semi_axes_negative": (_set("table.semi_axes", [-0.3, 0.3, 0.05]), "greater"),
+    "weight_inf": (_set("scorers.0.weight", math.inf), "finite"),
+    "weights_zero": (
+        lambda d: [s.update(weight=0.0) for s in d["scorers"]],
+        "weight 0",
+    ),
+    "voxel_nan": (_set("preprocess.voxel_size", math.nan), "finite"),
+    "scale_zero": (_set("sampling.scale", [0.0, 0.9, 0.7]), "greater"),
+    "over_memory": (
+        _set("sampling", {"points": 100000, "orientations": 360}),
+        "GiB",
+    ),
+    "plugin_option_nan": (
+        _set("segmenter.options", {"plane_distance": math.nan}),
+        "finite",
+    ),
+    "clearance_inf": (_set("table.clearance", math.inf), "finite"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_SPECS))
+def test_bad_specs_are_refused_by_spec_check_and_plan_alike(capsys, tmp_path, case):
+    change, fragment = BAD_SPECS[case]
+    path = _spec_with(tmp_path, f"{case}.yaml", change)
+    with pytest.raises(SpecError, match=fragment):
+        load_spec(path)
+    cloud = tmp_path / "scene.npy"
+    np.save(cloud, box_scene(views=1).points)
+    code_check, text_check = run_cli(capsys, "spec", "check", path)
+    code_plan, text_plan = run_cli(capsys, "plan", cloud, "--spec", path, "--no-record")
+    assert code_check == code_plan == 2
+    first = text_check.strip().splitlines()[0]
+    assert fragment in text_check and fragment in text_plan
+    assert first.split(":")[0] in text_plan
+
+
+def test_duplicate_keys_are_refused(tmp_path):
+    path = tmp_path / "dup.yaml"
+    path.write_text(SPEC.read_text() + "\ngripper: allegro_right\n")
+    with pytest.raises(SpecError, match="given twice.*first at line"):
+        load_spec(path)
+    nested = tmp_path / "nested.yaml"
+    nested.write_text(
+        "version: 1\ngripper: franka_hand\ntable:\n  exponent: 10\n  exponent: 4\n"
+    )
+    with pytest.raises(SpecError, match="nested.yaml:5: key 'exponent'"):
+        load_spec(nested)
+    js = tmp_path / "dup.json"
+    js.write_text('{"version": 1, "gripper": "a", "gripper": "b"}')
+    with pytest.raises(SpecError, match="given twice"):
+        load_spec(js)
+
+
+def test_binary_spec_is_refused(tmp_path):
+    path = tmp_path / "spec.yaml"
+    path.write_bytes(bytes(range(128, 256)) * 3)
+    with pytest.raises(SpecError, match="not a text file"):
+        load_spec(path)
+
+
+# ------------------------------------------------------------------------------
+# 4. inputs read by the libraries' readers
+# ------------------------------------------------------------------------------
+def _ply_ascii(points: np.ndarray, names=("x", "y", "z"), declared=None) -> str:
+    order = ["xyz".index(n) for n in names]
+    head = (
+        "ply\nformat ascii 1.0\n"
+        f"element vertex {declared if declared is not None else len(points)}\n"
+        + "".join(f"property float {n}\n" for n in names)
+        + "end_header\n"
+    )
+    return head + "".join(" ".join(f"{p[i]:.6f}" for i in order) + "\n" for p in points)
+
+
+def _pcd_ascii(points: np.ndarray, names=("x", "y", "z"), declared=None) -> str:
+    order = ["xyz".index(n) for n in names]
+    n = declared if declared is not None else len(points)
+    head = (
+        "VERSION .7\nFIELDS " + " ".join(names) + "\nSIZE 4 4 4\nTYPE F F F\n"
+        f"COUNT 1 1 1\nWIDTH {n}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\n"
+        "DATA ascii\n"
+    )
+    return head + "".join(" ".join(f"{p[i]:.6f}" for i in order) + "\n" for p in points)
+
+
+POINTS = np.random.default_rng(0).uniform(0, 1, (200, 3)) * [0.1, 0.2, 0.3]
+
+
+@pytest.mark.parametrize("suffix", [".ply", ".pcd"])
+def test_properties_are_read_by_name(tmp_path, suffix):
+    path = tmp_path / f"zyx{suffix}"
+    writer = _ply_ascii if suffix == ".ply" else _pcd_ascii
+    path.write_text(writer(POINTS, names=("z", "y", "x")))
+    np.testing.assert_allclose(load_cloud(path), POINTS, atol=1e-6)
+
+
+@pytest.mark.parametrize("suffix", [".ply", ".pcd"])
+def test_truncated_text_clouds_are_refused(tmp_path, suffix):
+    path = tmp_path / f"cut{suffix}"
+    writer = _ply_ascii if suffix == ".ply" else _pcd_ascii
+    path.write_text(writer(POINTS[:120], declared=len(POINTS)))
+    with pytest.raises(InputError, match="truncated.*200.*120"):
+        load_cloud(path)
+
+
+def test_truncated_binary_clouds_are_refused(tmp_path):
+    import open3d as o3d
+
+    for suffix in (".ply", ".pcd"):
+        path = tmp_path / f"whole{suffix}"
+        pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(POINTS))
+        o3d.io.write_point_cloud(str(path), pcd, write_ascii=False)
+        data = path.read_bytes()
+        cut = tmp_path / f"cut{suffix}"
+        cut.write_bytes(data[: len(data) - 500])
+        with pytest.raises(InputError, match="(?i)truncated|not a readable"):
+            load_cloud(cut)
+
+
+def test_clouds_without_xyz_are_refused(tmp_path):
+    path = tmp_path / "abc.ply"
+    text = _ply_ascii(POINTS).replace("property float x", "property float a")
+    path.write_text(text)
+    with pytest.raises(InputError, match="(?i)vertex propert"):
+        load_cloud(path)
+
+
+@pytest.mark.parametrize("suffix", [".ply", ".pcd", ".npy", ".npz"])
+def test_garbage_bytes_are_not_called_empty(tmp_path, suffix):
+    path = tmp_path / f"noise{suffix}"
+    path.write_bytes(np.random.default_rng(0).bytes(3000))
+    with pytest.raises(InputError) as info:
+        load_cloud(path)
+    assert "empty (0 points)" not in str(info.value)
+    assert "allow_pickle" not in str(info.value)
+
+
+def test_bad_numpy_files(tmp_path):
+    empty = tmp_path / "empty.npy"
+    empty.write_bytes(b"")
+    with pytest.raises(InputError, match="empty or cut short"):
+        load_cloud(empty)
+    np.savez(tmp_path / "none.npz")
+    with pytest.raises(InputError, match="holds no array"):
+        load_cloud(tmp_path / "none.npz")
+    whole = tmp_path / "whole.npz"
+    np.savez(whole, points=POINTS)
+    cut = tmp_path / "cut.npz"
+    cut.write_bytes(whole.read_bytes()[:300])
+    with pytest.raises(InputError, match="not a complete zip"):
+        load_cloud(cut)
+    np.save(tmp_path / "complex.npy", POINTS + 1j)
+    with pytest.raises(InputError, match="complex128, expected real numbers"):
+        load_cloud(tmp_path / "complex.npy")
+    np.save(tmp_path / "objects.npy", np.array([object()] * 3, dtype=object))
+    with pytest.raises(InputError, match="Python objects") as info:
+        load_cloud(tmp_path / "objects.npy")
+    assert "allow_pickle" not in str(info.value)
+
+
+@pytest.mark.parametrize(("scale", "unit"), [(100.0, "centimetres"), (1000.0, "mm")])
+def test_the_unit_check_names_the_likely_unit(scale, unit):
+    from wsgrasp.perception.io import scene_from_arrays
+
+    with pytest.raises(InputError, match=unit):
+        scene_from_arrays(box_scene(views=1).points * scale)
+
+
+def test_empty_cloud_files_through_the_cli_exit_2(capsys, tmp_path):
+    for name, write in (
+        ("empty.npy", lambda p: p.write_bytes(b"")),
+        ("empty.npz", lambda p: np.savez(p)),
+    ):
+        path = tmp_path / name
+        write(path)
+        code, text = run_cli(capsys, "plan", path, "--spec", SPEC, "--no-record")
+        assert code == 2, text
+        assert "aborted" not in text
+
+
+# ------------------------------------------------------------------------------
+# 5. objects that cannot be grasped are said to be so
+# ------------------------------------------------------------------------------
+def test_an_object_wider_than_the_opening_everywhere_is_too_large():
+    rng = np.random.default_rng(4)
+    world = np.concatenate([_table(rng), _box(rng, [0, 0, 0.1], [0.2, 0.2, 0.2], 4000)])
+    pipeline = Pipeline(fake_spec(), gripper=fake_gripper())
+    result = pipeline.plan(_posed_scene(world, camera_z=0.6))
+    assert not result.found
+    assert "too large" in result.hint and "narrowest" in result.hint
+    assert "samples" not in result.hint and "clearance" not in result.hint
+
+
+def test_a_hollow_object_wider_than_the_opening_is_left_to_the_search():
+    from wsgrasp.api import _too_large
+
+    # a bowl 20 cm across, open at the top: its wall fits between the fingers
+    rng = np.random.default_rng(5)
+    theta = rng.uniform(0, 2 * np.pi, 3000)
+    z = rng.uniform(0.0, 0.08, 3000)
+    r = np.where(rng.uniform(size=3000) < 0.5, 0.1, 0.095)
+    bowl = np.column_stack([r * np.cos(theta), r * np.sin(theta), z])
+    assert _too_large(bowl, fake_gripper()) == ""
+    solid = _box(rng, [0, 0, 0.1], [0.2, 0.2, 0.2], 3000)
+    assert "too large" in _too_large(solid, fake_gripper())
+
+
+# ------------------------------------------------------------------------------
+# grippers and simulation settings
+# ------------------------------------------------------------------------------
+def _write_gripper(tmp_path: Path, urdf: str, **changes) -> Path:
+    from urdf_factory import jaw_urdf  # noqa: F401 - the fixture module
+
+    (tmp_path / "jaw.urdf").write_text(urdf)
+    desc = {
+        "version": 1,
+        "name": "bad_jaw",
+        "urdf": "jaw.urdf",
+        "base_link": "palm",
+        "tool_frame": {"link": "palm", "xyz": [0, 0, 0.1]},
+        "approach_axis": [0, 0, 1],
+        "closing_axis": [0, 1, 0],
+        "fingers": [
+            {
+                "name": "left",
+                "joints": ["left_joint"],
+                "pad": {
+                    "link": "left_finger",
+                    "center": [0, 0, 0.045],
+                    "size": [0.02, 0, 0.01],
+                },
+            },
+            {
+                "name": "right",
+                "joints": ["right_joint"],
+                "pad": {
+                    "link": "right_finger",
+                    "center": [0, 0, 0.045],
+                    "size": [0.02, 0, 0.01],
+                },
+            },
+        ],
+        "pregrasp": {"left_joint": 0.04},
+        "closed": {"left_joint": 0.0},
+        **changes,
+    }
+    path = tmp_path / "bad_jaw.yaml"
+    path.write_text(yaml.safe_dump(desc))
+    return path
+
+
+def _build(path: Path, tmp_path: Path):
+    from wsgrasp.gripper import load_gripper
+
+    return load_gripper(str(path), cache_dir=tmp_path / "cache")
+
+
+def test_a_nan_joint_limit_is_named(tmp_path):
+    from urdf_factory import jaw_urdf
+
+    urdf = jaw_urdf(mimic=False).replace('upper="0.04"', 'upper="nan"', 1)
+    with pytest.raises(GripperError, match="left_joint.*finite"):
+        _build(_write_gripper(tmp_path, urdf), tmp_path)
+
+
+def test_a_millimetre_urdf_is_named_quickly(tmp_path):
+    import time
+
+    from urdf_factory import jaw_urdf
+
+    path = _write_gripper(tmp_path, jaw_urdf(mimic=False, scale=1000.0))
+    t = time.perf_counter()
+    with pytest.raises(GripperError, match="millimetres"):
+        _build(path, tmp_path)
+    # the refusal comes before the voxel grid is built (not a timing claim: a
+    # grid of this size takes minutes)
+    assert time.perf_counter() - t < 60
+
+
+def test_a_voxel_grid_past_budget_is_refused_with_the_fix(tmp_path):
+    from urdf_factory import jaw_urdf
+
+    path = _write_gripper(tmp_path, jaw_urdf(mimic=False), workspace_voxel=1e-6)
+    with pytest.raises(GripperError, match="voxels.*raise workspace_voxel"):
+        _build(path, tmp_path)
+
+
+def test_sim_settings_are_checked_by_the_api():
+    from wsgrasp.sim.objects import resolve_objects
+
+    for kwargs in ({"mass": -1.0}, {"friction": math.nan}, {"mass": math.inf}):
+        with pytest.raises(InputError, match="positive finite"):
+            resolve_objects(["paper13"], **kwargs)
+
+
+# ------------------------------------------------------------------------------
+# recordings
+# ------------------------------------------------------------------------------
+def test_force_never_replaces_what_is_not_a_recording(capsys, tmp_path):
+    cloud = tmp_path / "scene.npy"
+    np.save(cloud, box_scene(views=1).points)
+    before = cloud.read_bytes()
+    code, text = run_cli(
+        capsys, "plan", cloud, "--spec", SPEC, "--record", cloud, "--force"
+    )
+    assert code == 2 and "input of this run" in text
+    assert cloud.read_bytes() == before
+    other = tmp_path / "notes.txt"
+    other.write_text("keep")
+    link = tmp_path / "run.mcap"
+    os.symlink(other, link)
+    code, text = run_cli(
+        capsys, "plan", cloud, "--spec", SPEC, "--record", link, "--force"
+    )
+    assert code == 2 and "symbolic link" in text
+    assert other.read_text() == "keep"
+
+
+def test_an_unwritable_replay_record_is_an_error_not_a_difference(tmp_path):
+    from test_record_fakes import plan_recorded
+
+    from wsgrasp.record import replay_run
+
+    run = tmp_path / "run.mcap"
+    plan_recorded(run)
+    blocker = tmp_path / "afile"
+    blocker.write_text("x")
+    with pytest.raises((RecordingError, OSError)):
+        replay_run(run, record=blocker / "replay.mcap")
+
+
+def test_json_result_of_a_too_large_object(capsys, tmp_path):
+    rng = np.random.default_rng(6)
+    world = np.concatenate([_table(rng), _box(rng, [0, 0, 0.1], [0.2, 0.2, 0.2], 4000)])
+    cloud = tmp_path / "cube.npy"
+    np.save(cloud, world)
+    code, text = run_cli(capsys, "plan", cloud, "--spec", SPEC, "--no-record", "--json")
+    assert code == 0
+    data = json.loads(text[text.index("{") :])
+    assert data["found"] is False and "too large" in data["hint"]
