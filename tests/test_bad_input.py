@@ -21,7 +21,7 @@ from test_record_fakes import box_scene, fake_gripper, fake_spec
 from wsgrasp.api import Pipeline
 from wsgrasp.cli import main
 from wsgrasp.errors import GripperError, InputError, RecordingError, SpecError
-from wsgrasp.perception.io import load_cloud, load_scene
+from wsgrasp.perception.io import load_cloud
 from wsgrasp.perception.types import Scene, View
 from wsgrasp.spec import load_spec
 
