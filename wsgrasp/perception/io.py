@@ -22,6 +22,7 @@ clouds whose extents suggest millimetres raise ``InputError``.
 
 from __future__ import annotations
 
+import warnings
 import zipfile
 from collections.abc import Sequence
 from pathlib import Path
@@ -173,12 +174,20 @@ def _read_pcd(p: Path) -> Array:
 def _read_text(p: Path) -> Array:
     text = p.read_text(errors="replace")
     delimiter = "," if p.suffix.lower() == ".csv" or "," in text[:2000] else None
+
+    def read(skip: int) -> Array:
+        with warnings.catch_warnings():  # an empty file is reported below
+            warnings.simplefilter("ignore", UserWarning)
+            return np.loadtxt(
+                p, delimiter=delimiter, comments="#", ndmin=2, skiprows=skip
+            )
+
     try:
-        arr = np.loadtxt(p, delimiter=delimiter, comments="#", ndmin=2)
+        arr = read(0)
     except ValueError as exc:
         # a header row: try once more skipping it
         try:
-            arr = np.loadtxt(p, delimiter=delimiter, comments="#", ndmin=2, skiprows=1)
+            arr = read(1)
         except ValueError:
             raise InputError(
                 f"cloud file {str(p)!r} is not a table of numbers: {exc}",
