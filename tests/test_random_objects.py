@@ -268,7 +268,7 @@ def test_eval_reports_the_skipped_objects(
 
     fake_random({0: 2.0, 1: 5.0})
     rc = main(
-        ["eval", "-g", "franka_hand", "-o", "random:0-1", "-n", "1", "-j", "1"]
+        ["eval", "-g", "franka_hand", "--objects", "random:0-1", "-n", "1", "-j", "1"]
         + ["--no-paper", "--json"]
     )
     assert rc == 0

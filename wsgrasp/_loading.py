@@ -15,7 +15,12 @@ from pydantic import BaseModel, ValidationError
 
 from wsgrasp.errors import SpecError
 
-__all__ = ["load_document", "validate_document", "DocumentLines"]
+__all__ = [
+    "load_document",
+    "validate_document",
+    "validation_messages",
+    "DocumentLines",
+]
 
 
 class DocumentLines:
@@ -168,11 +173,41 @@ def format_validation_error(
     what: str,
     prefix: Sequence[str | int] = (),
 ) -> str:
-    """One message for the first error of a pydantic ``ValidationError``."""
-    err = exc.errors()[0]
-    loc = [*prefix, *[x for x in err["loc"] if not str(x).startswith("function-")]]
+    """One message for the first error of a pydantic ``ValidationError``, with a
+    count of the others (:func:`validation_messages` gives them all)."""
+    messages = validation_messages(exc, lines, what, prefix)
+    text = messages[0]
+    more = len(messages) - 1
+    if more:
+        text += f" (and {more} more problem{'s' if more > 1 else ''})"
+    return text
+
+
+def validation_messages(
+    exc: ValidationError,
+    lines: DocumentLines | None,
+    what: str,
+    prefix: Sequence[str | int] = (),
+) -> list[str]:
+    """One message per error of a pydantic ``ValidationError``, in file order
+    where lines are known: file, line, key path, what was expected and found."""
+    out = []
+    for err in exc.errors():
+        loc = [*prefix, *[x for x in err["loc"] if not str(x).startswith("function-")]]
+        line = lines.line_of(loc) if lines is not None else None
+        out.append((line or 0, _error_text(err, loc, lines, line, what)))
+    out.sort(key=lambda item: item[0])  # stable: pydantic's order within a line
+    return [text for _, text in out]
+
+
+def _error_text(
+    err: Any,
+    loc: list[Any],
+    lines: DocumentLines | None,
+    line: int | None,
+    what: str,
+) -> str:
     key = ".".join(str(x) for x in loc) or "(top level)"
-    line = lines.line_of(loc) if lines is not None else None
     where = ""
     if lines is not None and lines.path is not None:
         where = f"{lines.path}:{line}: " if line else f"{lines.path}: "
@@ -192,9 +227,6 @@ def format_validation_error(
             shown = shown[:57] + "..."
         msg = str(err["msg"]).removeprefix("Value error, ").rstrip(".")
         text = f"{key}: {msg}; found {shown}"
-    more = len(exc.errors()) - 1
-    if more:
-        text += f" (and {more} more problem{'s' if more > 1 else ''})"
     return where + text
 
 

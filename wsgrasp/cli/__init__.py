@@ -20,6 +20,7 @@ app = typer.Typer(
     name="wsgrasp",
     help="Plan grasps on unknown objects from point clouds, for any gripper.",
     no_args_is_help=True,
+    rich_markup_mode=None,
     add_completion=False,
     pretty_exceptions_enable=False,
 )

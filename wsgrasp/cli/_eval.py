@@ -29,7 +29,6 @@ def eval_command(
     objects: list[str] = typer.Option(
         ["paper13"],
         "--objects",
-        "-o",
         help="Object set (paper13; random: pybullet_data's 1,000 objects, or a "
         "range random:000-299, random:7), object names of paper13, or mesh files "
         "(OBJ/STL/PLY, metres); repeat for several.",
@@ -39,6 +38,7 @@ def eval_command(
     specs: list[str] = typer.Option(
         [],
         "--spec",
+        "-s",
         help="Pipeline spec FILE or LABEL=FILE (its gripper is replaced by each "
         "--gripper); repeat to compare. Default: wsgrasp's default spec and the "
         "paper's centroid_distance alone.",

@@ -1,4 +1,5 @@
-"""``wsgrasp grippers``: list the installed grippers, draw one."""
+"""``wsgrasp gripper list`` and ``gripper show``: the installed grippers, and one
+drawn (``grippers`` is a hidden alias of the ``gripper`` group)."""
 
 from __future__ import annotations
 
@@ -10,13 +11,13 @@ import typer
 from rich.table import Table
 
 from wsgrasp.cli._common import console, err_console, print_json
-
-grippers_app = typer.Typer(help="Gripper models.", no_args_is_help=True)
+from wsgrasp.cli._scaffold import gripper_app
 
 
 def register(app: typer.Typer) -> None:
-    """Add this module's commands to ``app``."""
-    app.add_typer(grippers_app, name="grippers")
+    """Add this module's commands to the ``gripper`` group, and the group's old
+    plural name as a hidden alias (``_scaffold`` adds the group itself)."""
+    app.add_typer(gripper_app, name="grippers", hidden=True)
 
 
 def _load(name: str, rebuild: bool, cache_dir: Path | None) -> Any:
@@ -54,7 +55,7 @@ def _row(name: str, distribution: str, model: Any) -> dict[str, Any]:
     }
 
 
-@grippers_app.command("list")
+@gripper_app.command("list")
 def list_grippers(
     as_json: bool = typer.Option(False, "--json", help="Print JSON."),
     rebuild: bool = typer.Option(False, "--rebuild", help="Ignore cached models."),
@@ -119,10 +120,12 @@ def list_grippers(
     console.print(table)
 
 
-@grippers_app.command("show")
+@gripper_app.command("show")
 def show(
     name: str = typer.Argument(..., help="Registered gripper name or gripper YAML."),
-    output: Path = typer.Option(..., "-o", "--output", help="PNG file to write."),
+    output: Path = typer.Option(
+        ..., "--out", "-o", "--output", help="PNG file to write."
+    ),
     rebuild: bool = typer.Option(False, "--rebuild", help="Ignore cached models."),
     cache_dir: Path | None = typer.Option(
         None, "--cache-dir", help="Model cache (default: $WSGRASP_CACHE_DIR)."

@@ -103,7 +103,18 @@ def plan(
     clouds: list[Path] = typer.Argument(
         ..., help="Cloud files (PLY, PCD, XYZ, NPY/NPZ), a scene YAML, or a ROS 2 bag."
     ),
-    spec_file: Path = typer.Option(..., "--spec", "-s", help="Pipeline spec file."),
+    spec_file: Path | None = typer.Option(
+        None,
+        "--spec",
+        "-s",
+        help="Pipeline spec file; without it, the default spec of --gripper.",
+    ),
+    gripper: str | None = typer.Option(
+        None,
+        "--gripper",
+        "-g",
+        help="Registered gripper name or gripper YAML, in place of the spec's.",
+    ),
     record: Path | None = typer.Option(
         None, "--record", help="Write the run's MCAP recording here."
     ),
@@ -128,12 +139,13 @@ def plan(
     ),
     as_json: bool = typer.Option(False, "--json", help="Print the result as JSON."),
 ) -> None:
-    """Plan a grasp on a scene."""
+    """Plan a grasp on a scene, with a spec file, a gripper's default spec
+    (--gripper without --spec), or a spec file with its gripper replaced (both).
+    Each recording is linked from latest.mcap beside it."""
     from wsgrasp.api import Pipeline
     from wsgrasp.perception.io import load_scene
-    from wsgrasp.spec import load_spec
 
-    spec = load_spec(spec_file)
+    spec = plan_spec(spec_file, gripper)
     if record is not None and no_record:
         raise InputError(
             "--record and --no-record were both given", hint="choose one of them"
@@ -163,8 +175,66 @@ def plan(
         print_result(result)
     for o in observers:  # the writer thread finishes the file meanwhile
         o.close()
-    if path is not None and not as_json:
-        console.print(f"recorded to {path}")
+    if path is not None:
+        link = link_latest(path)
+        if not as_json:
+            console.print(
+                f"recorded to {path}" + (f" (linked from {link})" if link else ""),
+                highlight=False,
+            )
+
+
+def plan_spec(spec_file: Path | None, gripper: str | None) -> Any:
+    """The spec ``plan`` runs: the file, with its gripper replaced by ``gripper``
+    when given; with no file, the built-in default spec of ``gripper`` (its
+    example spec, as ``wsgrasp eval`` uses)."""
+    from wsgrasp._loading import load_document
+    from wsgrasp.spec import load_spec
+
+    if spec_file is None and gripper is None:
+        raise typer.BadParameter(
+            "give a spec file (--spec FILE) or a gripper (--gripper NAME), or both",
+            param_hint="--spec / --gripper",
+        )
+    if gripper is None:
+        return load_spec(spec_file)  # type: ignore[arg-type]
+    from wsgrasp._names import gripper_ref
+    from wsgrasp.sim.specs import _template
+
+    if spec_file is None:
+        data, _ = _template("default", gripper)
+        source = None
+    else:
+        spec = load_spec(spec_file)  # every problem of the file, with its lines
+        data, _ = load_document(spec_file)
+        source = spec.source
+    replaced = load_spec({**data, "gripper": gripper_ref(gripper, Path.cwd())})
+    replaced._source = source
+    return replaced
+
+
+#: name of the link to the newest recording, in the folder of each recording
+LATEST = "latest.mcap"
+
+
+def link_latest(path: Path) -> Path | None:
+    """Point ``latest.mcap`` beside ``path`` at it (a relative symbolic link,
+    replaced atomically); None where a real file of that name is there (it is
+    a recording of its own, never replaced) or links cannot be made."""
+    import os
+
+    link = path.parent / LATEST
+    if path.name == LATEST or (link.exists() and not link.is_symlink()):
+        return None
+    tmp = path.parent / f".{LATEST}.{os.getpid()}"
+    try:
+        tmp.unlink(missing_ok=True)
+        tmp.symlink_to(path.name)
+        os.replace(tmp, link)
+    except OSError:
+        tmp.unlink(missing_ok=True)
+        return None
+    return link
 
 
 def demo(

@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import Any
 
 import typer
+from rich import box
 from rich.table import Table
 
 from wsgrasp.cli._common import console, print_json
@@ -68,7 +69,10 @@ def inspect(
     info.add_row("platform", _fmt(v["platform"]))
     info.add_row(
         "plugins",
-        ", ".join(f"{p['distribution']} {p['version']}" for p in v["plugins"]) or "—",
+        ", ".join(
+            dict.fromkeys(f"{p['distribution']} {p['version']}" for p in v["plugins"])
+        )
+        or "—",
     )
     info.add_row("seed", _fmt(s["seed"]))
     if s["inputs"]:
@@ -90,7 +94,7 @@ def inspect(
         )
     console.print(info)
 
-    hist = Table(title="candidates")
+    hist = Table(title="candidates", box=box.SIMPLE_HEAD, pad_edge=False)
     hist.add_column("outcome")
     hist.add_column("count", justify="right")
     hist.add_column("share", justify="right")
@@ -102,23 +106,29 @@ def inspect(
     console.print(hist)
 
     if s["top"]:
-        top_table = Table(title=f"best {len(s['top'])} feasible candidates")
-        top_table.add_column("#", justify="right")
-        top_table.add_column("score", justify="right")
+        # fits 80 columns: no outer box, term names wrap at their underscores,
+        # the position as three signed numbers
+        top_table = Table(
+            title=f"best {len(s['top'])} feasible candidates",
+            box=box.SIMPLE_HEAD,
+            pad_edge=False,
+        )
+        top_table.add_column("#", justify="right", no_wrap=True)
+        top_table.add_column("score", justify="right", no_wrap=True)
         terms = list(s["top"][0]["terms"])
         for t in terms:
-            top_table.add_column(t, justify="right")
-        top_table.add_column("θ (deg)", justify="right")
-        top_table.add_column("contacts")
-        top_table.add_column("position (m)")
+            top_table.add_column(t.replace("_", " "), justify="right")
+        top_table.add_column("θ°", justify="right", no_wrap=True)
+        top_table.add_column("contacts", no_wrap=True)
+        top_table.add_column("position (m)", no_wrap=True)
         for c in s["top"]:
             top_table.add_row(
                 str(c["index"]),
-                f"{c['score']:.4f}",
-                *(f"{c['terms'][t]:.4f}" for t in terms),
+                f"{c['score']:.3f}",
+                *(f"{c['terms'][t]:.3f}" for t in terms),
                 f"{c['theta_deg']:.0f}",
                 "/".join(str(x) for x in c["contacts"]),
-                "(" + ", ".join(f"{x:.3f}" for x in c["position"]) + ")",
+                " ".join(f"{x:+.3f}" for x in c["position"]),
             )
         console.print(top_table)
 
@@ -134,7 +144,15 @@ def inspect(
 def replay(
     run: Path = typer.Argument(..., help="A recorded run (.mcap)."),
     spec: Path | None = typer.Option(
-        None, "--spec", help="Re-plan with this spec instead of the recorded one."
+        None,
+        "--spec",
+        "-s",
+        help="Re-plan with this spec instead of the recorded one.",
+    ),
+    expect_identical: bool = typer.Option(
+        False,
+        "--expect-identical",
+        help="Exit 1 when the result differs, also with --spec (for scripts).",
     ),
     record: Path | None = typer.Option(
         None, "--record", help="Record the replay to this new file."
@@ -143,7 +161,11 @@ def replay(
     as_json: bool = typer.Option(False, "--json", help="Print JSON."),
 ) -> None:
     """Re-plan a run's recorded inputs (with its gripper model, from the file) and
-    compare with the recorded result. Exits 0 when identical, 1 when not."""
+    compare with the recorded result.
+
+    With the recorded spec, the replay checks that the run reproduces: exit 0
+    when identical, 1 when not. With --spec, the difference is the result: exit
+    0 when the replay ran (1 on a difference only with --expect-identical)."""
     from wsgrasp.record import replay_run
 
     report = replay_run(run, spec=spec, record=record, force=force)
@@ -152,7 +174,7 @@ def replay(
         print_json(data)
     else:
         _print_replay(data)
-    if not report.identical:
+    if not report.identical and (spec is None or expect_identical):
         raise typer.Exit(1)
 
 
@@ -204,48 +226,57 @@ def _print_replay(d: dict[str, Any]) -> None:
 
 def view(
     run: Path = typer.Argument(..., help="A recorded run (.mcap)."),
-    out: Path = typer.Option(
-        ...,
+    out: Path | None = typer.Option(
+        None,
         "--out",
         "-o",
         help="Picture (.png), interactive page (.html), or a copy of the run with "
-        "its Foxglove views built again (.mcap).",
+        "its Foxglove views built again (.mcap). Default: RUN.png and RUN.html "
+        "beside the run.",
     ),
-    force: bool = typer.Option(False, "--force", help="Replace an existing file."),
+    force: bool = typer.Option(False, "--force", help="Replace existing files."),
 ) -> None:
-    """Draw a run: scene, table, object, candidates coloured by why they were
-    rejected, and the chosen grasp with the spheres that hold the object. With
-    -o FILE.mcap, write the run again with its Foxglove views (for a run whose
+    """Draw a run: the object on its table, the chosen grasp as the gripper's
+    shape at pre-grasp and grasp, and the candidates coloured by why they were
+    rejected. Writes RUN.png and RUN.html beside the run unless -o says where;
+    -o FILE.mcap writes the run again with its Foxglove views (for a run whose
     process was killed before they were written)."""
     from wsgrasp.errors import RecordingError
     from wsgrasp.record import open_run
 
-    suffix = out.suffix.lower()
-    if suffix not in (".png", ".html", ".htm", ".mcap"):
-        raise RecordingError(
-            f"{out}: unknown picture type {out.suffix!r}",
-            hint="use -o FILE.png for a picture, -o FILE.html for a 3D page, or "
-            "-o FILE.mcap for a copy of the run that Foxglove shows",
-        )
-    if out.exists() and not force:
-        raise RecordingError(
-            f"{out}: exists already", hint="choose another name or pass --force"
-        )
+    # beside the run itself, also when RUN is a link such as runs/latest.mcap
+    outs = (
+        [out]
+        if out is not None
+        else [run.resolve().with_suffix(s) for s in (".png", ".html")]
+    )
+    for o in outs:
+        if o.suffix.lower() not in (".png", ".html", ".htm", ".mcap"):
+            raise RecordingError(
+                f"{o}: unknown picture type {o.suffix!r}",
+                hint="use -o FILE.png for a picture, -o FILE.html for a 3D page, or "
+                "-o FILE.mcap for a copy of the run that Foxglove shows",
+            )
+        if o.exists() and not force:
+            raise RecordingError(
+                f"{o}: exists already", hint="choose another name or pass --force"
+            )
     r = open_run(run)
-    if suffix == ".mcap":
-        from wsgrasp.record import copy_with_views
+    for o in outs:
+        suffix = o.suffix.lower()
+        if suffix == ".mcap":
+            from wsgrasp.record import copy_with_views
 
-        copy_with_views(r, out, force=force)
-        note = " (the run is truncated: copied up to where it stops)"
-        console.print(f"wrote {out}{note if r.truncated else ''}", highlight=False)
-        return
-    if suffix == ".png":
-        from wsgrasp.view._run import render_png
+            copy_with_views(r, o, force=force)
+            note = " (the run is truncated: copied up to where it stops)"
+        elif suffix == ".png":
+            from wsgrasp.view._run import render_png
 
-        render_png(r, out)
-    else:
-        from wsgrasp.view._html import render_html
+            render_png(r, o)
+            note = " (the run is truncated: drawn up to where it stops)"
+        else:
+            from wsgrasp.view._html import render_html
 
-        render_html(r, out)
-    note = " (the run is truncated: drawn up to where it stops)" if r.truncated else ""
-    console.print(f"wrote {out}{note}", highlight=False)
+            render_html(r, o)
+            note = " (the run is truncated: drawn up to where it stops)"
+        console.print(f"wrote {o}{note if r.truncated else ''}", highlight=False)

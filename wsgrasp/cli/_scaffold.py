@@ -1,4 +1,5 @@
-"""``wsgrasp gripper``: scaffold a gripper plugin from a URDF, check a gripper."""
+"""``wsgrasp gripper``: scaffold a gripper plugin from a URDF, check a gripper
+(``_grippers`` adds ``list`` and ``show`` to the group)."""
 
 from __future__ import annotations
 
@@ -10,8 +11,10 @@ from rich.markup import escape
 from wsgrasp.cli._common import console, err_console, print_json
 
 gripper_app = typer.Typer(
-    help="Add your own gripper: scaffold a plugin from a URDF, check a model.",
+    help="Gripper models: list and draw them, scaffold a plugin from a URDF, "
+    "check a model.",
     no_args_is_help=True,
+    rich_markup_mode=None,
 )
 
 
@@ -24,7 +27,7 @@ def register(app: typer.Typer) -> None:
 def new(
     name: str = typer.Argument(..., help="Gripper (and distribution) name."),
     urdf: Path = typer.Option(..., "--urdf", help="The gripper's URDF."),
-    out: Path = typer.Option(..., "--out", help="Folder for the plugin package."),
+    out: Path = typer.Option(..., "--out", "-o", help="Folder for the plugin package."),
     base_link: str | None = typer.Option(
         None, "--base-link", help="Link the arm holds (default: the URDF's root)."
     ),
@@ -81,7 +84,7 @@ def new(
 def check(
     name: str = typer.Argument(..., help="Registered gripper name or gripper YAML."),
     output: Path | None = typer.Option(
-        None, "-o", "--output", help="Also draw the model into this PNG."
+        None, "--out", "-o", "--output", help="Also draw the model into this PNG."
     ),
     as_json: bool = typer.Option(False, "--json", help="Print JSON."),
     rebuild: bool = typer.Option(False, "--rebuild", help="Ignore cached models."),

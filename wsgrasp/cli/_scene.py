@@ -10,7 +10,9 @@ import typer
 from wsgrasp.cli._common import console, number, print_json
 
 scene_app = typer.Typer(
-    help="Scenes: render synthetic ones, inspect segmentation.", no_args_is_help=True
+    help="Scenes: render synthetic ones, inspect segmentation.",
+    no_args_is_help=True,
+    rich_markup_mode=None,
 )
 
 
@@ -143,7 +145,7 @@ def synth(
 def info(
     clouds: list[Path] = typer.Argument(..., help="Cloud files or one scene YAML."),
     spec: Path | None = typer.Option(
-        None, "--spec", help="Pipeline spec (segmenter, preprocess, target)."
+        None, "--spec", "-s", help="Pipeline spec (segmenter, preprocess, target)."
     ),
     registered: bool = typer.Option(
         False, "--registered", help="Several clouds already share one frame."
