@@ -153,3 +153,32 @@ def test_json_fields(pipelines):
     assert np.asarray(data["T_world_ee"]).shape == (4, 4)
     assert "total" in data["timing_ms"]
     assert data["feasible"] + sum(data["rejections"].values()) == data["candidates"]
+
+
+def test_crop_radius_drops_what_lies_farther_in_plan(pipelines):
+    """``preprocess.crop_radius`` applies in ``plan``: a second object beyond it
+    is not seen (with ``target.rule: only`` it would be an error)."""
+    scene = load_scene([ROOT / "examples" / "scenes" / "box_upright.npz"])
+    spec = pipelines["franka_hand"].spec
+    first = pipelines["franka_hand"].plan(scene)
+    assert first.found, first.hint
+    n = np.asarray(first.info["table_normal"], dtype=np.float64)
+    c = first.T_world_object[:3, 3]
+    # a copy of the object 1.5 m further away from the origin, along the table
+    away = c - (c @ n) * n
+    away = away / np.linalg.norm(away) if np.linalg.norm(away) > 1e-6 else None
+    if away is None:
+        away = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+        away /= np.linalg.norm(away)
+    obj = scene.points[np.linalg.norm(scene.points - c, axis=1) < 0.12]
+    both = scene_from_arrays(np.vstack([scene.points, obj + 1.5 * away]))
+    radius = float(np.linalg.norm(scene.points, axis=1).max()) + 0.01
+    data = spec.model_dump(mode="json")
+    data["target"] = {"rule": "only"}
+    with pytest.raises(InputError):
+        Pipeline(load_spec(data), gripper=pipelines["franka_hand"].gripper).plan(both)
+    data["preprocess"]["crop_radius"] = radius
+    cropped = Pipeline(load_spec(data), gripper=pipelines["franka_hand"].gripper)
+    prepared = cropped.prepare(both)
+    assert np.linalg.norm(prepared.downsampled, axis=1).max() <= radius
+    assert cropped.plan(both).found

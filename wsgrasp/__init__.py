@@ -7,6 +7,7 @@ plugins, a pipeline spec assembles them, and every run can be recorded to MCAP.
 
 from __future__ import annotations
 
+from wsgrasp._version import __version__
 from wsgrasp.errors import (
     GripperError,
     InputError,
@@ -16,8 +17,6 @@ from wsgrasp.errors import (
     WsgraspError,
 )
 from wsgrasp.plugins import hookimpl
-
-__version__ = "0.1.0"
 
 __all__ = [
     "GripperError",
@@ -31,6 +30,12 @@ __all__ = [
 ]
 
 from wsgrasp.api import Pipeline, plan  # noqa: E402
+from wsgrasp.gripper import _cache  # noqa: E402
+from wsgrasp.plugins import get_registry  # noqa: E402
 from wsgrasp.spec import load_spec  # noqa: E402
+
+# the root wires the layers: a gripper name is looked up in the plugin registry
+_cache.default_registry = get_registry
+del _cache, get_registry
 
 __all__ += ["Pipeline", "load_spec", "plan"]

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from wsgrasp._names import gripper_ref
 from wsgrasp.errors import InputError, PluginError, WsgraspError
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.perception.types import Plane, Scene
@@ -93,10 +94,7 @@ class Pipeline:
             from wsgrasp.gripper import load_gripper
 
             base = spec.source.parent if spec.source is not None else Path.cwd()
-            name = spec.gripper
-            if name.endswith((".yaml", ".yml", ".json", ".toml")) or "/" in name:
-                path = Path(name)
-                name = str(path if path.is_absolute() else base / path)
+            name = gripper_ref(spec.gripper, base)
             gripper = load_gripper(name, registry=self.registry)
         self.gripper = gripper
         self._spheres = FingerSpheres(gripper)
@@ -150,15 +148,16 @@ class Pipeline:
         return result
 
     def prepare(self, scene: Scene, observers: Sequence[PlanObserver] = ()) -> Prepared:
-        """Run the stages before the search: downsampling, segmentation, target
-        choice, object frame, samples and table; report each to ``observers``."""
+        """Run the stages before the search: cropping (``preprocess.crop_radius``)
+        and downsampling, segmentation, target choice, object frame, samples and
+        table; report each to ``observers``."""
         from wsgrasp.perception.frame import (
             object_frame,
             sample_box,
             table_frame,
             table_superellipsoid,
         )
-        from wsgrasp.perception.process import downsample, select_target, thin
+        from wsgrasp.perception.process import crop, downsample, select_target, thin
 
         spec = self.spec
         timing: dict[str, float] = {}
@@ -172,7 +171,8 @@ class Pipeline:
                 o.on_stage(stage, data)
             t = time.perf_counter()
 
-        points = downsample(scene.points, spec.preprocess.voxel_size)
+        cropped = crop(scene.points, spec.preprocess.crop_radius)
+        points = downsample(cropped, spec.preprocess.voxel_size)
         lap("preprocess", {"points": points})
 
         viewpoints = scene.viewpoints()

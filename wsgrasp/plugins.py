@@ -15,10 +15,9 @@ points as third-party ones; the core never imports them by name.
 
 from __future__ import annotations
 
-import difflib
 import importlib.metadata
 import traceback
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import lru_cache
 from types import ModuleType
@@ -26,6 +25,7 @@ from typing import Any, Literal
 
 import pluggy
 
+from wsgrasp._names import did_you_mean
 from wsgrasp.errors import PluginError
 
 __all__ = [
@@ -214,7 +214,7 @@ class Registry:
             return self.items[kind][name]
         except KeyError:
             raise PluginError(
-                f"unknown {kind[:-1]} {name!r}{_did_you_mean(name, self.names(kind))}",
+                f"unknown {kind[:-1]} {name!r}{did_you_mean(name, self.names(kind))}",
                 hint=f"run `wsgrasp plugins` to list the {kind} that are installed",
             ) from None
 
@@ -241,21 +241,6 @@ class Registry:
                 }
             )
         return out
-
-
-def _did_you_mean(name: str, candidates: Iterable[str]) -> str:
-    close = difflib.get_close_matches(name, list(candidates), n=3, cutoff=0.5)
-    if close:
-        return "; did you mean " + " or ".join(repr(c) for c in close) + "?"
-    known = sorted(candidates)
-    if known:
-        return "; known: " + ", ".join(known)
-    return "; none is registered"
-
-
-def did_you_mean(name: str, candidates: Iterable[str]) -> str:
-    """A short "; did you mean 'x'?" suffix for error messages."""
-    return _did_you_mean(name, candidates)
 
 
 def _new_manager() -> pluggy.PluginManager:

@@ -30,6 +30,7 @@ from wsgrasp._loading import (
     load_document,
     validate_document,
 )
+from wsgrasp._names import is_gripper_path as _looks_like_path
 from wsgrasp.errors import PluginError, SpecError
 
 __all__ = [
@@ -509,10 +510,6 @@ def load_spec(
         if not _looks_like_path(spec.gripper):
             _check_name(reg, "grippers", spec.gripper, ("gripper",), lines)
     return spec
-
-
-def _looks_like_path(name: str) -> bool:
-    return name.endswith((".yaml", ".yml", ".json", ".toml")) or "/" in name
 
 
 def _where(lines: DocumentLines | None, loc: tuple[str | int, ...]) -> str:

@@ -1,4 +1,5 @@
-"""Pure numpy kernels: transforms, superellipsoids, spheres. No I/O, no specs."""
+"""Pure numpy kernels: transforms, superellipsoids, spheres; meshes of primitives
+(trimesh). No I/O, no specs."""
 
 from wsgrasp.geometry._fitting import box_corner_se_factors, enclosing_scale
 from wsgrasp.geometry._kinematics import (
@@ -10,6 +11,7 @@ from wsgrasp.geometry._kinematics import (
     grid_configurations,
     joint_motion_transforms,
 )
+from wsgrasp.geometry._meshes import PRIMITIVES, primitive_mesh
 from wsgrasp.geometry._sampling import (
     box_grid_points,
     farthest_point_indices,
@@ -36,6 +38,7 @@ __all__ = [
     "JOINT_FIXED",
     "JOINT_PRISMATIC",
     "JOINT_REVOLUTE",
+    "PRIMITIVES",
     "axis_angle_matrices",
     "box_corner_se_factors",
     "box_grid_points",
@@ -50,6 +53,7 @@ __all__ = [
     "joint_motion_transforms",
     "points_in_spheres",
     "points_in_superellipsoids",
+    "primitive_mesh",
     "rot_x",
     "rot_y",
     "rot_z",

@@ -8,9 +8,12 @@ import os
 import re
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from wsgrasp._names import is_gripper_path
+from wsgrasp._version import __version__
 from wsgrasp.errors import GripperError
 from wsgrasp.gripper._build import BUILDER_VERSION, Progress, build_model, urdf_path
 from wsgrasp.gripper._urdf import resolve_mesh
@@ -35,10 +38,8 @@ def default_cache_dir(cache_dir: str | Path | None = None) -> Path:
 def source_hash(desc: GripperDescription, base_dir: Path) -> str:
     """SHA-256 of the description, the URDF text, the bytes of every mesh it
     references, and the wsgrasp, model-format and builder versions."""
-    import wsgrasp
-
     h = hashlib.sha256()
-    versions = f"{wsgrasp.__version__}/{MODEL_FORMAT_VERSION}/{BUILDER_VERSION}"
+    versions = f"{__version__}/{MODEL_FORMAT_VERSION}/{BUILDER_VERSION}"
     h.update(versions.encode())
     h.update(json.dumps(desc.model_dump(mode="json"), sort_keys=True).encode())
     path = urdf_path(desc, base_dir)
@@ -54,12 +55,10 @@ def source_hash(desc: GripperDescription, base_dir: Path) -> str:
     return h.hexdigest()
 
 
-def _looks_like_path(name: str) -> bool:
-    return (
-        name.endswith((".yaml", ".yml", ".json", ".toml"))
-        or "/" in name
-        or os.sep in name
-    )
+#: What a gripper name is looked up in when no ``registry`` is given: the process's
+#: plugin registry, which the root package sets here as it loads (this layer
+#: imports neither ``wsgrasp.plugins`` nor the root package).
+default_registry: Callable[[], Any] | None = None
 
 
 def resolve_gripper(
@@ -67,11 +66,16 @@ def resolve_gripper(
 ) -> tuple[GripperDescription, Path] | GripperModel:
     """A registered name or a YAML path, as a description and its directory, or a
     ready model when a plugin registered one."""
-    if isinstance(name_or_path, Path) or _looks_like_path(str(name_or_path)):
+    if is_gripper_path(name_or_path):
         return load_gripper_description(name_or_path)
-    from wsgrasp.plugins import get_registry
-
-    reg = registry if registry is not None else get_registry()
+    reg = registry
+    if reg is None and default_registry is not None:
+        reg = default_registry()
+    if reg is None:
+        raise GripperError(
+            f"gripper {name_or_path!r}: a name needs a plugin registry to look it up",
+            hint="pass registry=wsgrasp.plugins.get_registry(), or a YAML path",
+        )
     entry = reg.get("grippers", str(name_or_path))
     obj = entry.obj
     if isinstance(obj, GripperModel):

@@ -11,7 +11,6 @@ their URDF here.
 from __future__ import annotations
 
 import contextlib
-import difflib
 import io
 import xml.etree.ElementTree as ET
 from collections.abc import Collection, Iterable, Mapping
@@ -22,12 +21,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from wsgrasp._names import did_you_mean
 from wsgrasp.errors import GripperError
 from wsgrasp.geometry import (
     JOINT_FIXED,
     JOINT_PRISMATIC,
     JOINT_REVOLUTE,
+    PRIMITIVES,
     chain_forward_kinematics,
+    primitive_mesh,
 )
 
 Array = NDArray[np.float64]
@@ -124,9 +126,10 @@ class Kinematics:
         self, kind: str, name: str, names: Collection[str], gripper: str, where: str
     ) -> None:
         if name not in names:
+            close = did_you_mean(name, names, list_known=False)
             raise GripperError(
                 f"gripper {gripper!r}: {where} names {kind} {name!r}, which "
-                f"{self.path.name} does not have{_close(name, names)}",
+                f"{self.path.name} does not have{close}",
                 hint=f"use one of the {kind}s of {self.path.name} in {where}",
             )
 
@@ -269,13 +272,6 @@ class Kinematics:
         return poses
 
 
-def _close(name: str, known: Iterable[str]) -> str:
-    close = difflib.get_close_matches(name, list(known), n=3, cutoff=0.5)
-    if close:
-        return "; did you mean " + " or ".join(repr(c) for c in close) + "?"
-    return ""
-
-
 def _origin(o: Any) -> Array:
     return np.eye(4) if o is None else np.asarray(o, dtype=np.float64).copy()
 
@@ -336,6 +332,8 @@ def load_kinematics(path: Path, gripper: str) -> Kinematics:
         axis = np.asarray(j.axis if j.axis is not None else (1, 0, 0), float)
         if kind != JOINT_FIXED:
             norm = float(np.linalg.norm(axis))
+            if not np.isfinite(norm):
+                raise fail(f"has joint {j.name!r} with an axis that is not finite")
             if norm < 1e-9:
                 raise fail(f"has joint {j.name!r} with a zero axis")
             axis = axis / norm
@@ -461,25 +459,13 @@ def resolve_mesh(filename: str, urdf_dir: Path) -> Path | None:
     return None
 
 
-def mesh_files(kin: Kinematics) -> list[Path]:
-    """Every mesh file referenced by the link shapes (sorted, unique)."""
-    files = {s.mesh_path for shapes in kin.shapes.values() for s in shapes}
-    return sorted(p for p in files if p is not None)
-
-
 def shape_mesh(shape: Shape, *, frame: str = "link") -> Any:
     """The shape as a ``trimesh.Trimesh`` (meshes loaded now, scaled), in its link
     frame, or with ``frame="shape"`` in its own (before ``T_link_shape``)."""
     import trimesh
 
-    if shape.kind == "box":
-        mesh = trimesh.creation.box(extents=shape.size)
-    elif shape.kind == "cylinder":
-        mesh = trimesh.creation.cylinder(
-            radius=shape.size[0], height=shape.size[1], sections=32
-        )
-    elif shape.kind == "sphere":
-        mesh = trimesh.creation.icosphere(subdivisions=3, radius=shape.size[0])
+    if shape.kind in PRIMITIVES:
+        mesh = primitive_mesh(shape.kind, shape.size)
     else:
         assert shape.mesh_path is not None
         try:

@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from wsgrasp.errors import InputError
-from wsgrasp.perception.types import Array, Plane, Segmentation
+from wsgrasp.perception.types import Array, Segmentation
 
 __all__ = [
     "cluster_labels",
@@ -17,7 +17,6 @@ __all__ = [
     "downsample",
     "fit_plane_ransac",
     "select_target",
-    "split_clusters",
     "thin",
     "warm_up",
 ]
@@ -76,18 +75,14 @@ def crop(
 
 
 def thin(points: ArrayLike, max_points: int, seed: int = 0) -> Array:
-    """At most ``max_points`` of ``points`` ``(n, 3)``, chosen by farthest-point
-    sampling from a seeded start so the object keeps its shape."""
+    """At most ``max_points`` of ``points`` ``(n, 3)``, chosen by open3d's
+    farthest-point sampling (from the first point: deterministic, ``seed`` is not
+    needed) so the object keeps its shape."""
     p = np.asarray(points, dtype=np.float64)
     if p.shape[0] <= max_points:
         return p
-    pcd = _pcd(p)
-    try:
-        out = pcd.farthest_point_down_sample(int(max_points))
-        return np.asarray(out.points, dtype=np.float64)
-    except (AttributeError, TypeError):  # older open3d: seeded random subset
-        idx = np.random.default_rng(seed).choice(p.shape[0], max_points, replace=False)
-        return p[np.sort(idx)]
+    out = _pcd(p).farthest_point_down_sample(int(max_points))
+    return np.asarray(out.points, dtype=np.float64)
 
 
 def cluster_labels(
@@ -99,18 +94,6 @@ def cluster_labels(
         return np.zeros(0, dtype=np.int64)
     labels = _pcd(p).cluster_dbscan(float(eps), int(core_points), print_progress=False)
     return np.asarray(labels, dtype=np.int64)
-
-
-def split_clusters(points: Array, labels: NDArray[np.int64]) -> list[Array]:
-    """Points of each label ``>= 0``, largest cluster first."""
-    if labels.size == 0 or labels.max() < 0:
-        return []
-    counts = np.bincount(labels[labels >= 0])
-    order = np.argsort(-counts, kind="stable")
-    sort_idx = np.argsort(labels, kind="stable")
-    # offsets of each label's run in sort_idx (noise, -1, sorts first)
-    start = np.searchsorted(labels[sort_idx], np.arange(counts.size))
-    return [points[sort_idx[start[k] : start[k] + counts[k]]] for k in order]
 
 
 _RANSAC_BATCH = 64
@@ -271,11 +254,3 @@ def select_target(segmentation: Segmentation, rule: Any) -> tuple[Array, list[Ar
         )
     obstacles = [c for i, c in enumerate(clusters) if i != k]
     return clusters[k], (obstacles if getattr(rule, "obstacles", True) else [])
-
-
-def plane_towards(normal: ArrayLike, offset: float, points: Array) -> Plane:
-    """A ``Plane`` whose normal points to the side where most of ``points`` lie."""
-    n = np.asarray(normal, dtype=np.float64)
-    if points.shape[0] and float(np.median(points @ n + offset)) < 0.0:
-        n, offset = -n, -offset
-    return Plane(normal=n, offset=float(offset))

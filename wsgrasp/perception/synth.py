@@ -18,7 +18,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from wsgrasp.errors import InputError
-from wsgrasp.geometry import invert_transforms, transform_from, transform_points
+from wsgrasp.geometry import (
+    invert_transforms,
+    primitive_mesh,
+    transform_from,
+    transform_points,
+)
 from wsgrasp.perception.types import Array, Plane, View
 
 __all__ = [
@@ -178,10 +183,8 @@ def make_object(kind: str, size: Sequence[float] | None = None) -> Any:
             f"--size for {kind} needs {need} positive numbers (m), found {list(dims)}",
             hint=f"e.g. --size {','.join(f'{v:g}' for v in OBJECTS[kind])}",
         )
-    if kind == "box":
-        return trimesh.creation.box(extents=dims)
-    if kind == "cylinder":
-        return trimesh.creation.cylinder(radius=dims[0], height=dims[1], sections=48)
+    if kind in ("box", "cylinder", "sphere"):
+        return primitive_mesh(kind, dims, subdivisions=3, sections=48)
     if kind == "cone":
         m = trimesh.creation.cone(radius=dims[0], height=dims[1], sections=48)
         m.apply_translation([0, 0, -dims[1] / 2.0])
@@ -193,7 +196,7 @@ def make_object(kind: str, size: Sequence[float] | None = None) -> Any:
                 hint="--size INNER,OUTER,HEIGHT",
             )
         return trimesh.creation.annulus(r_min=dims[0], r_max=dims[1], height=dims[2])
-    return trimesh.creation.icosphere(subdivisions=3, radius=dims[0])
+    raise ValueError(f"unknown object kind {kind!r}")  # OBJECTS holds no other
 
 
 def object_pose(mesh: Any, pose: Pose, rng: np.random.Generator) -> Array:

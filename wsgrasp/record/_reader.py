@@ -180,7 +180,7 @@ def _check_version(p: Path, scan: _Scan) -> tuple[int, str]:
         raise _corrupt(p, 0, f"format_version {version_text!r} is not a number")
     version, recorded_by = int(version_text), (meta or {}).get("wsgrasp_version", "?")
     if version > FORMAT_VERSION:
-        from wsgrasp import __version__
+        from wsgrasp._version import __version__
 
         raise RecordingError(
             f"{p}: was recorded by wsgrasp {recorded_by} in run format {version}; "

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import xxhash
 
+from wsgrasp._names import gripper_ref, is_gripper_path
 from wsgrasp.record._codec import FORMAT_VERSION
 
 if TYPE_CHECKING:
@@ -33,7 +34,7 @@ def run_info(spec: PipelineSpec, gripper: GripperModel) -> dict[str, dict[str, s
     """The parts ``wsgrasp`` (format and package versions, platform, seed,
     gripper), ``spec`` (the resolved spec as JSON) and ``plugins`` (every plugin's
     distribution and version), each a dict of str to str."""
-    from wsgrasp import __version__
+    from wsgrasp._version import __version__
 
     meta = {
         "format_version": str(FORMAT_VERSION),
@@ -129,19 +130,13 @@ def gripper_attachments(
 
 def _gripper_yaml(spec: PipelineSpec) -> Path | None:
     """The gripper YAML the spec names, when there is one on disk."""
-    name = spec.gripper
-    candidates: list[Path] = []
-    if name.endswith((".yaml", ".yml")) or "/" in name:
-        candidates.append(Path(name))
-        if spec.source is not None:
-            candidates.append(Path(spec.source).parent / name)
-    else:
+    base = Path.cwd() if spec.source is None else Path(spec.source).parent
+    ref: Any = gripper_ref(spec.gripper, base)  # as the Pipeline read it
+    if not is_gripper_path(ref):
         try:
             from wsgrasp.plugins import get_registry
 
-            obj = get_registry().get("grippers", name).obj
+            ref = get_registry().get("grippers", ref).obj
         except Exception:  # noqa: BLE001 - an attachment is a convenience
             return None
-        if isinstance(obj, (str, Path)):
-            candidates.append(Path(obj))
-    return next((c for c in candidates if c.is_file()), None)
+    return Path(ref) if isinstance(ref, (str, Path)) and Path(ref).is_file() else None

@@ -408,7 +408,7 @@ class RunRecorder:
                 hint="check the directory exists and is writable, or use --no-record",
             ) from None
         self._stream = raw
-        from wsgrasp import __version__
+        from wsgrasp._version import __version__
 
         # chunks end only where _flush ends them: one (or two) per stage
         self._writer = Writer(raw, chunk_size=1 << 62)

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from wsgrasp._names import is_gripper_path
 from wsgrasp.errors import SimulationError
 from wsgrasp.geometry import JOINT_FIXED, JOINT_PRISMATIC
 from wsgrasp.gripper._urdf import Joint, Kinematics, Shape, load_kinematics, shape_mesh
@@ -128,7 +129,7 @@ def load_sim_gripper(name: str, params: SimParams | None = None) -> SimGripper:
     from wsgrasp.spec import load_gripper_description
 
     path = Path(name)
-    if path.suffix not in (".yaml", ".yml", ".json", ".toml"):
+    if not is_gripper_path(name):
         entry = get_registry().get("grippers", name)
         obj = entry.obj
         if not isinstance(obj, (str, Path)):

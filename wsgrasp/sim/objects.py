@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wsgrasp.errors import InputError
+from wsgrasp.geometry import primitive_mesh
 from wsgrasp.sim._meshes import (
     Decomposition,
     MeshSource,
@@ -93,25 +94,10 @@ class Part:
         """The part as a closed triangle mesh in the object frame."""
         import trimesh
 
-        if self.kind == "box":
-            m = trimesh.creation.box(extents=self.size)
-        elif self.kind == "cylinder":
-            m = trimesh.creation.cylinder(
-                radius=self.size[0], height=self.size[1], sections=32
-            )
-        elif self.kind == "capsule":
-            m = trimesh.creation.capsule(
-                radius=self.size[0], height=self.size[1], count=[16, 16]
-            )
-        elif self.kind == "sphere":
-            m = trimesh.creation.icosphere(subdivisions=2, radius=self.size[0])
-        elif self.kind == "ellipsoid":
-            m = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
-            m.apply_scale(self.size)
-        elif self.kind == "hull":
+        if self.kind == "hull":
             m = trimesh.Trimesh(vertices=self.vertices).convex_hull
-        else:  # pragma: no cover - parts are built in this module
-            raise ValueError(self.kind)
+        else:
+            m = primitive_mesh(self.kind, self.size, subdivisions=2)
         m.apply_transform(self.T_object_part)
         return m
 

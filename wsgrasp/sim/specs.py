@@ -14,6 +14,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from wsgrasp._names import gripper_ref
 from wsgrasp.errors import InputError
 from wsgrasp.sim.runner import SpecEntry
 
@@ -77,19 +78,11 @@ def _template(label: str, gripper: str) -> tuple[dict[str, Any], str]:
 
 def _gripper_name(gripper: str) -> str:
     """The registered name of a gripper given by name or by its YAML's path."""
-    path = Path(_gripper_ref(gripper))  # absolute only for a YAML
+    path = Path(gripper_ref(gripper, Path.cwd()))  # absolute only for a file
     if path.is_absolute() and path.exists():
         from wsgrasp.spec import load_gripper_description
 
         return load_gripper_description(path)[0].name
-    return gripper
-
-
-def _gripper_ref(gripper: str) -> str:
-    """A gripper YAML's absolute path, or the registered name as it is."""
-    p = Path(gripper)
-    if p.suffix in (".yaml", ".yml", ".json", ".toml"):
-        return str(p.resolve())
     return gripper
 
 
@@ -133,7 +126,7 @@ def spec_entries(
                 hint="name them: --spec mine=a.yaml --spec other=b.yaml",
             )
         for label, data, src in sources:
-            d = {**data, "gripper": _gripper_ref(g)}
+            d = {**data, "gripper": gripper_ref(g, Path.cwd())}
             d["record"] = {**(d.get("record") or {}), "enabled": False}
             load_spec(d)  # validate here, not in a worker
             out.append(SpecEntry(gripper=g, label=label, spec=d, source=src))
