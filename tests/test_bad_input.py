@@ -556,3 +556,61 @@ def test_json_result_of_a_too_large_object(capsys, tmp_path):
     assert code == 0
     data = json.loads(text[text.index("{") :])
     assert data["found"] is False and "too large" in data["hint"]
+
+
+def _cylinder(rng, center, radius, height, n=3000) -> np.ndarray:
+    theta = rng.uniform(0, 2 * np.pi, n)
+    on_top = rng.uniform(size=n) < 0.3
+    r = np.where(on_top, radius * np.sqrt(rng.uniform(size=n)), radius)
+    z = np.where(on_top, height, rng.uniform(0, height, n))
+    return np.column_stack(
+        [center[0] + r * np.cos(theta), center[1] + r * np.sin(theta), z]
+    )
+
+
+def _two_cans(seed: int = 7) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return np.concatenate(
+        [
+            _table(rng),
+            _cylinder(rng, [-0.03, 0.0], 0.03, 0.12),
+            _cylinder(rng, [0.03, 0.0], 0.03, 0.12),
+        ]
+    )
+
+
+def test_two_touching_objects_are_reported_with_the_rules_to_pick_one():
+    pipeline = Pipeline(fake_spec(), gripper=fake_gripper())
+    with pytest.raises(InputError, match="two objects that touch") as info:
+        pipeline.plan(_posed_scene(_two_cans(), camera_z=0.6))
+    assert "target: {rule: nearest, point: [" in str(info.value)
+
+
+def test_a_nearest_rule_picks_one_of_two_touching_objects():
+    spec = fake_spec(target={"rule": "nearest", "point": [0.05, 0.0, 0.1]})
+    result = Pipeline(spec, gripper=fake_gripper()).plan(
+        _posed_scene(_two_cans(), camera_z=0.6)
+    )
+    assert result.info["obstacles"] == 1
+    assert result.T_world_object[0, 3] > 0.01  # the can on the +x side
+    assert result.object_extents.max() < 0.14  # one can, not both (12 cm)
+
+
+def test_one_object_is_never_split():
+    from wsgrasp.perception.process import downsample
+    from wsgrasp.perception.synth import synth_scene
+    from wsgrasp.perception.touching import find_touching
+    from wsgrasp.perception.types import Plane
+
+    rng = np.random.default_rng(8)
+    plane = Plane(normal=np.array([0.0, 0.0, 1.0]), offset=0.0)
+    shapes = [
+        _cylinder(rng, [0, 0], 0.04, 0.12),
+        _box(rng, [0, 0, 0.05], [0.18, 0.06, 0.1]),  # long box: a plateau, no waist
+        _box(rng, [0, 0, 0.05], [0.09, 0.06, 0.1]),
+    ]
+    for kind in ("box", "cylinder", "cone", "ring", "sphere"):
+        syn = synth_scene(kind, seed=1, width=160, height=120)
+        shapes.append(syn.points[syn.points[:, 2] > 0.01])
+    for points in shapes:
+        assert find_touching(downsample(points, 0.005), plane) is None

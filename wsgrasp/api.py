@@ -193,6 +193,9 @@ class Pipeline:
             ) from exc
         object_points, obstacles = select_target(segmentation, spec.target)
         _check_table_side(segmentation.table, object_points, viewpoints, spec)
+        object_points, obstacles = _one_object(
+            segmentation, object_points, obstacles, spec
+        )
         # farthest-point thinning keeps the object's shape
         object_points = thin(
             object_points, spec.preprocess.max_object_points, spec.seed
@@ -433,6 +436,39 @@ _WIDTH_SLACK = 0.002
 _CONCAVE_DEPTH = 0.01
 #: fraction of points deeper than ``_CONCAVE_DEPTH`` that makes an object hollow
 _CONCAVE_SHARE = 0.02
+
+
+def _one_object(
+    segmentation: Any, object_points: Array, obstacles: list[Array], spec: PipelineSpec
+) -> tuple[Array, list[Array]]:
+    """The target cluster when it is one object. When it is clearly two that
+    touch, a ``nearest`` or ``inside_box`` rule picks one of them (the other
+    becomes an obstacle); the other rules cannot, and the user is told how."""
+    from dataclasses import replace
+
+    from wsgrasp.perception.process import select_target
+    from wsgrasp.perception.touching import find_touching, split_touching
+
+    touching = find_touching(object_points, segmentation.table)
+    if touching is None:
+        return object_points, obstacles
+    if spec.target.rule in ("nearest", "inside_box"):
+        parts = split_touching(object_points, touching)
+        rest = [c for c in segmentation.clusters if c is not object_points]
+        return select_target(replace(segmentation, clusters=parts + rest), spec.target)
+    where = "; ".join(
+        f"one {w * 100:.0f} cm wide with its top at "
+        f"[{', '.join(f'{x:.3f}' for x in c)}]"
+        for c, w in zip(touching.centers, touching.widths, strict=True)
+    )
+    c = touching.centers[0]
+    raise InputError(
+        f"the object cluster is two objects that touch ({where}; they meet "
+        f"{touching.neck * 100:.1f} cm wide)",
+        hint="pick one with `target: {rule: nearest, point: "
+        f"[{', '.join(f'{x:.3f}' for x in c)}]}}` (or rule inside_box with box_min "
+        "and box_max around it), or move them apart",
+    )
 
 
 def _too_large(object_points: Array, g: GripperModel) -> str:
