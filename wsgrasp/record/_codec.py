@@ -201,27 +201,36 @@ def encode_value(value: Any, arrays: _Arrays) -> Any:
     return repr(value)
 
 
-def decode_value(data: Any, arrays: list[Any]) -> Any:
-    """Inverse of :func:`encode_value` (dataclasses come back as dicts)."""
+def decode_value(
+    data: Any, arrays: list[Any], memo: dict[int, Any] | None = None
+) -> Any:
+    """Inverse of :func:`encode_value` (dataclasses come back as dicts; an array
+    stored once for two references comes back as one array, as it was)."""
+    memo = {} if memo is None else memo
     if isinstance(data, dict):
         if "$array" in data and set(data) <= {"$array", "$as"}:
-            a = arrays[int(data["$array"])]
-            if a.dtype not in _DTYPES:
-                raise ValueError(f"unknown array dtype {a.dtype!r}")
-            # the record's own shape, e.g. (n, 3) points or (C, 4, 4) poses
-            out = np.frombuffer(a.data, dtype=a.dtype).reshape(tuple(a.shape))
-            cast = data.get("$as")
-            if cast is None:
-                return out.copy()
-            if (a.dtype, cast) != ("<f4", "<f8"):
-                raise ValueError(f"cannot read {a.dtype!r} array as {cast!r}")
-            return out.astype("<f8")
+            i = int(data["$array"])
+            if i not in memo:
+                memo[i] = _decode_array(arrays[i], data.get("$as"))
+            return memo[i]
         if "$float" in data and len(data) == 1:
             return float(data["$float"])
-        return {k: decode_value(v, arrays) for k, v in data.items()}
+        return {k: decode_value(v, arrays, memo) for k, v in data.items()}
     if isinstance(data, list):
-        return [decode_value(v, arrays) for v in data]
+        return [decode_value(v, arrays, memo) for v in data]
     return data
+
+
+def _decode_array(a: Any, cast: str | None) -> NDArray[Any]:
+    if a.dtype not in _DTYPES:
+        raise ValueError(f"unknown array dtype {a.dtype!r}")
+    # the record's own shape, e.g. (n, 3) points or (C, 4, 4) poses
+    out = np.frombuffer(a.data, dtype=a.dtype).reshape(tuple(a.shape))
+    if cast is None:
+        return out.copy()
+    if (a.dtype, cast) != ("<f4", "<f8"):
+        raise ValueError(f"cannot read {a.dtype!r} array as {cast!r}")
+    return out.astype("<f8")
 
 
 def dumps(value: Any, kind: str = "") -> bytes:

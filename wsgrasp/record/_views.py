@@ -254,11 +254,15 @@ def result_views(result: dict[str, Any], g: GripperModel, t: int) -> list[View]:
         ("/tf", frame_transform(T, "world", "gripper", t)),
         ("/grasp/gripper_cloud", point_cloud(g.cloud, "gripper", t)),
     ]
-    body = []
-    for c, s in zip(np.asarray(g.se_centers), np.asarray(g.se_semi_axes), strict=True):
-        Tc = np.eye(4)
-        Tc[:3, 3] = c
-        body.append(_cube(Tc, 2 * s, (0.5, 0.5, 0.55, 0.35)))
+    grey = _color((0.5, 0.5, 0.55, 0.35))
+    body = [  # one Rotation for all the boxes
+        fm.CubePrimitive(pose=pose, size=_vector3(2 * s), color=grey)
+        for pose, s in zip(
+            _poses(_translations(np.asarray(g.se_centers).reshape(-1, 3))),
+            np.asarray(g.se_semi_axes).reshape(-1, 3),
+            strict=True,
+        )
+    ]
     centers = np.asarray(g.sphere_centers, dtype=np.float64).reshape(-1, 3)  # (S, 3)
     radii = np.asarray(g.sphere_radii, dtype=np.float64).reshape(-1)  # (S,)
     held = np.zeros(len(radii), dtype=bool)

@@ -17,6 +17,7 @@ without a summary (cut short) is read from the start up to where it stops.
 
 from __future__ import annotations
 
+import functools
 import struct
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -32,33 +33,17 @@ from wsgrasp.errors import InputError
 if TYPE_CHECKING:
     from collections.abc import Iterator
 
-__all__ = [
-    "POINTCLOUD2",
-    "TF_MESSAGE",
-    "BagCloud",
-    "bag_topics",
-    "is_mcap",
-    "read_bag_clouds",
-    "read_bag_scene",
-]
+__all__ = ["POINTCLOUD2", "TF_MESSAGE", "BagCloud", "bag_topics", "is_mcap"]
+__all__ += ["read_bag_clouds", "read_bag_scene"]
 
 Array = NDArray[np.float64]
 
 POINTCLOUD2 = "sensor_msgs/msg/PointCloud2"
 TF_MESSAGE = "tf2_msgs/msg/TFMessage"
-TF_TOPICS = ("/tf", "/tf_static")
-
-# PointField datatypes → numpy scalar types
-_POINTFIELD_DTYPES = {
-    1: "i1",
-    2: "u1",
-    3: "i2",
-    4: "u2",
-    5: "i4",
-    6: "u4",
-    7: "f4",
-    8: "f8",
-}
+#: PointField datatypes 1..8 → numpy scalar types
+_POINTFIELD_DTYPES = dict(
+    enumerate(("i1", "u1", "i2", "u2", "i4", "u4", "f4", "f8"), 1)
+)
 
 
 @dataclass
@@ -178,7 +163,7 @@ def _first_time(p: Path) -> int:
 
 
 def _decode(schema: Any, channel: Any, message: Any) -> Any:
-    decoder = _DECODERS.decoder_for(channel.message_encoding, schema)
+    decoder = _factory().decoder_for(channel.message_encoding, schema)
     if decoder is None:
         raise InputError(
             f"topic {channel.topic!r} is not ROS 2 (encoding "
@@ -189,19 +174,11 @@ def _decode(schema: Any, channel: Any, message: Any) -> Any:
     return decoder(message.data)
 
 
-class _Decoders:
-    def __init__(self) -> None:
-        self._factory: Any = None
+@functools.cache
+def _factory() -> Any:
+    from mcap_ros2.decoder import DecoderFactory
 
-    def decoder_for(self, encoding: str, schema: Any) -> Any:
-        if self._factory is None:
-            from mcap_ros2.decoder import DecoderFactory
-
-            self._factory = DecoderFactory()
-        return self._factory.decoder_for(encoding, schema)
-
-
-_DECODERS = _Decoders()
+    return DecoderFactory()
 
 
 def pointcloud2_xyz(msg: Any, topic: str = "") -> Array:
@@ -226,41 +203,32 @@ def pointcloud2_xyz(msg: Any, topic: str = "") -> Array:
             "camera's points topic rather than a depth image or a 2D scan",
         )
     order = ">" if msg.is_bigendian else "<"
-    names, formats, offsets = [], [], []
     for a in "xyz":
-        f = fields[a]
-        if f.datatype not in _POINTFIELD_DTYPES:
+        if fields[a].datatype not in _POINTFIELD_DTYPES:
             raise InputError(
-                f"PointCloud2 on {topic}: field {a} has unknown datatype {f.datatype}",
+                f"PointCloud2 on {topic}: field {a} has unknown datatype "
+                f"{fields[a].datatype}",
                 hint="x, y and z must be numbers (PointField datatypes 1..8)",
             )
-        names.append(a)
-        formats.append(order + _POINTFIELD_DTYPES[f.datatype])
-        offsets.append(f.offset)
-    n = int(msg.width) * int(msg.height)
-    step = int(msg.point_step)
+    h, w, step = int(msg.height), int(msg.width), int(msg.point_step)
     data = bytes(msg.data)
-    row = int(msg.row_step) if msg.row_step else step * int(msg.width)
-    if n == 0:
+    row = int(msg.row_step) if msg.row_step else step * w
+    if h * w == 0:
         return np.zeros((0, 3))
-    if len(data) < row * (int(msg.height) - 1) + step * int(msg.width):
+    if len(data) < row * (h - 1) + step * w:
         raise InputError(
             f"PointCloud2 on {topic}: data has {len(data)} bytes, fewer than "
-            f"{msg.height} rows × {msg.width} points × {step} bytes",
+            f"{h} rows × {w} points × {step} bytes",
             hint="the message is malformed; re-record the bag",
         )
+    formats = [order + _POINTFIELD_DTYPES[fields[a].datatype] for a in "xyz"]
+    offsets = [fields[a].offset for a in "xyz"]
     dtype = np.dtype(
-        {"names": names, "formats": formats, "offsets": offsets, "itemsize": step}
+        {"names": list("xyz"), "formats": formats, "offsets": offsets, "itemsize": step}
     )
-    rows = []
-    for r in range(int(msg.height)):  # rows may be padded: one view per row
-        start = r * row
-        rows.append(
-            np.frombuffer(data, dtype=dtype, count=int(msg.width), offset=start)
-        )
-    rec = np.concatenate(rows) if len(rows) > 1 else rows[0]
-    # (n, 3) float64 points
-    return np.stack([rec[a].astype(np.float64) for a in "xyz"], axis=1)
+    # (h, w) records over the bytes: rows may be padded (row_step)
+    rec = np.ndarray((h, w), dtype=dtype, buffer=data, strides=(row, step))
+    return np.stack([rec[a].reshape(-1).astype(np.float64) for a in "xyz"], axis=1)
 
 
 def _stamp(msg: Any, log_time: int) -> int:
@@ -361,22 +329,15 @@ def _tf_edges(p: Path, t_ns: int) -> dict[str, tuple[str, Array]]:
     return edges
 
 
-def _chain(edges: dict[str, tuple[str, Array]], frame: str) -> list[str]:
-    chain = [frame]
-    while chain[-1] in edges and len(chain) < 256:
-        chain.append(edges[chain[-1]][0])
-    return chain
-
-
-def _T_root(edges: dict[str, tuple[str, Array]], frame: str) -> Array:
-    """``T_root_frame`` up the tree."""
+def _up(edges: dict[str, tuple[str, Array]], frame: str) -> tuple[str, Array]:
+    """The root of the tree above ``frame`` and ``T_root_frame``."""
     T = np.eye(4)
-    f = frame
-    while f in edges:
-        parent, T_parent_f = edges[f]
-        T = T_parent_f @ T
-        f = parent
-    return T
+    for _ in range(256):  # a cycle in /tf stops here
+        if frame not in edges:
+            break
+        frame, T_parent_frame = edges[frame]
+        T = T_parent_frame @ T
+    return frame, T
 
 
 def camera_pose(
@@ -384,14 +345,14 @@ def camera_pose(
 ) -> tuple[str, Array]:
     """``(world frame name, T_world_camera)`` for a cloud in ``cloud_frame``."""
     cloud_frame = cloud_frame.lstrip("/")
-    up = _chain(edges, cloud_frame)
-    root = up[-1]
+    root, T_root_cloud = _up(edges, cloud_frame)
     if target is None:
-        return root, _T_root(edges, cloud_frame)
+        return root, T_root_cloud
     target = target.lstrip("/")
     if target == cloud_frame:
         return target, np.eye(4)
-    if target not in _chain(edges, target) or _chain(edges, target)[-1] != root:
+    target_root, T_root_target = _up(edges, target)
+    if target_root != root:
         known = sorted(set(edges) | {e[0] for e in edges.values()})
         raise InputError(
             f"no transform from {target!r} to the cloud's frame {cloud_frame!r} in "
@@ -399,8 +360,6 @@ def camera_pose(
             hint="pass --frame with a frame connected to the cloud's, or leave it "
             "out to use the root of the cloud's transform tree",
         )
-    T_root_target = _T_root(edges, target)
-    T_root_cloud = _T_root(edges, cloud_frame)
     return target, np.linalg.inv(T_root_target) @ T_root_cloud
 
 
