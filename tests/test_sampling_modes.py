@@ -51,6 +51,18 @@ def test_approach_sphere_spreads_evenly_over_the_upper_half():
     assert 2 * np.arcsin(far.max() / 2) < 1.2 * cell
 
 
+@pytest.mark.parametrize("directions", [1, 5, 12, 24, 200])
+def test_approach_sphere_always_tries_straight_down(directions):
+    """A sparse lattice still approaches exactly against the table normal, the
+    approach that keeps a long-fingered hand's fingertips off the table."""
+    normal = np.array([0.2, -0.3, 0.9])
+    normal /= np.linalg.norm(normal)
+    s = Sampling(mode="approach_sphere", directions=directions, orientations=3)
+    o = orientation_set(s, _frame([0.3, -0.2, 0.5]), normal)
+    d = _approach_world(o, _frame([0.3, -0.2, 0.5]))
+    np.testing.assert_allclose(d[:3], np.repeat(-normal[None], 3, axis=0), atol=1e-12)
+
+
 def test_approach_sphere_rolls_turn_evenly_about_the_approach():
     s = Sampling(
         mode="approach_sphere", directions=7, orientations=6, angle_range_deg=180
