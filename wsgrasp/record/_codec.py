@@ -8,7 +8,7 @@ Each full-fidelity message is one ``wsgrasp.Record``::
     message Record { uint32 format_version = 1; string kind = 2; string json = 3;
                      repeated Array arrays = 4; }
 
-The message classes are made at import from that description (``descriptor_pb2``
+The message classes are made at import from that description (``text_format``
 and ``message_factory``); :data:`DESCRIPTOR_SET` is the ``FileDescriptorSet`` the
 MCAP schema declares, so any protobuf reader (Foxglove included) decodes it.
 
@@ -28,7 +28,12 @@ from dataclasses import fields, is_dataclass
 from typing import Any
 
 import numpy as np
-from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+from google.protobuf import (
+    descriptor_pb2,
+    descriptor_pool,
+    message_factory,
+    text_format,
+)
 from numpy.typing import NDArray
 
 from wsgrasp.errors import RecordingError
@@ -65,33 +70,22 @@ TOPICS = {
 }
 
 
-def _file_descriptor() -> descriptor_pb2.FileDescriptorProto:
-    F = descriptor_pb2.FieldDescriptorProto
-    fdp = descriptor_pb2.FileDescriptorProto(
-        name="wsgrasp/record.proto", package="wsgrasp", syntax="proto3"
-    )
-    array = fdp.message_type.add(name="Array")
-    array.field.add(name="dtype", number=1, type=F.TYPE_STRING, label=F.LABEL_OPTIONAL)
-    array.field.add(name="shape", number=2, type=F.TYPE_UINT64, label=F.LABEL_REPEATED)
-    array.field.add(name="data", number=3, type=F.TYPE_BYTES, label=F.LABEL_OPTIONAL)
-    record = fdp.message_type.add(name="Record")
-    for name, number, type_ in (
-        ("format_version", 1, F.TYPE_UINT32),
-        ("kind", 2, F.TYPE_STRING),
-        ("json", 3, F.TYPE_STRING),
-    ):
-        record.field.add(name=name, number=number, type=type_, label=F.LABEL_OPTIONAL)
-    record.field.add(
-        name="arrays",
-        number=4,
-        type=F.TYPE_MESSAGE,
-        label=F.LABEL_REPEATED,
-        type_name=".wsgrasp.Array",
-    )
-    return fdp
-
-
-_FILE = _file_descriptor()
+_FILE = text_format.Parse(
+    """
+    name: "wsgrasp/record.proto" package: "wsgrasp" syntax: "proto3"
+    message_type { name: "Array"
+      field { name: "dtype" number: 1 type: TYPE_STRING label: LABEL_OPTIONAL }
+      field { name: "shape" number: 2 type: TYPE_UINT64 label: LABEL_REPEATED }
+      field { name: "data" number: 3 type: TYPE_BYTES label: LABEL_OPTIONAL } }
+    message_type { name: "Record"
+      field { name: "format_version" number: 1 type: TYPE_UINT32 label: LABEL_OPTIONAL }
+      field { name: "kind" number: 2 type: TYPE_STRING label: LABEL_OPTIONAL }
+      field { name: "json" number: 3 type: TYPE_STRING label: LABEL_OPTIONAL }
+      field { name: "arrays" number: 4 type: TYPE_MESSAGE label: LABEL_REPEATED
+              type_name: ".wsgrasp.Array" } }
+    """,
+    descriptor_pb2.FileDescriptorProto(),
+)
 _POOL = descriptor_pool.DescriptorPool()
 _POOL.Add(_FILE)
 Record = message_factory.GetMessageClass(_POOL.FindMessageTypeByName(SCHEMA_NAME))
@@ -188,14 +182,13 @@ def encode_value(value: Any, arrays: _Arrays) -> Any:
         return {
             f.name: encode_value(getattr(value, f.name), arrays) for f in fields(value)
         }
-    if isinstance(value, (bool, np.bool_)):
-        return bool(value)
-    if isinstance(value, (int, np.integer)):
-        return int(value)
-    if isinstance(value, (float, np.floating)):
+    if isinstance(value, np.generic):  # numpy scalars as Python ones
+        value = value.item()
+    for kind in (bool, int, str):  # and subclasses (enums) as their base
+        if isinstance(value, kind):
+            return kind(value)
+    if isinstance(value, float):
         return _float(float(value))
-    if isinstance(value, str):
-        return str(value)
     if hasattr(value, "model_dump"):  # pydantic models
         return encode_value(value.model_dump(mode="json"), arrays)
     return repr(value)

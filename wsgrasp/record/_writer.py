@@ -1,27 +1,17 @@
 """The MCAP recorder: a plan observer that writes every stage as it ends.
 
-A run file (``FORMAT_VERSION`` 3), written with ``mcap.writer.Writer``:
+A run file (``FORMAT_VERSION`` 3) holds, written with ``mcap.writer.Writer``: header
+profile ``wsgrasp``; the ``/wsgrasp/run`` record (see :mod:`._runinfo`), also as
+metadata; the gripper attachments; the full-fidelity channels (``/wsgrasp/...``,
+:mod:`._codec`) and the Foxglove views (:mod:`._views`); ``run_end`` metadata last.
 
-- header profile ``wsgrasp``; the ``/wsgrasp/run`` record (versions, spec,
-  plugins; see :mod:`._runinfo`), also as metadata; ``run_end`` metadata last;
-- attachments: ``gripper/model.npz`` (the built model, exact arrays),
-  ``gripper/description.json`` and, when found, the gripper YAML and URDF;
-- full-fidelity channels (``/wsgrasp/...``, schema ``wsgrasp.Record``, see
-  :mod:`._codec`) and channels in Foxglove's well-known schemas (:mod:`._views`).
-
-The inputs are written and flushed in ``on_start``, before any processing, and each
-stage's record is flushed (a chunk of its own) when the stage ends, in the
-planner's thread: a crash, even one that kills the process, leaves a file that
-:func:`~wsgrasp.record.open_run` reads up to the last finished stage. The records
-are encoded at once, so a caller changing its arrays afterwards changes nothing in
-the file. The Foxglove views are built from those encoded records, after the result
-or the error, by the process's writer thread, which then writes the file's end
-(the summary): the plan returns without waiting for them; ``close()`` waits, and so
-do a new recording before its plan and ``open_run``.
-
-Chunks of float clouds are stored uncompressed (zstd saves under 1 % on them and
-costs milliseconds a megabyte), chunks of structured records (candidates, poses,
-shapes) zstd-compressed.
+Each record is encoded at once (a caller changing its arrays later changes nothing)
+and flushed as a chunk of its own in the planner's thread, inputs first: a process
+killed mid-plan leaves every finished stage. Chunks of float clouds are stored
+uncompressed (zstd saves under 1 % on them and costs milliseconds a megabyte), the
+others zstd. The views, built from the encoded records, and the summary are written
+after the result by the process's writer thread; ``close()`` waits for them, and so
+do a new recording and ``open_run``.
 """
 
 from __future__ import annotations
@@ -131,13 +121,6 @@ def check_record_path(
 class RunRecorder:
     """Record one plan to an MCAP file; pass it to ``Pipeline.plan(observers=...)``.
 
-    In the planner's thread, ``on_start`` writes the run's versions and spec, the
-    gripper model and the exact inputs, and flushes them, before it returns; each
-    ``on_stage`` writes and flushes its stage's record, ``on_result`` the result.
-    A process killed outright keeps every finished stage. The Foxglove views are
-    built after the result (or the error) on the process's writer thread, which
-    then finishes the file; :meth:`close` waits for it.
-
     Parameters
     ----------
     path
@@ -221,34 +204,30 @@ class RunRecorder:
         self.overhead_ms += (time.perf_counter() - t0) * 1e3
 
     def on_result(self, result: PlanResult) -> None:
-        """Write the result and flush; the writer thread adds the Foxglove views
-        and finishes the file."""
-        if self._writer is None or self._finished:
-            return
-        t0 = time.perf_counter()
+        """Write the result and flush; the writer thread finishes the file."""
         record = {f.name: getattr(result, f.name) for f in fields(result)}
         if result.candidates is self._candidates and self._candidates is not None:
             record["candidates"] = "stage:candidates"  # the same, already recorded
-        with self._writing():
-            self._record("result", record, time.time_ns())
-        self._finish_later("ok")
-        self.overhead_ms += (time.perf_counter() - t0) * 1e3
+        self._last("result", record, "ok")
 
     def on_error(self, error: BaseException) -> None:
-        """Write what stopped the plan and flush; the writer thread adds the
-        Foxglove views of the stages before it and finishes the file."""
-        if self._writer is None or self._finished:
-            return
-        t0 = time.perf_counter()
+        """Write what stopped the plan and flush; the writer thread finishes the
+        file."""
         record = {
             "type": getattr(error, "type_name", None) or type(error).__name__,
             "message": getattr(error, "message", str(error)),
             "hint": getattr(error, "hint", None),
             "stages": list(self._stages_written),
         }
+        self._last("error", record, "error")
+
+    def _last(self, stage: str, record: dict[str, Any], status: str) -> None:
+        if self._writer is None or self._finished:
+            return
+        t0 = time.perf_counter()
         with self._writing():
-            self._record("error", record, time.time_ns())
-        self._finish_later("error")
+            self._record(stage, record, time.time_ns())
+        self._finish_later(status)
         self.overhead_ms += (time.perf_counter() - t0) * 1e3
 
     def close(self) -> None:
@@ -292,8 +271,7 @@ class RunRecorder:
         return self._writer
 
     def _record(self, stage: str, value: Any, t_ns: int) -> None:
-        """Write one full-fidelity record as a chunk of its own; keep its bytes
-        for the views."""
+        """Write one record as a chunk of its own; keep its bytes for the views."""
         topic = TOPICS.get(stage, f"/wsgrasp/stage/{stage}")
         data = dumps(value, topic.removeprefix("/wsgrasp/"))
         self._put(topic, SCHEMA_NAME, DESCRIPTOR_SET, data, t_ns)
@@ -301,17 +279,15 @@ class RunRecorder:
         self._recorded.append((stage, data, t_ns))
 
     def _flush(self, compression: CompressionType) -> None:
-        """End the chunk in progress, compressed with ``compression``.
-        ``mcap.writer.Writer`` compresses every chunk alike; its choice is set for
-        the next chunk here (a test checks that each chunk gets its own)."""
+        """End the chunk in progress, compressed with ``compression`` (the Writer
+        has one setting for all chunks; a test checks each gets its own)."""
         setattr(self._w, "_Writer__compression", compression)  # noqa: B010
         self._w.flush()
 
     @contextmanager
     def _writing(self) -> Iterator[None]:
-        """Turn a failed write (disk full, file system gone) into one
-        ``RecordingError``; the file keeps what was flushed before, and the
-        recorder writes nothing more."""
+        """A failed write (disk full) is one ``RecordingError``; the file keeps
+        what was flushed before, and nothing more is written."""
         try:
             yield
         except OSError as exc:
@@ -356,9 +332,8 @@ class RunRecorder:
         _worker.Worker.submit(job)
 
     def _write_views(self) -> None:
-        """The Foxglove views of every recorded stage, decoded from its record:
-        the clouds in one uncompressed chunk, the rest in one zstd chunk. A view
-        that fails to build is a warning in the run, not a failed recording."""
+        """The views of every recorded stage, from its record: clouds in one
+        uncompressed chunk, the rest zstd. A view that fails is a warning."""
         t0 = time.perf_counter()
         clouds: list[Any] = []
         rest: list[Any] = []
@@ -417,8 +392,7 @@ class RunRecorder:
             _worker.OPEN.add(self)
 
     def _finish(self, status: str) -> None:
-        """Write the file's end (the ``run_end`` metadata, the summary) and close
-        it."""
+        """Write ``run_end`` and the summary, and close the file."""
         try:
             end = {
                 "status": status,
