@@ -114,9 +114,13 @@ def _read_ply(p: Path) -> Array:
     try:
         geometry = trimesh.load(p, file_type="ply", process=False)
     except (ValueError, KeyError, IndexError, TypeError, UnicodeDecodeError) as exc:
-        what = str(exc) or type(exc).__name__
+        what = str(exc).rstrip("!") or type(exc).__name__
         if isinstance(exc, KeyError):
             what = f"it has no vertex property {exc}"
+        elif "not a ply" in what.lower():
+            what = "it does not start with a PLY header"
+        elif "unexpected length" in what.lower():
+            what = "its data is shorter or longer than its header declares (cut short?)"
         raise InputError(
             f"cloud file {str(p)!r} is not a readable PLY point cloud: {what}",
             hint="export it again as PLY with vertex properties x, y, z (metres)",

@@ -148,7 +148,10 @@ class RansacDbscan:
             )
         why = "; ".join(
             f"plane {i + 1} ({t['inliers']} points): "
-            + ", ".join(f"{v} {r}" for r, v in t.items() if r != "inliers" and v)
+            + (
+                ", ".join(f"{v} {r}" for r, v in t.items() if r != "inliers" and v)
+                or "no cluster off it"
+            )
             for i, t in enumerate(tried)
         )
         raise InputError(
