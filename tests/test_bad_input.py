@@ -614,3 +614,21 @@ def test_one_object_is_never_split():
         shapes.append(syn.points[syn.points[:, 2] > 0.01])
     for points in shapes:
         assert find_touching(downsample(points, 0.005), plane) is None
+
+
+@pytest.mark.parametrize(
+    "setting",
+    [
+        {"width": 0},
+        {"noise": math.nan},
+        {"distance": -1.0},
+        {"table_size": math.inf},
+        {"elevation_deg": math.nan},
+    ],
+    ids=lambda s: next(iter(s)),
+)
+def test_synthetic_scene_settings_are_checked_by_the_api(setting):
+    from wsgrasp.perception.synth import synth_scene
+
+    with pytest.raises(InputError, match=next(iter(setting))):
+        synth_scene("box", **setting)

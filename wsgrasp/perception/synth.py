@@ -9,6 +9,7 @@ same camera model); ``synth_scene`` builds a whole scene from a primitive's name
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -336,6 +337,22 @@ class SynthScene:
         )
 
 
+def _check_settings(**settings: tuple[float, float, float, bool]) -> None:
+    """Each setting's ``(value, low, high, above)``: finite, within ``low``..
+    ``high``, and strictly above ``low`` when ``above``."""
+    for name, (value, low, high, above) in settings.items():
+        ok = math.isfinite(value) and low <= value <= high
+        if ok and above and value == low:
+            ok = False
+        if not ok:
+            bound = f"above {low:g}" if above else f"at least {low:g}"
+            raise InputError(
+                f"synthetic scene setting {name} is {value}, expected a number "
+                f"{bound} and at most {high:g}",
+                hint=f"give {name} within that range",
+            )
+
+
 def synth_scene(
     kind: str = "box",
     *,
@@ -356,6 +373,14 @@ def synth_scene(
     ``camera_frame`` expresses the scene in the first camera's frame instead of the
     z-up world frame (the table is then tilted), to test frame independence.
     """
+    _check_settings(
+        noise=(noise, 0.0, 0.1, False),
+        table_size=(table_size, 0.0, 10.0, True),
+        distance=(distance, 0.0, 20.0, True),
+        elevation_deg=(elevation_deg, 0.0, 90.0, True),
+        width=(width, 8, 8192, False),
+        height=(height, 8, 8192, False),
+    )
     rng = np.random.default_rng(seed)
     mesh = make_object(kind, size)
     T = object_pose(mesh, pose, rng)
