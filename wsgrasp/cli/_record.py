@@ -270,7 +270,7 @@ def view(
             copy_with_views(r, o, force=force)
             note = " (the run is truncated: copied up to where it stops)"
         elif suffix == ".png":
-            from wsgrasp.view._run import render_png
+            from wsgrasp.view._png import render_png
 
             render_png(r, o)
             note = " (the run is truncated: drawn up to where it stops)"

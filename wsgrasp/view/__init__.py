@@ -20,6 +20,6 @@ def render_run(run_path: str | Path, out: str | Path) -> Path:
         from wsgrasp.view._html import render_html
 
         return render_html(run, out)
-    from wsgrasp.view._run import render_png
+    from wsgrasp.view._png import render_png
 
     return render_png(run, out)

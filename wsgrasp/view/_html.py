@@ -1,8 +1,16 @@
-"""A recorded run as a self-contained interactive 3D page.
+"""A recorded run as a self-contained interactive 3D page, drawn by plotly.
 
-The page is one HTML file with the data inlined as JSON and a small canvas
-renderer of its own (no library, no network): drag to rotate, shift-drag to pan,
-wheel to zoom, a checkbox per layer. It opens offline in any browser.
+One HTML file with plotly.js inlined (no network): drag to rotate, scroll to
+zoom, hover for what a point or pose is, click a legend entry to hide or show a
+layer, and step through the plan's alternatives from the sidebar. The sidebar
+has a fixed width and the plot takes the rest (a CSS grid whose plot column may
+shrink, ``minmax(0, 1fr)``), from 1024 to 1920 px wide.
+
+plotly replaced a canvas renderer of the project's own: plotly draws the
+gripper's shape as shaded meshes, depth-sorts with WebGL, and gives legend
+toggles and hover for free. Its price is the inlined plotly.js, 4.6 MB per
+page (measured with plotly 7.1); ``include_plotlyjs="cdn"`` would save that but
+would not open offline.
 """
 
 from __future__ import annotations
@@ -13,192 +21,345 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import NDArray
 
-from wsgrasp.view._run import REASON_COLOURS, _focus, run_layers
+from wsgrasp.view._run import COLOURS, REASON_COLOURS, RunLayers, _focus, run_layers
 
 if TYPE_CHECKING:
     from wsgrasp.record import Run
 
-__all__ = ["render_html", "page_data"]
+__all__ = ["render_html", "page_figure", "SIDEBAR_PX"]
+
+Array = NDArray[np.float64]
+#: sidebar width; the plot takes the rest of the window
+SIDEBAR_PX = 300
+AXIS_COLOURS = ("#e41a1c", "#4daf4a", "#377eb8")
 
 
-def _flat(points: Any) -> list[float]:
-    """``(n, 3)`` points as a flat list rounded to 0.1 mm (keeps the page small)."""
-    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    return [round(float(x), 4) for x in p.ravel()]
+def _r(x: Any) -> Any:
+    """Round to 0.1 mm (keeps the page small)."""
+    return np.round(np.asarray(x, dtype=np.float64), 4)
 
 
-def page_data(run: Run) -> dict[str, Any]:
-    """The layers of the page, as plain data."""
-    L = run_layers(run)
-    centre, half = _focus(L)
-    layers: list[dict[str, Any]] = [
-        {"name": "scene", "color": "#bfbfbf", "size": 1.5, "points": _flat(L.scene)},
-        {"name": "table", "color": "#a08060", "size": 1.5, "points": _flat(L.table)},
-        {
-            "name": "obstacles",
-            "color": "#e08020",
-            "size": 2,
-            "points": _flat(L.obstacles),
-        },
-        {"name": "object", "color": "#1f66e5", "size": 2.5, "points": _flat(L.object)},
-        {"name": "samples", "color": "#ffd91a", "size": 2, "points": _flat(L.samples)},
-    ]
+def _points(name: str, p: Array, colour: str, size: float, **kw: Any) -> Any:
+    import plotly.graph_objects as go
+
+    p = _r(p).reshape(-1, 3)
+    return go.Scatter3d(
+        x=p[:, 0],
+        y=p[:, 1],
+        z=p[:, 2],
+        mode="markers",
+        name=name,
+        marker={"size": size, "color": colour},
+        hoverinfo="name",
+        **kw,
+    )
+
+
+def _mesh(name: str, v: Array, faces: NDArray[np.int64], colour: str, **kw: Any) -> Any:
+    import plotly.graph_objects as go
+
+    v = _r(v)
+    return go.Mesh3d(
+        x=v[:, 0],
+        y=v[:, 1],
+        z=v[:, 2],
+        i=faces[:, 0],
+        j=faces[:, 1],
+        k=faces[:, 2],
+        color=colour,
+        name=name,
+        showlegend=kw.pop("showlegend", True),
+        flatshading=True,
+        lighting={"ambient": 0.55, "diffuse": 0.7, "specular": 0.1},
+        hoverinfo="name",
+        **kw,
+    )
+
+
+def _lines(name: str, segments: Array, colour: str, width: float, **kw: Any) -> Any:
+    """``(k, 2, 3)`` segments as one broken line (a None gap after each)."""
+    import plotly.graph_objects as go
+
+    seg = _r(segments)
+    gap = np.full((len(seg), 1, 3), np.nan)
+    p = np.concatenate([seg, gap], axis=1).reshape(-1, 3)  # (3k, 3)
+    return go.Scatter3d(
+        x=p[:, 0],
+        y=p[:, 1],
+        z=p[:, 2],
+        mode="lines",
+        name=name,
+        line={"color": colour, "width": width},
+        hoverinfo="name",
+        connectgaps=False,
+        **kw,
+    )
+
+
+def _triad(name: str, T: Array, size: float) -> list[Any]:
+    import plotly.graph_objects as go
+
+    o = T[:3, 3]
+    out = []
+    for k in range(3):
+        end = o + size * T[:3, k]
+        p = _r(np.stack([o, end]))
+        out.append(
+            go.Scatter3d(
+                x=p[:, 0],
+                y=p[:, 1],
+                z=p[:, 2],
+                mode="lines+text",
+                text=["", f"{name} {'xyz'[k]}"],
+                textfont={"color": AXIS_COLOURS[k], "size": 11},
+                line={"color": AXIS_COLOURS[k], "width": 6},
+                name=name,
+                legendgroup=name,
+                showlegend=k == 0,
+                hoverinfo="name",
+            )
+        )
+    return out
+
+
+def _traces(L: RunLayers, half: float) -> tuple[list[Any], list[dict[str, Any]]]:
+    """The plot's traces, and the alternatives as ``{label, trace}`` (the index
+    of the trace that shows each)."""
+    traces: list[Any] = []
+    if len(L.table):
+        traces.append(_points("table", L.table, COLOURS["table"], 1.5))
+    elif len(L.scene):
+        traces.append(_points("scene points", L.scene, COLOURS["scene"], 1.5))
+    if len(L.object):
+        traces.append(_points("object", L.object, COLOURS["object"], 2.5))
+    if len(L.obstacles):
+        traces.append(_points("obstacles", L.obstacles, COLOURS["obstacles"], 2))
+    if len(L.samples):
+        traces.append(
+            _points(
+                "bounding-box samples",
+                L.samples,
+                COLOURS["samples"],
+                2,
+                visible="legendonly",
+            )
+        )
     for code, reason in enumerate(L.reason_names):
         sel = L.reasons == code
         if sel.any():
-            layers.append(
-                {
-                    "name": f"candidates: {reason.replace('_', ' ')} "
-                    f"({int(sel.sum())})",
-                    "color": REASON_COLOURS.get(reason, "#555555"),
-                    "size": 4 if reason == "feasible" else 3,
-                    "points": _flat(L.candidates[sel]),
-                }
+            traces.append(
+                _points(
+                    f"candidate: {reason.replace('_', ' ')} ({int(sel.sum())})",
+                    L.candidates[sel],
+                    REASON_COLOURS.get(reason, "#555555"),
+                    3.5 if reason == "feasible" else 2.5,
+                    opacity=1.0 if reason == "feasible" else 0.6,
+                )
             )
-    layers += [
-        {
-            "name": "gripper (chosen)",
-            "color": "#404048",
-            "size": 2,
-            "points": _flat(L.gripper),
+    if len(L.directions):
+        traces.append(
+            _lines(
+                "feasible approach directions",
+                L.directions,
+                COLOURS["directions"],
+                1.5,
+                visible="legendonly",
+            )
+        )
+    faces = L.shape_faces
+    if len(L.shape_pregrasp):
+        traces.append(
+            _mesh(
+                "gripper at pre-grasp (open)",
+                L.shape_pregrasp,
+                faces,
+                COLOURS["gripper_pregrasp"],
+                opacity=0.4,
+            )
+        )
+    if len(L.shape_grasp):
+        traces.append(
+            _mesh(
+                "gripper at grasp (closed)",
+                L.shape_grasp,
+                faces,
+                COLOURS["gripper_grasp"],
+            )
+        )
+    if len(L.approach):
+        traces.append(
+            _lines(
+                "approach: pre-grasp → grasp",
+                L.approach[None],
+                COLOURS["approach"],
+                6,
+            )
+        )
+    if len(L.contacts):
+        traces.append(_points("contact points", L.contacts, COLOURS["contacts"], 4))
+    if L.holding.any():
+        traces.append(
+            _points(
+                f"workspace spheres holding the object ({int(L.holding.sum())})",
+                L.spheres[L.holding],
+                COLOURS["holding"],
+                3,
+            )
+        )
+    if (~L.holding).any():
+        traces.append(
+            _points(
+                f"other workspace spheres ({int((~L.holding).sum())})",
+                L.spheres[~L.holding],
+                COLOURS["other_spheres"],
+                2,
+                visible="legendonly",
+            )
+        )
+    for reason, verts in L.rejected:
+        traces.append(
+            _mesh(
+                f"rejected: {reason.replace('_', ' ')}",
+                verts,
+                faces,
+                REASON_COLOURS[reason],
+                opacity=0.35,
+                legendgroup=reason,
+            )
+        )
+    if L.T_world_object is not None:
+        traces += _triad("object frame", L.T_world_object, 0.35 * half)
+    if L.T_world_ee is not None:
+        traces += _triad("gripper frame", L.T_world_ee, 0.3 * half)
+    # (the frames' axes: x red, y green, z blue, each tip lettered)
+    # step 0 is the chosen grasp (no alternative drawn), then each alternative
+    alternatives: list[dict[str, Any]] = []
+    if L.T_world_ee is not None:
+        alternatives.append({"label": "the chosen grasp", "trace": None})
+    for label, verts in L.alternatives:
+        alternatives.append({"label": label, "trace": len(traces)})
+        traces.append(
+            _mesh(
+                "alternative (open)",
+                verts,
+                faces,
+                "#f28e2b",
+                opacity=0.45,
+                legendgroup="alternative",
+                visible=False,
+                showlegend=False,
+            )
+        )
+    return traces, alternatives
+
+
+def page_figure(run: Run) -> tuple[Any, dict[str, Any]]:
+    """The plotly figure of a run, and the sidebar's data (title, notes,
+    summary lines, alternatives)."""
+    import plotly.graph_objects as go
+
+    L = run_layers(run)
+    centre, half = _focus(L)
+    traces, alternatives = _traces(L, half)
+    fig = go.Figure(data=traces)
+    box = {
+        f"{name}axis": {
+            "range": [float(centre[i] - half), float(centre[i] + half)],
+            "title": f"{name} (m)",
+        }
+        for i, name in enumerate("xyz")
+    }
+    fig.update_layout(
+        scene={**box, "aspectmode": "cube"},
+        margin={"l": 0, "r": 0, "t": 0, "b": 0},
+        legend={
+            "x": 1.0,
+            "xanchor": "right",
+            "y": 1.0,
+            "bgcolor": "rgba(255,255,255,0.85)",
+            "font": {"size": 11},
+            "itemsizing": "constant",
         },
-        {
-            "name": "contacts",
-            "color": "#10c030",
-            "size": 3.5,
-            "points": _flat(L.contacts),
-        },
-    ]
-    spheres = [
-        {
-            "name": "spheres holding the object",
-            "color": "#10c030",
-            "spheres": [
-                [*map(lambda v: round(float(v), 4), c), round(float(r), 4)]
-                for c, r in zip(L.spheres[L.holding], L.radii[L.holding], strict=True)
-            ],
-        },
-        {
-            "name": "other workspace spheres",
-            "color": "#4d99ff",
-            "spheres": [
-                [*map(lambda v: round(float(v), 4), c), round(float(r), 4)]
-                for c, r in zip(L.spheres[~L.holding], L.radii[~L.holding], strict=True)
-            ],
-        },
-    ]
-    axes = []
-    for name, T in (
-        ("object frame", L.T_world_object),
-        ("gripper frame", L.T_world_ee),
-    ):
-        if T is not None:
-            axes.append({"name": name, "T": np.asarray(T).round(5).tolist()})
-    return {
+        uirevision="keep",  # stepping keeps the camera where the user put it
+    )
+    res = run.result
+    summary = []
+    if res is not None:
+        n = len(L.candidates)
+        summary.append(f"{int((L.reasons == 0).sum())} of {n} candidates feasible")
+        if res.found and res.score is not None:
+            summary.append(f"score {res.score:.3f}")
+        if not res.found and res.hint:
+            summary.append(res.hint)
+    side = {
         "title": L.title,
         "notes": L.notes,
-        "centre": [float(x) for x in centre],
-        "half": float(half),
-        "layers": [lay for lay in layers if lay["points"]],
-        "spheres": [s for s in spheres if s["spheres"]],
-        "axes": axes,
+        "summary": summary,
+        "alternatives": alternatives,
     }
+    return fig, side
 
 
 _PAGE = """<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
+<meta name="viewport" content="width=device-width, initial-scale=1">
 <title>__TITLE__</title>
 <style>
- body{margin:0;font:13px system-ui,sans-serif;background:#fafafa;color:#222}
- #wrap{display:flex;height:100vh}
- #side{width:270px;padding:10px;overflow:auto;border-right:1px solid #ddd}
- canvas{flex:1;display:block;cursor:grab;background:#fff}
- label{display:block;margin:2px 0;white-space:nowrap}
- .sw{display:inline-block;width:10px;height:10px;margin-right:5px;border-radius:5px}
- h1{font-size:14px;margin:0 0 6px} .note{color:#a40} #status{color:#777;margin-top:8px}
-</style></head><body><div id="wrap"><div id="side">
-<h1>__TITLE__</h1><div id="notes"></div><div id="layers"></div>
-<p>drag: rotate · shift-drag: pan · wheel: zoom</p>
-<button id="reset">reset view</button><div id="status">loading…</div></div>
-<canvas id="c"></canvas></div>
-<script id="data" type="application/json">__DATA__</script>
+ html,body{margin:0;height:100%;font:14px system-ui,sans-serif;color:#222}
+ #wrap{display:grid;grid-template-columns:__SIDE__px minmax(0,1fr);height:100vh}
+ #side{padding:14px;overflow:auto;border-right:1px solid #ddd;background:#fafafa;
+  box-sizing:border-box;min-width:0}
+ #side h1{font-size:16px;margin:0 0 8px;overflow-wrap:anywhere}
+ #side p{margin:4px 0} .note{color:#a40}
+ #steps{display:flex;gap:6px;align-items:center;margin:6px 0}
+ #steps button{font-size:14px;padding:2px 10px}
+ #main{min-width:0;min-height:0} #plot{width:100%;height:100%}
+ .hint{color:#666;font-size:12px;margin-top:14px}
+</style></head><body><div id="wrap"><aside id="side">
+<h1 id="title">__TITLE__</h1><div id="notes"></div><div id="summary"></div>
+<div id="alts"><h2 style="font-size:14px;margin:14px 0 4px">Alternatives</h2>
+<div id="steps"><button id="prev" title="previous alternative">◀</button>
+<button id="next" title="next alternative">▶</button></div>
+<p id="alt-label"></p></div>
+<p class="hint">Drag to turn, scroll to zoom, hover for names.
+Click a legend entry to hide or show it; double-click to show it alone.</p>
+</aside><main id="main">__PLOT__</main></div>
+<script id="side-data" type="application/json">__SIDE_DATA__</script>
 <script>
 "use strict";
-const D = JSON.parse(document.getElementById("data").textContent);
-const cv = document.getElementById("c"), ctx = cv.getContext("2d");
-const on = {};
-let yaw = -0.9, pitch = 0.45, zoom = 1, pan = [0, 0];
-function addToggle(name, color) {
-  on[name] = true;
-  const l = document.createElement("label"), b = document.createElement("input");
-  b.type = "checkbox"; b.checked = true;
-  b.onchange = () => { on[name] = b.checked; draw(); };
-  const s = document.createElement("span");
-  s.className = "sw"; s.style.background = color;
-  l.append(b, s, document.createTextNode(name));
-  document.getElementById("layers").append(l);
-}
-D.layers.forEach(l => addToggle(l.name, l.color));
-D.spheres.forEach(s => addToggle(s.name, s.color));
-D.axes.forEach(a => addToggle(a.name, "#e33"));
-D.notes.forEach(n => { const p = document.createElement("div"); p.className = "note";
-  p.textContent = n; document.getElementById("notes").append(p); });
-function project(x, y, z) {
-  // world z up; rotate about z (yaw), then tilt (pitch); camera looks along +y
-  x -= D.centre[0]; y -= D.centre[1]; z -= D.centre[2];
-  const cy = Math.cos(yaw), sy = Math.sin(yaw);
-  const cp = Math.cos(pitch), sp = Math.sin(pitch);
-  const x1 = cy * x - sy * y, y1 = sy * x + cy * y;
-  const y2 = cp * y1 - sp * z, z2 = sp * y1 + cp * z;
-  const s = zoom * Math.min(cv.width, cv.height) / (2.2 * D.half);
-  return [cv.width / 2 + pan[0] + s * x1, cv.height / 2 + pan[1] - s * z2, y2, s];
-}
-function draw() {
-  cv.width = cv.clientWidth * devicePixelRatio;
-  cv.height = cv.clientHeight * devicePixelRatio;
-  ctx.clearRect(0, 0, cv.width, cv.height);
-  const items = []; let drawn = 0;
-  D.layers.forEach(l => { if (!on[l.name]) return; const p = l.points;
-    for (let i = 0; i < p.length; i += 3) {
-      const q = project(p[i], p[i + 1], p[i + 2]);
-      items.push([q[2], 0, q[0], q[1], l.size * devicePixelRatio, l.color]); } });
-  D.spheres.forEach(g => { if (!on[g.name]) return;
-    g.spheres.forEach(s => { const q = project(s[0], s[1], s[2]);
-      items.push([q[2], 1, q[0], q[1], Math.max(1, s[3] * q[3]), g.color]); }); });
-  items.sort((a, b) => b[0] - a[0]);  // far to near
-  for (const it of items) {
-    ctx.beginPath(); ctx.arc(it[2], it[3], it[4], 0, 2 * Math.PI);
-    if (it[1]) {
-      ctx.strokeStyle = it[5]; ctx.lineWidth = devicePixelRatio; ctx.stroke();
+(function () {
+  const S = JSON.parse(document.getElementById("side-data").textContent);
+  const plot = document.getElementById("plot");
+  const add = (id, text, cls) => { const p = document.createElement("p");
+    p.textContent = text; if (cls) p.className = cls;
+    document.getElementById(id).append(p); };
+  S.notes.forEach(n => add("notes", n, "note"));
+  S.summary.forEach(n => add("summary", n));
+  const alts = S.alternatives, label = document.getElementById("alt-label");
+  let current = 0;
+  const drawn = alts.filter(a => a.trace !== null);
+  function show(k) {
+    if (!alts.length) return;
+    current = (k + alts.length) % alts.length;
+    if (drawn.length) {
+      const on = drawn.map(a => a === alts[current]);
+      Plotly.restyle(plot, {visible: on, showlegend: on}, drawn.map(a => a.trace));
     }
-    else { ctx.fillStyle = it[5]; ctx.fill(); }
-    drawn++;
+    label.textContent = (current + 1) + " of " + alts.length + ": " +
+      alts[current].label;
+    label.dataset.step = current;
   }
-  D.axes.forEach(a => { if (!on[a.name]) return; const T = a.T;
-    const o = project(T[0][3], T[1][3], T[2][3]);
-    ["#e22", "#2a2", "#22e"].forEach((c, k) => { const L = 0.3 * D.half;
-      const e = project(T[0][3] + L * T[0][k], T[1][3] + L * T[1][k],
-                        T[2][3] + L * T[2][k]);
-      ctx.beginPath(); ctx.moveTo(o[0], o[1]); ctx.lineTo(e[0], e[1]);
-      ctx.strokeStyle = c; ctx.lineWidth = 2 * devicePixelRatio; ctx.stroke(); }); });
-  const st = document.getElementById("status");
-  st.textContent = "drew " + drawn + " items";
-  st.dataset.ready = "1"; st.dataset.drawn = drawn;
-}
-let drag = null;
-cv.onmousedown = e => { drag = [e.clientX, e.clientY, e.shiftKey]; };
-window.onmouseup = () => { drag = null; };
-window.onmousemove = e => { if (!drag) return;
-  const dx = e.clientX - drag[0], dy = e.clientY - drag[1];
-  if (drag[2]) { pan[0] += dx * devicePixelRatio; pan[1] += dy * devicePixelRatio; }
-  else { yaw += dx * 0.01; pitch = Math.max(-1.57, Math.min(1.57, pitch + dy * 0.01)); }
-  drag[0] = e.clientX; drag[1] = e.clientY; draw(); };
-cv.onwheel = e => { e.preventDefault(); zoom *= Math.exp(-e.deltaY * 0.001); draw(); };
-document.getElementById("reset").onclick = () => { yaw = -0.9; pitch = 0.45; zoom = 1;
-  pan = [0, 0]; draw(); };
-window.onresize = draw;
-draw();
+  if (alts.length) { show(0); } else {
+    document.getElementById("steps").hidden = true;
+    label.textContent = "none: this run has no grasp";
+  }
+  document.getElementById("prev").onclick = () => show(current - 1);
+  document.getElementById("next").onclick = () => show(current + 1);
+  window.addEventListener("resize", () => Plotly.Plots.resize(plot));
+  window.wsgraspReady = true;
+})();
 </script></body></html>
 """
 
@@ -218,11 +379,22 @@ def render_html(run: Run, path: str | Path) -> Path:
     Path
         The file written.
     """
-    data = page_data(run)
+    fig, side = page_figure(run)
+    plot = fig.to_html(
+        full_html=False,
+        include_plotlyjs=True,
+        div_id="plot",
+        default_width="100%",
+        default_height="100%",
+        config={"responsive": True, "displaylogo": False},
+    )
     # "</" inside the JSON would end the script element early
-    text = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
-    page = _PAGE.replace("__TITLE__", html.escape(data["title"])).replace(
-        "__DATA__", text
+    data = json.dumps(side, separators=(",", ":")).replace("</", "<\\/")
+    page = (
+        _PAGE.replace("__TITLE__", html.escape(side["title"]))
+        .replace("__SIDE__", str(SIDEBAR_PX))
+        .replace("__SIDE_DATA__", data)
+        .replace("__PLOT__", plot)
     )
     out = Path(path)
     out.write_text(page, encoding="utf-8")

@@ -1,11 +1,13 @@
-"""A recorded run as a picture: scene, table, object, candidates coloured by why
-they were rejected, and the chosen gripper with the spheres that hold the object,
-from a few viewpoints (matplotlib)."""
+"""A recorded run as a picture a person reads at a glance: the object on its
+table, the chosen grasp as the gripper's shape at pre-grasp (open, light) and at
+grasp (closed, dark) with the approach between them, the contacts and the
+workspace spheres that hold the object, the candidates coloured by outcome, and
+for a run without a grasp a few rejected poses of each reason, labelled. Four
+viewpoints (matplotlib); every colour drawn is in the legend, once."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -14,23 +16,42 @@ from numpy.typing import NDArray
 if TYPE_CHECKING:
     from wsgrasp.record import Run
 
-__all__ = ["RunLayers", "run_layers", "render_png", "REASON_COLOURS"]
+__all__ = ["RunLayers", "run_layers", "REASON_COLOURS", "COLOURS"]
 
 Array = NDArray[np.float64]
 
-#: colour of each candidate outcome (the same as the Foxglove channels)
 #: feasible approach directions drawn at most
 MAX_DIRECTIONS = 150
+#: rejected poses drawn per reason when a run found no grasp
+REJECTED_PER_REASON = 2
+#: colour of each candidate outcome: no two alike, none like the table or object
 REASON_COLOURS: dict[str, str] = {
-    "feasible": "#1abf33",
-    "table_collision": "#8c5926",
-    "object_collision": "#e52626",
-    "obstacle_collision": "#9933bf",
-    "finger_without_contact": "#8c99b2",
+    "feasible": "#2ca02c",
+    "table_collision": "#8c564b",
+    "object_collision": "#d62728",
+    "obstacle_collision": "#9467bd",
+    "finger_without_contact": "#e6a100",
 }
-#: (elevation, azimuth) in degrees, and the panel titles
-VIEWS = ((25.0, -60.0), (0.0, -90.0), (0.0, 0.0), (89.0, -90.0))
-VIEW_NAMES = ("perspective", "front (from -y)", "side (from +x)", "top")
+#: colours of everything else that is drawn
+COLOURS: dict[str, str] = {
+    "scene": "#c7c7c7",
+    "table": "#d8cfc0",
+    "object": "#1f77b4",
+    "obstacles": "#ff7f0e",
+    "samples": "#17becf",
+    "gripper_grasp": "#3b4252",
+    "gripper_pregrasp": "#9fb3c8",
+    "approach": "#e377c2",
+    "directions": "#98df8a",
+    "contacts": "#ffd400",
+    "holding": "#00a6a6",
+    "other_spheres": "#7fb2e5",
+}
+#: (elevation, azimuth) in degrees, and the panel titles; the axis each
+#: orthographic view looks along (its tick labels would pile up) is hidden
+VIEWS = ((25.0, -60.0), (0.0, -90.0), (0.0, 0.0), (89.9, -90.0))
+VIEW_NAMES = ("perspective", "front (from -y)", "side (from +x)", "top (from +z)")
+DEPTH_AXIS = (None, "y", "x", "z")
 #: at most this many scene points are drawn
 MAX_SCENE_POINTS = 6000
 
@@ -63,6 +84,19 @@ class RunLayers:
         Pre-grasp and grasp origins of the chosen pose (empty if none).
     directions : (k, 2, 3) float
         Short strokes along the approach of the feasible candidates.
+    shape_grasp, shape_pregrasp : (V, 3) float
+        Vertices of the gripper's shape at the grasp (closed posture) and the
+        pre-grasp (open posture), world frame; empty if no grasp.
+    shape_faces : (F, 3) int
+        Triangles of both shapes.
+    shape_source : str
+        ``"urdf"`` or ``"superellipsoids"`` (see :mod:`wsgrasp.view._shape`).
+    T_world_pregrasp : (4, 4) float or None
+    rejected : list of (reason, (V, 3) float)
+        A few rejected poses of each reason, as the gripper's shape, when no
+        grasp was found.
+    alternatives : list of (label, (V, 3) float)
+        The plan's alternatives (best first), as the open gripper's shape.
     """
 
     scene: Array
@@ -84,6 +118,15 @@ class RunLayers:
     notes: list[str] = field(default_factory=list)
     approach: Array = field(default_factory=lambda: np.zeros((0, 3)))
     directions: Array = field(default_factory=lambda: np.zeros((0, 2, 3)))
+    shape_grasp: Array = field(default_factory=lambda: np.zeros((0, 3)))
+    shape_pregrasp: Array = field(default_factory=lambda: np.zeros((0, 3)))
+    shape_faces: NDArray[np.int64] = field(
+        default_factory=lambda: np.zeros((0, 3), dtype=np.int64)
+    )
+    shape_source: str = ""
+    T_world_pregrasp: Array | None = None
+    rejected: list[tuple[str, Array]] = field(default_factory=list)
+    alternatives: list[tuple[str, Array]] = field(default_factory=list)
 
 
 def _pts(x: Any) -> Array:
@@ -124,6 +167,12 @@ def run_layers(run: Run) -> RunLayers:
     else:
         cands, reasons = np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
     res = run.result
+    model = None
+    try:
+        model = run.gripper
+    except RecordingError:
+        if res is not None:
+            notes.append("no gripper model in the file")
     gripper_pts = np.zeros((0, 3))
     spheres, radii = np.zeros((0, 3)), np.zeros(0)
     holding = np.zeros(0, dtype=bool)
@@ -131,11 +180,8 @@ def run_layers(run: Run) -> RunLayers:
     T_ee = None
     if res is not None and res.found and res.T_world_ee is not None:
         T_ee = np.asarray(res.T_world_ee, dtype=np.float64)
-        try:
-            g = run.gripper
-        except RecordingError:
-            notes.append("no gripper model in the file")
-        else:
+        if model is not None:
+            g = model
             R, t = T_ee[:3, :3], T_ee[:3, 3]
             gripper_pts = np.asarray(g.cloud) @ R.T + t  # (ng, 3)
             spheres = np.asarray(g.sphere_centers) @ R.T + t  # (S, 3)
@@ -165,6 +211,9 @@ def run_layers(run: Run) -> RunLayers:
         T = np.asarray(cs.T_world_gwc)[ok]  # (k, 4, 4)
         stroke = 0.25 * float(np.ptp(obj, axis=0).max())
         directions = np.stack([T[:, :3, 3] - stroke * T[:, :3, 2], T[:, :3, 3]], 1)
+    shapes = _shapes(model, res, cs, T_ee)
+    if shapes.get("source") == "superellipsoids":
+        notes.append("gripper drawn as its body superellipsoids (URDF not found)")
     mode = None if res is None else res.info.get("sampling_mode")
     if res is not None and mode:
         notes.append(
@@ -191,12 +240,72 @@ def run_layers(run: Run) -> RunLayers:
         notes=notes,
         approach=approach,
         directions=directions,
+        shape_grasp=shapes.get("grasp", np.zeros((0, 3))),
+        shape_pregrasp=shapes.get("pregrasp", np.zeros((0, 3))),
+        shape_faces=shapes.get("faces", np.zeros((0, 3), dtype=np.int64)),
+        shape_source=str(shapes.get("source", "")),
+        T_world_pregrasp=(
+            None
+            if res is None or T_ee is None or res.T_world_pregrasp is None
+            else np.asarray(res.T_world_pregrasp, dtype=np.float64)
+        ),
+        rejected=shapes.get("rejected", []),
+        alternatives=shapes.get("alternatives", []),
     )
 
 
+def _shapes(model: Any, res: Any, cs: Any, T_ee: Array | None) -> dict[str, Any]:
+    """The gripper's shape at grasp and pre-grasp, at the alternatives, and at a
+    few rejected poses of each reason (no grasp), world frame."""
+    from wsgrasp.planning.result import REASONS
+    from wsgrasp.view._shape import gripper_shape, posed
+
+    if model is None or res is None:
+        return {}
+    out: dict[str, Any] = {}
+    open_shape = gripper_shape(model, res.joints_pregrasp or None)
+    out["faces"] = open_shape.faces
+    out["source"] = open_shape.source
+    if res.found and T_ee is not None:
+        closed = gripper_shape(model, res.joints_grasp or model.closed)
+        out["grasp"] = posed(closed, T_ee)
+        pre = res.T_world_pregrasp if res.T_world_pregrasp is not None else T_ee
+        out["pregrasp"] = posed(open_shape, pre)
+        out["alternatives"] = [
+            (f"#{a.index}: score {a.score:.3f}", posed(open_shape, a.T_world_ee))
+            for a in res.alternatives
+        ]
+    elif cs is not None and len(cs):
+        reasons = np.asarray(cs.reason, dtype=np.int64)
+        T_all = np.asarray(cs.T_world_ee)  # (C, 4, 4)
+        rejected = []
+        for code, reason in enumerate(REASONS):
+            idx = np.flatnonzero(reasons == code)
+            if code == 0 or not len(idx):
+                continue
+            # spread over the candidates of this reason: first, middle, ...
+            pick = idx[np.linspace(0, len(idx) - 1, REJECTED_PER_REASON).astype(int)]
+            for i in np.unique(pick):
+                rejected.append((reason, posed(open_shape, T_all[i])))
+        out["rejected"] = rejected
+    return out
+
+
 def _focus(layers: RunLayers) -> tuple[Array, float]:
-    """Centre and half-size of the drawn box: around the object and the gripper."""
-    parts = [p for p in (layers.object, layers.gripper, layers.samples) if len(p)]
+    """Centre and half-size of the drawn box: around the object and the gripper
+    at grasp and pre-grasp."""
+    parts = [
+        p
+        for p in (
+            layers.object,
+            layers.gripper,
+            layers.samples,
+            layers.shape_grasp,
+            layers.shape_pregrasp,
+            *(verts for _, verts in layers.rejected),
+        )
+        if len(p)
+    ]
     if not parts:
         parts = [layers.scene] if len(layers.scene) else [np.zeros((1, 3))]
     pts = np.concatenate(parts)
@@ -211,127 +320,3 @@ def _sphere_wire(c: Array, r: float, n: int = 10) -> tuple[Array, Array, Array]:
     y = c[1] + r * np.outer(np.sin(u), np.sin(v))
     z = c[2] + r * np.outer(np.ones_like(u), np.cos(v))
     return x, y, z
-
-
-def render_png(run: Run, path: str | Path, *, dpi: int = 100) -> Path:
-    """Draw a run from four viewpoints into a PNG.
-
-    Parameters
-    ----------
-    run
-        From :func:`wsgrasp.record.open_run`.
-    path
-        Output ``.png``.
-    dpi
-        Resolution.
-
-    Returns
-    -------
-    Path
-        The file written.
-    """
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-    from matplotlib.lines import Line2D
-
-    L = run_layers(run)
-    centre, half = _focus(L)
-    fig = plt.figure(figsize=(14, 11))
-    for i, ((elev, azim), name) in enumerate(zip(VIEWS, VIEW_NAMES, strict=True)):
-        ax: Any = fig.add_subplot(2, 2, i + 1, projection="3d")
-        # only what lies near the object is drawn: the scene can be much larger
-        near = np.all(np.abs(L.scene - centre) < half, axis=1)
-        ax.scatter(*L.scene[near].T, s=1, c="0.75", depthshade=False, alpha=0.5)
-        if len(L.table):
-            near_t = np.all(np.abs(L.table - centre) < half, axis=1)
-            ax.scatter(*L.table[near_t].T, s=1, c="#a08060", depthshade=False)
-        if len(L.obstacles):
-            ax.scatter(*L.obstacles.T, s=2, c="#e08020", depthshade=False)
-        if len(L.object):
-            ax.scatter(*L.object.T, s=3, c="#1f66e5", depthshade=False)
-        if len(L.candidates):
-            for code, reason in enumerate(L.reason_names):
-                sel = L.reasons == code
-                if sel.any():
-                    ax.scatter(
-                        *L.candidates[sel].T,
-                        s=10 if reason == "feasible" else 5,
-                        c=REASON_COLOURS.get(reason, "0.3"),
-                        depthshade=False,
-                        alpha=0.9 if reason == "feasible" else 0.5,
-                    )
-        if len(L.gripper):
-            ax.scatter(*L.gripper.T, s=2, c="0.25", depthshade=False, alpha=0.6)
-            for c, r in zip(L.spheres[L.holding], L.radii[L.holding], strict=True):
-                ax.plot_wireframe(*_sphere_wire(c, float(r)), color="#10c030", lw=0.5)
-            idle = ~L.holding
-            ax.scatter(*L.spheres[idle].T, s=4, c="#4d99ff", depthshade=False)
-            T = L.T_world_ee
-            if T is not None:
-                for k, col in enumerate(("r", "g", "b")):
-                    end = T[:3, 3] + T[:3, k] * half * 0.4
-                    ax.plot(*np.stack([T[:3, 3], end]).T, color=col, lw=2)
-        if len(L.contacts):
-            ax.scatter(*L.contacts.T, s=8, c="#10c030", depthshade=False)
-        if len(L.directions):
-            # one line with a break (NaN) after each stroke: (k, 3, 3) -> (3k, 3)
-            gap = np.full((len(L.directions), 1, 3), np.nan)
-            strokes = np.concatenate([L.directions, gap], axis=1).reshape(-1, 3)
-            ax.plot(*strokes.T, color=REASON_COLOURS["feasible"], lw=0.4)
-        if len(L.approach):
-            ax.plot(*L.approach.T, color="#d02090", lw=2, ls="--")
-        for k in range(3):
-            getattr(ax, f"set_{'xyz'[k]}lim")(centre[k] - half, centre[k] + half)
-        ax.set_box_aspect((1, 1, 1))
-        ax.view_init(elev=elev, azim=azim)
-        ax.set_title(name)
-        ax.set_xlabel("x (m)")
-        ax.set_ylabel("y (m)")
-        ax.set_zlabel("z (m)")
-    handles = [
-        Line2D([], [], ls="", marker="o", color="#1f66e5", label="object"),
-        Line2D([], [], ls="", marker="o", color="#a08060", label="table"),
-        *(
-            Line2D(
-                [],
-                [],
-                ls="",
-                marker="o",
-                color=REASON_COLOURS.get(r, "0.3"),
-                label=f"{r.replace('_', ' ')} ({int((L.reasons == c).sum())})",
-            )
-            for c, r in enumerate(L.reason_names)
-            if (L.reasons == c).any()
-        ),
-        Line2D([], [], ls="", marker="o", color="0.25", label="gripper (chosen)"),
-        Line2D([], [], ls="-", color="#10c030", label="spheres holding the object"),
-        *(
-            [Line2D([], [], ls="--", color="#d02090", label="approach from pre-grasp")]
-            if len(L.approach)
-            else []
-        ),
-        *(
-            [
-                Line2D(
-                    [],
-                    [],
-                    ls="-",
-                    lw=0.6,
-                    color=REASON_COLOURS["feasible"],
-                    label="feasible approach directions",
-                )
-            ]
-            if len(L.directions)
-            else []
-        ),
-    ]
-    fig.legend(handles=handles, loc="lower center", ncol=4, frameon=False)
-    title = L.title + ("" if not L.notes else "\n" + "; ".join(L.notes))
-    fig.suptitle(title)
-    fig.tight_layout(rect=(0, 0.05, 1, 0.97))
-    out = Path(path)
-    fig.savefig(out, dpi=dpi)
-    plt.close(fig)
-    return out
