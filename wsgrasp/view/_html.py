@@ -274,10 +274,11 @@ def page_figure(run: Run) -> tuple[Any, dict[str, Any]]:
     fig.update_layout(
         scene={**box, "aspectmode": "cube"},
         margin={"l": 0, "r": 0, "t": 0, "b": 0},
-        legend={
-            "x": 1.0,
-            "xanchor": "right",
-            "y": 1.0,
+        legend={  # along the bottom, clear of the object in the middle
+            "orientation": "h",
+            "x": 0.0,
+            "y": 0.0,
+            "yanchor": "bottom",
             "bgcolor": "rgba(255,255,255,0.85)",
             "font": {"size": 11},
             "itemsizing": "constant",
