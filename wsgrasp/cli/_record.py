@@ -29,7 +29,7 @@ def _fmt(x: Any, nd: int = 4) -> str:
 
 def inspect(
     run: Path = typer.Argument(..., help="A recorded run (.mcap)."),
-    top: int = typer.Option(5, "--top", "-k", help="Candidates to list."),
+    top: int = typer.Option(5, "--top-k", "-k", "--top", help="Candidates to list."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON."),
 ) -> None:
     """Show a recorded run: inputs, versions, timings, why candidates were
