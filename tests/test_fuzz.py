@@ -81,6 +81,12 @@ def _leaves(data: Any, path: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
     return [path]
 
 
+def _get(data: Any, path: tuple[Any, ...]) -> Any:
+    for key in path:
+        data = data[key]
+    return data
+
+
 def _put(data: Any, path: tuple[Any, ...], value: Any) -> Any:
     out = copy.deepcopy(data)
     node = out
@@ -96,13 +102,18 @@ def mutations(base: dict[str, Any]) -> st.SearchStrategy[dict[str, Any]]:
     added."""
     leaves = _leaves(base)
 
+    numeric = [p for p in leaves if isinstance(_get(base, p), (int, float))]
+
     @st.composite
     def mutate(draw: Any) -> dict[str, Any]:
         data = copy.deepcopy(base)
         for _ in range(draw(st.integers(1, 3))):
-            if draw(st.booleans()) or not leaves:
-                path = draw(st.sampled_from(leaves))
-                data = _put(data, path, draw(nasty_values))
+            kind = draw(st.sampled_from(["number", "number", "any", "new key"]))
+            if kind == "number" and numeric:
+                # a number turned NaN, inf, negative, zero or huge
+                data = _put(data, draw(st.sampled_from(numeric)), draw(nasty_floats))
+            elif kind == "any" or not leaves:
+                data = _put(data, draw(st.sampled_from(leaves)), draw(nasty_values))
             else:
                 data[draw(st.text(min_size=1, max_size=8))] = draw(nasty_values)
         return data
