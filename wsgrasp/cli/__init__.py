@@ -42,6 +42,7 @@ _COMMAND_MODULES = (
     "_record",
     "_eval",
     "_scaffold",
+    "_batch",
 )
 for _name in _COMMAND_MODULES:
     importlib.import_module(f"wsgrasp.cli.{_name}").register(app)

@@ -75,6 +75,15 @@ def eval_command(
     workers: int = typer.Option(
         0, "--workers", "-j", min=0, help="Processes (0: one per CPU core)."
     ),
+    engine: str = typer.Option(
+        "local",
+        "--engine",
+        help="local: a process pool on this machine; ray: Ray tasks (extra "
+        "'ray'), the same outcomes trial for trial.",
+    ),
+    address: str | None = typer.Option(
+        None, "--address", help="Ray cluster address; local Ray without it."
+    ),
     as_json: bool = typer.Option(False, "--json", help="Print the report as JSON."),
     json_out: Path | None = typer.Option(
         None, "--json-out", help="Write the report as JSON here."
@@ -89,6 +98,7 @@ def eval_command(
 ) -> None:
     """Grasp trials in MuJoCo: drop, look (3 depth views), plan, approach, close,
     lift 20 cm, hold 10 s; success rate and plan time per object and gripper."""
+    from wsgrasp.batch.engine import make_engine
     from wsgrasp.errors import InputError
     from wsgrasp.sim import (
         EvalConfig,
@@ -104,6 +114,7 @@ def eval_command(
     from wsgrasp.sim.objects import resolve_objects
 
     require_mujoco()
+    eng = make_engine(engine, workers, address)  # a bad --engine: before any work
     if drop not in ("natural", "random"):
         raise InputError(
             f"--drop {drop!r} is unknown, expected natural or random",
@@ -139,7 +150,10 @@ def eval_command(
         workers=workers,
         record_dir=record_dir,
     )
-    records, wall = run_eval(config, progress=not quiet and not as_json)
+    try:
+        records, wall = run_eval(config, progress=not quiet and not as_json, engine=eng)
+    finally:
+        eng.close()
     import os
 
     primary = entries[0].label
@@ -155,7 +169,8 @@ def eval_command(
             "specs": {e.label: e.source for e in entries},
             "trials_per_object": trials,
             "seed": seed,
-            "workers": workers or os.cpu_count(),
+            "workers": eng.workers if eng.name == "ray" else workers or os.cpu_count(),
+            "engine": eng.name,
             "wall_s": round(wall, 1),
             "params": params.to_json(),
         },

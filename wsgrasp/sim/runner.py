@@ -16,13 +16,16 @@ import zlib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from wsgrasp.sim._pool import progress_bar, run_in_processes
+from wsgrasp.sim._pool import progress_bar
 from wsgrasp.sim.objects import SimObject
 from wsgrasp.sim.params import SimParams
+
+if TYPE_CHECKING:
+    from wsgrasp.batch.engine import Engine
 
 __all__ = ["EvalConfig", "SpecEntry", "Task", "run_eval", "run_task", "task_seed"]
 
@@ -248,12 +251,16 @@ def run_eval(
     *,
     progress: bool = True,
     on_record: Callable[[dict[str, Any]], None] | None = None,
+    engine: Engine | None = None,
 ) -> tuple[list[dict[str, Any]], float]:
     """Run every task of ``config``; returns the trial records (in task order) and
     the wall-clock seconds.
 
     ``workers`` 0 means one per CPU core; 1 runs in this process (no pool).
+    ``engine`` (:mod:`wsgrasp.batch.engine`, e.g. Ray) runs the tasks instead
+    of the local pool; the records are the same, trial for trial.
     """
+    from wsgrasp.batch.engine import LocalEngine
     from wsgrasp.sim._mujoco import require_mujoco
 
     require_mujoco()
@@ -282,18 +289,15 @@ def run_eval(
             _emit(recs, on_record)
             advance(tally.add(recs))
 
-        if workers == 1:
-            for i, task in enumerate(tasks):
-                done(i, run_task(task))
-        else:
-            run_in_processes(
-                run_task,
-                [(t,) for t in tasks],
-                workers,
-                done,
-                initializer=_init_worker,
-                on_crash=lambda i: done(i, _crashed(tasks[i])),
-            )
+        # this process with 1 worker, else a pool of spawned processes or Ray
+        eng = engine if engine is not None else LocalEngine(workers)
+        eng.run(
+            run_task,
+            [(t,) for t in tasks],
+            done,
+            initializer=_init_worker,
+            on_crash=lambda i: done(i, _crashed(tasks[i])),
+        )
     wall = time.perf_counter() - start
     return [r for rs in results for r in (rs or [])], wall
 

@@ -1,0 +1,342 @@
+"""``wsgrasp dataset``: grasp candidates with simulated success labels.
+
+A job is one (object, trial): the object is dropped with the trial's seed (the
+same seed sequence as ``wsgrasp eval``'s trial, :func:`wsgrasp.sim.runner.
+task_seed`, so the same drop and views), seen in three noisy depth views, and
+planned on; every feasible candidate is a row of the ``candidates`` table with
+its score terms, and the ``top_k`` best by score are executed in MuJoCo for a
+label. The plan's chosen grasp is executed as ``wsgrasp eval`` does (its
+pre-grasp pose and joint targets, ``label_targets`` "plan"); the other
+candidates have only a pose, so they approach from ``standoff`` and close to the
+gripper's ``closed`` posture ("closed"). The ``scenes`` table has one row per
+job: the settled pose, the views (points in camera frames) and the counts.
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from wsgrasp.batch.engine import Engine, shared
+from wsgrasp.batch.sink import PartSink, require_pyarrow
+
+__all__ = ["DatasetSummary", "dataset_schemas", "run_dataset"]
+
+
+def dataset_schemas() -> dict[str, Any]:
+    """The ``candidates`` and ``scenes`` tables' schemas (see the README)."""
+    pa = require_pyarrow()
+    pose = pa.list_(pa.float64(), 16)  # (4, 4) row-major
+    floats = pa.map_(pa.string(), pa.float64())
+    candidates = pa.schema(
+        [
+            ("object", pa.string()),
+            ("trial", pa.int32()),
+            ("candidate", pa.int32()),
+            ("rank", pa.int32()),
+            ("score", pa.float64()),
+            ("score_terms", floats),
+            ("T_world_ee", pose),
+            ("T_world_gwc", pose),
+            ("sample", pa.int32()),
+            ("orientation", pa.int32()),
+            ("theta", pa.float64()),
+            ("flipped", pa.bool_()),
+            ("contacts", pa.list_(pa.int32())),
+            ("chosen", pa.bool_()),
+            ("label", pa.string()),
+            ("success", pa.bool_()),
+            ("label_targets", pa.string()),
+            ("gripper", pa.string()),
+        ]
+    )
+    view = pa.struct(
+        [
+            ("T_world_camera", pose),
+            ("points", pa.list_(pa.float32())),  # (n, 3) camera frame, flattened
+        ]
+    )
+    scenes = pa.schema(
+        [
+            ("object", pa.string()),
+            ("trial", pa.int32()),
+            ("seed", pa.list_(pa.int64())),
+            ("mass", pa.float64()),
+            ("friction", pa.float64()),
+            ("T_world_object", pose),
+            ("drops", pa.int32()),
+            ("found", pa.bool_()),
+            ("best_candidate", pa.int32()),
+            ("candidates", pa.int32()),
+            ("feasible", pa.int32()),
+            ("labels", pa.int32()),
+            ("successes", pa.int32()),
+            ("error", pa.string()),
+            ("scene_s", pa.float64()),
+            ("plan_ms", pa.float64()),
+            ("sim_s", pa.float64()),
+            ("views", pa.list_(view)),
+            ("gripper", pa.string()),
+            ("spec_hash", pa.string()),
+            ("wsgrasp_version", pa.string()),
+            ("worker", pa.string()),
+        ]
+    )
+    return {"candidates": candidates, "scenes": scenes}
+
+
+@dataclass
+class DatasetSummary:
+    """What a dataset run did (this run's scenes; ``resumed`` were there)."""
+
+    scenes: int = 0
+    resumed: int = 0
+    candidates: int = 0
+    labels: int = 0
+    successes: int = 0
+    errors: int = 0
+    wall_s: float = 0.0
+
+    @property
+    def labels_per_hour(self) -> float:
+        return 3600.0 * self.labels / self.wall_s if self.wall_s > 0 else 0.0
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "scenes": self.scenes,
+            "resumed": self.resumed,
+            "candidates": self.candidates,
+            "labels": self.labels,
+            "successes": self.successes,
+            "errors": self.errors,
+            "wall_s": round(self.wall_s, 1),
+            "labels_per_hour": round(self.labels_per_hour, 1),
+        }
+
+
+def _flat(T: Any) -> list[float]:
+    return np.asarray(T, dtype=np.float64).reshape(16).tolist()
+
+
+# --------------------------------------------------------------------------------
+# inside a worker
+# --------------------------------------------------------------------------------
+def dataset_job(obj: Any, trial: int) -> dict[str, list[dict[str, Any]]]:
+    """One (object, trial): drop, views, plan, labels; rows of both tables."""
+    from wsgrasp._version import __version__
+    from wsgrasp.api import Pipeline
+    from wsgrasp.errors import WsgraspError
+    from wsgrasp.perception.io import scene_from_arrays
+    from wsgrasp.sim.runner import _cached, _object_key, task_seed
+    from wsgrasp.sim.scene import build_scene
+    from wsgrasp.sim.trial import render_views, settle_object
+
+    pay = shared()
+    p = pay["params"]
+    seed = task_seed(pay["seed"], obj.name, trial)
+    rng = np.random.default_rng(seed)
+    okey = _object_key(obj)
+    t0 = time.perf_counter()
+    bare = _cached(("bare", okey, p), lambda: build_scene(obj, None, p))
+    settled = settle_object(bare, obj, rng, p)
+    views = render_views(obj, settled.T_world_object, rng, p)
+    cloud = scene_from_arrays([(v.points, v.T_world_camera) for v in views])
+    scene_row: dict[str, Any] = {
+        "object": obj.name,
+        "trial": trial,
+        "seed": seed,
+        "mass": float(obj.mass),
+        "friction": float(obj.friction),
+        "T_world_object": _flat(settled.T_world_object),
+        "drops": settled.drops,
+        "found": False,
+        "scene_s": time.perf_counter() - t0,
+        "views": [
+            {
+                "T_world_camera": _flat(v.T_world_camera),
+                "points": np.asarray(v.points, dtype=np.float32).reshape(-1),
+            }
+            for v in views
+        ],
+        "gripper": pay["gripper"],
+        "spec_hash": pay["spec_hash"],
+        "wsgrasp_version": __version__,
+        "worker": f"{socket.gethostname()}:{os.getpid()}",
+    }
+    key = ("pipeline", id(pay))
+    pipeline = _cached(key, lambda: Pipeline(pay["spec"], gripper=pay["model"]))
+    try:
+        result = pipeline.plan(cloud)
+    except WsgraspError as exc:
+        scene_row["error"] = f"{type(exc).__name__}: {exc}"
+        return {"candidates": [], "scenes": [scene_row]}
+    rows = _candidate_rows(result, obj.name, trial, pay["gripper"])
+    t1 = time.perf_counter()
+    for row in rows[: pay["top_k"]]:
+        ex = _label(row, result, obj, settled, okey, pay)
+        row.update(label=ex.outcome, success=ex.outcome == "success")
+    scene_row.update(
+        found=bool(result.found),
+        best_candidate=result.best_index,
+        candidates=len(result.candidates),
+        feasible=len(rows),
+        labels=min(len(rows), pay["top_k"]),
+        successes=sum(bool(r.get("success")) for r in rows),
+        plan_ms=float(result.timing_ms.get("total", float("nan"))),
+        sim_s=time.perf_counter() - t1,
+    )
+    return {"candidates": rows, "scenes": [scene_row]}
+
+
+def _candidate_rows(
+    result: Any, name: str, trial: int, gripper: str
+) -> list[dict[str, Any]]:
+    """Every feasible candidate, best score first (rank 0)."""
+    C = result.candidates
+    feasible = np.flatnonzero(C.reason == 0)  # (F,) candidate indices
+    order = feasible[np.argsort(-C.score[feasible], kind="stable")]
+    ee = C.T_world_ee[order].reshape(-1, 16)  # (F, 16) row-major poses
+    gwc = C.T_world_gwc[order].reshape(-1, 16)
+    terms = {k: np.asarray(v)[order] for k, v in C.terms.items()}
+    return [
+        {
+            "object": name,
+            "trial": trial,
+            "candidate": int(c),
+            "rank": r,
+            "score": float(C.score[c]),
+            "score_terms": {k: float(v[r]) for k, v in terms.items()},
+            "T_world_ee": ee[r].tolist(),
+            "T_world_gwc": gwc[r].tolist(),
+            "sample": int(C.sample[c]),
+            "orientation": int(C.orientation[c]),
+            "theta": float(C.theta[c]),
+            "flipped": bool(C.flipped[c]),
+            "contacts": C.contacts[c].tolist(),
+            "chosen": bool(result.found and c == result.best_index),
+            "gripper": gripper,
+        }
+        for r, c in enumerate(order)
+    ]
+
+
+def _label(
+    row: dict[str, Any],
+    result: Any,
+    obj: Any,
+    settled: Any,
+    okey: Any,
+    pay: dict[str, Any],
+) -> Any:
+    """Execute one candidate in MuJoCo (the plan's targets for the chosen one)."""
+    from wsgrasp.sim.gripper import load_sim_gripper
+    from wsgrasp.sim.runner import _cached
+    from wsgrasp.sim.scene import build_scene
+    from wsgrasp.sim.trial import execute_grasp
+
+    p, g = pay["params"], pay["gripper"]
+    sim_gripper = _cached(("gripper", g, p), lambda: load_sim_gripper(g, p))
+    world = _cached(("scene", okey, g, p), lambda: build_scene(obj, sim_gripper, p))
+    T = np.asarray(row["T_world_ee"], dtype=np.float64).reshape(4, 4)
+    if row["chosen"]:
+        row["label_targets"] = "plan"
+        pre = result.T_world_pregrasp
+        return execute_grasp(
+            world,
+            settled.T_world_object,
+            T,
+            p,
+            T_world_pregrasp=None if pre is None else np.asarray(pre, np.float64),
+            joints_pregrasp=dict(result.joints_pregrasp),
+            joints_grasp=dict(result.joints_grasp),
+        )
+    row["label_targets"] = "closed"
+    return execute_grasp(world, settled.T_world_object, T, p)
+
+
+# --------------------------------------------------------------------------------
+# the parent
+# --------------------------------------------------------------------------------
+def run_dataset(
+    objects: Sequence[Any],
+    spec: Any,
+    gripper: str,
+    out: Path,
+    engine: Engine,
+    *,
+    trials: int = 1,
+    top_k: int = 5,
+    seed: int = 0,
+    params: Any = None,
+    resume: bool = False,
+    row_group: int = 8,
+    progress: bool = True,
+) -> DatasetSummary:
+    """Every object × trial on ``engine``; tables ``out/candidates`` and
+    ``out/scenes``, written as jobs finish (``resume`` skips the scenes there)."""
+    from wsgrasp._names import gripper_ref
+    from wsgrasp.batch.plans import spec_hash
+    from wsgrasp.gripper import load_gripper
+    from wsgrasp.sim._mujoco import require_mujoco
+    from wsgrasp.sim._pool import progress_bar
+    from wsgrasp.sim.params import SimParams
+
+    require_mujoco()
+    base = spec.source.parent if spec.source is not None else Path.cwd()
+    payload = {
+        "spec": spec,
+        "model": load_gripper(gripper_ref(spec.gripper, base)),  # built once
+        "gripper": gripper,
+        "spec_hash": spec_hash(spec),
+        "params": params if params is not None else SimParams(),
+        "seed": seed,
+        "top_k": top_k,
+    }
+    sink = PartSink(
+        out,
+        dataset_schemas(),
+        "scenes",
+        ("object", "trial"),
+        resume=resume,
+        row_group=row_group,
+    )
+    summary = DatasetSummary()
+    jobs = []
+    for obj in objects:
+        for t in range(trials):
+            if (obj.name, t) in sink.done:
+                summary.resumed += 1
+            else:
+                jobs.append((obj, t))
+    start = time.perf_counter()
+    with progress_bar(progress and bool(jobs), "scenes", len(jobs)) as advance:
+
+        def done(i: int, rows: dict[str, list[dict[str, Any]]]) -> None:
+            sink.add(rows)
+            s = rows["scenes"][0]
+            summary.scenes += 1
+            summary.candidates += len(rows["candidates"])
+            summary.labels += int(s.get("labels") or 0)
+            summary.successes += int(s.get("successes") or 0)
+            summary.errors += s.get("error") is not None
+            advance(f"{summary.successes}/{summary.labels} held · {s['object']}")
+
+        def crashed(i: int) -> None:
+            obj, t = jobs[i]
+            error = "WorkerCrashed: the process of this scene died every time"
+            row = {"object": obj.name, "trial": t, "error": error, "gripper": gripper}
+            done(i, {"candidates": [], "scenes": [row]})
+
+        try:
+            engine.run(dataset_job, jobs, done, shared=payload, on_crash=crashed)
+        finally:
+            sink.flush()
+    summary.wall_s = time.perf_counter() - start
+    return summary

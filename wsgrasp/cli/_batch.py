@@ -1,0 +1,295 @@
+"""``wsgrasp batch`` (many scenes × specs to Parquet) and ``wsgrasp dataset``
+(grasp candidates with simulated labels), locally or on Ray."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import typer
+from rich.table import Table
+
+from wsgrasp.cli._common import console, err_console, print_json
+from wsgrasp.errors import InputError
+
+
+def register(app: typer.Typer) -> None:
+    """Add this module's commands to ``app``."""
+    app.command("batch")(batch)
+    app.command("dataset")(dataset)
+
+
+_ENGINE_HELP = "local: a process pool on this machine; ray: Ray tasks (extra 'ray')."
+_ADDRESS_HELP = "Ray cluster address (e.g. ray://head:10001); local Ray without it."
+_WORKERS_HELP = "Processes or Ray CPUs (0: one per CPU core)."
+
+
+def _manifest(path: Path) -> dict[str, list[str]]:
+    """``scenes``, ``specs`` and ``grippers`` of a manifest YAML, its paths
+    relative to the manifest's folder."""
+    from wsgrasp._loading import load_document
+
+    data, _ = load_document(path)
+    if not isinstance(data, dict):
+        raise InputError(
+            f"manifest {path} is not a mapping",
+            hint="write scenes:, specs: and grippers: lists",
+        )
+    extra = sorted(set(data) - {"scenes", "specs", "grippers"})
+    if extra:
+        raise InputError(
+            f"manifest {path} has unknown keys {extra}",
+            hint="use scenes:, specs: and grippers:",
+        )
+    out: dict[str, list[str]] = {}
+    for key in ("scenes", "specs", "grippers"):
+        items = data.get(key) or []
+        if not isinstance(items, list):
+            raise InputError(
+                f"manifest {path}: {key} is not a list", hint=f"write {key}: [a, b]"
+            )
+        out[key] = [str(i) for i in items]
+
+    def rel(item: str, *, labelled: bool) -> str:
+        label, sep, file = item.rpartition("=") if labelled else ("", "", item)
+        p = Path(file)
+        if not p.is_absolute() and (path.parent / p).exists():
+            p = path.parent / p
+        return f"{label}{sep}{p}"
+
+    out["scenes"] = [rel(s, labelled=False) for s in out["scenes"]]
+    out["specs"] = [rel(s, labelled=True) for s in out["specs"]]
+    out["grippers"] = [
+        rel(g, labelled=False) if Path(path.parent / g).exists() else g
+        for g in out["grippers"]
+    ]
+    return out
+
+
+def batch_specs(specs: list[str], grippers: list[str]) -> list[Any]:
+    """The batch's specs: each ``[LABEL=]FILE`` (labelled by LABEL or the file's
+    stem) with each gripper in place of its own (``LABEL@gripper``), or each
+    gripper's default spec (labelled by the gripper) without ``--spec``."""
+    from wsgrasp.batch import BatchSpec
+    from wsgrasp.cli._plan import plan_spec
+
+    if not specs and not grippers:
+        raise typer.BadParameter(
+            "give spec files (--spec FILE) or grippers (--gripper NAME), or both",
+            param_hint="--spec / --gripper",
+        )
+    out = []
+    if not specs:
+        out = [BatchSpec(Path(g).stem, plan_spec(None, g)) for g in grippers]
+    for item in specs:
+        label, _, file = item.rpartition("=")
+        path = Path(file)
+        if not path.exists():
+            raise InputError(
+                f"spec file {file!r} does not exist",
+                hint="pass --spec FILE or --spec LABEL=FILE",
+            )
+        label = label or path.stem
+        replaced: list[str | None] = [*grippers] or [None]
+        for g in replaced:
+            name = label if g is None else f"{label}@{Path(g).stem}"
+            out.append(BatchSpec(name, plan_spec(path, g)))
+    return out
+
+
+def batch(
+    scenes: list[str] = typer.Argument(
+        None,
+        help="Scenes: cloud files, scene YAMLs, or folders of them; each is its "
+        "own scene.",
+    ),
+    specs: list[str] = typer.Option(
+        [], "--spec", "-s", help="Pipeline spec FILE or LABEL=FILE; repeat."
+    ),
+    grippers: list[str] = typer.Option(
+        [],
+        "--gripper",
+        "-g",
+        help="Gripper name or YAML: replaces each spec's gripper, or plans with "
+        "its default spec without --spec; repeat.",
+    ),
+    out: Path = typer.Option(..., "--out", "-o", help="Output folder."),
+    manifest: Path | None = typer.Option(
+        None,
+        "--manifest",
+        help="YAML with scenes:, specs: and grippers: lists (added to the arguments).",
+    ),
+    engine: str = typer.Option("local", "--engine", help=_ENGINE_HELP),
+    address: str | None = typer.Option(None, "--address", help=_ADDRESS_HELP),
+    workers: int = typer.Option(0, "--workers", "-j", min=0, help=_WORKERS_HELP),
+    resume: bool = typer.Option(
+        False, "--resume", help="Continue a run in --out: plan only what is missing."
+    ),
+    record: bool = typer.Option(
+        False, "--record", help="One MCAP recording per plan, in OUT/runs/<spec>/."
+    ),
+    row_group: int = typer.Option(
+        64, "--row-group", min=1, help="Rows per Parquet part written."
+    ),
+    as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+) -> None:
+    """Plan every scene with every spec; one row per plan in OUT/plans (Parquet),
+    written as plans finish, so --resume after a crash loses nothing."""
+    from wsgrasp.batch import make_engine, run_batch, scene_paths
+
+    scenes = list(scenes or [])
+    specs, grippers = list(specs), list(grippers)
+    if manifest is not None:
+        m = _manifest(manifest)
+        scenes += m["scenes"]
+        specs += m["specs"]
+        grippers += m["grippers"]
+    if not scenes:
+        raise typer.BadParameter(
+            "give scenes (files or folders) or a --manifest", param_hint="SCENES"
+        )
+    entries = batch_specs(specs, grippers)
+    paths = scene_paths(scenes)
+    eng = make_engine(engine, workers, address)
+    try:
+        summary = run_batch(
+            paths,
+            entries,
+            out,
+            eng,
+            resume=resume,
+            record=record,
+            row_group=row_group,
+            progress=not quiet and not as_json,
+        )
+    finally:
+        eng.close()
+    data: dict[str, Any] = {
+        "plans": summary.planned,
+        "found": summary.found,
+        "resumed": summary.resumed,
+        "wall_s": round(summary.wall_s, 2),
+        "plans_per_s": round(summary.plans_per_s, 2),
+        "engine": eng.name,
+        "workers": eng.workers,
+        "out": str(out / "plans"),
+        "failures": [
+            {"spec": s, "reason": r, "count": n, "scene": sc}
+            for s, r, n, sc in summary.failure_counts()
+        ],
+    }
+    if as_json:
+        print_json(data)
+        return
+    _print_failures(data["failures"])
+    console.print(
+        f"{summary.planned} plans ({summary.found} found) in {summary.wall_s:.1f} s "
+        f"on {eng.name} × {eng.workers}: {summary.plans_per_s:.2f} plans/s"
+        + (f"; {summary.resumed} already in {out}" if summary.resumed else "")
+        + f"; rows in {out / 'plans'}",
+        highlight=False,
+    )
+
+
+def _print_failures(failures: list[dict[str, Any]], limit: int = 12) -> None:
+    if not failures:
+        return
+    t = Table(title="plans without a grasp")
+    for c in ("spec", "count", "reason", "e.g. scene"):
+        t.add_column(c, justify="right" if c == "count" else "left")
+    for f in failures[:limit]:
+        t.add_row(f["spec"], str(f["count"]), f["reason"][:100], f["scene"])
+    console.print(t)
+    if len(failures) > limit:
+        err_console.print(f"... and {len(failures) - limit} more reasons (see --json)")
+
+
+def dataset(
+    objects: list[str] = typer.Argument(
+        None,
+        help="Objects: a set (random:000-099, paper13), paper13 names, or mesh "
+        "files (metres).",
+    ),
+    object_sets: list[str] = typer.Option(
+        [], "--objects", help="More objects, as the arguments; repeat."
+    ),
+    gripper: str = typer.Option(
+        ..., "--gripper", "-g", help="Registered gripper name or gripper YAML."
+    ),
+    spec_file: Path | None = typer.Option(
+        None,
+        "--spec",
+        "-s",
+        help="Pipeline spec file (its gripper replaced); the gripper's default "
+        "spec without it.",
+    ),
+    out: Path = typer.Option(..., "--out", "-o", help="Output folder."),
+    trials: int = typer.Option(
+        1, "--trials", "-n", min=1, help="Drops (scenes) per object."
+    ),
+    top_k: int = typer.Option(
+        5, "--top-k", "-k", min=0, help="Best candidates of each scene simulated."
+    ),
+    seed: int = typer.Option(0, "--seed", help="Random seed of drops and cameras."),
+    engine: str = typer.Option("local", "--engine", help=_ENGINE_HELP),
+    address: str | None = typer.Option(None, "--address", help=_ADDRESS_HELP),
+    workers: int = typer.Option(0, "--workers", "-j", min=0, help=_WORKERS_HELP),
+    resume: bool = typer.Option(
+        False, "--resume", help="Continue a run in --out: only the missing scenes."
+    ),
+    as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+) -> None:
+    """Grasp-dataset generation: each object dropped (seeded) and seen in three
+    depth views, every feasible candidate with its score terms, and MuJoCo
+    success labels for the top K; Parquet tables OUT/candidates and OUT/scenes."""
+    from wsgrasp.batch import make_engine, run_dataset
+    from wsgrasp.cli._plan import plan_spec
+    from wsgrasp.sim import SimParams, load_sim_gripper, require_mujoco
+    from wsgrasp.sim.objects import resolve_objects
+
+    require_mujoco()
+    names = list(objects or []) + list(object_sets)
+    if not names:
+        raise typer.BadParameter(
+            "give objects (random:000-099, paper13 or mesh files)",
+            param_hint="OBJECTS",
+        )
+    spec = plan_spec(spec_file, gripper)
+    params = SimParams()
+    load_sim_gripper(gripper, params)  # fail early: no URDF, no closed posture
+    resolved = resolve_objects(
+        names, workers=workers, progress=not quiet and not as_json
+    )
+    eng = make_engine(engine, workers, address)
+    try:
+        summary = run_dataset(
+            resolved.objects,
+            spec,
+            gripper,
+            out,
+            eng,
+            trials=trials,
+            top_k=top_k,
+            seed=seed,
+            params=params,
+            resume=resume,
+            progress=not quiet and not as_json,
+        )
+    finally:
+        eng.close()
+    data = {**summary.to_json(), "engine": eng.name, "workers": eng.workers}
+    data["skipped_objects"] = {k.name: k.reason for k in resolved.skipped}
+    if as_json:
+        print_json(data)
+        return
+    console.print(
+        f"{summary.scenes} scenes of {len(resolved.objects)} objects: "
+        f"{summary.candidates} feasible candidates, {summary.labels} labels "
+        f"({summary.successes} held) in {summary.wall_s:.0f} s on {eng.name} × "
+        f"{eng.workers} ({summary.labels_per_hour:.0f} labels/h)"
+        + (f"; {summary.resumed} scenes already in {out}" if summary.resumed else "")
+        + f"; tables in {out}",
+        highlight=False,
+    )
