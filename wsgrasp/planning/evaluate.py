@@ -13,6 +13,7 @@ The finger check's cost does not grow with the number of spheres: see
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from numpy.typing import NDArray
@@ -22,9 +23,22 @@ from wsgrasp.geometry import (
     invert_transforms,
 )
 from wsgrasp.gripper.model import GripperModel
+from wsgrasp.planning.dense import (
+    CandidateStructure,
+    StructuredPoses,
+    hull_vertices,
+    table_bounds,
+    table_exact,
+)
 from wsgrasp.planning.spheres import FingerSpheres
 
-__all__ = ["FingerSpheres", "Evaluation", "evaluate_candidates", "TableSE"]
+__all__ = [
+    "CandidateStructure",
+    "FingerSpheres",
+    "Evaluation",
+    "evaluate_candidates",
+    "TableSE",
+]
 
 Array = NDArray[np.float64]
 
@@ -147,6 +161,8 @@ def evaluate_candidates(
     obstacle_points: Array,
     table: TableSE,
     spheres: FingerSpheres | None = None,
+    *,
+    structure: CandidateStructure | None = None,
 ) -> Evaluation:
     """Evaluate every candidate pose.
 
@@ -161,6 +177,11 @@ def evaluate_candidates(
     table : TableSE
     spheres : FingerSpheres, optional
         Prebuilt sphere index of ``gripper`` (built here when omitted).
+    structure : CandidateStructure, optional
+        How ``T_world_gripper`` was built (``candidate_poses``: samples outer,
+        orientations inner). With it, the table test is decided per orientation
+        from the gripper cloud's support function (``wsgrasp.planning.dense``);
+        the verdicts are the same.
     """
     spheres = spheres or FingerSpheres(gripper)
     C, nf, no = len(T_world_gripper), gripper.num_fingers, len(object_points)
@@ -168,7 +189,11 @@ def evaluate_candidates(
     contacts = np.zeros((C, nf), dtype=np.int64)
 
     # 1. table
-    table_hit, min_height = table_collisions(T_world_gripper, gripper.cloud, table)
+    min_height: Array | None = None
+    if structure is None:
+        table_hit, min_height = table_collisions(T_world_gripper, gripper.cloud, table)
+    else:
+        table_hit = _structured_table(T_world_gripper, gripper, table, structure)
     reason[table_hit] = 1
     alive = np.flatnonzero(~table_hit)
 
@@ -221,10 +246,49 @@ def evaluate_candidates(
         if holding_parts
         else np.zeros((0, no, nf), dtype=bool)
     )
+    if min_height is None:
+        _, low = table_collisions(T_world_gripper[feasible], gripper.cloud, table)
+    else:
+        low = min_height[feasible]
     return Evaluation(
         reason=reason,
         contacts=contacts,
         feasible=feasible,
         holding=holding,
-        min_table_height=min_height[feasible],
+        min_table_height=low,
     )
+
+
+@lru_cache(maxsize=16)
+def _hull(cloud_bytes: bytes) -> Array:
+    return hull_vertices(np.frombuffer(cloud_bytes, dtype=np.float64).reshape(-1, 3))
+
+
+def _structured_table(
+    T_world_gripper: Array,
+    gripper: GripperModel,
+    table: TableSE,
+    structure: CandidateStructure,
+) -> NDArray[np.bool_]:
+    """The table verdicts of a structured candidate set: the support-function
+    bounds decide most, the exact test over the whole cloud the rest."""
+    C = len(T_world_gripper)
+    if structure.num_candidates != C:
+        raise ValueError(
+            f"structure describes {structure.num_candidates} candidates, "
+            f"T_world_gripper holds {C}; pass the structure it was built from"
+        )
+    poses = StructuredPoses.build(structure, gripper.T_gripper_gwc)
+    if C:
+        ends = np.array([0, C - 1])
+        if not np.allclose(poses.transforms(ends), T_world_gripper[ends], atol=1e-9):
+            raise ValueError(
+                "structure does not match T_world_gripper: pass the samples, "
+                "orientations and depths candidate_poses was given"
+            )
+    cloud = np.ascontiguousarray(gripper.cloud, dtype=np.float64)
+    hit, unsure = table_bounds(poses, _hull(cloud.tobytes()), table)
+    idx = np.flatnonzero(unsure)
+    if idx.size:
+        hit[idx] = table_exact(poses, cloud, table, idx)
+    return hit

@@ -1,0 +1,146 @@
+"""The structured-candidate kernels (``wsgrasp.planning.dense``) give the verdicts of
+the loop-by-loop reference, in any frame, for any orientations, depths and spheres."""
+
+from __future__ import annotations
+
+import numpy as np
+from conftest import box_object, make_jaw_gripper
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from scipy.spatial.transform import Rotation
+
+from wsgrasp.geometry import transform_points
+from wsgrasp.planning.candidates import candidate_poses
+from wsgrasp.planning.dense import (
+    CandidateStructure,
+    StructuredPoses,
+    hull_vertices,
+    table_bounds,
+    table_exact,
+)
+from wsgrasp.planning.evaluate import TableSE, evaluate_candidates
+from wsgrasp.planning.reference import reference_search
+
+SETTINGS = settings(
+    max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow]
+)
+
+
+def _frame(rotvec, shift) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :3] = Rotation.from_rotvec(rotvec).as_matrix()
+    T[:3, 3] = shift
+    return T
+
+
+def _scene(seed: int, T_world_scene: np.ndarray, n_orient: int, obstacles: bool):
+    """A box on a table, samples in its box, random orientations and depths; the
+    object sits low so that many candidates reach the table."""
+    rng = np.random.default_rng(seed)
+    size = rng.uniform([0.02, 0.02, 0.03], [0.09, 0.09, 0.2])
+    obj = box_object(size, 300, seed)
+    obj[:, 2] -= obj[:, 2].min() - rng.uniform(0.0, 0.02)
+    T_scene_object = np.eye(4)
+    T_scene_object[:3, :3] = Rotation.from_rotvec(rng.normal(0, 0.3, 3)).as_matrix()
+    T_scene_object[:3, 3] = obj.mean(axis=0)
+    samples = rng.uniform(-size / 2, size / 2, (int(rng.integers(1, 25)), 3))
+    R = Rotation.random(n_orient, random_state=seed).as_matrix().reshape(-1, 3, 3)
+    depth = rng.uniform(-0.04, 0.03, len(R)) if seed % 2 else None
+    obs = (
+        box_object([0.04, 0.04, 0.1], 120, seed + 1) + [size[0] / 2 + 0.05, 0, 0.05]
+        if obstacles
+        else np.zeros((0, 3))
+    )
+    table = TableSE(
+        T_world_scene,
+        np.array([0.0, 0.0, -0.05]),
+        np.array([0.35, 0.35, 0.05]) * rng.uniform(0.2, 1.0),
+        10.0,
+    )
+    return (
+        transform_points(T_world_scene, obj),
+        T_world_scene @ T_scene_object,
+        samples,
+        R,
+        depth,
+        transform_points(T_world_scene, obs),
+        table,
+    )
+
+
+def _table_verdicts(T_world_gripper, cloud, table):
+    """Brute force: every cloud point of every candidate, eq. (1) as the reference
+    writes it."""
+    T = np.linalg.inv(table.T_world_table) @ T_world_gripper
+    p = np.einsum("cij,nj->cni", T[:, :3, :3], cloud) + T[:, None, :3, 3]
+    d = np.abs(p - table.center) / table.semi_axes
+    v = d[..., 0] ** table.exponent + d[..., 1] ** table.exponent + d[..., 2] ** 2
+    return (v < 1.0).any(axis=1)
+
+
+@SETTINGS
+@given(
+    seed=st.integers(0, 10_000),
+    rotvec=st.tuples(*[st.floats(-3.0, 3.0)] * 3),
+    shift=st.tuples(*[st.floats(-2.0, 2.0)] * 3),
+    n_orient=st.integers(1, 40),
+)
+def test_table_bounds_never_contradict_the_cloud(seed, rotvec, shift, n_orient):
+    """A bound's "hit" is a hit and its "clear" is clear, point by point."""
+    g = make_jaw_gripper(spheres_per_finger=1 + seed % 12)
+    obj, T_wo, samples, R, depth, _, table = _scene(
+        seed, _frame(rotvec, shift), n_orient, False
+    )
+    _, T_wg, _, _ = candidate_poses(T_wo, samples, R, g.T_gripper_gwc, depth)
+    poses = StructuredPoses.build(
+        CandidateStructure(T_wo, samples, R, depth), g.T_gripper_gwc
+    )
+    np.testing.assert_allclose(
+        poses.transforms(np.arange(len(T_wg))), T_wg, rtol=0, atol=1e-12
+    )
+    hit, unsure = table_bounds(poses, hull_vertices(g.cloud), table)
+    truth = _table_verdicts(T_wg, g.cloud, table)
+    assert not np.any(hit & unsure)
+    np.testing.assert_array_equal(truth[~unsure], hit[~unsure])
+    everything = np.arange(len(T_wg))
+    np.testing.assert_array_equal(table_exact(poses, g.cloud, table, everything), truth)
+
+
+@SETTINGS
+@given(
+    seed=st.integers(0, 10_000),
+    rotvec=st.tuples(*[st.floats(-3.0, 3.0)] * 3),
+    shift=st.tuples(*[st.floats(-2.0, 2.0)] * 3),
+    n_orient=st.integers(1, 12),
+)
+def test_structured_evaluation_matches_reference(seed, rotvec, shift, n_orient):
+    """Reasons, contacts and the feasible set equal the reference's and the
+    unstructured path's, for random frames, orientations, depths and spheres."""
+    g = make_jaw_gripper(spheres_per_finger=1 + seed % 12)
+    obj, T_wo, samples, R, depth, obs, table = _scene(
+        seed, _frame(rotvec, shift), n_orient, bool(seed % 3 == 0)
+    )
+    _, T_wg, _, _ = candidate_poses(T_wo, samples, R, g.T_gripper_gwc, depth)
+    structure = CandidateStructure(T_wo, samples, R, depth)
+    fast = evaluate_candidates(T_wg, g, obj, obs, table, structure=structure)
+    plain = evaluate_candidates(T_wg, g, obj, obs, table)
+    ref = reference_search(g, T_wo, samples, R, obj, obs, table, depth)
+    np.testing.assert_array_equal(fast.reason, ref.reason)
+    np.testing.assert_array_equal(fast.contacts, ref.contacts)
+    np.testing.assert_array_equal(fast.feasible, plain.feasible)
+    np.testing.assert_array_equal(fast.holding, plain.holding)
+    np.testing.assert_allclose(
+        fast.min_table_height, plain.min_table_height, rtol=0, atol=1e-12
+    )
+
+
+def test_structure_that_does_not_match_is_refused(jaw_gripper):
+    obj, T_wo, samples, R, depth, obs, table = _scene(1, np.eye(4), 4, False)
+    _, T_wg, _, _ = candidate_poses(T_wo, samples, R, jaw_gripper.T_gripper_gwc)
+    wrong = CandidateStructure(T_wo, samples + 0.01, R, None)
+    try:
+        evaluate_candidates(T_wg, jaw_gripper, obj, obs, table, structure=wrong)
+    except ValueError as err:
+        assert "does not match" in str(err)
+    else:  # pragma: no cover
+        raise AssertionError("a mismatched structure was accepted")
