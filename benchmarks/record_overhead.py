@@ -4,7 +4,7 @@ Runs ``Pipeline(spec).plan(scene)`` without and with a recorder (to a temporary
 file, deleted after each run), alternating, so that load on a shared machine hits
 both alike, and prints medians: plan time, recording overhead (ms and %), file size
 and the time the planner's thread spent in the recorder. ``--baseline MODULE``
-adds another recorder (``MODULE.RunRecorder``, e.g. an older copy of
+(repeatable) adds another recorder (``MODULE.RunRecorder``, e.g. an older copy of
 ``wsgrasp.record`` importable under another name) to the same alternation.
 
     .venv/bin/python benchmarks/record_overhead.py [--runs 15] [--spec S ...]
@@ -130,14 +130,16 @@ def main() -> None:
     ap.add_argument("--runs", type=int, default=15)
     ap.add_argument("--spec", action="append")
     ap.add_argument("--scene", action="append")
-    ap.add_argument("--baseline", help="module with another RunRecorder")
+    ap.add_argument(
+        "--baseline", action="append", help="module with another RunRecorder"
+    )
     ap.add_argument("--json", action="store_true")
     a = ap.parse_args()
     from wsgrasp.record import RunRecorder
 
     recorders: dict[str, Any] = {"wsgrasp": RunRecorder}
-    if a.baseline:
-        recorders[a.baseline] = importlib.import_module(a.baseline).RunRecorder
+    for name in a.baseline or []:
+        recorders[name] = importlib.import_module(name).RunRecorder
     rows = [
         row
         for spec in a.spec or SPECS

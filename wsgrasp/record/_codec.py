@@ -45,6 +45,7 @@ __all__ = [
     "SCHEMA_NAME",
     "TOPICS",
     "dumps",
+    "encode",
     "loads",
 ]
 
@@ -226,16 +227,25 @@ def _decode_array(a: Any, cast: str | None) -> NDArray[Any]:
     return out.astype("<f8")
 
 
+def encode(value: Any, kind: str = "") -> tuple[bytes, Any]:
+    """The bytes of one ``wsgrasp.Record`` holding ``value``, and ``value`` as the
+    record holds it: plain data whose arrays are read-only views of the recorded
+    array bytes (as stored: float32-exact arrays as float32), a snapshot that
+    nothing the caller does later changes."""
+    arrays = _Arrays()
+    plain = encode_value(value, arrays)
+    text = json.dumps(plain, allow_nan=False, separators=(",", ":"))
+    msg = Record(format_version=FORMAT_VERSION, kind=kind, json=text)
+    stored: dict[int, Any] = {}
+    for i, (dtype, shape, data) in enumerate(arrays):  # data: our own copy
+        msg.arrays.add(dtype=dtype, shape=shape, data=data)
+        stored[i] = np.frombuffer(data, dtype=dtype).reshape(shape)
+    return bytes(msg.SerializeToString()), decode_value(plain, [], stored)
+
+
 def dumps(value: Any, kind: str = "") -> bytes:
     """Encode ``value`` to the bytes of one ``wsgrasp.Record``."""
-    arrays = _Arrays()
-    text = json.dumps(
-        encode_value(value, arrays), allow_nan=False, separators=(",", ":")
-    )
-    msg = Record(format_version=FORMAT_VERSION, kind=kind, json=text)
-    for dtype, shape, data in arrays:  # added in place: the bytes copied once
-        msg.arrays.add(dtype=dtype, shape=shape, data=data)
-    return bytes(msg.SerializeToString())
+    return encode(value, kind)[0]
 
 
 def loads(data: bytes) -> Any:

@@ -5,7 +5,8 @@ shows a run as it is.
 
 Each builder returns ``(topic, message)`` pairs; the recorder writes
 ``message.encode()`` under the schema ``type(message).get_schema()``. Quaternions
-come from scipy's ``Rotation`` (``q_xyzw``, Foxglove's order).
+(``q_xyzw``, Foxglove's order) come from scipy's ``Rotation``, one call for all
+the poses of a stage.
 """
 
 from __future__ import annotations
@@ -49,29 +50,36 @@ REASON_RGBA: dict[str, tuple[float, float, float, float]] = {
 _OTHER_RGBA = (0.3, 0.3, 0.3, 0.8)
 
 View = tuple[str, Any]  # (topic, foxglove-sdk message)
+PQ = tuple[list[float], list[float]]  # a position (3,) and q_xyzw (4,)
+_AT_ORIGIN: PQ = ([0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0])
 
 
 def _stamp(t_ns: int) -> Any:
     return fm.Timestamp(sec=t_ns // 1_000_000_000, nsec=t_ns % 1_000_000_000)
 
 
-def _pq(T: ArrayLike) -> tuple[list[list[float]], list[list[float]]]:
-    """Positions ``(k, 3)`` and quaternions ``q_xyzw`` ``(k, 4)`` of ``(k, 4, 4)``."""
+def _pqs(T: ArrayLike) -> list[PQ]:
+    """Position and ``q_xyzw`` of each transform ``(k, 4, 4)``: one Rotation."""
     T = np.asarray(T, dtype=np.float64).reshape(-1, 4, 4)  # (k, 4, 4)
     if len(T) == 0:
-        return [], []
-    return T[:, :3, 3].tolist(), Rotation.from_matrix(T[:, :3, :3]).as_quat().tolist()
+        return []
+    q = Rotation.from_matrix(T[:, :3, :3]).as_quat()  # (k, 4)
+    return list(zip(T[:, :3, 3].tolist(), q.tolist(), strict=True))
 
 
-def _poses(T: ArrayLike) -> list[Any]:
-    """Foxglove poses of transforms ``(k, 4, 4)``."""
+def _at(p: ArrayLike) -> list[PQ]:
+    """Unrotated poses at positions ``p`` (k, 3)."""
     return [
-        fm.Pose(
-            position=fm.Vector3(x=p[0], y=p[1], z=p[2]),
-            orientation=fm.Quaternion(x=q[0], y=q[1], z=q[2], w=q[3]),
-        )
-        for p, q in zip(*_pq(T), strict=True)
+        (x, _AT_ORIGIN[1]) for x in np.asarray(p, np.float64).reshape(-1, 3).tolist()
     ]
+
+
+def _pose(pq: PQ) -> Any:
+    (x, y, z), (qx, qy, qz, qw) = pq
+    return fm.Pose(
+        position=fm.Vector3(x=x, y=y, z=z),
+        orientation=fm.Quaternion(x=qx, y=qy, z=qz, w=qw),
+    )
 
 
 def _vector3(v: ArrayLike) -> Any:
@@ -113,32 +121,32 @@ def point_cloud(
     return fm.PointCloud(
         timestamp=_stamp(t_ns),
         frame_id=frame_id,
-        pose=_poses(np.eye(4))[0],
+        pose=_pose(_AT_ORIGIN),
         point_stride=12 if rgba is None else 16,
         fields=fields,
         data=rows.tobytes(),
     )
 
 
-def frame_transform(T_parent_child: ArrayLike, parent: str, child: str, t: int) -> Any:
-    """A ``foxglove.FrameTransform``: ``T_parent_child`` (4, 4)."""
-    (p,), (q,) = _pq(T_parent_child)
+def _transform(pq: PQ, parent: str, child: str, t: int) -> Any:
+    """A ``foxglove.FrameTransform`` putting ``child`` at ``pq`` in ``parent``."""
+    (x, y, z), (qx, qy, qz, qw) = pq
     return fm.FrameTransform(
         timestamp=_stamp(t),
         parent_frame_id=parent,
         child_frame_id=child,
-        translation=fm.Vector3(x=p[0], y=p[1], z=p[2]),
-        rotation=fm.Quaternion(x=q[0], y=q[1], z=q[2], w=q[3]),
+        translation=fm.Vector3(x=x, y=y, z=z),
+        rotation=fm.Quaternion(x=qx, y=qy, z=qz, w=qw),
     )
 
 
-def _pose_in_frame(T: ArrayLike, frame_id: str, t: int) -> Any:
-    return fm.PoseInFrame(timestamp=_stamp(t), frame_id=frame_id, pose=_poses(T)[0])
+def _pose_in_frame(pq: PQ, t: int) -> Any:
+    return fm.PoseInFrame(timestamp=_stamp(t), frame_id="world", pose=_pose(pq))
 
 
-def _cube(T: ArrayLike, size: ArrayLike, rgba: tuple[float, ...]) -> Any:
-    """A cube primitive at pose ``T`` (4, 4) with full extents ``size`` (3,)."""
-    return fm.CubePrimitive(pose=_poses(T)[0], size=_vector3(size), color=_color(rgba))
+def _cube(pq: PQ, size: ArrayLike, rgba: tuple[float, ...]) -> Any:
+    """A cube primitive at ``pq`` with full extents ``size`` (3,)."""
+    return fm.CubePrimitive(pose=_pose(pq), size=_vector3(size), color=_color(rgba))
 
 
 def _entity(eid: str, frame_id: str, t: int, **shapes: Any) -> Any:
@@ -152,10 +160,11 @@ def input_views(views: list[tuple[NDArray[Any], NDArray[Any]]], t: int) -> list[
     step to at most :data:`FOXGLOVE_MAX_POINTS` points in all."""
     step = max(1, -(-sum(len(p) for p, _ in views) // FOXGLOVE_MAX_POINTS))
     out: list[View] = []
-    for i, (points, T_world_camera) in enumerate(views):
-        frame = f"camera{i}"
-        out.append(("/tf", frame_transform(T_world_camera, "world", frame, t)))
-        out.append((f"/inputs/view{i}", point_cloud(points[::step], frame, t)))
+    for i, ((points, _), pq) in enumerate(
+        zip(views, _pqs([T for _, T in views]), strict=True)
+    ):
+        out.append(("/tf", _transform(pq, "world", f"camera{i}", t)))
+        out.append((f"/inputs/view{i}", point_cloud(points[::step], f"camera{i}", t)))
     return out
 
 
@@ -179,36 +188,45 @@ def stage_views(
         if obstacles:  # (k, 3) in all
             cloud("/scene/obstacles", np.concatenate(obstacles), (0.9, 0.5, 0.1, 1.0))
     elif stage == "object_frame":
-        out += _object_frame_views(d, t, table_axes)
+        cloud("/object/samples", d.get("samples_world"), (1.0, 0.85, 0.1, 1))
+        out += _frame_views(d, t, table_axes)
     elif stage == "candidates":
         out += _candidate_views(d.get("candidates"), t)
     return out
 
 
-def _object_frame_views(
+def _frame_views(
     d: dict[str, Any], t: int, table_axes: tuple[float, float, float]
 ) -> list[View]:
-    out: list[View] = []
-    ents = []
-    if d.get("T_world_object") is not None:
-        T = np.asarray(d["T_world_object"], dtype=np.float64)
-        out.append(("/tf", frame_transform(T, "world", "object", t)))
-        out.append(("/object/frame", _pose_in_frame(T, "world", t)))
-        if d.get("extents") is not None:
-            box = _cube(T, d["extents"], (0.1, 0.4, 0.9, 0.15))
-            ents.append(_entity("object_box", "world", t, cubes=[box]))
-    if d.get("samples_world") is not None:
-        rgba = (1.0, 0.85, 0.1, 1)
-        out.append(
-            ("/object/samples", point_cloud(d["samples_world"], "world", t, rgba=rgba))
+    """The object's and the table's frames, the object's box and the table."""
+    frames = {
+        k: d[f"T_world_{k}"]
+        for k in ("object", "table")
+        if d.get(f"T_world_{k}") is not None
+    }
+    pq = dict(
+        zip(
+            frames,
+            _pqs([np.asarray(T, np.float64) for T in frames.values()]),
+            strict=True,
         )
-    if d.get("T_world_table") is not None:
-        T = np.asarray(d["T_world_table"], dtype=np.float64)
-        out.append(("/tf", frame_transform(T, "world", "table", t)))
+    )
+    out: list[View] = [("/tf", _transform(pq[k], "world", k, t)) for k in pq]
+    ents = []
+    if "object" in pq:
+        out.append(("/object/frame", _pose_in_frame(pq["object"], t)))
+        if d.get("extents") is not None:
+            box = _cube(pq["object"], d["extents"], (0.1, 0.4, 0.9, 0.15))
+            ents.append(_entity("object_box", "world", t, cubes=[box]))
+    if "table" in pq:
+        T = np.asarray(frames["table"], dtype=np.float64)
         a, b, c = table_axes
-        T_centre = T.copy()  # the superellipsoid's centre, c below the surface
-        T_centre[:3, 3] = T[:3, :3] @ np.array([0.0, 0.0, -c]) + T[:3, 3]
-        slab = _cube(T_centre, (2 * a, 2 * b, 2 * c), (0.6, 0.5, 0.4, 0.3))
+        centre = T[:3, :3] @ [0.0, 0.0, -c] + T[:3, 3]  # c below the surface
+        slab = _cube(
+            (centre.tolist(), pq["table"][1]),
+            (2 * a, 2 * b, 2 * c),
+            (0.6, 0.5, 0.4, 0.3),
+        )
         ents.append(_entity("table_se", "world", t, cubes=[slab]))
     if ents:
         out.append(("/scene/shapes", fm.SceneUpdate(entities=ents)))
@@ -224,14 +242,14 @@ def _candidate_views(cs: Any, t: int) -> list[View]:
     if not isinstance(cs, dict) or len(cs["reason"]) == 0:
         return []
     reason = np.asarray(cs["reason"])
-    T_world_ee = np.asarray(cs["T_world_ee"])
+    poses = [_pose(pq) for pq in _pqs(cs["T_world_ee"])]
     out: list[View] = []
     names = [*REASONS, *(f"reason_{i}" for i in range(len(REASONS), reason.max() + 1))]
     for code, name in enumerate(names):
-        picked = T_world_ee[reason == code]
-        if len(picked):
+        picked = np.flatnonzero(reason == code).tolist()
+        if picked:
             msg = fm.PosesInFrame(
-                timestamp=_stamp(t), frame_id="world", poses=_poses(picked)
+                timestamp=_stamp(t), frame_id="world", poses=[poses[i] for i in picked]
             )
             out.append((f"/candidates/{name}", msg))
     colors = np.array([REASON_RGBA.get(n, _OTHER_RGBA) for n in REASONS])  # (R, 4)
@@ -248,19 +266,17 @@ def result_views(result: dict[str, Any], g: GripperModel, t: int) -> list[View]:
     ``gripper``, which ``/tf`` puts at the chosen pose."""
     if not result.get("found") or result.get("T_world_ee") is None:
         return []
-    T = np.asarray(result["T_world_ee"], dtype=np.float64)
+    (pq,) = _pqs(result["T_world_ee"])
     out: list[View] = [
-        ("/grasp/pose", _pose_in_frame(T, "world", t)),
-        ("/tf", frame_transform(T, "world", "gripper", t)),
+        ("/grasp/pose", _pose_in_frame(pq, t)),
+        ("/tf", _transform(pq, "world", "gripper", t)),
         ("/grasp/gripper_cloud", point_cloud(g.cloud, "gripper", t)),
     ]
     grey = _color((0.5, 0.5, 0.55, 0.35))
-    body = [  # one Rotation for all the boxes
-        fm.CubePrimitive(pose=pose, size=_vector3(2 * s), color=grey)
-        for pose, s in zip(
-            _poses(_translations(np.asarray(g.se_centers).reshape(-1, 3))),
-            np.asarray(g.se_semi_axes).reshape(-1, 3),
-            strict=True,
+    body = [
+        fm.CubePrimitive(pose=_pose(at), size=_vector3(2 * s), color=grey)
+        for at, s in zip(
+            _at(g.se_centers), np.asarray(g.se_semi_axes).reshape(-1, 3), strict=True
         )
     ]
     centers = np.asarray(g.sphere_centers, dtype=np.float64).reshape(-1, 3)  # (S, 3)
@@ -270,26 +286,18 @@ def result_views(result: dict[str, Any], g: GripperModel, t: int) -> list[View]:
     for contact in contacts:
         held[np.asarray(contact["spheres"], dtype=np.int64)] = True
 
-    def spheres(mask: NDArray[np.bool_], rgba: tuple[float, ...]) -> list[Any]:
+    def spheres(eid: str, mask: NDArray[np.bool_], rgba: tuple[float, ...]) -> Any:
         color = _color(rgba)
-        return [
-            fm.SpherePrimitive(pose=pose, size=_vector3((2 * r,) * 3), color=color)
-            for pose, r in zip(
-                _poses(_translations(centers[mask])), radii[mask].tolist(), strict=True
-            )
+        shapes = [
+            fm.SpherePrimitive(pose=_pose(at), size=_vector3((2 * r,) * 3), color=color)
+            for at, r in zip(_at(centers[mask]), radii[mask].tolist(), strict=True)
         ]
+        return _entity(eid, "gripper", t, spheres=shapes)
 
     ents = [
         _entity("gripper_body", "gripper", t, cubes=body),
-        _entity(
-            "workspace_spheres",
-            "gripper",
-            t,
-            spheres=spheres(~held, (0.3, 0.6, 1.0, 0.15)),
-        ),
-        _entity(
-            "holding_spheres", "gripper", t, spheres=spheres(held, (0.1, 0.9, 0.2, 0.6))
-        ),
+        spheres("workspace_spheres", ~held, (0.3, 0.6, 1.0, 0.15)),
+        spheres("holding_spheres", held, (0.1, 0.9, 0.2, 0.6)),
     ]
     out.append(("/grasp/gripper", fm.SceneUpdate(entities=ents)))
     pts = [np.asarray(c["points"]).reshape(-1, 3) for c in contacts]
@@ -297,10 +305,3 @@ def result_views(result: dict[str, Any], g: GripperModel, t: int) -> list[View]:
         cloud = point_cloud(np.concatenate(pts), "world", t, rgba=(0.1, 0.9, 0.2, 1.0))
         out.append(("/grasp/contacts", cloud))
     return out
-
-
-def _translations(p: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Transforms ``(k, 4, 4)`` that translate by ``p`` (k, 3)."""
-    T = np.broadcast_to(np.eye(4), (len(p), 4, 4)).copy()
-    T[:, :3, 3] = p
-    return T

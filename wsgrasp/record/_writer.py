@@ -36,7 +36,7 @@ from wsgrasp.record._codec import (
     SCHEMA_NAME,
     TOPICS,
     dumps,
-    loads,
+    encode,
 )
 from wsgrasp.record._runinfo import gripper_attachments, run_info
 from wsgrasp.record._worker import wait_for_recorders
@@ -152,7 +152,7 @@ class RunRecorder:
         self._table_axes = (0.0, 0.0, 0.0)
         self._candidates: Any = None
         self._stages_written: list[str] = []
-        self._recorded: list[tuple[str, bytes, int]] = []  # (stage, record, t_ns)
+        self._recorded: list[tuple[str, Any, int]] = []  # (stage, held, t_ns)
         self._finished = False  # no more hooks taken
         self._done: threading.Event | None = None  # set when the file is finished
         self._error: BaseException | None = None  # a failure on the writer thread
@@ -271,12 +271,13 @@ class RunRecorder:
         return self._writer
 
     def _record(self, stage: str, value: Any, t_ns: int) -> None:
-        """Write one record as a chunk of its own; keep its bytes for the views."""
+        """Write one record as a chunk of its own; keep what it holds (arrays
+        over the recorded bytes) for the views."""
         topic = TOPICS.get(stage, f"/wsgrasp/stage/{stage}")
-        data = dumps(value, topic.removeprefix("/wsgrasp/"))
+        data, held = encode(value, topic.removeprefix("/wsgrasp/"))
         self._put(topic, SCHEMA_NAME, DESCRIPTOR_SET, data, t_ns)
         self._flush(RAW if topic in RAW_TOPICS else ZSTD)
-        self._recorded.append((stage, data, t_ns))
+        self._recorded.append((stage, held, t_ns))
 
     def _flush(self, compression: CompressionType) -> None:
         """End the chunk in progress, compressed with ``compression`` (the Writer
@@ -337,9 +338,9 @@ class RunRecorder:
         t0 = time.perf_counter()
         clouds: list[Any] = []
         rest: list[Any] = []
-        for stage, data, t in self._recorded:
+        for stage, held, t in self._recorded:
             try:
-                views = self._views_of(stage, loads(data), t)
+                views = self._views_of(stage, held, t)
             except Exception as exc:  # noqa: BLE001 - views are a convenience
                 warning = dumps({"stage": stage, "error": repr(exc)}, "warnings")
                 rest.append(
