@@ -33,6 +33,8 @@ from numpy.typing import NDArray
 from scipy.spatial import ConvexHull, QhullError
 
 from wsgrasp.geometry import invert_transforms
+from wsgrasp.gripper.model import GripperModel
+from wsgrasp.planning.spheres import FingerSpheres
 
 if TYPE_CHECKING:
     from wsgrasp.planning.evaluate import TableSE
@@ -237,3 +239,283 @@ def table_exact(
         )
         out[a + k[value < 1.0]] = True
     return out
+
+
+# --------------------------------------------------------------------------------
+# object, obstacles and fingers
+# --------------------------------------------------------------------------------
+@dataclass
+class BodyFingerVerdicts:
+    """What the object, obstacle and finger tests found for candidates ``index``.
+
+    Attributes
+    ----------
+    reason : (k,) int
+        2, 3, 4 or 0 (feasible), per candidate of ``index``.
+    contacts : (k, nf) int
+    holding : (F, no, nf) bool
+        For the feasible ones, in the order of ``index``.
+    """
+
+    reason: NDArray[np.int64]
+    contacts: NDArray[np.int64]
+    holding: NDArray[np.bool_]
+
+
+def _separated(lo_a: Array, hi_a: Array, lo_b: Array, hi_b: Array) -> NDArray[np.bool_]:
+    """Boxes ``[lo_a, hi_a]`` and ``[lo_b, hi_b]`` (..., 3) apart by more than
+    ``MARGIN`` along some axis: (...) bool."""
+    return np.any((lo_a > hi_b + MARGIN) | (hi_a < lo_b - MARGIN), axis=-1)
+
+
+def _object_box_clear(
+    Q_lo: Array,
+    Q_hi: Array,
+    u: Array,
+    box_lo: Array,
+    box_hi: Array,
+) -> NDArray[np.bool_]:
+    """Candidates whose object box (gripper axes: ``[Q_lo - u, Q_hi - u]``,
+    (m, 3)) is apart from every box ``[box_lo, box_hi]`` (e, 3): (m,) bool."""
+    lo = (Q_lo - u)[:, None, :]  # (m, 1, 3)
+    hi = (Q_hi - u)[:, None, :]
+    return np.all(_separated(lo, hi, box_lo[None], box_hi[None]), axis=1)
+
+
+def body_and_fingers(
+    poses: StructuredPoses,
+    index: NDArray[np.int64],
+    gripper: GripperModel,
+    spheres: FingerSpheres,
+    object_points: Array,
+    obstacle_points: Array,
+    coarse: int = 48,
+    chunk_points: int = 2_000_000,
+) -> BodyFingerVerdicts:
+    """Algorithm 1's object, obstacle and finger tests for candidates ``index``
+    (those clear of the table), per orientation with the samples as translations.
+
+    In the gripper frame a candidate's object points are ``Q[o] - u[c]``:
+    ``Q[o] = p_world R[o]`` once per orientation, ``u[c] = (A[s] + B[o]) R[o]``
+    per candidate. Two conservative bounds settle most candidates without a
+    point:
+
+    - the object's box in the gripper axes (``Q[o]``'s extremes less ``u``) apart
+      from a body superellipsoid's box means no object point is inside it; apart
+      from all of them, the body is clear;
+    - apart from a finger's sphere box, that finger holds no point (count 0).
+
+    The rest get the exact tests: a subset of ``coarse`` points first (a hit by a
+    subset is a hit), then every point, and the sphere grid of ``spheres``
+    (``FingerSpheres``) for the fingers not settled.
+    """
+    from wsgrasp.geometry import coordinates_in_superellipsoids
+
+    g, sp = gripper, spheres
+    nf = int(g.num_fingers)
+    n_or = len(poses.R)
+    P = np.asarray(object_points, dtype=np.float64).reshape(-1, 3)
+    X = np.asarray(obstacle_points, dtype=np.float64).reshape(-1, 3)
+    no = len(P)
+    se = (g.se_centers, g.se_semi_axes, g.se_exponent)
+    se_lo, se_hi = g.se_centers - g.se_semi_axes, g.se_centers + g.se_semi_axes
+    f_lo = np.stack(
+        [
+            (g.sphere_centers - g.sphere_radii[:, None])[g.sphere_finger == f].min(0)
+            for f in range(nf)
+        ]
+    )  # (nf, 3)
+    f_hi = np.stack(
+        [
+            (g.sphere_centers + g.sphere_radii[:, None])[g.sphere_finger == f].max(0)
+            for f in range(nf)
+        ]
+    )
+    index = np.asarray(index, dtype=np.int64)
+    s_all, o_all = np.divmod(index, n_or)
+    order = np.argsort(o_all, kind="stable")  # candidates grouped by orientation
+    k_all = len(index)
+    reason = np.zeros(k_all, dtype=np.int64)
+    contacts = np.zeros((k_all, nf), dtype=np.int64)
+    feasible_at: list[NDArray[np.int64]] = []
+    holding_parts: list[NDArray[np.bool_]] = []
+    step = max(1, chunk_points // max(no, len(X), 1))
+    for a in range(0, k_all, step):
+        at = order[a : a + step]  # positions in index, orientation-sorted
+        s, o = s_all[at], o_all[at]
+        used, ol = np.unique(o, return_inverse=True)
+        R = poses.R[used]  # (q, 3, 3)
+        Q = np.einsum("nj,qjk->qkn", P, R)  # (q, 3, no) gripper axes, untranslated
+        u = np.einsum("cj,cjk->ck", poses.A[s] + poses.B[o], R[ol])  # (m, 3)
+        Q_lo, Q_hi = Q.min(axis=2)[ol], Q.max(axis=2)[ol]  # (m, 3)
+        clear = _object_box_clear(Q_lo, Q_hi, u, se_lo, se_hi)  # (m,)
+        hit = np.zeros(len(at), dtype=bool)
+        todo = np.flatnonzero(~clear)
+        if todo.size:
+            # a subset first: a hit by some points is a hit by the cloud
+            Qs = Q[:, :, :: max(1, no // max(coarse, 1))]
+            x, y, z = (Qs[ol[todo], i] - u[todo, i, None] for i in range(3))
+            hit[todo] = coordinates_in_superellipsoids(x, y, z, *se).any(axis=1)
+            todo = todo[~hit[todo]]
+        slabs = _Slabs(Q)
+        if todo.size:
+            hit[todo] = _body_hits(slabs, ol, u, todo, *se)
+        reason[at[hit]] = 2
+        alive = ~hit
+        if len(X) and alive.any():
+            QX = np.einsum("nj,qjk->qkn", X, R)  # (q, 3, nx)
+            ok = np.flatnonzero(alive)
+            xclear = _object_box_clear(
+                QX.min(axis=2)[ol[ok]], QX.max(axis=2)[ol[ok]], u[ok], se_lo, se_hi
+            )
+            t = ok[~xclear]
+            if t.size:
+                x, y, z = (QX[ol[t], i] - u[t, i, None] for i in range(3))
+                obs = coordinates_in_superellipsoids(x, y, z, *se).any(axis=1)
+                reason[at[t[obs]]] = 3
+                alive[t[obs]] = False
+        live = np.flatnonzero(alive)
+        if live.size == 0:
+            continue
+        # fingers: a finger whose sphere box is apart from the object box holds none
+        lo = (Q_lo[live] - u[live])[:, None, :]  # (l, 1, 3)
+        hi = (Q_hi[live] - u[live])[:, None, :]
+        empty = _separated(lo, hi, f_lo[None], f_hi[None])  # (l, nf)
+        held = np.zeros((len(live), no, nf), dtype=bool)
+        need = np.flatnonzero(~empty.all(axis=1))
+        if need.size:
+            held[need] = _held_in_slab(slabs, ol, u, live[need], sp, f_lo, f_hi)
+        counts = np.count_nonzero(held, axis=1)  # (l, nf)
+        contacts[at[live]] = counts
+        ok = np.all(counts > 0, axis=1)
+        reason[at[live[~ok]]] = 4
+        feasible_at.append(at[live[ok]])
+        holding_parts.append(held[ok])
+    if feasible_at:
+        f_at = np.concatenate(feasible_at)
+        hold = np.concatenate(holding_parts)
+        back = np.argsort(f_at, kind="stable")  # back into the order of index
+        hold = hold[back]
+    else:
+        hold = np.zeros((0, no, nf), dtype=bool)
+    return BodyFingerVerdicts(reason, contacts, hold)
+
+
+class _Slabs:
+    """Per orientation, the points sorted along each gripper axis, so that the
+    points of a candidate inside a slab ``lo <= (Q - u)_k <= hi`` are one range.
+
+    ``Q`` (q, 3, n) are the points per orientation in the gripper axes.
+    """
+
+    def __init__(self, Q: Array) -> None:
+        self.Q = Q
+        q, _, self.n = Q.shape
+        self.rank = np.argsort(Q, axis=2)  # (q, 3, n)
+        Qs = np.take_along_axis(Q, self.rank, axis=2)
+        self.span = float(np.ptp(Q) + 1.0) if Q.size else 1.0
+        self.rows = np.arange(q)
+        self._flat = [
+            (Qs[:, k] + 4.0 * self.span * self.rows[:, None]).ravel() for k in range(3)
+        ]  # per axis (q * n,): rows end to end, each shifted clear of the last
+
+    def pairs(
+        self, row: NDArray[np.int64], uk: Array, k: int, lo: float, hi: float
+    ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+        """For candidates in rows ``row`` (m,) translated by ``uk`` (m,) along axis
+        ``k``: every (candidate, point) with the point in the slab, as the
+        candidate's position in ``row``, the point's index and its row.
+
+        The slab is widened by 1e-7 m, so rounding in the shifted search can only
+        add points (tested exactly later), never drop one.
+        """
+        if len(row) == 0 or self.n == 0:
+            empty = np.zeros(0, dtype=np.int64)
+            return empty, empty, empty
+        uk = np.clip(uk, -self.span, self.span)  # beyond: no point in the slab
+        off = 4.0 * self.span * row
+        i0 = np.searchsorted(self._flat[k], lo + uk - 1e-7 + off, side="left")
+        i1 = np.searchsorted(self._flat[k], hi + uk + 1e-7 + off, side="right")
+        # the search can only land in the candidate's own row
+        i0 = np.maximum(i0, row * self.n)
+        i1 = np.minimum(i1, (row + 1) * self.n)
+        counts = np.maximum(i1 - i0, 0)
+        total = int(counts.sum())
+        pair = np.repeat(np.arange(len(row)), counts)  # (total,)
+        start = np.repeat(i0 - (np.cumsum(counts) - counts), counts)
+        pos = start + np.arange(total)
+        r = pos // self.n
+        j = self.rank[r, k, pos - r * self.n]
+        return pair, j, r
+
+
+def _held_in_slab(
+    slabs: _Slabs,
+    ol: NDArray[np.int64],
+    u: Array,
+    cand: NDArray[np.int64],
+    spheres: FingerSpheres,
+    f_lo: Array,
+    f_hi: Array,
+) -> NDArray[np.bool_]:
+    """Which object points each finger's spheres hold, for candidates ``cand``,
+    testing only the points in the slab of the fingers' sphere box along its
+    thinnest gripper axis (the others are outside every sphere).
+
+    Returns
+    -------
+    (n, no, nf) bool
+    """
+    Q = slabs.Q
+    nf = len(f_lo)
+    lo, hi = f_lo.min(axis=0), f_hi.max(axis=0)  # the fingers' box, gripper frame
+    k = int(np.argmin(hi - lo))
+    pair, j, r = slabs.pairs(ol[cand], u[cand, k], k, float(lo[k]), float(hi[k]))
+    c = cand[pair]
+    held = np.zeros((len(cand), slabs.n, nf), dtype=bool)
+    if len(pair):
+        held[pair, j] = spheres.holding_coordinates(
+            Q[r, 0, j] - u[c, 0], Q[r, 1, j] - u[c, 1], Q[r, 2, j] - u[c, 2]
+        )  # (total, nf)
+    return held
+
+
+def _body_hits(
+    slabs: _Slabs,
+    ol: NDArray[np.int64],
+    u: Array,
+    cand: NDArray[np.int64],
+    centers: Array,
+    semi_axes: Array,
+    exponent: float,
+) -> NDArray[np.bool_]:
+    """Whether some point lies inside some superellipsoid, for candidates
+    ``cand``: per superellipsoid, only the candidates not yet hit and only the
+    points in its slab along its thinnest axis: (n,) bool."""
+    from wsgrasp.geometry import coordinates_in_superellipsoids
+
+    Q = slabs.Q
+    hit = np.zeros(len(cand), dtype=bool)
+    lo_all, hi_all = centers - semi_axes, centers + semi_axes
+    for e in np.argsort(-np.prod(semi_axes, axis=1)):  # largest first
+        k = int(np.argmin(semi_axes[e]))
+        todo = np.flatnonzero(~hit)
+        if todo.size == 0:
+            break
+        c0 = cand[todo]
+        pair, j, r = slabs.pairs(
+            ol[c0], u[c0, k], k, float(lo_all[e, k]), float(hi_all[e, k])
+        )
+        if len(pair) == 0:
+            continue
+        c = c0[pair]
+        inside = coordinates_in_superellipsoids(
+            Q[r, 0, j] - u[c, 0],
+            Q[r, 1, j] - u[c, 1],
+            Q[r, 2, j] - u[c, 2],
+            centers[e : e + 1],
+            semi_axes[e : e + 1],
+            exponent,
+        )
+        hit[todo[np.unique(pair[inside])]] = True
+    return hit

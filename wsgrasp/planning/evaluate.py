@@ -26,6 +26,7 @@ from wsgrasp.gripper.model import GripperModel
 from wsgrasp.planning.dense import (
     CandidateStructure,
     StructuredPoses,
+    body_and_fingers,
     hull_vertices,
     table_bounds,
     table_exact,
@@ -179,9 +180,10 @@ def evaluate_candidates(
         Prebuilt sphere index of ``gripper`` (built here when omitted).
     structure : CandidateStructure, optional
         How ``T_world_gripper`` was built (``candidate_poses``: samples outer,
-        orientations inner). With it, the table test is decided per orientation
-        from the gripper cloud's support function (``wsgrasp.planning.dense``);
-        the verdicts are the same.
+        orientations inner). With it, the tests run per orientation with the
+        samples as translations, conservative bounds settling most candidates
+        before any point is tested (``wsgrasp.planning.dense``); the verdicts,
+        contacts and holdings are the same.
     """
     spheres = spheres or FingerSpheres(gripper)
     C, nf, no = len(T_world_gripper), gripper.num_fingers, len(object_points)
@@ -193,7 +195,17 @@ def evaluate_candidates(
     if structure is None:
         table_hit, min_height = table_collisions(T_world_gripper, gripper.cloud, table)
     else:
-        table_hit = _structured_table(T_world_gripper, gripper, table, structure)
+        poses, table_hit = _structured_table(T_world_gripper, gripper, table, structure)
+        reason[table_hit] = 1
+        alive = np.flatnonzero(~table_hit)
+        v = body_and_fingers(
+            poses, alive, gripper, spheres, object_points, obstacle_points
+        )
+        reason[alive] = v.reason
+        contacts[alive] = v.contacts
+        feasible = alive[v.reason == 0]
+        _, low = table_collisions(T_world_gripper[feasible], gripper.cloud, table)
+        return Evaluation(reason, contacts, feasible, v.holding, low)
     reason[table_hit] = 1
     alive = np.flatnonzero(~table_hit)
 
@@ -246,16 +258,12 @@ def evaluate_candidates(
         if holding_parts
         else np.zeros((0, no, nf), dtype=bool)
     )
-    if min_height is None:
-        _, low = table_collisions(T_world_gripper[feasible], gripper.cloud, table)
-    else:
-        low = min_height[feasible]
     return Evaluation(
         reason=reason,
         contacts=contacts,
         feasible=feasible,
         holding=holding,
-        min_table_height=low,
+        min_table_height=min_height[feasible],
     )
 
 
@@ -269,9 +277,10 @@ def _structured_table(
     gripper: GripperModel,
     table: TableSE,
     structure: CandidateStructure,
-) -> NDArray[np.bool_]:
-    """The table verdicts of a structured candidate set: the support-function
-    bounds decide most, the exact test over the whole cloud the rest."""
+) -> tuple[StructuredPoses, NDArray[np.bool_]]:
+    """The poses of a structured candidate set and their table verdicts: the
+    support-function bounds decide most, the exact test over the whole cloud the
+    rest."""
     C = len(T_world_gripper)
     if structure.num_candidates != C:
         raise ValueError(
@@ -291,4 +300,4 @@ def _structured_table(
     idx = np.flatnonzero(unsure)
     if idx.size:
         hit[idx] = table_exact(poses, cloud, table, idx)
-    return hit
+    return poses, hit
