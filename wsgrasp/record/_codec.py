@@ -111,7 +111,11 @@ def as_float32_exact(a: NDArray[Any]) -> NDArray[np.float32] | None:
         if not _same_bits(head.astype("<f4").astype("<f8"), head):
             return None
         f32 = a.astype("<f4")
-        return f32 if _same_bits(f32.astype("<f8"), a) else None
+        same = f32 == a  # equal values are equal bits (a cast keeps the sign)
+        if same.all():
+            return f32
+        odd = ~same  # NaNs pass when their bits survive the round trip
+        return f32 if _same_bits(f32[odd].astype("<f8"), a[odd]) else None
 
 
 def _same_bits(x: NDArray[Any], y: NDArray[Any]) -> bool:

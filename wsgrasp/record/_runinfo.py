@@ -81,8 +81,12 @@ def model_key(gripper: GripperModel) -> tuple[Any, ...]:
             a = np.ascontiguousarray(v)
             key.append((f.name, a.dtype.str, a.shape, xxhash.xxh3_64_intdigest(a.data)))
         else:
-            key.append((f.name, json.dumps(v, sort_keys=True, default=repr)))
+            key.append((f.name, json.dumps(v, sort_keys=True, default=_plain)))
     return tuple(key)
+
+
+def _plain(v: Any) -> Any:
+    return v.tolist() if isinstance(v, np.ndarray) else repr(v)
 
 
 #: the attachments by model fingerprint and the gripper files' paths and stats
