@@ -12,6 +12,7 @@ import numpy as np
 from wsgrasp.errors import RecordingError, WsgraspError
 from wsgrasp.record._reader import open_run
 from wsgrasp.record._run import Run
+from wsgrasp.record._summary import reason_counts
 
 if TYPE_CHECKING:
     from wsgrasp.planning.result import PlanResult
@@ -22,25 +23,12 @@ __all__ = ["ReplayReport", "compare_results", "replay_run"]
 
 @dataclass
 class ReplayReport:
-    """How a replay compares with the recorded run.
-
-    Attributes
-    ----------
-    identical : bool
-        Every field of the result (poses, scores, every candidate, contacts) is
-        equal bit for bit; timings are not compared.
-    same_spec : bool
-        Replayed with the recorded spec (no ``--spec``).
-    differences : list of str
-        Names of the result fields that differ.
-    recorded, replayed : dict
-        ``found``, ``score``, ``candidates``, ``feasible``, ``histogram``, pose.
-    pose_delta : dict or None
-        ``translation_m`` and ``angle_deg`` between the chosen poses, when both
-        runs found one.
-    record_path : Path or None
-        Where the replay was recorded.
-    """
+    """How a replay compares with the recorded run: ``identical`` when every
+    compared field of the result (:func:`compare_results`) is equal bit for bit;
+    ``differences`` names those that are not; ``recorded`` and ``replayed``
+    outline each (``found``, ``score``, ``candidates``, ``feasible``,
+    ``histogram``, ``T_world_ee``, ``error``); ``pose_delta`` is the translation
+    (m) and angle (deg) between the chosen poses when both found one."""
 
     identical: bool
     same_spec: bool
@@ -53,15 +41,8 @@ class ReplayReport:
 
     def to_json(self) -> dict[str, Any]:
         """Plain data: what ``wsgrasp replay --json`` prints."""
-        hist = {
-            k: {
-                "recorded": self.recorded["histogram"].get(k, 0),
-                "replayed": self.replayed["histogram"].get(k, 0),
-            }
-            for k in dict.fromkeys(
-                [*self.recorded["histogram"], *self.replayed["histogram"]]
-            )
-        }
+        a, b = self.recorded["histogram"], self.replayed["histogram"]
+        hist = {k: {"recorded": a.get(k, 0), "replayed": b.get(k, 0)} for k in a | b}
         return {
             "identical": self.identical,
             "same_spec": self.same_spec,
@@ -69,17 +50,13 @@ class ReplayReport:
             "recorded": self.recorded,
             "replayed": self.replayed,
             "pose_delta": self.pose_delta,
-            "score_delta": _delta(self.recorded["score"], self.replayed["score"]),
+            "score_delta": None
+            if None in (self.recorded["score"], self.replayed["score"])
+            else float(self.replayed["score"]) - float(self.recorded["score"]),
             "histogram": hist,
             "record": None if self.record_path is None else str(self.record_path),
             "notes": self.notes,
         }
-
-
-def _delta(a: float | None, b: float | None) -> float | None:
-    if a is None or b is None:
-        return None
-    return float(b) - float(a)
 
 
 # -- bit-for-bit comparison -----------------------------------------------------------
@@ -108,42 +85,36 @@ def _same(a: Any, b: Any) -> bool:
     return x.shape == y.shape and x.dtype == y.dtype and x.tobytes() == y.tobytes()
 
 
-_COMPARED = tuple(
-    (
-        "found gripper T_world_ee T_world_gwc T_world_tcp pregrasp closed score "
-        "score_terms best_index rejections hint T_world_object object_extents "
-        "T_world_pregrasp joints_pregrasp joints_grasp finger_targets"
-    ).split()
-)
-_CANDIDATE_FIELDS = tuple(
-    "T_world_gwc T_world_ee sample theta orientation reason contacts score "
-    "terms".split()
-)
+_COMPARED = (
+    "found gripper T_world_ee T_world_gwc T_world_tcp pregrasp closed score "
+    "score_terms best_index rejections hint T_world_object object_extents "
+    "T_world_pregrasp joints_pregrasp joints_grasp finger_targets"
+).split()
+_CANDIDATE_FIELDS = "T_world_gwc T_world_ee sample theta orientation reason "
+_CANDIDATE_FIELDS += "contacts score terms"
 
 
 def compare_results(a: PlanResult, b: PlanResult) -> list[str]:
     """Names of the fields in which two results differ, bit for bit (timings and
     ``info`` are not compared). An empty list means identical."""
     diff = [f for f in _COMPARED if not _same(getattr(a, f), getattr(b, f))]
-    for f in _CANDIDATE_FIELDS:
+    for f in _CANDIDATE_FIELDS.split():
         if not _same(getattr(a.candidates, f), getattr(b.candidates, f)):
             diff.append(f"candidates.{f}")
-    ca = [(c.finger, c.points, c.spheres) for c in a.contacts]
-    cb = [(c.finger, c.points, c.spheres) for c in b.contacts]
-    if not _same(ca, cb):
-        diff.append("contacts")
-    aa = [(x.index, x.T_world_ee, x.score, x.terms) for x in a.alternatives]
-    ab = [(x.index, x.T_world_ee, x.score, x.terms) for x in b.alternatives]
-    if not _same(aa, ab):
-        diff.append("alternatives")
-    return diff
+    parts = {
+        "contacts": lambda r: [(c.finger, c.points, c.spheres) for c in r.contacts],
+        "alternatives": lambda r: [
+            (x.index, x.T_world_ee, x.score, x.terms) for x in r.alternatives
+        ],
+    }
+    return diff + [k for k, of in parts.items() if not _same(of(a), of(b))]
 
 
-def _pose_delta(Ta: Any, Tb: Any) -> dict[str, float] | None:
-    if Ta is None or Tb is None:
+def _pose_delta(a: PlanResult | None, b: PlanResult | None) -> dict[str, float] | None:
+    if a is None or b is None or a.T_world_ee is None or b.T_world_ee is None:
         return None
-    A = np.asarray(Ta, dtype=np.float64)
-    B = np.asarray(Tb, dtype=np.float64)
+    A = np.asarray(a.T_world_ee, dtype=np.float64)
+    B = np.asarray(b.T_world_ee, dtype=np.float64)
     cos = (np.trace(A[:3, :3].T @ B[:3, :3]) - 1.0) / 2.0
     return {
         "translation_m": float(np.linalg.norm(B[:3, 3] - A[:3, 3])),
@@ -152,26 +123,15 @@ def _pose_delta(Ta: Any, Tb: Any) -> dict[str, float] | None:
 
 
 def _outline(r: PlanResult | None, error: dict[str, Any] | None) -> dict[str, Any]:
-    if r is None:
-        return {
-            "found": False,
-            "score": None,
-            "candidates": 0,
-            "feasible": 0,
-            "histogram": {},
-            "T_world_ee": None,
-            "error": error,
-        }
-    hist = r.candidates.histogram() if len(r.candidates) else dict(r.rejections)
-    score = None if r.score is None or not math.isfinite(r.score) else float(r.score)
+    score = None if r is None or r.score is None else float(r.score)
     return {
-        "found": bool(r.found),
-        "score": score,
-        "candidates": len(r.candidates),
-        "feasible": int(r.candidates.feasible.sum()),
-        "histogram": {k: int(v) for k, v in hist.items()},
+        "found": r is not None and bool(r.found),
+        "score": score if score is None or math.isfinite(score) else None,
+        "candidates": 0 if r is None else len(r.candidates),
+        "feasible": 0 if r is None else int(r.candidates.feasible.sum()),
+        "histogram": {} if r is None else reason_counts(r.candidates, r.rejections),
         "T_world_ee": None
-        if r.T_world_ee is None
+        if r is None or r.T_world_ee is None
         else np.asarray(r.T_world_ee).tolist(),
         "error": error,
     }
@@ -203,7 +163,8 @@ def replay_run(
     Raises
     ------
     RecordingError
-        The run lacks what a replay needs (inputs, spec, gripper model).
+        The run lacks what a replay needs (inputs, spec, gripper model), or the
+        replay's own recording cannot be written.
     """
     from wsgrasp.record._writer import RunRecorder, check_record_path
 
@@ -221,9 +182,7 @@ def replay_run(
     except ImportError as exc:  # pragma: no cover - the planner is part of wsgrasp
         raise RecordingError(f"replay needs the planner (wsgrasp.api): {exc}") from None
 
-    recorded_spec = run.spec
-    gripper = run.gripper
-    scene = run.scene
+    recorded_spec, gripper, scene = run.spec, run.gripper, run.scene
     notes: list[str] = []
     if spec is None:
         use_spec = recorded_spec
@@ -237,7 +196,6 @@ def replay_run(
             use_spec = load_spec(spec)
     else:
         use_spec = spec
-    same_spec = spec is None
     model = gripper if use_spec.gripper == recorded_spec.gripper else None
     if model is None:
         notes.append(
@@ -247,11 +205,8 @@ def replay_run(
     if run.truncated and run.result_data is None and run.error is None:
         notes.append("the run is truncated before its result: nothing to compare")
 
-    observers: list[Any] = []
-    recorder = None
-    if record is not None:
-        recorder = RunRecorder(record, force=force)
-        observers.append(recorder)
+    recorder = None if record is None else RunRecorder(record, force=force)
+    observers = [] if recorder is None else [recorder]
     new: PlanResult | None = None
     new_error: dict[str, Any] | None = None
     try:
@@ -280,17 +235,13 @@ def replay_run(
         differences = ["result"]
     if new_error is not None and old_error is None:
         notes.append(f"the replay failed: {new_error['type']}: {new_error['message']}")
-    identical = not differences and (old is not None or old_error is not None)
     return ReplayReport(
-        identical=identical,
-        same_spec=same_spec,
+        identical=not differences and (old is not None or old_error is not None),
+        same_spec=spec is None,
         differences=differences,
         recorded=_outline(old, old_error),
         replayed=_outline(new, new_error),
-        pose_delta=_pose_delta(
-            None if old is None else old.T_world_ee,
-            None if new is None else new.T_world_ee,
-        ),
+        pose_delta=_pose_delta(old, new),
         record_path=None if record is None else Path(record),
         notes=notes,
     )

@@ -8,30 +8,30 @@ import numpy as np
 
 from wsgrasp.record._run import Run
 
-__all__ = ["summarize_run", "histogram"]
+__all__ = ["reason_counts", "summarize_run"]
 
 
-def histogram(run: Run) -> tuple[int, int, dict[str, int]]:
-    """``(candidates, feasible, rejections)`` of a run; rejections excludes
-    ``feasible``, so ``feasible + sum(rejections.values()) == candidates``."""
-    cs = run.candidates
-    if cs is not None:
-        hist = cs.histogram()
-        # codes past the known reasons (a newer recorder) are counted too
-        extra = int((np.asarray(cs.reason) >= len(hist)).sum())
-        feasible = hist.pop("feasible")
-        if extra:
-            hist["unknown"] = extra
-        return len(cs), feasible, hist
-    if run.result_data is not None:
-        rej = {
-            k: int(v)
-            for k, v in (run.result_data.get("rejections") or {}).items()
-            if k != "feasible"
-        }
-        feasible = int((run.result_data.get("rejections") or {}).get("feasible", 0))
-        return feasible + sum(rej.values()), feasible, rej
-    return 0, 0, {}
+def reason_counts(cs: Any, rejections: dict[str, Any] | None) -> dict[str, int]:
+    """Reason → count of the candidates ``cs`` (codes past the known reasons, from
+    a newer recorder, as ``unknown``), or the result's ``rejections`` when there
+    are no candidates."""
+    if cs is None or len(cs) == 0:
+        return {k: int(v) for k, v in (rejections or {}).items()}
+    from wsgrasp.planning.result import REASONS
+
+    reason = np.asarray(cs.reason)
+    counts = np.bincount(reason, minlength=len(REASONS))[: len(REASONS)].tolist()
+    hist = dict(zip(REASONS, counts, strict=True))
+    if extra := int((reason >= len(REASONS)).sum()):
+        hist["unknown"] = extra
+    return hist
+
+
+def _histogram(run: Run) -> tuple[int, int, dict[str, int]]:
+    """``(candidates, feasible, rejections)``; rejections excludes ``feasible``."""
+    hist = reason_counts(run.candidates, (run.result_data or {}).get("rejections"))
+    feasible = hist.pop("feasible", 0)
+    return feasible + sum(hist.values()), feasible, hist
 
 
 def _top(run: Run, k: int) -> list[dict[str, Any]]:
@@ -67,7 +67,7 @@ def summarize_run(run: Run, *, top_k: int = 5) -> dict[str, Any]:
     Always has ``found``, ``candidates``, ``feasible``, ``rejections`` and
     ``truncated``, also for a truncated run.
     """
-    n, feasible, rejections = histogram(run)
+    n, feasible, rejections = _histogram(run)
     meta = run.metadata.get("wsgrasp", {})
     res = run.result_data or {}
     inputs: dict[str, Any] | None = None
