@@ -21,17 +21,8 @@ if TYPE_CHECKING:
 __all__ = ["PARTS", "RawMessage", "Run"]
 
 #: What a complete run holds, in the order it is written.
-PARTS = (
-    "metadata",
-    "spec",
-    "inputs",
-    "gripper model",
-    "preprocess",
-    "segmentation",
-    "object_frame",
-    "candidates",
-    "result",
-)
+PARTS = ("metadata", "spec", "inputs", "gripper model", "preprocess")
+PARTS += ("segmentation", "object_frame", "candidates", "result")
 
 
 @dataclass
@@ -49,35 +40,13 @@ class RawMessage:
 
 @dataclass
 class Run:
-    """A recorded run, as read by :func:`open_run`.
-
-    Attributes
-    ----------
-    path : Path
-    format_version : int
-    wsgrasp_version : str
-        Version of wsgrasp that recorded the run.
-    metadata : dict of str to dict of str to str
-        The MCAP metadata records by name (``wsgrasp``, ``spec``, ``plugins``,
-        ``run_end``).
-    attachments : dict of str to bytes
-    inputs : dict or None
-        The decoded inputs record (views, merged points).
-    stages : dict of str to dict
-        Each recorded stage's data (arrays exact; the candidates as a dict).
-    result_data : dict or None
-        The decoded result record.
-    error : dict or None
-        What stopped the plan (``type``, ``message``, ``hint``), if it failed.
-    truncated : bool
-        The file ends before its footer (e.g. the process crashed).
-    truncated_at : int or None
-        Byte offset of the first incomplete record.
-    missing : list of str
-        Parts of a complete run (:data:`PARTS`) this file lacks.
-    messages : list of RawMessage
-        Every message, in file order.
-    """
+    """A recorded run, as read by :func:`open_run`: ``metadata`` (by record name:
+    ``wsgrasp``, ``spec``, ``plugins``, ``run_end``, each str to str),
+    ``attachments``, the decoded records ``inputs``, ``stages`` (by stage name),
+    ``result_data`` and ``error`` (what stopped the plan), arrays exact;
+    ``truncated`` (no footer: the process stopped), ``truncated_at`` (the byte
+    offset of the first incomplete record), ``missing`` (parts of :data:`PARTS`
+    the file lacks) and every message in file order."""
 
     path: Path
     format_version: int
@@ -138,13 +107,10 @@ class Run:
     @property
     def plugins(self) -> list[dict[str, Any]]:
         """Every plugin loaded when the run was recorded (distribution, version)."""
-        out = []
-        for key, raw in sorted(self.metadata.get("plugins", {}).items()):
-            try:
-                out.append(json.loads(raw))
-            except ValueError:
-                out.append({"name": key, "error": raw})
-        return out
+        return [
+            _json_or(raw, {"name": k, "error": raw})
+            for k, raw in sorted(self.metadata.get("plugins", {}).items())
+        ]
 
     @cached_property
     def gripper(self) -> GripperModel:
@@ -183,49 +149,34 @@ class Run:
         """
         from wsgrasp.perception.types import Scene, View
 
-        if self.inputs is None:
+        d = self.inputs
+        if d is None:
             raise RecordingError(
                 f"{self.path}: holds no inputs (the file was cut before them)",
                 hint="nothing of this run can be replayed",
             )
-        d = self.inputs
-        views = [
-            View(points=v["points"], T_world_camera=v["T_world_camera"], name=v["name"])
-            for v in d["views"]
-        ]
-        return Scene(
-            views=views,
-            points=d["points"],
-            dropped_nonfinite=int(d.get("dropped_nonfinite", 0)),
-        )
+        views = [View(v["points"], v["T_world_camera"], v["name"]) for v in d["views"]]
+        dropped = int(d.get("dropped_nonfinite", 0))
+        return Scene(views=views, points=d["points"], dropped_nonfinite=dropped)
 
     @cached_property
     def candidates(self) -> CandidateSet | None:
         """Every candidate evaluated, or None if the file stops before them."""
-        if self.result_data is not None:
-            cs = self.result_data.get("candidates")
-            if isinstance(cs, dict):
-                return _candidate_set(cs)
-        stage = self.stages.get("candidates")
-        if stage is not None and isinstance(stage.get("candidates"), dict):
-            return _candidate_set(stage["candidates"])
+        for d in (self.result_data, self.stages.get("candidates")):
+            if d is not None and isinstance(d.get("candidates"), dict):
+                return _candidate_set(d["candidates"])
         return None
 
     @cached_property
     def result(self) -> PlanResult | None:
         """The plan's result, or None if the plan failed or the file stops early."""
-        from wsgrasp.planning.result import (
-            Alternative,
-            CandidateSet,
-            Contact,
-            PlanResult,
-        )
+        from wsgrasp.planning.result import Alternative, Contact, PlanResult
 
         if self.result_data is None:
             return None
         d = dict(self.result_data)
         cs = self.candidates
-        d["candidates"] = cs if cs is not None else _empty_candidates(CandidateSet)
+        d["candidates"] = cs if cs is not None else _candidate_set({})
         d["contacts"] = [Contact(**_known(Contact, c)) for c in d.get("contacts", [])]
         d["alternatives"] = [
             Alternative(**_known(Alternative, a)) for a in d.get("alternatives", [])
@@ -242,11 +193,8 @@ class Run:
     def timing_ms(self) -> dict[str, float]:
         """The plan's stage timings, the recorder's time in the plan
         (``recorder``) and, after it, building the Foxglove views (``views``)."""
-        out: dict[str, float] = {}
-        if self.result_data is not None:
-            out.update(
-                {k: float(v) for k, v in self.result_data.get("timing_ms", {}).items()}
-            )
+        timing = (self.result_data or {}).get("timing_ms", {})
+        out = {k: float(v) for k, v in timing.items()}
         end = self.metadata.get("run_end", {})
         for key, name in (("recorder_ms", "recorder"), ("views_ms", "views")):
             if end.get(key) is not None:
@@ -268,15 +216,19 @@ def _known(cls: Any, d: dict[str, Any]) -> dict[str, Any]:
 
 
 def _candidate_set(d: dict[str, Any]) -> CandidateSet:
+    """The recorded candidates ``d`` (``{}``: none)."""
     from wsgrasp.planning.result import CandidateSet
 
+    if not d:
+        z, e, i = np.zeros((0, 4, 4)), np.zeros(0), np.zeros(0, dtype=np.int64)
+        return CandidateSet(z, z, i, e, i, np.zeros((0, 0), np.int64), e)
     d = _known(CandidateSet, d)
     d["terms"] = dict(d.get("terms") or {})
     return CandidateSet(**d)
 
 
-def _empty_candidates(cls: Any) -> CandidateSet:
-    z = np.zeros((0, 4, 4))
-    e = np.zeros(0)
-    i = np.zeros(0, dtype=np.int64)
-    return cls(z, z.copy(), i, e, i.copy(), np.zeros((0, 0), np.int64), e.copy())
+def _json_or(raw: str, fallback: Any) -> Any:
+    try:
+        return json.loads(raw)
+    except ValueError:
+        return fallback
