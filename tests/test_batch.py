@@ -77,7 +77,10 @@ def test_batch_on_ray_gives_the_local_rows(tmp_path: Path, ray_engine, monkeypat
         name, workers = ray_engine.name, ray_engine.workers
         run = ray_engine.run
 
-        def close(self) -> None:
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
             pass
 
     monkeypatch.setattr(engines, "RayEngine", lambda *a, **k: Kept())
@@ -293,3 +296,43 @@ def test_dataset_on_ray_gives_the_local_rows(tmp_path: Path, ray_engine):
 
 def _rows_of(folder: Path, drop: list[str]) -> list[dict]:
     return pq.read_table(folder).drop_columns(drop).to_pylist()
+
+
+@pytest.mark.parametrize(
+    "args, says",
+    [
+        (["--engine", "spark"], "--engine 'spark' is unknown"),
+        (["--address", "ray://head:10001"], "--engine is local"),
+        (["--simulate"], "needs the grippers"),
+    ],
+    ids=["unknown-engine", "address-without-ray", "simulate-without-gripper"],
+)
+def test_batch_usage_errors_exit_2(tmp_path: Path, capsys, args, says):
+    scene = str(SCENES / "mug.npz")
+    spec = str(SPECS / "franka.yaml")
+    code = main(["batch", scene, "-s", spec, "-o", str(tmp_path / "o"), *args])
+    assert code == 2
+    assert says in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_batch_simulate_rows_are_eval_trials(tmp_path: Path):
+    pytest.importorskip("mujoco")
+    from wsgrasp.sim import EvalConfig, SimParams, run_eval, spec_entries
+    from wsgrasp.sim.objects import resolve_objects
+
+    args = ["batch", "--simulate", "realsense_box", "-g", "franka_hand"]
+    assert main([*args, "-n", "2", "--seed", "1", "-o", str(tmp_path), "-q"]) == 0
+    rows = pq.read_table(tmp_path / "trials").to_pylist()
+    config = EvalConfig(
+        objects=resolve_objects(["realsense_box"]).objects,
+        specs=spec_entries(["franka_hand"], None, paper=False),
+        trials=2,
+        seed=1,
+        params=SimParams(),
+        workers=1,
+    )
+    records, _ = run_eval(config, progress=False)
+    got = sorted((r["trial"], r["outcome"], r["T_world_ee"]) for r in rows)
+    want = sorted((r["trial"], r["outcome"], sum(r["T_world_ee"], [])) for r in records)
+    assert got == want

@@ -26,6 +26,7 @@ from wsgrasp.batch.plans import (
     scene_paths,
 )
 from wsgrasp.batch.sink import PartSink, require_pyarrow
+from wsgrasp.batch.trials import TrialSummary, run_trials, trial_schema
 
 __all__ = [
     "ENGINES",
@@ -36,6 +37,7 @@ __all__ = [
     "LocalEngine",
     "PartSink",
     "RayEngine",
+    "TrialSummary",
     "dataset_schemas",
     "make_engine",
     "plan_row",
@@ -44,6 +46,8 @@ __all__ = [
     "require_ray",
     "run_batch",
     "run_dataset",
+    "run_trials",
     "scene_paths",
     "shared",
+    "trial_schema",
 ]

@@ -82,14 +82,33 @@ class Engine(Protocol):
         """Stop what the engine started (Ray's local instance)."""
         ...
 
+    def __enter__(self) -> Engine: ...
 
-class LocalEngine:
-    """Jobs in this process (``workers`` 1) or in ``workers`` spawned processes."""
+    def __exit__(self, *exc: object) -> None: ...
+
+
+class _Closing:
+    """``with make_engine(...) as engine:`` closes it however the block ends."""
+
+    def close(self) -> None:
+        pass
+
+    def __enter__(self) -> Any:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class LocalEngine(_Closing):
+    """Jobs in this process (``workers`` 1, unless not ``in_process``) or in
+    ``workers`` spawned processes of one BLAS/OpenMP thread each."""
 
     name = "local"
 
-    def __init__(self, workers: int = 0) -> None:
+    def __init__(self, workers: int = 0, *, in_process: bool = True) -> None:
         self.workers = max(1, workers or (os.cpu_count() or 1))
+        self.in_process = in_process
 
     def run(
         self,
@@ -104,7 +123,7 @@ class LocalEngine:
         from wsgrasp.sim._pool import run_in_processes
 
         workers = max(1, min(self.workers, len(jobs)))
-        if workers == 1:
+        if workers == 1 and self.in_process:
             saved = dict(_SHARED)
             _set_shared(id(shared), shared)
             try:
@@ -117,9 +136,6 @@ class LocalEngine:
         run_in_processes(
             fn, list(jobs), workers, on_done, initializer=start, on_crash=on_crash
         )
-
-    def close(self) -> None:
-        pass
 
 
 def _start_process(shared: Any, initializer: Callable[[], None] | None) -> None:
@@ -143,7 +159,7 @@ def require_ray() -> Any:
     return ray
 
 
-class RayEngine:
+class RayEngine(_Closing):
     """Jobs as Ray tasks: a local Ray instance of ``workers`` CPUs started on
     first use (all cores with 0), or the cluster at ``address``.
 

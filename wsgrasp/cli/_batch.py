@@ -131,6 +131,19 @@ def batch(
     row_group: int = typer.Option(
         64, "--row-group", min=1, help="Rows per Parquet part written."
     ),
+    chunk: int = typer.Option(
+        8, "--chunk", min=1, help="Plans per task (a crash costs one task)."
+    ),
+    simulate: bool = typer.Option(
+        False,
+        "--simulate",
+        help="SCENES are objects (random:000-099, paper13, meshes): eval's MuJoCo "
+        "trials, one row each in OUT/trials (needs --gripper).",
+    ),
+    trials: int = typer.Option(
+        1, "--trials", "-n", min=1, help="With --simulate: trials per object."
+    ),
+    seed: int = typer.Option(0, "--seed", help="With --simulate: the trials' seed."),
     as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
 ) -> None:
@@ -149,10 +162,27 @@ def batch(
         raise typer.BadParameter(
             "give scenes (files or folders) or a --manifest", param_hint="SCENES"
         )
+    if simulate:
+        _simulate(
+            scenes,
+            specs,
+            grippers,
+            out,
+            engine,
+            address,
+            workers,
+            trials,
+            seed,
+            resume,
+            record,
+            row_group,
+            as_json,
+            quiet,
+        )
+        return
     entries = batch_specs(specs, grippers)
     paths = scene_paths(scenes)
-    eng = make_engine(engine, workers, address)
-    try:
+    with make_engine(engine, workers, address) as eng:
         summary = run_batch(
             paths,
             entries,
@@ -161,10 +191,9 @@ def batch(
             resume=resume,
             record=record,
             row_group=row_group,
+            chunk=chunk,
             progress=not quiet and not as_json,
         )
-    finally:
-        eng.close()
     data: dict[str, Any] = {
         "plans": summary.planned,
         "found": summary.found,
@@ -188,6 +217,79 @@ def batch(
         f"on {eng.name} × {eng.workers}: {summary.plans_per_s:.2f} plans/s"
         + (f"; {summary.resumed} already in {out}" if summary.resumed else "")
         + f"; rows in {out / 'plans'}",
+        highlight=False,
+    )
+
+
+def _simulate(
+    objects: list[str],
+    specs: list[str],
+    grippers: list[str],
+    out: Path,
+    engine: str,
+    address: str | None,
+    workers: int,
+    trials: int,
+    seed: int,
+    resume: bool,
+    record: bool,
+    row_group: int,
+    as_json: bool,
+    quiet: bool,
+) -> None:
+    """``batch --simulate``: eval's trials on the engine, rows to OUT/trials."""
+    from wsgrasp.batch import make_engine, run_trials
+    from wsgrasp.sim import SimParams, load_sim_gripper, require_mujoco, spec_entries
+    from wsgrasp.sim.objects import resolve_objects
+
+    require_mujoco()
+    if not grippers:
+        raise typer.BadParameter(
+            "--simulate needs the grippers to execute: give --gripper NAME",
+            param_hint="--gripper",
+        )
+    params = SimParams()
+    for g in grippers:  # fail early: unknown gripper, URDF, no closed posture
+        load_sim_gripper(g, params)
+    entries = spec_entries(grippers, specs or None, paper=False)
+    resolved = resolve_objects(objects, workers=workers, progress=not quiet)
+    record_dir = out / "runs" if record else None
+    if record_dir is not None:
+        record_dir.mkdir(parents=True, exist_ok=True)
+    with make_engine(engine, workers, address) as eng:
+        s = run_trials(
+            resolved.objects,
+            entries,
+            out,
+            eng,
+            trials=trials,
+            seed=seed,
+            params=params,
+            resume=resume,
+            record_dir=record_dir,
+            row_group=row_group,
+            progress=not quiet and not as_json,
+        )
+    data = {
+        "trials": s.trials,
+        "successes": s.successes,
+        "outcomes": s.outcomes,
+        "resumed_tasks": s.resumed,
+        "wall_s": round(s.wall_s, 2),
+        "trials_per_s": round(s.trials / s.wall_s, 3) if s.wall_s else 0.0,
+        "engine": eng.name,
+        "workers": eng.workers,
+        "out": str(out / "trials"),
+    }
+    if as_json:
+        print_json(data)
+        return
+    console.print(
+        f"{s.trials} trials ({s.successes} held; "
+        + ", ".join(f"{k} {v}" for k, v in sorted(s.outcomes.items()))
+        + f") in {s.wall_s:.1f} s on {eng.name} × {eng.workers}"
+        + (f"; {s.resumed} tasks already in {out}" if s.resumed else "")
+        + f"; rows in {out / 'trials'}",
         highlight=False,
     )
 
@@ -232,6 +334,11 @@ def dataset(
         5, "--top-k", "-k", min=0, help="Best candidates of each scene simulated."
     ),
     seed: int = typer.Option(0, "--seed", help="Random seed of drops and cameras."),
+    views: bool = typer.Option(
+        True,
+        "--views/--no-views",
+        help="Keep each scene's depth views (points) in OUT/scenes (~1.7 MB each).",
+    ),
     engine: str = typer.Option("local", "--engine", help=_ENGINE_HELP),
     address: str | None = typer.Option(None, "--address", help=_ADDRESS_HELP),
     workers: int = typer.Option(0, "--workers", "-j", min=0, help=_WORKERS_HELP),
@@ -262,8 +369,7 @@ def dataset(
     resolved = resolve_objects(
         names, workers=workers, progress=not quiet and not as_json
     )
-    eng = make_engine(engine, workers, address)
-    try:
+    with make_engine(engine, workers, address) as eng:
         summary = run_dataset(
             resolved.objects,
             spec,
@@ -275,10 +381,9 @@ def dataset(
             seed=seed,
             params=params,
             resume=resume,
+            views=views,
             progress=not quiet and not as_json,
         )
-    finally:
-        eng.close()
     data = {**summary.to_json(), "engine": eng.name, "workers": eng.workers}
     data["skipped_objects"] = {k.name: k.reason for k in resolved.skipped}
     if as_json:

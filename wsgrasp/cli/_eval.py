@@ -150,10 +150,8 @@ def eval_command(
         workers=workers,
         record_dir=record_dir,
     )
-    try:
+    with eng:  # Ray starts (and stops) here
         records, wall = run_eval(config, progress=not quiet and not as_json, engine=eng)
-    finally:
-        eng.close()
     import os
 
     primary = entries[0].label
