@@ -12,7 +12,11 @@ from wsgrasp_scorers import CentroidDistanceScorer
 
 from wsgrasp.geometry import transform_points
 from wsgrasp.planning.candidates import candidate_poses, orientation_set
-from wsgrasp.planning.evaluate import TableSE, evaluate_candidates
+from wsgrasp.planning.evaluate import (
+    CandidateStructure,
+    TableSE,
+    evaluate_candidates,
+)
 from wsgrasp.planning.reference import paper_orientation, reference_search
 from wsgrasp.planning.search import SearchInput, run_search
 from wsgrasp.spec import Sampling
@@ -74,6 +78,19 @@ def _check(gripper, seed, T_world_scene, obstacles, sampling=None):
     )
     np.testing.assert_array_equal(fast.reason, ref.reason)
     np.testing.assert_array_equal(fast.contacts, ref.contacts)
+    # the structured (dense) path: same verdicts, contacts and holdings
+    dense = evaluate_candidates(
+        T_world_gripper,
+        gripper,
+        obj,
+        obs,
+        table,
+        structure=CandidateStructure(T_world_object, samples, o.R_object_gwc, o.depth),
+    )
+    np.testing.assert_array_equal(dense.reason, ref.reason)
+    np.testing.assert_array_equal(dense.contacts, ref.contacts)
+    np.testing.assert_array_equal(dense.feasible, fast.feasible)
+    np.testing.assert_array_equal(dense.holding, fast.holding)
     out = run_search(
         SearchInput(
             gripper,

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import statistics
 import time
+import tracemalloc
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -18,7 +19,12 @@ import numpy as np
 
 from wsgrasp.api import Pipeline, as_scene
 from wsgrasp.perception.frame import sample_box
-from wsgrasp.planning.candidates import orientation_set
+from wsgrasp.planning.candidates import candidate_poses, orientation_set
+from wsgrasp.planning.evaluate import (
+    CandidateStructure,
+    FingerSpheres,
+    evaluate_candidates,
+)
 from wsgrasp.planning.reference import reference_search
 from wsgrasp.spec import load_spec
 
@@ -36,10 +42,33 @@ class BenchCase:
     label: str = ""
     #: fields of the spec's ``sampling`` to override (the paper's Table I setting)
     sampling: dict[str, Any] | None = None
+    #: a dense case: the search and the evaluation only (old and structured paths
+    #: alternating), with peak memory; no whole plan, no loop-by-loop reference
+    dense: bool = False
 
 
 #: the paper's Table I: 147 samples x 4 orientations about the major axis
 TABLE_I = {"mode": "major_axis", "points": 147, "orientations": 4, "flip": False}
+
+#: the follow-up's densities: Panda 10 × 10 × 10 positions × 512 orientations,
+#: Allegro 5 × 5 × 5 × 5832 (18³); as approach directions × rolls, since the
+#: ``xyz`` grid keeps each rotation once and drops those from under the table
+DENSE = {
+    "franka_hand": {
+        "mode": "approach_sphere",
+        "grid": (10, 10, 10),
+        "directions": 64,
+        "orientations": 8,
+        "flip": False,
+    },
+    "allegro_right": {
+        "mode": "approach_sphere",
+        "grid": (5, 5, 5),
+        "directions": 324,
+        "orientations": 18,
+        "flip": False,
+    },
+}
 
 
 @dataclass
@@ -65,6 +94,11 @@ def default_cases() -> list[BenchCase]:
         path = root / "examples" / "specs" / f"{spec}.yaml"
         cases.append(BenchCase(gripper, path, scene))
         cases.append(BenchCase(gripper, path, scene, f"{gripper}_table1", TABLE_I))
+    for gripper, spec in (("franka_hand", "franka"), ("allegro_right", "allegro")):
+        path = root / "examples" / "specs" / f"{spec}.yaml"
+        cases.append(
+            BenchCase(gripper, path, scene, f"{gripper}_dense", DENSE[gripper], True)
+        )
     return cases
 
 
@@ -100,6 +134,9 @@ def run_bench(
             )
         pipe = Pipeline(spec)
         scene = as_scene(case.scene)
+        if case.dense:
+            out.rows[label] = _dense_row(pipe, pipe.prepare(scene), label, say)
+            continue
         say(f"{label}: whole plan ×{repeat}")
         plan_ms = _median_ms(lambda: pipe.plan(scene), repeat)
         prep = pipe.prepare(scene)
@@ -142,6 +179,118 @@ def run_bench(
             say(f"{label}: scaling")
             out.scaling += _scaling(pipe, prep, scene)
     return out
+
+
+def _peak_mb(fn: Callable[[], Any]) -> float:
+    """Peak memory (MiB) numpy and Python allocate while ``fn`` runs."""
+    tracemalloc.start()
+    try:
+        fn()
+        return tracemalloc.get_traced_memory()[1] / 2**20
+    finally:
+        tracemalloc.stop()
+
+
+def _evaluators(inp: Any) -> tuple[Callable[[], Any], Callable[[], Any]]:
+    """The evaluation of every candidate of ``inp`` without and with the
+    candidates' structure (same verdicts)."""
+    g, o = inp.gripper, inp.orientations
+    _, T_world_gripper, _, _ = candidate_poses(
+        inp.T_world_object, inp.samples_object, o.R_object_gwc, g.T_gripper_gwc, o.depth
+    )
+    spheres = FingerSpheres(g)
+    structure = CandidateStructure(
+        inp.T_world_object, inp.samples_object, o.R_object_gwc, o.depth
+    )
+    args = (T_world_gripper, g, inp.object_points, inp.obstacle_points, inp.table)
+
+    def old() -> Any:
+        return evaluate_candidates(*args, spheres)
+
+    def new() -> Any:
+        return evaluate_candidates(*args, spheres, structure=structure)
+
+    return old, new
+
+
+def _side_by_side(fns: dict[str, Callable[[], Any]], repeat: int) -> dict[str, float]:
+    """Medians (ms) of each of ``fns``, run alternately ``repeat`` times."""
+    times: dict[str, list[float]] = {k: [] for k in fns}
+    for _ in range(repeat):
+        for k, fn in fns.items():
+            t = time.perf_counter()
+            fn()
+            times[k].append((time.perf_counter() - t) * 1e3)
+    return {k: statistics.median(v) for k, v in times.items()}
+
+
+def _dense_row(
+    pipe: Pipeline, prep: Any, label: str, say: Callable[[str], None]
+) -> dict[str, float]:
+    """A dense case: the search as wired (``pipe.search``), and the evaluation
+    alone without and with the structure, alternating; peak memory of each."""
+    inp = prep.search_input
+    C = inp.num_candidates
+    old, new = _evaluators(inp)
+    say(f"{label}: {C} candidates, structured evaluation")
+    new()  # warm-up (caches, page faults)
+    say(f"{label}: search, evaluation old and structured, alternating")
+    ms = _side_by_side({"search": lambda: pipe.search(prep), "old": old, "new": new}, 1)
+    ms.update(_side_by_side({"new": new}, 2))
+    return {
+        "candidates": float(C),
+        "samples": float(len(inp.samples_object)),
+        "orientations": float(len(inp.orientations)),
+        "object_points": float(len(inp.object_points)),
+        "search_ms": ms["search"],
+        "evaluate_ms": ms["old"],
+        "evaluate_structured_ms": ms["new"],
+        "evaluate_speedup": ms["old"] / ms["new"],
+        "structured_us_per_candidate": ms["new"] * 1e3 / max(C, 1),
+        "peak_mb": _peak_mb(lambda: pipe.search(prep)),
+        "evaluate_structured_peak_mb": _peak_mb(new),
+    }
+
+
+def dense_scaling(
+    pipe: Pipeline,
+    prep: Any,
+    counts: tuple[int, ...] = (10_000, 100_000, 1_000_000),
+    old_up_to: int = 100_000,
+    repeat: int = 3,
+) -> list[dict[str, Any]]:
+    """Evaluation time and cost per candidate against the number of candidates:
+    the structured path up to ``counts[-1]``, the old one (alternating with it)
+    up to ``old_up_to``. The candidates are the case's orientations times as
+    many samples (a grid in the object's box) as make up each count."""
+    from wsgrasp.perception.frame import object_frame
+
+    inp = prep.search_input
+    frame = object_frame(inp.object_points, pipe.spec.object_frame.method)
+    rows = []
+    for n in counts:
+        per_axis = max(1, round((n / len(inp.orientations)) ** (1.0 / 3.0)))
+        sampling = pipe.spec.sampling.model_copy(
+            update={"grid": (per_axis, per_axis, per_axis)}
+        )
+        case = replace(inp, samples_object=sample_box(frame, sampling))
+        old, new = _evaluators(case)
+        new()
+        fns = {"new": new, "old": old} if case.num_candidates <= old_up_to else {}
+        ms = _side_by_side(fns or {"new": new}, repeat)
+        C = case.num_candidates
+        rows.append(
+            {
+                "gripper": pipe.gripper.name,
+                "candidates": C,
+                "evaluate_structured_ms": ms["new"],
+                "structured_us_per_candidate": ms["new"] * 1e3 / C,
+                "evaluate_ms": ms.get("old", float("nan")),
+                "us_per_candidate": ms.get("old", float("nan")) * 1e3 / C,
+                "peak_mb": _peak_mb(new),
+            }
+        )
+    return rows
 
 
 def _scaling(pipe: Pipeline, prep: Any, scene: Any) -> list[dict[str, Any]]:
