@@ -25,14 +25,7 @@ except ImportError:  # pragma: no cover - older foxglove-sdk
 if TYPE_CHECKING:
     from wsgrasp.gripper.model import GripperModel
 
-__all__ = [
-    "FOXGLOVE_MAX_POINTS",
-    "REASON_RGBA",
-    "input_views",
-    "point_cloud",
-    "result_views",
-    "stage_views",
-]
+__all__ = ["FOXGLOVE_MAX_POINTS", "REASON_RGBA", "point_cloud", "views_of"]
 
 #: Most points of the input views, all together, in their Foxglove channels
 #: (``/inputs/view<i>``; the exact views are in ``/wsgrasp/inputs``).
@@ -155,7 +148,47 @@ def _entity(eid: str, frame_id: str, t: int, **shapes: Any) -> Any:
     )
 
 
-def input_views(views: list[tuple[NDArray[Any], NDArray[Any]]], t: int) -> list[View]:
+def views_of(
+    stage: str,
+    d: dict[str, Any],
+    t: int,
+    gripper: GripperModel,
+    table_axes: tuple[float, float, float],
+) -> list[View]:
+    """The views of the record ``d`` of ``stage`` (``table_axes``: the semi-axes
+    of the spec's table superellipsoid, for the table's shape)."""
+    if stage == "inputs":
+        return _input_views([(v["points"], v["T_world_camera"]) for v in d["views"]], t)
+    if stage == "result":
+        return _result_views(d, gripper, t)
+    if stage == "candidates":
+        return _candidate_views(d.get("candidates"), t)
+    if stage == "segmentation":  # the obstacles' points, (k, 3) in all
+        obstacles = [np.asarray(o).reshape(-1, 3) for o in d.get("obstacles") or []]
+        d = d | {"obstacles": np.concatenate(obstacles) if obstacles else None}
+    out: list[View] = [
+        (topic, point_cloud(d[key], "world", t, rgba=rgba))
+        for key, topic, rgba in _CLOUDS.get(stage, ())
+        if d.get(key) is not None
+    ]
+    if stage == "object_frame":
+        out += _frame_views(d, t, table_axes)
+    return out
+
+
+#: The clouds of a stage: (record key, topic, colour).
+_CLOUDS = {
+    "preprocess": [("points", "/scene/downsampled", (0.7, 0.7, 0.7, 1.0))],
+    "segmentation": [
+        ("table_points", "/scene/table_points", (0.6, 0.5, 0.4, 1.0)),
+        ("object_points", "/scene/object", (0.1, 0.4, 0.9, 1.0)),
+        ("obstacles", "/scene/obstacles", (0.9, 0.5, 0.1, 1.0)),
+    ],
+    "object_frame": [("samples_world", "/object/samples", (1.0, 0.85, 0.1, 1.0))],
+}
+
+
+def _input_views(views: list[tuple[NDArray[Any], NDArray[Any]]], t: int) -> list[View]:
     """The input views ``(points (n, 3), T_world_camera (4, 4))``, thinned by one
     step to at most :data:`FOXGLOVE_MAX_POINTS` points in all."""
     step = max(1, -(-sum(len(p) for p, _ in views) // FOXGLOVE_MAX_POINTS))
@@ -168,49 +201,13 @@ def input_views(views: list[tuple[NDArray[Any], NDArray[Any]]], t: int) -> list[
     return out
 
 
-def stage_views(
-    stage: str, d: dict[str, Any], t: int, table_axes: tuple[float, float, float]
-) -> list[View]:
-    """The views of one stage's data ``d`` (the semi-axes of the spec's table
-    superellipsoid for the table's shape)."""
-    out: list[View] = []
-
-    def cloud(topic: str, pts: Any, rgba: tuple[float, ...]) -> None:
-        if pts is not None:
-            out.append((topic, point_cloud(pts, "world", t, rgba=rgba)))
-
-    if stage == "preprocess":
-        cloud("/scene/downsampled", d.get("points"), (0.7, 0.7, 0.7, 1.0))
-    elif stage == "segmentation":
-        cloud("/scene/table_points", d.get("table_points"), (0.6, 0.5, 0.4, 1))
-        cloud("/scene/object", d.get("object_points"), (0.1, 0.4, 0.9, 1))
-        obstacles = [np.asarray(o).reshape(-1, 3) for o in d.get("obstacles") or []]
-        if obstacles:  # (k, 3) in all
-            cloud("/scene/obstacles", np.concatenate(obstacles), (0.9, 0.5, 0.1, 1.0))
-    elif stage == "object_frame":
-        cloud("/object/samples", d.get("samples_world"), (1.0, 0.85, 0.1, 1))
-        out += _frame_views(d, t, table_axes)
-    elif stage == "candidates":
-        out += _candidate_views(d.get("candidates"), t)
-    return out
-
-
 def _frame_views(
     d: dict[str, Any], t: int, table_axes: tuple[float, float, float]
 ) -> list[View]:
     """The object's and the table's frames, the object's box and the table."""
-    frames = {
-        k: d[f"T_world_{k}"]
-        for k in ("object", "table")
-        if d.get(f"T_world_{k}") is not None
-    }
-    pq = dict(
-        zip(
-            frames,
-            _pqs([np.asarray(T, np.float64) for T in frames.values()]),
-            strict=True,
-        )
-    )
+    names = [k for k in ("object", "table") if d.get(f"T_world_{k}") is not None]
+    T = {k: np.asarray(d[f"T_world_{k}"], dtype=np.float64) for k in names}
+    pq = dict(zip(names, _pqs(list(T.values())), strict=True))
     out: list[View] = [("/tf", _transform(pq[k], "world", k, t)) for k in pq]
     ents = []
     if "object" in pq:
@@ -219,14 +216,10 @@ def _frame_views(
             box = _cube(pq["object"], d["extents"], (0.1, 0.4, 0.9, 0.15))
             ents.append(_entity("object_box", "world", t, cubes=[box]))
     if "table" in pq:
-        T = np.asarray(frames["table"], dtype=np.float64)
-        a, b, c = table_axes
-        centre = T[:3, :3] @ [0.0, 0.0, -c] + T[:3, 3]  # c below the surface
-        slab = _cube(
-            (centre.tolist(), pq["table"][1]),
-            (2 * a, 2 * b, 2 * c),
-            (0.6, 0.5, 0.4, 0.3),
-        )
+        a, b, c = table_axes  # the superellipsoid's centre is c below the surface
+        centre = (T["table"][:3, :3] @ [0.0, 0.0, -c] + T["table"][:3, 3]).tolist()
+        size, rgba = (2 * a, 2 * b, 2 * c), (0.6, 0.5, 0.4, 0.3)
+        slab = _cube((centre, pq["table"][1]), size, rgba)
         ents.append(_entity("table_se", "world", t, cubes=[slab]))
     if ents:
         out.append(("/scene/shapes", fm.SceneUpdate(entities=ents)))
@@ -259,7 +252,7 @@ def _candidate_views(cs: Any, t: int) -> list[View]:
     return out
 
 
-def result_views(result: dict[str, Any], g: GripperModel, t: int) -> list[View]:
+def _result_views(result: dict[str, Any], g: GripperModel, t: int) -> list[View]:
     """Of the recorded ``result``: the chosen pose, the gripper there (its cloud,
     body superellipsoids as boxes and workspace spheres, the ones holding object
     points highlighted) and the contacts. The gripper is drawn in frame

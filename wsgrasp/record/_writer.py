@@ -1,17 +1,14 @@
 """The MCAP recorder: a plan observer that writes every stage as it ends.
 
-A run file (``FORMAT_VERSION`` 3) holds, written with ``mcap.writer.Writer``: header
-profile ``wsgrasp``; the ``/wsgrasp/run`` record (see :mod:`._runinfo`), also as
-metadata; the gripper attachments; the full-fidelity channels (``/wsgrasp/...``,
-:mod:`._codec`) and the Foxglove views (:mod:`._views`); ``run_end`` metadata last.
-
-Each record is encoded at once (a caller changing its arrays later changes nothing)
-and flushed as a chunk of its own in the planner's thread, inputs first: a process
-killed mid-plan leaves every finished stage. Chunks of float clouds are stored
-uncompressed (zstd saves under 1 % on them and costs milliseconds a megabyte), the
-others zstd. The views, built from the encoded records, and the summary are written
-after the result by the process's writer thread; ``close()`` waits for them, and so
-do a new recording and ``open_run``.
+A run file (``FORMAT_VERSION`` 3), written with ``mcap.writer.Writer``: profile
+``wsgrasp``; the ``/wsgrasp/run`` record (:mod:`._runinfo`), also as metadata; the
+gripper attachments; the full-fidelity records (:mod:`._codec`), each encoded at once
+and flushed as a chunk of its own in the planner's thread (a process killed mid-plan
+leaves every finished stage), float clouds uncompressed (zstd saves under 1 % on them
+and costs milliseconds a megabyte), the others zstd; after the result, on the
+process's writer thread, the Foxglove views (:mod:`._views`, built from the arrays
+as encoded, so a caller changing its arrays changes nothing), ``run_end`` metadata
+and the summary. ``close()``, a new recording and ``open_run`` wait for them.
 """
 
 from __future__ import annotations
@@ -66,11 +63,12 @@ def default_run_path(
     return Path(spec.record.dir) / f"{stamp}-{safe or 'gripper'}.mcap"
 
 
-def _exists_error(p: Path) -> RecordingError:
-    return RecordingError(
-        f"{p}: a recording already exists there; wsgrasp never overwrites one",
-        hint="choose another path, or pass --force to replace it",
-    )
+def _refused(p: Path, why: str, hint: str) -> RecordingError:
+    return RecordingError(f"{p}: {why}", hint=hint)
+
+
+_EXISTS = "a recording already exists there; wsgrasp never overwrites one"
+_EXISTS_HINT = "choose another path, or pass --force to replace it"
 
 
 def check_record_path(
@@ -88,33 +86,24 @@ def check_record_path(
     """
     p = Path(path)
     if p.is_symlink():
-        raise RecordingError(
-            f"{p}: is a symbolic link; wsgrasp writes recordings to plain files only",
-            hint="give the path it points to, or another path",
-        )
+        why = "is a symbolic link; wsgrasp writes recordings to plain files only"
+        raise _refused(p, why, "give the path it points to, or another path")
     if p.is_dir():
-        raise RecordingError(
-            f"{p}: is a directory, not a recording file",
-            hint="give a file path ending in .mcap",
-        )
+        why = "is a directory, not a recording file"
+        raise _refused(p, why, "give a file path ending in .mcap")
     if not p.exists():
         return p
-    for source in inputs:
-        if Path(source).exists() and p.samefile(source):
-            raise RecordingError(
-                f"{p}: is an input of this run; wsgrasp never records over its input",
-                hint="choose another path for the recording",
-            )
+    if any(Path(s).exists() and p.samefile(s) for s in inputs):
+        why = "is an input of this run; wsgrasp never records over its input"
+        raise _refused(p, why, "choose another path for the recording")
     if not force:
-        raise _exists_error(p)
+        raise _refused(p, _EXISTS, _EXISTS_HINT)
     with open(p, "rb") as fh:
-        head = fh.read(len(MCAP0_MAGIC))
-    if head != MCAP0_MAGIC:
-        raise RecordingError(
-            f"{p}: exists and is not an MCAP recording; --force replaces "
-            "recordings only",
-            hint="choose another path, or remove the file yourself",
-        )
+        if fh.read(len(MCAP0_MAGIC)) != MCAP0_MAGIC:
+            why = (
+                "exists and is not an MCAP recording; --force replaces recordings only"
+            )
+            raise _refused(p, why, "choose another path, or remove the file yourself")
     return p
 
 
@@ -163,12 +152,11 @@ class RunRecorder:
         """Write the run's versions and spec, the gripper model and the inputs,
         and flush."""
         wait_for_recorders()  # earlier runs' views: not while this one plans
-        t0 = time.perf_counter()
-        a, b, c = spec.table.semi_axes  # for the views, as the spec is now
-        self._table_axes = (float(a), float(b), float(c))
-        self._gripper = gripper
-        self._open()
         with self._writing():
+            a, b, c = spec.table.semi_axes  # for the views, as the spec is now
+            self._table_axes = (float(a), float(b), float(c))
+            self._gripper = gripper
+            self._open()
             now = time.time_ns()
             info = run_info(spec, gripper)
             for name, part in info.items():
@@ -176,32 +164,23 @@ class RunRecorder:
             for name, media, data in gripper_attachments(spec, gripper):
                 self._w.add_attachment(now, now, name, media, data)
             self._record("run", info, now)
-            inputs = {
-                "views": [
-                    {
-                        "name": v.name,
-                        "points": v.points,
-                        "T_world_camera": v.T_world_camera,
-                    }
-                    for v in scene.views
-                ],
-                "points": scene.points,
-                "dropped_nonfinite": int(scene.dropped_nonfinite),
-            }
-            self._record("inputs", inputs, now)
-        self.overhead_ms += (time.perf_counter() - t0) * 1e3
+            views = [
+                {"name": v.name, "points": v.points, "T_world_camera": v.T_world_camera}
+                for v in scene.views
+            ]
+            dropped = int(scene.dropped_nonfinite)
+            inputs = {"views": views, "points": scene.points}
+            self._record("inputs", inputs | {"dropped_nonfinite": dropped}, now)
 
     def on_stage(self, stage: str, data: dict[str, Any]) -> None:
         """Write one stage's record and flush."""
         if self._writer is None or self._finished:
             return
-        t0 = time.perf_counter()
         with self._writing():
             self._record(stage, data, time.time_ns())
         if stage == "candidates":
             self._candidates = data.get("candidates")
         self._stages_written.append(stage)
-        self.overhead_ms += (time.perf_counter() - t0) * 1e3
 
     def on_result(self, result: PlanResult) -> None:
         """Write the result and flush; the writer thread finishes the file."""
@@ -224,11 +203,9 @@ class RunRecorder:
     def _last(self, stage: str, record: dict[str, Any], status: str) -> None:
         if self._writer is None or self._finished:
             return
-        t0 = time.perf_counter()
         with self._writing():
             self._record(stage, record, time.time_ns())
-        self._finish_later(status)
-        self.overhead_ms += (time.perf_counter() - t0) * 1e3
+            self._finish_later(status)
 
     def close(self) -> None:
         """Wait until the file is finished; finish it here if the plan never
@@ -287,8 +264,10 @@ class RunRecorder:
 
     @contextmanager
     def _writing(self) -> Iterator[None]:
-        """A failed write (disk full) is one ``RecordingError``; the file keeps
-        what was flushed before, and nothing more is written."""
+        """Time spent in the planner's thread (``overhead_ms``). A failed write
+        (disk full) is one ``RecordingError``; the file keeps what was flushed
+        before, and nothing more is written."""
+        t0 = time.perf_counter()
         try:
             yield
         except OSError as exc:
@@ -300,6 +279,8 @@ class RunRecorder:
                 hint="free disk space or record elsewhere (--record PATH), or plan "
                 "with --no-record",
             ) from exc
+        finally:
+            self.overhead_ms += (time.perf_counter() - t0) * 1e3
 
     def _close_stream(self) -> None:
         with _worker.REGISTRY:
@@ -340,7 +321,8 @@ class RunRecorder:
         rest: list[Any] = []
         for stage, held, t in self._recorded:
             try:
-                views = self._views_of(stage, held, t)
+                assert self._gripper is not None  # set in on_start
+                views = _views.views_of(stage, held, t, self._gripper, self._table_axes)
             except Exception as exc:  # noqa: BLE001 - views are a convenience
                 warning = dumps({"stage": stage, "error": repr(exc)}, "warnings")
                 rest.append(
@@ -357,16 +339,6 @@ class RunRecorder:
                 self._put(*row)
             self._flush(compression)
 
-    def _views_of(self, stage: str, d: Any, t: int) -> list[_views.View]:
-        if stage == "inputs":
-            return _views.input_views(
-                [(v["points"], v["T_world_camera"]) for v in d["views"]], t
-            )
-        if stage == "result":
-            assert self._gripper is not None  # set in on_start
-            return _views.result_views(d, self._gripper, t)
-        return _views.stage_views(stage, d, t, self._table_axes)
-
     def _open(self) -> None:
         if self._writer is not None:
             raise RecordingError(
@@ -377,7 +349,7 @@ class RunRecorder:
         try:
             raw = open(self.path, "wb" if self.force else "xb")  # noqa: SIM115
         except FileExistsError:
-            raise _exists_error(self.path) from None
+            raise _refused(self.path, _EXISTS, _EXISTS_HINT) from None
         except OSError as exc:
             raise RecordingError(
                 f"{self.path}: cannot create the recording: {exc.strerror}",
