@@ -1,14 +1,6 @@
 """ROS 2 bags (MCAP) as planner input: ``sensor_msgs/msg/PointCloud2`` clouds with
-their camera poses from ``/tf`` and ``/tf_static``.
-
-::
-
-    scene = read_bag_scene("capture.mcap", "/camera/points", frame="world")
-
-The latest cloud on each topic is used, or the latest at or before ``at``. The
-camera pose is the transform from ``frame`` (by default the root of the cloud's
-transform tree, or the cloud's own frame when the bag has no transforms) to the
-cloud's ``header.frame_id``, at the cloud's time.
+their camera poses from ``/tf`` and ``/tf_static``:
+``read_bag_scene("capture.mcap", "/camera/points", frame="world")``.
 
 A bag is read through its summary (topics, start time) and chunk index: only the
 chunks with the cloud wanted and the transforms up to its time are read. A bag
@@ -48,16 +40,9 @@ _POINTFIELD_DTYPES = dict(
 
 @dataclass
 class BagCloud:
-    """One PointCloud2 message, decoded.
-
-    Attributes
-    ----------
-    topic, frame_id : str
-    stamp_ns : int
-        ``header.stamp`` (ns); the log time when the stamp is zero.
-    points : (n, 3) float
-        x, y, z in ``frame_id`` (float64; NaN points kept).
-    """
+    """One PointCloud2 message, decoded: ``points`` (n, 3) float64 x, y, z in
+    ``frame_id`` (NaN points kept), ``stamp_ns`` its ``header.stamp`` (the log
+    time when the stamp is zero)."""
 
     topic: str
     frame_id: str
@@ -87,12 +72,13 @@ def _open(path: str | Path) -> Path:
     return p
 
 
-def _summary(fh: Any) -> Any:
+def _summary(p: Path) -> Any:
     """The bag's summary, or None (a bag cut short has none)."""
     from mcap.reader import make_reader
 
     try:
-        return make_reader(fh).get_summary()
+        with open(p, "rb") as fh:
+            return make_reader(fh).get_summary()
     except Exception:  # noqa: BLE001 - no summary: read the messages
         return None
 
@@ -112,10 +98,9 @@ def _messages(
     from mcap.exceptions import McapError
     from mcap.reader import NonSeekingReader, make_reader
 
+    indexed = _summary(p) is not None
     try:
         with open(p, "rb") as fh:
-            indexed = _summary(fh) is not None
-            fh.seek(0)
             reader = make_reader(fh) if indexed else NonSeekingReader(fh)
             it = reader.iter_messages(
                 topics,
@@ -143,8 +128,7 @@ def _messages(
 def bag_topics(path: str | Path) -> dict[str, str]:
     """Topic → message type of every channel in a bag."""
     p = _open(path)
-    with open(p, "rb") as fh:
-        summary = _summary(fh)
+    summary = _summary(p)
     if summary is not None:
         return {
             ch.topic: getattr(summary.schemas.get(ch.schema_id), "name", "")
@@ -155,8 +139,7 @@ def bag_topics(path: str | Path) -> dict[str, str]:
 
 def _first_time(p: Path) -> int:
     """The log time of the bag's first message (its statistics, when summed up)."""
-    with open(p, "rb") as fh:
-        summary = _summary(fh)
+    summary = _summary(p)
     if summary is not None and summary.statistics is not None:
         return int(summary.statistics.message_start_time)
     return next((int(m.log_time) for _, _, m in _messages(p)), 0)
@@ -202,14 +185,13 @@ def pointcloud2_xyz(msg: Any, topic: str = "") -> Array:
             hint="plan on a cloud of 3D points (x, y, z fields), e.g. the "
             "camera's points topic rather than a depth image or a 2D scan",
         )
-    order = ">" if msg.is_bigendian else "<"
-    for a in "xyz":
-        if fields[a].datatype not in _POINTFIELD_DTYPES:
-            raise InputError(
-                f"PointCloud2 on {topic}: field {a} has unknown datatype "
-                f"{fields[a].datatype}",
-                hint="x, y and z must be numbers (PointField datatypes 1..8)",
-            )
+    unknown = [fields[a] for a in "xyz" if fields[a].datatype not in _POINTFIELD_DTYPES]
+    if unknown:
+        raise InputError(
+            f"PointCloud2 on {topic}: field {unknown[0].name} has unknown datatype "
+            f"{unknown[0].datatype}",
+            hint="x, y and z must be numbers (PointField datatypes 1..8)",
+        )
     h, w, step = int(msg.height), int(msg.width), int(msg.point_step)
     data = bytes(msg.data)
     row = int(msg.row_step) if msg.row_step else step * w
@@ -221,11 +203,11 @@ def pointcloud2_xyz(msg: Any, topic: str = "") -> Array:
             f"{h} rows × {w} points × {step} bytes",
             hint="the message is malformed; re-record the bag",
         )
+    order = ">" if msg.is_bigendian else "<"
     formats = [order + _POINTFIELD_DTYPES[fields[a].datatype] for a in "xyz"]
     offsets = [fields[a].offset for a in "xyz"]
-    dtype = np.dtype(
-        {"names": list("xyz"), "formats": formats, "offsets": offsets, "itemsize": step}
-    )
+    layout = {"names": list("xyz"), "formats": formats, "offsets": offsets}
+    dtype = np.dtype(layout | {"itemsize": step})
     # (h, w) records over the bytes: rows may be padded (row_step)
     rec = np.ndarray((h, w), dtype=dtype, buffer=data, strides=(row, step))
     return np.stack([rec[a].reshape(-1).astype(np.float64) for a in "xyz"], axis=1)
@@ -242,18 +224,9 @@ def _stamp(msg: Any, log_time: int) -> int:
 def read_bag_clouds(
     path: str | Path, topics: str | Sequence[str], *, at: float | None = None
 ) -> list[BagCloud]:
-    """The latest cloud (at or before ``at``) on each topic.
-
-    Parameters
-    ----------
-    path
-        A ROS 2 bag in MCAP.
-    topics
-        One or more ``sensor_msgs/msg/PointCloud2`` topics.
-    at
-        Seconds since the bag's first message, or a UNIX time in seconds
-        (values above 1e9); the latest message by default.
-    """
+    """The latest cloud on each of ``topics`` (``sensor_msgs/msg/PointCloud2``),
+    or the latest at or before ``at``: seconds since the bag's first message, or
+    a UNIX time in seconds (values above 1e9)."""
     p = _open(path)
     tlist = [topics] if isinstance(topics, str) else list(topics)
     t_limit: int | None = None
@@ -286,16 +259,9 @@ def read_bag_clouds(
                     f"{p}: no cloud on {topic!r} at or before --at {at}",
                     hint="give a later time, in seconds since the bag's start",
                 )
-        schema, channel, message = latest
-        msg = _decode(schema, channel, message)
-        out.append(
-            BagCloud(
-                topic=topic,
-                frame_id=str(msg.header.frame_id),
-                stamp_ns=_stamp(msg, message.log_time),
-                points=pointcloud2_xyz(msg, topic),
-            )
-        )
+        msg = _decode(*latest)
+        stamp, points = _stamp(msg, latest[2].log_time), pointcloud2_xyz(msg, topic)
+        out.append(BagCloud(topic, str(msg.header.frame_id), stamp, points))
     return out
 
 
@@ -369,24 +335,11 @@ def read_bag_scene(
     frame: str | None = None,
     at: float | None = None,
 ) -> Any:
-    """Read a ROS 2 bag's latest cloud(s) as a planner ``Scene``.
-
-    Parameters
-    ----------
-    path
-        A ROS 2 bag in MCAP.
-    topic
-        A ``sensor_msgs/msg/PointCloud2`` topic, or several (one view each).
-    frame
-        The world frame of the plan. By default the root of the clouds' transform
-        tree, or the cloud's own frame when the bag has no ``/tf``.
-    at
-        Seconds since the bag's first message (or a UNIX time); latest by default.
-
-    Returns
-    -------
-    Scene
-        One view per topic, ``T_world_camera`` from the transforms.
+    """A planner ``Scene`` of a ROS 2 bag's clouds: one view per ``topic``, the
+    latest cloud (at or before ``at``, as in :func:`read_bag_clouds`), its
+    ``T_world_camera`` the transform from ``frame`` (by default the root of the
+    clouds' transform tree, or the cloud's own frame when the bag has no
+    transforms) to the cloud's ``header.frame_id`` at the cloud's time.
 
     Raises
     ------
@@ -401,17 +354,14 @@ def read_bag_scene(
     clouds = read_bag_clouds(p, topic, at=at)
     t_ref = max(c.stamp_ns for c in clouds)
     edges = _tf_edges(p, t_ref)
-    views = []
-    worlds = set()
-    for c in clouds:
-        world, T = camera_pose(edges, frame, c.frame_id)
-        worlds.add(world)
-        views.append((c.points, T))
+    poses = [camera_pose(edges, frame, c.frame_id) for c in clouds]
+    worlds = {world for world, _ in poses}
     if len(worlds) > 1:
         raise InputError(
             f"the clouds' frames are not connected by /tf: roots {sorted(worlds)}",
             hint="pass --frame with a frame every cloud's frame is connected to",
         )
+    views = [(c.points, T) for c, (_, T) in zip(clouds, poses, strict=True)]
     scene = scene_from_arrays(views)
     for v, c in zip(scene.views, clouds, strict=True):
         v.name = f"{c.topic} ({c.frame_id})"
