@@ -25,12 +25,15 @@ from mcap.writer import MCAP0_MAGIC
 from wsgrasp.errors import RecordingError
 from wsgrasp.record._codec import FORMAT_VERSION, PROFILE, SCHEMA_NAME, TOPICS, loads
 from wsgrasp.record._run import PARTS, RawMessage, Run
+from wsgrasp.record._worker import wait_for_recorders
 
 __all__ = ["open_run"]
 
 
 @dataclass
 class _Scan:
+    """The complete records of a file, and where it stops if it is cut."""
+
     header: Header | None = None
     schemas: dict[int, Schema] = field(default_factory=dict)
     channels: dict[int, Channel] = field(default_factory=dict)
@@ -39,6 +42,31 @@ class _Scan:
     attachments: dict[str, bytes] = field(default_factory=dict)
     footer: bool = False
     truncated_at: int | None = None
+
+    def add(self, rec: Any) -> None:
+        match rec:
+            case Header():
+                self.header = rec
+            case Schema():
+                self.schemas[rec.id] = rec
+            case Channel():
+                self.channels[rec.id] = rec
+            case Message():
+                ch = self.channels.get(rec.channel_id)
+                if ch is None:
+                    raise ValueError(f"message on unknown channel {rec.channel_id}")
+                sc = self.schemas.get(ch.schema_id) or _NO_SCHEMA
+                raw = (sc.name, sc.encoding, sc.data, ch.message_encoding)
+                self.messages.append(RawMessage(ch.topic, *raw, rec.log_time, rec.data))
+            case Metadata():
+                self.metadata[rec.name] = dict(rec.metadata)
+            case Attachment():
+                self.attachments[rec.name] = rec.data
+            case Footer():
+                self.footer = True
+
+
+_NO_SCHEMA = Schema(id=0, data=b"", encoding="", name="")
 
 
 def _corrupt(path: Path, offset: int, what: str) -> RecordingError:
@@ -62,7 +90,7 @@ def _scan(path: Path, fh: IO[bytes], size: int) -> _Scan:
     pos = 0  # the end of the last complete record
     try:
         for rec in StreamReader(fh, validate_crcs=True).records:
-            _add(scan, rec)
+            scan.add(rec)
             pos = fh.tell()
     except RecordingError:
         raise
@@ -82,50 +110,10 @@ def _runs_past_the_end(fh: IO[bytes], pos: int, size: int) -> bool:
     return pos + 9 + int.from_bytes(fh.read(8), "little") > size
 
 
-def _add(scan: _Scan, rec: Any) -> None:
-    if isinstance(rec, Header):
-        scan.header = rec
-    elif isinstance(rec, Schema):
-        scan.schemas[rec.id] = rec
-    elif isinstance(rec, Channel):
-        scan.channels[rec.id] = rec
-    elif isinstance(rec, Message):
-        ch = scan.channels.get(rec.channel_id)
-        if ch is None:
-            raise ValueError(f"message on unknown channel {rec.channel_id}")
-        sc = scan.schemas.get(ch.schema_id)
-        scan.messages.append(
-            RawMessage(
-                topic=ch.topic,
-                schema_name="" if sc is None else sc.name,
-                schema_encoding="" if sc is None else sc.encoding,
-                schema_data=b"" if sc is None else sc.data,
-                message_encoding=ch.message_encoding,
-                log_time=rec.log_time,
-                data=rec.data,
-            )
-        )
-    elif isinstance(rec, Metadata):
-        scan.metadata[rec.name] = dict(rec.metadata)
-    elif isinstance(rec, Attachment):
-        scan.attachments[rec.name] = rec.data
-    elif isinstance(rec, Footer):
-        scan.footer = True
-
-
 def open_run(path: str | Path) -> Run:
-    """Read a recorded run.
-
-    Parameters
-    ----------
-    path
-        A ``.mcap`` file written by ``wsgrasp plan`` (or :class:`RunRecorder`).
-
-    Returns
-    -------
-    Run
-        Inputs, spec, gripper model, candidates and result; ``truncated`` and
-        ``missing`` say whether the file stops early and what it lacks.
+    """Read a run recorded by ``wsgrasp plan`` (a :class:`RunRecorder`): inputs,
+    spec, gripper model, candidates and result; ``truncated`` and ``missing`` say
+    whether the file stops early and what it lacks.
 
     Raises
     ------
@@ -134,8 +122,6 @@ def open_run(path: str | Path) -> Run:
         spec and versions included), not a wsgrasp run, or recorded in a newer
         format than this wsgrasp reads.
     """
-    from wsgrasp.record._writer import wait_for_recorders
-
     wait_for_recorders()  # a run this process is still finishing
     p = Path(path)
     if not p.is_file():
@@ -212,9 +198,8 @@ def _run_from_scan(p: Path, scan: _Scan) -> Run:
             metadata.pop(name, None)
         for name, part in (by_topic.get(TOPICS["run"]) or {}).items():
             if scan.metadata.get(name, part) != part:
-                raise _corrupt(
-                    p, 0, f"metadata {name!r} differs from the run's checked record"
-                )
+                why = f"metadata {name!r} differs from the run's checked record"
+                raise _corrupt(p, 0, why)
             metadata[name] = part
     result_data = by_topic.get(TOPICS["result"])
     if result_data is not None and isinstance(result_data.get("candidates"), str):
