@@ -10,7 +10,8 @@ see the same changes of a shared machine's load. ``wall`` counts the whole run
 counts from the moment every worker has delivered its first result to the last
 (what a long run approaches). The local 1-worker run is a pool of one process
 (one OpenMP thread), like every worker. A Ray instance of ``workers`` CPUs is
-started for each run outside the timings. ``median task`` is the plans' own
+started for each run outside the timings (its workers import wsgrasp inside
+them, as the local pool's processes do). ``median task`` is the plans' own
 ``plan_ms`` (or a label's simulation seconds): when it grows on 2 workers, the
 workers did not each get a core.
 """
@@ -96,12 +97,28 @@ def labels_once(
     from wsgrasp.cli._plan import plan_spec
 
     spec = plan_spec(None, "franka_hand")
+    stamps: list[tuple[float, int]] = []  # (arrival, labels) per scene
     start = time.perf_counter()
-    s = run_dataset(objs, spec, "franka_hand", out, engine, top_k=top_k, progress=False)
-    wall = s.labels / (time.perf_counter() - start)
+    s = run_dataset(
+        objs,
+        spec,
+        "franka_hand",
+        out,
+        engine,
+        top_k=top_k,
+        views=False,
+        progress=False,
+        on_scene=lambda row: stamps.append(
+            (time.perf_counter(), row.get("labels") or 0)
+        ),
+    )
+    wall = s.labels / (stamps[-1][0] - start)
+    w = min(workers, len(stamps) - 1)
+    later = sum(n for _, n in stamps[w:])
+    steady = later / max(stamps[-1][0] - stamps[w - 1][0], 1e-9)
     rows = pq.read_table(out / "scenes").to_pylist()
     task_s = [x["sim_s"] / x["labels"] for x in rows if x["labels"]]
-    return {"wall": wall, "steady": float("nan"), "task_s": task_s}
+    return {"wall": wall, "steady": steady, "task_s": task_s}
 
 
 def main() -> None:
@@ -130,7 +147,7 @@ def main() -> None:
                 engine = _engine(kind, workers)
                 try:
                     if kind == "ray":  # the Ray instance, outside the timings
-                        engine.run(abs, [(1,)], lambda i, r: None)
+                        engine._init()
                     load0 = os.getloadavg()[0]
                     out = Path(tmp) / f"{kind}{workers}-{r}"
                     if args.what == "plans":

@@ -17,7 +17,7 @@ from __future__ import annotations
 import os
 import socket
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -279,6 +279,7 @@ def run_dataset(
     views: bool = True,
     row_group: int = 8,
     progress: bool = True,
+    on_scene: Callable[[dict[str, Any]], None] | None = None,
 ) -> DatasetSummary:
     """Every object × trial on ``engine``; tables ``out/candidates`` and
     ``out/scenes``, written as jobs finish (``resume`` skips the scenes there).
@@ -330,6 +331,8 @@ def run_dataset(
             summary.successes += int(s.get("successes") or 0)
             summary.errors += s.get("error") is not None
             advance(f"{summary.successes}/{summary.labels} held · {s['object']}")
+            if on_scene is not None:
+                on_scene(s)
 
         def crashed(i: int) -> None:
             obj, t = jobs[i]
