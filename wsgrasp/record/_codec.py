@@ -1,16 +1,10 @@
 """The full-fidelity encoding of a run: exact arrays inside a protobuf record.
 
-Each full-fidelity message is one ``wsgrasp.Record``::
-
-    syntax = "proto3";
-    package wsgrasp;
-    message Array  { string dtype = 1; repeated uint64 shape = 2; bytes data = 3; }
-    message Record { uint32 format_version = 1; string kind = 2; string json = 3;
-                     repeated Array arrays = 4; }
-
-The message classes are made at import from that description (``text_format``
-and ``message_factory``); :data:`DESCRIPTOR_SET` is the ``FileDescriptorSet`` the
-MCAP schema declares, so any protobuf reader (Foxglove included) decodes it.
+Each full-fidelity message is one ``wsgrasp.Record`` (``Array``: dtype, shape,
+data; ``Record``: format_version, kind, json, arrays), a proto3 file described
+below as protobuf text; the message classes are made from it at import, and
+:data:`DESCRIPTOR_SET`, the schema the MCAP file declares, lets any protobuf
+reader (Foxglove included) decode it.
 
 ``json`` holds the record's structure, in which ``{"$array": i}`` stands for
 ``arrays[i]``: the array's raw little-endian bytes, so arrays decode bit for bit.
