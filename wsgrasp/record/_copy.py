@@ -1,12 +1,6 @@
 """A copy of a recorded run with its Foxglove views built again from its exact
-records.
-
-The views and the summary are written after the plan (see
-:class:`~wsgrasp.record.RunRecorder`); a process killed before that leaves a run
-whose full-fidelity records are all there but which Foxglove shows nothing of.
-:func:`copy_with_views` writes the run again, through a recorder, so that it has
-its views, up to where it stops.
-"""
+records: for a run whose process was killed before its views were written (they
+are written after the plan), which Foxglove shows nothing of."""
 
 from __future__ import annotations
 
@@ -34,12 +28,9 @@ class _RecordedError(Exception):
 
 
 def copy_with_views(run: Run, path: str | Path, *, force: bool = False) -> Path:
-    """Write ``run`` again to ``path``, with Foxglove views of every stage it has.
-
-    The inputs, spec, gripper model, stages and result (or error) are the run's,
-    bit for bit; metadata ``copy_of`` says where and when the original was
-    recorded. A run that stops before its result is copied up to where it stops
-    (and says what it lacks, as the original does).
+    """Write ``run`` again to ``path``, through a recorder, with the Foxglove views
+    of every stage it has: its records bit for bit, up to where it stops, and
+    metadata ``copy_of`` saying where and when the original was recorded.
 
     Raises
     ------
@@ -61,16 +52,11 @@ def copy_with_views(run: Run, path: str | Path, *, force: bool = False) -> Path:
     recorder = RunRecorder(out, force=force)
     try:
         recorder.on_start(run.spec, run.gripper, run.scene)
-        original = run.metadata.get("wsgrasp", {})
-        recorder._w.add_metadata(  # noqa: SLF001 - this module's own recorder
-            "copy_of",
-            {
-                "path": str(run.path),
-                "created_utc": str(original.get("created_utc", "")),
-                "wsgrasp_version": str(run.wsgrasp_version),
-                "truncated": str(run.truncated).lower(),
-            },
-        )
+        created = str(run.metadata.get("wsgrasp", {}).get("created_utc", ""))
+        copy_of = {"path": str(run.path), "created_utc": created}
+        copy_of |= {"wsgrasp_version": str(run.wsgrasp_version)}
+        copy_of |= {"truncated": str(run.truncated).lower()}
+        recorder._w.add_metadata("copy_of", copy_of)  # noqa: SLF001 - our recorder
         stages = [s for s in PARTS if s in run.stages]
         stages += [s for s in run.stages if s not in stages]
         for stage in stages:

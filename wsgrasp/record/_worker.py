@@ -11,7 +11,7 @@ from collections.abc import Callable
 from contextlib import suppress
 from typing import Any
 
-__all__ = ["OPEN", "PENDING", "REGISTRY", "Worker", "wait_for_recorders"]
+__all__ = ["OPEN", "PENDING", "REGISTRY", "start", "submit", "wait_for_recorders"]
 
 #: Recorders with a file still open (finished at interpreter exit), and those whose
 #: file the writer thread is finishing; ``REGISTRY`` guards both.
@@ -19,33 +19,32 @@ OPEN: weakref.WeakSet[Any] = weakref.WeakSet()
 PENDING: weakref.WeakSet[Any] = weakref.WeakSet()
 REGISTRY = threading.Lock()
 
+_jobs: queue.SimpleQueue[Callable[[], None]] = queue.SimpleQueue()
+_thread: threading.Thread | None = None
+_lock = threading.Lock()
 
-class Worker:
-    """The process's writer thread: runs jobs in order (starting a thread can
-    take milliseconds on a busy machine, so one serves every recorder)."""
 
-    jobs: queue.SimpleQueue[Callable[[], None]] = queue.SimpleQueue()
-    thread: threading.Thread | None = None
-    lock = threading.Lock()
+def start() -> None:
+    """Start the process's writer thread, unless it runs: one thread runs every
+    recorder's jobs in order (starting one can take milliseconds on a busy
+    machine)."""
+    global _thread
+    with _lock:
+        if _thread is None or not _thread.is_alive():
+            _thread = threading.Thread(target=_serve, name="wsgrasp-recorder")
+            _thread.daemon = True
+            _thread.start()
 
-    @classmethod
-    def start(cls) -> None:
-        with cls.lock:
-            if cls.thread is None or not cls.thread.is_alive():
-                cls.thread = threading.Thread(
-                    target=cls._serve, name="wsgrasp-recorder", daemon=True
-                )
-                cls.thread.start()
 
-    @classmethod
-    def _serve(cls) -> None:
-        while True:
-            cls.jobs.get()()
+def _serve() -> None:
+    while True:
+        _jobs.get()()
 
-    @classmethod
-    def submit(cls, job: Callable[[], None]) -> None:
-        cls.start()
-        cls.jobs.put(job)
+
+def submit(job: Callable[[], None]) -> None:
+    """Run ``job`` on the writer thread, after the jobs before it."""
+    start()
+    _jobs.put(job)
 
 
 def wait_for_recorders() -> None:
@@ -61,15 +60,11 @@ def _forget_after_fork() -> None:
     """In a forked child: the parent's recordings are the parent's to finish (a
     child finishing them at exit would write into the parent's files), and the
     writer thread was not copied."""
-    global REGISTRY
+    global REGISTRY, _jobs, _thread, _lock
     REGISTRY = threading.Lock()  # another thread may have held it at the fork
+    _jobs, _thread, _lock = queue.SimpleQueue(), None, threading.Lock()
     OPEN.clear()
     PENDING.clear()
-    Worker.jobs, Worker.thread, Worker.lock = (
-        queue.SimpleQueue(),
-        None,
-        threading.Lock(),
-    )
 
 
 if hasattr(os, "register_at_fork"):

@@ -145,7 +145,7 @@ class RunRecorder:
         self._finished = False  # no more hooks taken
         self._done: threading.Event | None = None  # set when the file is finished
         self._error: BaseException | None = None  # a failure on the writer thread
-        _worker.Worker.start()  # now, not in the plan's time
+        _worker.start()  # now, not in the plan's time
 
     # -- PlanObserver ------------------------------------------------------------
     def on_start(self, spec: PipelineSpec, gripper: GripperModel, scene: Scene) -> None:
@@ -311,7 +311,7 @@ class RunRecorder:
                 assert self._done is not None
                 self._done.set()
 
-        _worker.Worker.submit(job)
+        _worker.submit(job)
 
     def _write_views(self) -> None:
         """The views of every recorded stage, from its record: clouds in one
