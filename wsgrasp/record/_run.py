@@ -80,13 +80,8 @@ class Run:
 
     @cached_property
     def spec(self) -> PipelineSpec:
-        """The recorded spec (validated; plugins are not looked up).
-
-        Raises
-        ------
-        RecordingError
-            The file holds no spec, or it does not validate with this wsgrasp.
-        """
+        """The recorded spec, validated (plugins not looked up); a
+        ``RecordingError`` when the file holds none or it does not validate."""
         from wsgrasp.errors import SpecError
         from wsgrasp.spec import load_spec
 
@@ -114,13 +109,8 @@ class Run:
 
     @cached_property
     def gripper(self) -> GripperModel:
-        """The gripper model from the attachment (no plugin needed).
-
-        Raises
-        ------
-        RecordingError
-            The file holds no gripper model.
-        """
+        """The gripper model from the attachment (no plugin needed); a
+        ``RecordingError`` when the file holds none."""
         from wsgrasp.errors import GripperError
         from wsgrasp.gripper.model import GripperModel
 
@@ -140,13 +130,8 @@ class Run:
 
     @cached_property
     def scene(self) -> Scene:
-        """The planner's input, bit for bit.
-
-        Raises
-        ------
-        RecordingError
-            The file holds no inputs.
-        """
+        """The planner's input, bit for bit; a ``RecordingError`` when the file
+        holds none."""
         from wsgrasp.perception.types import Scene, View
 
         d = self.inputs

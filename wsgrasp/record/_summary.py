@@ -72,18 +72,14 @@ def summarize_run(run: Run, *, top_k: int = 5) -> dict[str, Any]:
     res = run.result_data or {}
     inputs: dict[str, Any] | None = None
     if run.inputs is not None:
-        inputs = {
-            "views": [
-                {
-                    "name": v.get("name", ""),
-                    "points": int(np.asarray(v["points"]).shape[0]),
-                    "T_world_camera": np.asarray(v["T_world_camera"]).tolist(),
-                }
-                for v in run.inputs["views"]
-            ],
-            "points": int(np.asarray(run.inputs["points"]).shape[0]),
-            "dropped_nonfinite": int(run.inputs.get("dropped_nonfinite", 0)),
-        }
+        scene = run.scene
+        views = [
+            {"name": v.name, "points": len(v.points), "T_world_camera": T.tolist()}
+            for v in scene.views
+            for T in [np.asarray(v.T_world_camera)]
+        ]
+        inputs = {"views": views, "points": len(scene.points)}
+        inputs["dropped_nonfinite"] = scene.dropped_nonfinite
 
     def mat(key: str) -> Any:
         v = res.get(key)
