@@ -19,6 +19,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import fields, is_dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -28,6 +29,7 @@ from google.protobuf import (
     message_factory,
     text_format,
 )
+from mcap.writer import MCAP0_MAGIC
 from numpy.typing import NDArray
 
 from wsgrasp.errors import RecordingError
@@ -40,6 +42,7 @@ __all__ = [
     "TOPICS",
     "dumps",
     "encode",
+    "is_mcap",
     "loads",
 ]
 
@@ -47,6 +50,16 @@ __all__ = [
 #: 3: the merged points always stored; spec and versions in ``/wsgrasp/run``.
 #: 2: float64 arrays as float32 (``"$as"``), merged points as ``"merge(views)"``.
 FORMAT_VERSION = 3
+
+
+def is_mcap(path: str | Path) -> bool:
+    """Whether ``path`` is a file that starts with the MCAP magic."""
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(len(MCAP0_MAGIC)) == MCAP0_MAGIC
+    except OSError:
+        return False
+
 
 #: MCAP header profile of wsgrasp runs.
 PROFILE = "wsgrasp"

@@ -22,7 +22,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import IO, TYPE_CHECKING, Any
 
-from mcap.writer import MCAP0_MAGIC, CompressionType, Writer
+from mcap.writer import CompressionType, Writer
 
 from wsgrasp.errors import RecordingError
 from wsgrasp.record import _views, _worker
@@ -34,6 +34,7 @@ from wsgrasp.record._codec import (
     TOPICS,
     dumps,
     encode,
+    is_mcap,
 )
 from wsgrasp.record._runinfo import gripper_attachments, run_info
 from wsgrasp.record._worker import wait_for_recorders
@@ -98,35 +99,20 @@ def check_record_path(
         raise _refused(p, why, "choose another path for the recording")
     if not force:
         raise _refused(p, _EXISTS, _EXISTS_HINT)
-    with open(p, "rb") as fh:
-        if fh.read(len(MCAP0_MAGIC)) != MCAP0_MAGIC:
-            why = (
-                "exists and is not an MCAP recording; --force replaces recordings only"
-            )
-            raise _refused(p, why, "choose another path, or remove the file yourself")
+    if not is_mcap(p):
+        why = "exists and is not an MCAP recording; --force replaces recordings only"
+        raise _refused(p, why, "choose another path, or remove the file yourself")
     return p
 
 
 class RunRecorder:
     """Record one plan to an MCAP file; pass it to ``Pipeline.plan(observers=...)``.
 
-    Parameters
-    ----------
-    path
-        The ``.mcap`` file to write. Its directory is created.
-    force
-        Replace an existing file. Without it an existing file is an error, raised
-        here, before the plan starts.
-
-    Attributes
-    ----------
-    path : Path
-    overhead_ms : float
-        Time the planner's thread spent inside the recorder.
-    views_ms : float
-        Time the writer thread spent building the Foxglove views.
-    finish_ms : float
-        Time the writer thread spent on the views and the file's end (summary).
+    ``path`` (its directory is created) must not exist unless ``force``; that
+    error is raised here, before the plan starts. ``overhead_ms`` is the time the
+    planner's thread spent in the recorder, ``views_ms`` and ``finish_ms`` the
+    writer thread's, building the Foxglove views and finishing the file (views
+    included).
     """
 
     def __init__(self, path: str | Path, *, force: bool = False) -> None:
