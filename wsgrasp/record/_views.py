@@ -67,17 +67,16 @@ def _at(p: ArrayLike) -> list[PQ]:
     ]
 
 
+def _v3(v: Any) -> Any:
+    return fm.Vector3(x=float(v[0]), y=float(v[1]), z=float(v[2]))
+
+
+def _quat(q: list[float]) -> Any:
+    return fm.Quaternion(x=q[0], y=q[1], z=q[2], w=q[3])
+
+
 def _pose(pq: PQ) -> Any:
-    (x, y, z), (qx, qy, qz, qw) = pq
-    return fm.Pose(
-        position=fm.Vector3(x=x, y=y, z=z),
-        orientation=fm.Quaternion(x=qx, y=qy, z=qz, w=qw),
-    )
-
-
-def _vector3(v: ArrayLike) -> Any:
-    x, y, z = np.asarray(v, dtype=np.float64).reshape(3).tolist()
-    return fm.Vector3(x=x, y=y, z=z)
+    return fm.Pose(position=_v3(pq[0]), orientation=_quat(pq[1]))
 
 
 def _color(rgba: tuple[float, ...]) -> Any:
@@ -123,13 +122,12 @@ def point_cloud(
 
 def _transform(pq: PQ, parent: str, child: str, t: int) -> Any:
     """A ``foxglove.FrameTransform`` putting ``child`` at ``pq`` in ``parent``."""
-    (x, y, z), (qx, qy, qz, qw) = pq
     return fm.FrameTransform(
         timestamp=_stamp(t),
         parent_frame_id=parent,
         child_frame_id=child,
-        translation=fm.Vector3(x=x, y=y, z=z),
-        rotation=fm.Quaternion(x=qx, y=qy, z=qz, w=qw),
+        translation=_v3(pq[0]),
+        rotation=_quat(pq[1]),
     )
 
 
@@ -139,7 +137,7 @@ def _pose_in_frame(pq: PQ, t: int) -> Any:
 
 def _cube(pq: PQ, size: ArrayLike, rgba: tuple[float, ...]) -> Any:
     """A cube primitive at ``pq`` with full extents ``size`` (3,)."""
-    return fm.CubePrimitive(pose=_pose(pq), size=_vector3(size), color=_color(rgba))
+    return fm.CubePrimitive(pose=_pose(pq), size=_v3(size), color=_color(rgba))
 
 
 def _entity(eid: str, frame_id: str, t: int, **shapes: Any) -> Any:
@@ -267,7 +265,7 @@ def _result_views(result: dict[str, Any], g: GripperModel, t: int) -> list[View]
     ]
     grey = _color((0.5, 0.5, 0.55, 0.35))
     body = [
-        fm.CubePrimitive(pose=_pose(at), size=_vector3(2 * s), color=grey)
+        fm.CubePrimitive(pose=_pose(at), size=_v3(2 * s), color=grey)
         for at, s in zip(
             _at(g.se_centers), np.asarray(g.se_semi_axes).reshape(-1, 3), strict=True
         )
@@ -282,7 +280,7 @@ def _result_views(result: dict[str, Any], g: GripperModel, t: int) -> list[View]
     def spheres(eid: str, mask: NDArray[np.bool_], rgba: tuple[float, ...]) -> Any:
         color = _color(rgba)
         shapes = [
-            fm.SpherePrimitive(pose=_pose(at), size=_vector3((2 * r,) * 3), color=color)
+            fm.SpherePrimitive(pose=_pose(at), size=_v3((2 * r,) * 3), color=color)
             for at, r in zip(_at(centers[mask]), radii[mask].tolist(), strict=True)
         ]
         return _entity(eid, "gripper", t, spheres=shapes)
