@@ -60,15 +60,12 @@ class ReplayReport:
 
 
 # -- bit-for-bit comparison -----------------------------------------------------------
+_CANON = {"f": "<f8", "i": "<i8", "u": "<i8", "b": "|b1"}  # dtype kind → compared as
+
+
 def _canon(a: Any) -> np.ndarray[Any, Any]:
     x = np.asarray(a)
-    if x.dtype.kind == "f":
-        return x.astype("<f8")
-    if x.dtype.kind in "iu":
-        return x.astype("<i8")
-    if x.dtype.kind == "b":
-        return x.astype("|b1")
-    return x
+    return x.astype(_CANON[x.dtype.kind]) if x.dtype.kind in _CANON else x
 
 
 def _same(a: Any, b: Any) -> bool:
@@ -85,6 +82,7 @@ def _same(a: Any, b: Any) -> bool:
     return x.shape == y.shape and x.dtype == y.dtype and x.tobytes() == y.tobytes()
 
 
+_ERROR = ("type", "message")  # what of an error is compared
 _COMPARED = (
     "found gripper T_world_ee T_world_gwc T_world_tcp pregrasp closed score "
     "score_terms best_index rejections hint T_world_object object_extents "
@@ -222,11 +220,7 @@ def replay_run(
             recorder.close()
 
     old = run.result
-    old_error = (
-        None
-        if run.error is None
-        else {"type": run.error.get("type"), "message": run.error.get("message")}
-    )
+    old_error = None if run.error is None else {k: run.error.get(k) for k in _ERROR}
     if old is not None and new is not None:
         differences = compare_results(old, new)
     elif old is None and new is None and old_error is not None:
