@@ -13,7 +13,11 @@ counts from the moment every worker has delivered its first result to the last
 started for each run outside the timings (its workers import wsgrasp inside
 them, as the local pool's processes do). ``median task`` is the plans' own
 ``plan_ms`` (or a label's simulation seconds): when it grows on 2 workers, the
-workers did not each get a core.
+workers did not each get a core. ``CPU s`` is a task's CPU time in its worker
+(for a label: its scene's drop, views, plan and simulations over its labels),
+``driver`` the command's own CPU time per task (receiving and writing rows), and
+``CPU share`` the tasks' CPU time over the run's wall time × workers: the part of
+its cores a run got (1.0 on an idle machine).
 """
 
 from __future__ import annotations
@@ -70,7 +74,8 @@ def plans_once(
     specs = [BatchSpec("franka", plan_spec(None, "franka_hand"))]
     stamps: list[float] = []
     task_s: list[float] = []
-    start = time.perf_counter()
+    cpu_s: list[float] = []
+    start, cpu0 = time.perf_counter(), time.process_time()
     run_batch(
         scenes,
         specs,
@@ -81,10 +86,18 @@ def plans_once(
         on_row=lambda row: (
             stamps.append(time.perf_counter()),
             task_s.append(row["plan_ms"] / 1e3),
+            cpu_s.append(row["cpu_ms"] / 1e3),
         ),
     )
     wall, steady = _rates(stamps, start, workers)
-    return {"wall": wall, "steady": steady, "task_s": task_s}
+    return {
+        "wall": wall,
+        "steady": steady,
+        "task_s": task_s,
+        "cpu_s": cpu_s,
+        "share": sum(cpu_s) / ((stamps[-1] - start) * workers),
+        "driver_cpu_s": (time.process_time() - cpu0) / len(stamps),
+    }
 
 
 def labels_once(
@@ -98,7 +111,7 @@ def labels_once(
 
     spec = plan_spec(None, "franka_hand")
     stamps: list[tuple[float, int]] = []  # (arrival, labels) per scene
-    start = time.perf_counter()
+    start, cpu0 = time.perf_counter(), time.process_time()
     s = run_dataset(
         objs,
         spec,
@@ -116,9 +129,18 @@ def labels_once(
     w = min(workers, len(stamps) - 1)
     later = sum(n for _, n in stamps[w:])
     steady = later / max(stamps[-1][0] - stamps[w - 1][0], 1e-9)
+    driver = time.process_time() - cpu0
     rows = pq.read_table(out / "scenes").to_pylist()
     task_s = [x["sim_s"] / x["labels"] for x in rows if x["labels"]]
-    return {"wall": wall, "steady": steady, "task_s": task_s}
+    return {
+        "wall": wall,
+        "steady": steady,
+        "task_s": task_s,
+        # a label's CPU: its scene's (drop, views, plan, labels) over its labels
+        "cpu_s": [x["cpu_s"] / x["labels"] for x in rows if x["labels"]],
+        "share": sum(x["cpu_s"] for x in rows) / ((stamps[-1][0] - start) * workers),
+        "driver_cpu_s": driver / max(s.labels, 1),
+    }
 
 
 def main() -> None:
@@ -171,12 +193,17 @@ def main() -> None:
             "wall": statistics.median(x["wall"] for x in runs),
             "steady": statistics.median(x["steady"] for x in runs),
             "task_s": statistics.median(t for x in runs for t in x["task_s"]),
+            "cpu_s": statistics.median(t for x in runs for t in x["cpu_s"]),
+            "share": statistics.median(x["share"] for x in runs),
+            "driver_cpu_s": statistics.median(x["driver_cpu_s"] for x in runs),
             "load": statistics.median(x["load"] for x in runs),
         }
         rows[(kind, workers)] = row
         print(
             f"{kind:5s} x{workers}: {row['wall']:.2f} {unit} wall, "
-            f"{row['steady']:.2f} steady, median task {row['task_s']:.3f} s, "
+            f"{row['steady']:.2f} steady, median task {row['task_s']:.3f} s "
+            f"({row['cpu_s']:.3f} CPU s; driver {1e3 * row['driver_cpu_s']:.1f} ms), "
+            f"CPU share {row['share']:.2f} of {workers} cores, "
             f"load average {row['load']:.1f}"
         )
     for kind in args.engines.split(","):

@@ -23,7 +23,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SCENES = ROOT / "examples" / "scenes"
 SPECS = ROOT / "examples" / "specs"
 #: columns that differ between runs of the same plans
-TIMINGS = ["plan_ms", "load_ms", "timing_ms", "worker"]
+TIMINGS = ["plan_ms", "load_ms", "cpu_ms", "timing_ms", "worker"]
 
 
 def _rows(folder: Path, drop: list[str] = TIMINGS) -> list[dict]:
@@ -286,7 +286,7 @@ def test_dataset_on_ray_gives_the_local_rows(tmp_path: Path, ray_engine):
     spec = plan_spec(None, "franka_hand")
     for name, engine in (("local", LocalEngine(2)), ("ray", ray_engine)):
         run_dataset(objs, spec, "franka_hand", tmp_path / name, engine, top_k=2)
-    times = ["scene_s", "plan_ms", "sim_s", "worker"]
+    times = ["scene_s", "plan_ms", "sim_s", "cpu_s", "worker"]
     for table, drop in (("candidates", []), ("scenes", times)):
         key = lambda r: (r["object"], r["trial"], r.get("rank", 0))  # noqa: E731
         a = sorted(_rows_of(tmp_path / "local" / table, drop), key=key)
@@ -336,3 +336,11 @@ def test_batch_simulate_rows_are_eval_trials(tmp_path: Path):
     got = sorted((r["trial"], r["outcome"], r["T_world_ee"]) for r in rows)
     want = sorted((r["trial"], r["outcome"], sum(r["T_world_ee"], [])) for r in records)
     assert got == want
+
+
+def test_engine_ray_without_ray_says_how_to_install_it(tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "ray", None)  # `import ray` fails
+    scene, spec = str(SCENES / "mug.npz"), str(SPECS / "franka.yaml")
+    args = ["batch", scene, "-s", spec, "-o", str(tmp_path), "--engine", "ray"]
+    assert main(args) == 2
+    assert "pip install 'wsgrasp[ray]'" in capsys.readouterr().err

@@ -82,6 +82,7 @@ def dataset_schemas() -> dict[str, Any]:
             ("scene_s", pa.float64()),
             ("plan_ms", pa.float64()),
             ("sim_s", pa.float64()),
+            ("cpu_s", pa.float64()),
             ("views", pa.list_(view)),
             ("gripper", pa.string()),
             ("spec_hash", pa.string()),
@@ -143,7 +144,7 @@ def dataset_job(obj: Any, trial: int) -> dict[str, list[dict[str, Any]]]:
     seed = task_seed(pay["seed"], obj.name, trial)
     rng = np.random.default_rng(seed)
     okey = _object_key(obj)
-    t0 = time.perf_counter()
+    t0, cpu0 = time.perf_counter(), time.process_time()
     bare = _cached(("bare", okey, p), lambda: build_scene(obj, None, p))
     settled = settle_object(bare, obj, rng, p)
     views = render_views(obj, settled.T_world_object, rng, p)
@@ -176,6 +177,7 @@ def dataset_job(obj: Any, trial: int) -> dict[str, list[dict[str, Any]]]:
         result = pipeline.plan(cloud)
     except WsgraspError as exc:
         scene_row["error"] = f"{type(exc).__name__}: {exc}"
+        scene_row["cpu_s"] = time.process_time() - cpu0
         return {"candidates": [], "scenes": [scene_row]}
     rows = _candidate_rows(result, obj.name, trial, pay["gripper"])
     t1 = time.perf_counter()
@@ -191,6 +193,7 @@ def dataset_job(obj: Any, trial: int) -> dict[str, list[dict[str, Any]]]:
         successes=sum(bool(r.get("success")) for r in rows),
         plan_ms=float(result.timing_ms.get("total", float("nan"))),
         sim_s=time.perf_counter() - t1,
+        cpu_s=time.process_time() - cpu0,
     )
     return {"candidates": rows, "scenes": [scene_row]}
 

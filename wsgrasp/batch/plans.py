@@ -110,6 +110,7 @@ def plan_schema() -> Any:
             ("error", pa.string()),
             ("plan_ms", pa.float64()),
             ("load_ms", pa.float64()),
+            ("cpu_ms", pa.float64()),
             ("timing_ms", floats),
             ("record", pa.string()),
             ("spec_hash", pa.string()),
@@ -229,7 +230,7 @@ def plan_job(scene: str, label: str, record: str | None) -> dict[str, Any]:
         from wsgrasp.record import RunRecorder
 
         observers.append(RunRecorder(Path(record), force=True))
-    t0 = time.perf_counter()
+    t0, cpu0 = time.perf_counter(), time.process_time()
     try:
         try:
             cloud = load_scene([scene], icp=pipeline.spec.preprocess.icp)
@@ -238,6 +239,7 @@ def plan_job(scene: str, label: str, record: str | None) -> dict[str, Any]:
         finally:
             for o in observers:
                 o.close()
+            row["cpu_ms"] = (time.process_time() - cpu0) * 1e3
     except (WsgraspError, OSError) as exc:
         row["error"] = f"{type(exc).__name__}: {exc}"
         return row
