@@ -128,6 +128,9 @@ class RunRecorder:
         self._candidates: Any = None
         self._stages_written: list[str] = []
         self._recorded: list[tuple[str, Any, int]] = []  # (stage, held, t_ns)
+        # the records as written: freeing megabytes takes the planner's thread
+        # milliseconds (unmapped, then faulted in again), so the writer thread does
+        self._written: list[bytes] = []
         self._finished = False  # no more hooks taken
         self._done: threading.Event | None = None  # set when the file is finished
         self._error: BaseException | None = None  # a failure on the writer thread
@@ -241,6 +244,7 @@ class RunRecorder:
         self._put(topic, SCHEMA_NAME, DESCRIPTOR_SET, data, t_ns)
         self._flush(RAW if topic in RAW_TOPICS else ZSTD)
         self._recorded.append((stage, held, t_ns))
+        self._written.append(data)
 
     def _flush(self, compression: CompressionType) -> None:
         """End the chunk in progress, compressed with ``compression`` (the Writer
@@ -291,6 +295,8 @@ class RunRecorder:
                 self._error = exc
                 self._close_stream()
             finally:
+                self._recorded.clear()  # the records' buffers freed here, too
+                self._written.clear()
                 self.finish_ms += (time.perf_counter() - t0) * 1e3
                 with _worker.REGISTRY:
                     _worker.PENDING.discard(self)
