@@ -7,6 +7,7 @@ ratio of the reference's median to the search's median measured in the same run.
 
 from __future__ import annotations
 
+import math
 import statistics
 import time
 import tracemalloc
@@ -256,20 +257,20 @@ def dense_scaling(
     pipe: Pipeline,
     prep: Any,
     counts: tuple[int, ...] = (10_000, 100_000, 1_000_000),
-    old_up_to: int = 100_000,
+    old_up_to: int = 160_000,
     repeat: int = 3,
 ) -> list[dict[str, Any]]:
     """Evaluation time and cost per candidate against the number of candidates:
     the structured path up to ``counts[-1]``, the old one (alternating with it)
-    up to ``old_up_to``. The candidates are the case's orientations times as
-    many samples (a grid in the object's box) as make up each count."""
+    up to ``old_up_to``. The candidates are the case's orientations times the
+    smallest cubic grid of samples in the object's box that reaches each count."""
     from wsgrasp.perception.frame import object_frame
 
     inp = prep.search_input
     frame = object_frame(inp.object_points, pipe.spec.object_frame.method)
     rows = []
     for n in counts:
-        per_axis = max(1, round((n / len(inp.orientations)) ** (1.0 / 3.0)))
+        per_axis = max(1, math.ceil((n / len(inp.orientations)) ** (1.0 / 3.0)))
         sampling = pipe.spec.sampling.model_copy(
             update={"grid": (per_axis, per_axis, per_axis)}
         )

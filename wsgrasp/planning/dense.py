@@ -47,6 +47,8 @@ Array = NDArray[np.float64]
 MARGIN = 1e-9
 #: at most this many candidates' intermediate arrays at once (bounds memory)
 _CHUNK_CANDIDATES = 262_144
+#: at most this many (candidate, point) pairs through the sphere grid at once
+_CHUNK_PAIRS = 100_000
 
 
 @dataclass(frozen=True)
@@ -213,17 +215,18 @@ def table_exact(
     T_table_world = invert_transforms(table.T_world_table)
     R_tw, t_tw = T_table_world[:3, :3], T_table_world[:3, 3]
     n_or = len(poses.R)
-    s, o = np.divmod(np.asarray(index, dtype=np.int64), n_or)
-    used, o_local = np.unique(o, return_inverse=True)
-    RT = R_tw @ poses.R[used]  # (u, 3, 3)
-    base = poses.B[used] @ R_tw.T + t_tw  # (u, 3)
-    P = np.einsum("oij,nj->ion", RT, cloud) + base.T[:, :, None]  # (3, u, ng)
+    s_all, o_all = np.divmod(np.asarray(index, dtype=np.int64), n_or)
+    by_o = np.argsort(o_all, kind="stable")  # a chunk spans few orientations
     M = poses.A @ R_tw.T  # (ns, 3)
-    out = np.zeros(len(s), dtype=bool)
+    out = np.zeros(len(s_all), dtype=bool)
     step = max(1, 2_000_000 // max(len(cloud), 1))
-    for a in range(0, len(s), step):
-        sl = slice(a, min(a + step, len(s)))
-        ol, ss = o_local[sl], s[sl]
+    for a in range(0, len(s_all), step):
+        at = by_o[a : a + step]
+        used, ol = np.unique(o_all[at], return_inverse=True)
+        RT = R_tw @ poses.R[used]  # (u, 3, 3)
+        base = poses.B[used] @ R_tw.T + t_tw  # (u, 3)
+        P = np.einsum("oij,nj->ion", RT, cloud) + base.T[:, :, None]  # (3, u, ng)
+        ss = s_all[at]
         z = P[2][ol] + M[ss, 2:3]  # (k, ng)
         dz = np.abs(z - table.center[2]) / table.semi_axes[2]
         maybe = dz < 1.0  # only points within the slab can be inside
@@ -237,7 +240,7 @@ def table_exact(
             + (dy / table.semi_axes[1]) ** table.exponent
             + dz[k, n] ** 2
         )
-        out[a + k[value < 1.0]] = True
+        out[at[k[value < 1.0]]] = True
     return out
 
 
@@ -473,10 +476,12 @@ def _held_in_slab(
     pair, j, r = slabs.pairs(ol[cand], u[cand, k], k, float(lo[k]), float(hi[k]))
     c = cand[pair]
     held = np.zeros((len(cand), slabs.n, nf), dtype=bool)
-    if len(pair):
-        held[pair, j] = spheres.holding_coordinates(
-            Q[r, 0, j] - u[c, 0], Q[r, 1, j] - u[c, 1], Q[r, 2, j] - u[c, 2]
-        )  # (total, nf)
+    for a in range(0, len(pair), _CHUNK_PAIRS):  # bounds the sphere lists' memory
+        b = slice(a, a + _CHUNK_PAIRS)
+        rb, jb, cb = r[b], j[b], c[b]
+        held[pair[b], jb] = spheres.holding_coordinates(
+            Q[rb, 0, jb] - u[cb, 0], Q[rb, 1, jb] - u[cb, 1], Q[rb, 2, jb] - u[cb, 2]
+        )  # (pairs, nf)
     return held
 
 

@@ -145,6 +145,18 @@ def table_collisions(
     return hit, min_height
 
 
+def _min_heights(T_world_gripper: Array, cloud: Array, table: TableSE) -> Array:
+    """Lowest cloud point above the table surface per candidate (C,), with
+    :func:`table_collisions`' arithmetic."""
+    T_table_gripper = invert_transforms(table.T_world_table) @ T_world_gripper
+    out = np.empty(len(T_world_gripper))
+    for sl in _chunks(len(T_world_gripper), len(cloud)):
+        z = T_table_gripper[sl, 2, :3] @ cloud.T  # (c, ng)
+        z += T_table_gripper[sl, 2, 3][:, None]
+        out[sl] = z.min(axis=1)
+    return out
+
+
 def _coordinates(T: Array, points: Array) -> tuple[Array, Array, Array]:
     """Points ``(n, 3)`` under transforms ``(a, 4, 4)``, as three ``(n, a)`` arrays."""
     a = len(T)
@@ -204,7 +216,7 @@ def evaluate_candidates(
         reason[alive] = v.reason
         contacts[alive] = v.contacts
         feasible = alive[v.reason == 0]
-        _, low = table_collisions(T_world_gripper[feasible], gripper.cloud, table)
+        low = _min_heights(T_world_gripper[feasible], gripper.cloud, table)
         return Evaluation(reason, contacts, feasible, v.holding, low)
     reason[table_hit] = 1
     alive = np.flatnonzero(~table_hit)
