@@ -223,33 +223,28 @@ def read_bag_clouds(
     t_limit: int | None = None
     if at is not None:
         t_limit = int(at * 1e9) if at > 1e9 else _first_time(p) + int(at * 1e9)
+    types = bag_topics(p)
     out = []
     for topic in tlist:
-        latest = next(_messages(p, [topic], reverse=True), None)
-        if latest is None:
-            listing = ", ".join(
-                f"{t} ({ty})" for t, ty in sorted(bag_topics(p).items())
-            )
+        latest = next(_messages(p, [topic], ending_at=t_limit, reverse=True), None)
+        if topic not in types or (latest is None and t_limit is None):
+            listing = ", ".join(f"{t} ({ty})" for t, ty in sorted(types.items()))
             raise InputError(
                 f"{p}: has no messages on topic {topic!r}; its topics are: "
                 f"{listing or 'none'}",
                 hint="pass --topic with one of the PointCloud2 topics above",
             )
-        schema = latest[0]
-        if schema is None or schema.name != POINTCLOUD2:
+        if types[topic] != POINTCLOUD2:
             raise InputError(
-                f"{p}: topic {topic!r} carries "
-                f"{'untyped messages' if schema is None else schema.name}, not "
-                f"{POINTCLOUD2}",
+                f"{p}: topic {topic!r} carries {types[topic] or 'untyped messages'}, "
+                f"not {POINTCLOUD2}",
                 hint="pass --topic with a PointCloud2 topic",
             )
-        if t_limit is not None:
-            latest = next(_messages(p, [topic], ending_at=t_limit, reverse=True), None)
-            if latest is None:
-                raise InputError(
-                    f"{p}: no cloud on {topic!r} at or before --at {at}",
-                    hint="give a later time, in seconds since the bag's start",
-                )
+        if latest is None:
+            raise InputError(
+                f"{p}: no cloud on {topic!r} at or before --at {at}",
+                hint="give a later time, in seconds since the bag's start",
+            )
         msg = _decode(*latest)
         stamp, points = _stamp(msg, latest[2].log_time), pointcloud2_xyz(msg, topic)
         out.append(BagCloud(topic, str(msg.header.frame_id), stamp, points))
