@@ -35,29 +35,26 @@ def _histogram(run: Run) -> tuple[int, int, dict[str, int]]:
 
 
 def _top(run: Run, k: int) -> list[dict[str, Any]]:
+    """The ``k`` best feasible candidates (the feasible reason, code 0)."""
     cs = run.candidates
     if cs is None or len(cs) == 0:
         return []
-    from wsgrasp.planning.result import REASONS
-
     score = np.asarray(cs.score, dtype=np.float64)
     feasible = np.flatnonzero(np.asarray(cs.reason) == 0)
     order = feasible[np.argsort(-score[feasible], kind="stable")][:k]
-    out = []
-    for i in order.tolist():
-        out.append(
-            {
-                "index": i,
-                "score": float(score[i]),
-                "terms": {n: float(np.asarray(t)[i]) for n, t in cs.terms.items()},
-                "sample": int(np.asarray(cs.sample)[i]),
-                "theta_deg": float(np.degrees(np.asarray(cs.theta)[i])),
-                "contacts": np.asarray(cs.contacts)[i].tolist(),
-                "position": np.asarray(cs.T_world_ee)[i, :3, 3].tolist(),
-                "reason": REASONS[int(np.asarray(cs.reason)[i])],
-            }
-        )
-    return out
+    return [
+        {
+            "index": i,
+            "score": float(score[i]),
+            "terms": {n: float(np.asarray(t)[i]) for n, t in cs.terms.items()},
+            "sample": int(np.asarray(cs.sample)[i]),
+            "theta_deg": float(np.degrees(np.asarray(cs.theta)[i])),
+            "contacts": np.asarray(cs.contacts)[i].tolist(),
+            "position": np.asarray(cs.T_world_ee)[i, :3, 3].tolist(),
+            "reason": "feasible",
+        }
+        for i in order.tolist()
+    ]
 
 
 def summarize_run(run: Run, *, top_k: int = 5) -> dict[str, Any]:
