@@ -21,8 +21,17 @@ if TYPE_CHECKING:
 __all__ = ["PARTS", "RawMessage", "Run"]
 
 #: What a complete run holds, in the order it is written.
-PARTS = ("metadata", "spec", "inputs", "gripper model", "preprocess")
-PARTS += ("segmentation", "object_frame", "candidates", "result")
+PARTS = (
+    "metadata",
+    "spec",
+    "inputs",
+    "gripper model",
+    "preprocess",
+    "segmentation",
+    "object_frame",
+    "candidates",
+    "result",
+)
 
 
 @dataclass

@@ -197,8 +197,9 @@ def pointcloud2_xyz(msg: Any, topic: str = "") -> Array:
     order = ">" if msg.is_bigendian else "<"
     formats = [order + _POINTFIELD_DTYPES[fields[a].datatype] for a in "xyz"]
     offsets = [fields[a].offset for a in "xyz"]
-    layout = {"names": list("xyz"), "formats": formats, "offsets": offsets}
-    dtype = np.dtype(layout | {"itemsize": step})
+    dtype = np.dtype(
+        {"names": list("xyz"), "formats": formats, "offsets": offsets, "itemsize": step}
+    )
     # (h, w) records over the bytes: rows may be padded (row_step)
     rec = np.ndarray((h, w), dtype=dtype, buffer=data, strides=(row, step))
     return np.stack([rec[a].reshape(-1).astype(np.float64) for a in "xyz"], axis=1)
