@@ -4,6 +4,7 @@ the loop-by-loop reference, in any frame, for any orientations, depths and spher
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from conftest import box_object, make_jaw_gripper
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -255,3 +256,24 @@ def test_memory_stays_bounded_for_a_million_candidates():
     assert structure.num_candidates == len(hit) == 1_000_000
     # outputs: 2 MB of masks; a chunk of 262,144 candidates: about 45 MB
     assert peak < 80, f"peak {peak:.0f} MiB"
+
+
+@pytest.mark.parametrize("spheres", [1, 4, 10], ids=lambda n: f"{n}spheres")
+def test_finger_kernel_with_every_point_in_the_slab(spheres):
+    """Points all within the fingers' box: the kernel takes every point as rows,
+    with the same answer as the sphere grid point by point."""
+    g = make_jaw_gripper(spheres_per_finger=spheres)
+    sp = FingerSpheres(g)
+    lo = (g.sphere_centers - g.sphere_radii[:, None]).min(axis=0)
+    hi = (g.sphere_centers + g.sphere_radii[:, None]).max(axis=0)
+    rng = np.random.default_rng(spheres)
+    Q = rng.uniform(lo, hi, (3, 400, 3)).transpose(0, 2, 1)  # (q, 3, n)
+    ol = rng.integers(0, 3, 50)
+    u = rng.normal(0.0, 1e-3, (50, 3))
+    cand = np.arange(50)
+    f_lo = np.stack([lo, lo])
+    f_hi = np.stack([hi, hi])
+    held = _held_in_slab(_Slabs(Q), ol, u, cand, sp, f_lo, f_hi)
+    truth = sp.holding_coordinates(*_gripper_coordinates(Q, ol, u, cand))
+    assert truth.any() and not truth.all()
+    np.testing.assert_array_equal(held, truth)

@@ -292,7 +292,7 @@ def body_and_fingers(
     spheres: FingerSpheres,
     object_points: Array,
     obstacle_points: Array,
-    coarse: int = 48,
+    coarse: int = 24,
     chunk_points: int = 2_000_000,
 ) -> BodyFingerVerdicts:
     """Algorithm 1's object, obstacle and finger tests for candidates ``index``
@@ -474,6 +474,17 @@ def _held_in_slab(
     lo, hi = f_lo.min(axis=0), f_hi.max(axis=0)  # the fingers' box, gripper frame
     k = int(np.argmin(hi - lo))
     pair, j, r = slabs.pairs(ol[cand], u[cand, k], k, float(lo[k]), float(hi[k]))
+    if len(pair) > 0.5 * len(cand) * slabs.n:
+        # the slab holds most points: every point, as contiguous rows, is cheaper
+        held = np.empty((len(cand), slabs.n, nf), dtype=bool)
+        step = max(1, _CHUNK_PAIRS // max(slabs.n, 1))
+        for a in range(0, len(cand), step):
+            cb = cand[a : a + step]
+            rb = ol[cb]
+            held[a : a + step] = spheres.holding_coordinates(
+                *(Q[rb, i] - u[cb, i, None] for i in range(3))
+            )  # (b, no, nf)
+        return held
     c = cand[pair]
     held = np.zeros((len(cand), slabs.n, nf), dtype=bool)
     for a in range(0, len(pair), _CHUNK_PAIRS):  # bounds the sphere lists' memory
