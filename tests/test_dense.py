@@ -277,3 +277,30 @@ def test_finger_kernel_with_every_point_in_the_slab(spheres):
     truth = sp.holding_coordinates(*_gripper_coordinates(Q, ol, u, cand))
     assert truth.any() and not truth.all()
     np.testing.assert_array_equal(held, truth)
+
+
+@pytest.mark.slow
+def test_memory_bound_of_the_whole_evaluation_for_a_million_candidates():
+    """Beyond its inputs and the feasible candidates' holdings (F × no × nf
+    bools, part of the answer), the structured evaluation of a million candidates
+    needs chunks only."""
+    import tracemalloc
+
+    g = make_jaw_gripper()
+    obj, T_wo, _, _, _, _, table = _scene(5, np.eye(4), 1, False)
+    rng = np.random.default_rng(1)
+    samples = rng.uniform(-0.03, 0.03, (1000, 3))
+    R = Rotation.random(1000, random_state=1).as_matrix()
+    _, T_wg, _, _ = candidate_poses(T_wo, samples, R, g.T_gripper_gwc)
+    structure = CandidateStructure(T_wo, samples, R, None)
+    tracemalloc.start()
+    try:
+        ev = evaluate_candidates(
+            T_wg, g, obj, np.zeros((0, 3)), table, structure=structure
+        )
+        peak = tracemalloc.get_traced_memory()[1] / 2**20
+    finally:
+        tracemalloc.stop()
+    assert len(ev.reason) == 1_000_000
+    answer = (ev.holding.nbytes + ev.reason.nbytes + ev.contacts.nbytes) / 2**20
+    assert peak - answer < 200, f"peak {peak:.0f} MiB, answer {answer:.0f} MiB"
