@@ -344,3 +344,21 @@ def test_engine_ray_without_ray_says_how_to_install_it(tmp_path, capsys, monkeyp
     args = ["batch", scene, "-s", spec, "-o", str(tmp_path), "--engine", "ray"]
     assert main(args) == 2
     assert "pip install 'wsgrasp[ray]'" in capsys.readouterr().err
+
+
+def test_batch_record_writes_one_mcap_per_plan(tmp_path: Path):
+    from wsgrasp.record import open_run
+
+    scene = str(SCENES / "mug.npz")
+    assert (
+        main(
+            ["batch", scene, "-g", "franka_hand", "-o", str(tmp_path), "-q"]
+            + ["--record", "-j", "1"]
+        )
+        == 0
+    )
+    (row,) = pq.read_table(tmp_path / "plans").to_pylist()
+    assert Path(row["record"]).parent == tmp_path / "runs" / "franka_hand"
+    run = open_run(row["record"])
+    assert run.status == "ok" and not run.truncated
+    assert run.result_data["found"] == row["found"]

@@ -240,6 +240,10 @@ def plan_job(scene: str, label: str, record: str | None) -> dict[str, Any]:
             for o in observers:
                 o.close()
             row["cpu_ms"] = (time.process_time() - cpu0) * 1e3
+            if observers:  # the file whole before its row says it is there
+                from wsgrasp.record import wait_for_recorders
+
+                wait_for_recorders()
     except (WsgraspError, OSError) as exc:
         row["error"] = f"{type(exc).__name__}: {exc}"
         return row
