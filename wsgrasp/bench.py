@@ -49,7 +49,17 @@ class BenchCase:
 
 
 #: the paper's Table I: 147 samples x 4 orientations about the major axis
-TABLE_I = {"mode": "major_axis", "points": 147, "orientations": 4, "flip": False}
+TABLE_I = {
+    "mode": "major_axis",
+    "points": 147,
+    "grid": None,
+    "orientations": 4,
+    "flip": False,
+    # whatever the spec samples otherwise (allegro.yaml: approach directions)
+    "directions": None,
+    "steps": None,
+    "depths": 1,
+}
 
 #: the follow-up's densities: Panda 10 × 10 × 10 positions × 512 orientations,
 #: Allegro 5 × 5 × 5 × 5832 (18³); as approach directions × rolls, since the
