@@ -314,14 +314,9 @@ def run_dataset(
         resume=resume,
         row_group=row_group,
     )
-    summary = DatasetSummary()
-    jobs = []
-    for obj in objects:
-        for t in range(trials):
-            if (obj.name, t) in sink.done:
-                summary.resumed += 1
-            else:
-                jobs.append((obj, t))
+    every = [(obj, t) for obj in objects for t in range(trials)]
+    jobs = [every[i] for i in sink.missing([(o.name, t) for o, t in every])]
+    summary = DatasetSummary(resumed=len(every) - len(jobs))
     start = time.perf_counter()
     with progress_bar(progress and bool(jobs), "scenes", len(jobs)) as advance:
 

@@ -316,18 +316,16 @@ def run_batch(
     )
     if sink.done:
         _check_hashes(out, payload["hashes"])
-    summary = BatchSummary()
+    pairs = [(str(scene), s.label) for scene in scenes for s in specs]
+    todo = [pairs[i] for i in sink.missing(pairs)]
+    summary = BatchSummary(resumed=len(pairs) - len(todo))
     jobs: list[tuple[str, str, str | None]] = []
-    for scene in scenes:
-        for s in specs:
-            if (str(scene), s.label) in sink.done:
-                summary.resumed += 1
-                continue
-            rec = None
-            if record:
-                rec = str(out / "runs" / s.label / f"{_slug(str(scene))}.mcap")
-                Path(rec).parent.mkdir(parents=True, exist_ok=True)
-            jobs.append((str(scene), s.label, rec))
+    for scene, label in todo:
+        rec = None
+        if record:
+            rec = str(out / "runs" / label / f"{_slug(scene)}.mcap")
+            Path(rec).parent.mkdir(parents=True, exist_ok=True)
+        jobs.append((scene, label, rec))
     # tasks of `chunk` plans: fewer round trips per plan (a plan takes ~25 ms)
     tasks = [(jobs[i : i + chunk],) for i in range(0, len(jobs), max(1, chunk))]
     start = time.perf_counter()

@@ -122,6 +122,10 @@ class PartSink:
         cols = [t.column(c).to_pylist() for c in self.key_columns]
         return set(zip(*cols, strict=True))
 
+    def missing(self, keys: Sequence[tuple[Any, ...]]) -> list[int]:
+        """Indices of the ``keys`` (in order) whose jobs are not written yet."""
+        return [i for i, k in enumerate(keys) if k not in self.done]
+
     # ----------------------------------------------------------------------------
     def add(self, rows: dict[str, list[dict[str, Any]]]) -> None:
         """One job's rows, by table; flushed with the next part when due."""

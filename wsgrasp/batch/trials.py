@@ -106,15 +106,13 @@ def run_trials(
         resume=resume,
         row_group=row_group,
     )
-    summary = TrialSummary()
-    tasks = []
-    for obj in objects:
-        for t in range(trials):
-            if (obj.name, t) in sink.done:
-                summary.resumed += 1
-                continue
-            rec = str(record_dir) if record_dir else None
-            tasks.append(Task(obj, t, seed, list(entries), p, rec))
+    every = [(obj, t) for obj in objects for t in range(trials)]
+    rec = str(record_dir) if record_dir else None
+    tasks = [
+        Task(every[i][0], every[i][1], seed, list(entries), p, rec)
+        for i in sink.missing([(o.name, t) for o, t in every])
+    ]
+    summary = TrialSummary(resumed=len(every) - len(tasks))
     start = time.perf_counter()
     with progress_bar(progress and bool(tasks), "trials", len(tasks)) as advance:
 
