@@ -183,9 +183,9 @@ class RayEngine(_Closing):
                 "log_to_driver": False,
                 "configure_logging": False,
             }
-            if self.address is None:
+            if self.address is None:  # a new instance, never another's
                 kwargs.update(num_cpus=self.workers, include_dashboard=False)
-            ray.init(address=self.address, **kwargs)
+            ray.init(address=self.address or "local", **kwargs)
             self._started = True
             if self.address is not None:  # the cluster's CPUs
                 self.workers = max(1, int(ray.cluster_resources().get("CPU", 1)))
