@@ -362,3 +362,20 @@ def test_batch_record_writes_one_mcap_per_plan(tmp_path: Path):
     run = open_run(row["record"])
     assert run.status == "ok" and not run.truncated
     assert run.result_data["found"] == row["found"]
+
+
+def test_a_manifest_lists_scenes_specs_and_grippers(tmp_path: Path):
+    shutil.copy(SCENES / "mug.npz", tmp_path / "mug.npz")
+    shutil.copy(SPECS / "franka_paper.yaml", tmp_path / "paper.yaml")
+    manifest = tmp_path / "manifest.yaml"
+    manifest.write_text(
+        "scenes: [mug.npz]\nspecs: [p=paper.yaml]\ngrippers: [franka_hand]\n"
+    )
+    out = tmp_path / "out"
+    assert main(["batch", "--manifest", str(manifest), "-o", str(out), "-q"]) == 0
+    (row,) = pq.read_table(out / "plans").to_pylist()
+    assert (row["scene"], row["spec"], row["gripper"]) == (
+        str(tmp_path / "mug.npz"),
+        "p@franka_hand",
+        "franka_hand",
+    )
