@@ -304,3 +304,19 @@ def test_memory_bound_of_the_whole_evaluation_for_a_million_candidates():
     assert len(ev.reason) == 1_000_000
     answer = (ev.holding.nbytes + ev.reason.nbytes + ev.contacts.nbytes) / 2**20
     assert peak - answer < 200, f"peak {peak:.0f} MiB, answer {answer:.0f} MiB"
+
+
+@pytest.mark.parametrize("ns, n_orient", [(0, 4), (5, 0), (0, 0)], ids=str)
+def test_no_candidates(jaw_gripper, ns, n_orient):
+    obj, T_wo, samples, R, _, obs, table = _scene(2, np.eye(4), max(n_orient, 1), False)
+    samples, R = samples[:ns] if ns else samples[:0], R[:n_orient]
+    _, T_wg, _, _ = candidate_poses(T_wo, samples, R, jaw_gripper.T_gripper_gwc)
+    ev = evaluate_candidates(
+        T_wg,
+        jaw_gripper,
+        obj,
+        obs,
+        table,
+        structure=CandidateStructure(T_wo, samples, R, None),
+    )
+    assert ev.reason.shape == (0,) and ev.feasible.shape == (0,)

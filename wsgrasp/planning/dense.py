@@ -164,6 +164,9 @@ def table_bounds(
         others (neither flag) certainly clear the table: their lowest point is
         above the superellipsoid's top by more than ``MARGIN``.
     """
+    if len(poses.R) == 0 or len(poses.A) == 0 or len(vertices) == 0:
+        none = np.zeros(len(poses.R) * len(poses.A), dtype=bool)
+        return none, none.copy() if len(vertices) else ~none
     T_table_world = invert_transforms(table.T_world_table)
     R_tw, t_tw = T_table_world[:3, :3], T_table_world[:3, 3]
     RT = R_tw @ poses.R  # (O, 3, 3) gripper axes in the table frame
