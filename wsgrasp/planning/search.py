@@ -21,7 +21,12 @@ from wsgrasp.geometry import invert_transforms, points_in_spheres, transform_poi
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.planning.candidates import Orientations, candidate_poses
 from wsgrasp.planning.closing import table_back_off
-from wsgrasp.planning.evaluate import FingerSpheres, TableSE, evaluate_candidates
+from wsgrasp.planning.evaluate import (
+    CandidateStructure,
+    FingerSpheres,
+    TableSE,
+    evaluate_candidates,
+)
 from wsgrasp.planning.result import REASONS, Alternative, CandidateSet, Contact
 from wsgrasp.planning.scoring import CandidateBatch, combine_scores
 
@@ -93,7 +98,15 @@ def run_search(
     theta = o.theta[orientation]
     flipped = o.flipped[orientation]
     ev = evaluate_candidates(
-        T_world_gripper, g, inp.object_points, inp.obstacle_points, inp.table, spheres
+        T_world_gripper,
+        g,
+        inp.object_points,
+        inp.obstacle_points,
+        inp.table,
+        spheres,
+        structure=CandidateStructure(
+            inp.T_world_object, inp.samples_object, o.R_object_gwc, o.depth
+        ),
     )
     t1 = now()
     C = len(sample)
