@@ -182,6 +182,7 @@ def main() -> None:
                 got[(kind, workers)].append(res)
                 print(
                     f"round {r} {kind} x{workers}: {res['wall']:.2f}/s wall, "
+                    f"{res['steady']:.2f} steady, CPU share {res['share']:.2f}, "
                     f"load {res['load']:.1f}",
                     flush=True,
                 )
