@@ -127,20 +127,28 @@ def _read_ply(p: Path) -> Array:
         ) from None
     arr = np.asarray(getattr(geometry, "vertices", np.zeros((0, 3))), np.float64)
     raw = getattr(geometry, "metadata", {}).get("_ply_raw", {}).get("vertex", {})
-    names = list(raw.get("properties", {}))
-    if names and not {"x", "y", "z"} <= set(names):
+    names = list(raw.get("properties", {})) or ["x", "y", "z"]
+    _check_declared(p, "vertex properties", names, raw.get("length"), len(arr))
+    return arr.reshape(-1, 3)
+
+
+def _check_declared(
+    p: Path, what: str, names: list[str], declared: int | None, found: int
+) -> None:
+    """A PLY's or PCD's header against what was read: x, y and z among its
+    ``names``, and as many points as it ``declared``."""
+    fix = f"export it again as {p.suffix.lstrip('.').upper()} with {what} x, y, z"
+    if not {"x", "y", "z"} <= set(names):
         raise InputError(
-            f"cloud file {str(p)!r} has vertex properties {names}, not x, y, z",
-            hint="export it again as PLY with vertex properties x, y, z (metres)",
+            f"cloud file {str(p)!r} has {what} {names}, not x, y, z",
+            hint=f"{fix} (metres)",
         )
-    declared = raw.get("length")
-    if declared is not None and int(declared) != len(arr):
+    if declared is not None and int(declared) != found:
         raise InputError(
             f"cloud file {str(p)!r} is truncated: its header declares {declared} "
-            f"vertices, the file holds {len(arr)}",
+            f"points, the file holds {found}",
             hint="copy or export the file again",
         )
-    return arr.reshape(-1, 3)
 
 
 def _read_pcd(p: Path) -> Array:
@@ -159,19 +167,9 @@ def _read_pcd(p: Path) -> Array:
             hint="export it again as PCD with fields x y z (metres)",
         ) from None
     fields = list(cloud.fields)
-    if not {"x", "y", "z"} <= set(fields):
-        raise InputError(
-            f"cloud file {str(p)!r} has fields {fields}, not x, y, z",
-            hint="export it again as PCD with fields x y z (metres)",
-        )
+    _check_declared(p, "fields", fields, None, 0)
     arr = np.asarray(cloud.numpy(("x", "y", "z")), dtype=np.float64)
-    declared = int(cloud.metadata.points)
-    if declared != len(arr):
-        raise InputError(
-            f"cloud file {str(p)!r} is truncated: its header declares {declared} "
-            f"points, the file holds {len(arr)}",
-            hint="copy or export the file again",
-        )
+    _check_declared(p, "fields", fields, int(cloud.metadata.points), len(arr))
     return arr.reshape(-1, 3)
 
 
