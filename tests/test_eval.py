@@ -138,6 +138,6 @@ def test_spec_entries_followup_sampling():
     for e in entries:
         if e.label == "followup":
             assert e.spec["sampling"]["mode"] == "xyz"
-            assert e.source.endswith("_followup.yaml")
+            assert e.source.endswith("specs/followup.yaml")
         else:
             assert e.spec["sampling"].get("mode", "major_axis") != "xyz"

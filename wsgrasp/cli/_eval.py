@@ -51,8 +51,8 @@ def eval_command(
     followup: bool = typer.Option(
         False,
         "--followup",
-        help="Also run the authors' follow-up sampling (xyz orientations, "
-        "<gripper>_followup.yaml; without --spec).",
+        help="Also run the authors' follow-up sampling (xyz orientations, the "
+        "gripper's specs/followup.yaml; without --spec).",
     ),
     mass: float | None = typer.Option(
         None,

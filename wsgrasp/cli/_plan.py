@@ -186,8 +186,8 @@ def plan(
 
 def plan_spec(spec_file: Path | None, gripper: str | None) -> Any:
     """The spec ``plan`` runs: the file, with its gripper replaced by ``gripper``
-    when given; with no file, the built-in default spec of ``gripper`` (its
-    example spec, as ``wsgrasp eval`` uses)."""
+    when given; with no file, the default spec ``gripper`` ships
+    (``specs/default.yaml`` beside its YAML, as ``wsgrasp eval`` uses)."""
     from wsgrasp._loading import load_document
     from wsgrasp.spec import load_spec
 

@@ -1,11 +1,13 @@
 """Which pipeline specs an evaluation runs, per gripper.
 
-By default two: ``default`` (wsgrasp's defaults: the gripper's example spec
-``examples/specs/<x>.yaml``, e.g. ``allegro.yaml``) and ``paper`` (the paper's
-sampling and criterion alone, ``<x>_paper.yaml``), and with ``followup`` a third
-(the authors' follow-up sampling, ``<x>_followup.yaml``); a gripper without
-example specs gets the Franka ones with its ``gripper`` replaced. All run on the
-same scenes, so what each change does is measured, not claimed.
+By default two: ``default`` (wsgrasp's defaults for the gripper) and ``paper``
+(the paper's sampling and criterion alone), and with ``followup`` a third (the
+authors' follow-up sampling). A gripper ships them beside its gripper YAML, as
+``specs/default.yaml``, ``specs/paper.yaml`` and ``specs/followup.yaml`` (the
+built-in grippers and the Barrett example do; ``examples/specs`` holds the same
+settings for users to copy); a gripper without them gets the Franka hand's with
+its ``gripper`` replaced. Nothing here reads the repository's ``examples/``. All
+run on the same scenes, so what each change does is measured, not claimed.
 ``--spec FILE`` (or ``LABEL=FILE``) replaces them.
 """
 
@@ -14,20 +16,14 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from wsgrasp._names import gripper_ref
+from wsgrasp._names import gripper_ref, is_gripper_path
 from wsgrasp.errors import InputError
 from wsgrasp.sim.runner import SpecEntry
 
-__all__ = ["BUILTIN_SPECS", "spec_entries"]
+__all__ = ["LABELS", "spec_entries"]
 
-#: label → template file in examples/specs (with an in-code fallback)
-BUILTIN_SPECS = {
-    "default": "franka.yaml",
-    "paper": "franka_paper.yaml",
-    "followup": "franka_followup.yaml",
-}
-#: label → the suffix of its file name (``<x><suffix>.yaml``)
-_SUFFIX = {"default": "", "paper": "_paper", "followup": "_followup"}
+#: the spec labels a gripper may ship, in ``specs/<label>.yaml`` beside its YAML
+LABELS = ("default", "paper", "followup")
 
 _FALLBACK: dict[str, dict[str, Any]] = {
     "default": {
@@ -45,27 +41,15 @@ _FALLBACK: dict[str, dict[str, Any]] = {
 
 
 def _template(label: str, gripper: str) -> tuple[dict[str, Any], str]:
-    """The spec data for ``label``: the gripper's own example spec if there is
-    one (``examples/specs/<x>.yaml`` or ``<x>_paper.yaml`` naming this gripper),
-    else the Franka one with its gripper replaced, else a built-in copy."""
+    """The spec data for ``label``: the one the gripper ships
+    (``specs/<label>.yaml`` beside its gripper YAML), else the Franka hand's,
+    else a built-in copy."""
     from wsgrasp._loading import load_document
-    from wsgrasp.bench import project_root
 
-    folder = project_root() / "examples" / "specs"
-    names = {gripper, _gripper_name(gripper)}
-    if folder.is_dir():
-        for path in sorted(folder.glob("*.yaml")):
-            suffix = next(
-                (x for x in _SUFFIX.values() if x and path.stem.endswith(x)), ""
-            )
-            if suffix != _SUFFIX[label]:
-                continue
-            data, _ = load_document(path)
-            ref = str(data.get("gripper", ""))
-            if ref in names or _gripper_name(str(path.parent / ref)) in names:
-                return dict(data), str(path)
-        path = folder / BUILTIN_SPECS[label]
-        if path.exists():
+    for ref in (gripper, "franka_hand"):
+        folder = _gripper_folder(ref)
+        path = None if folder is None else folder / "specs" / f"{label}.yaml"
+        if path is not None and path.is_file():
             data, _ = load_document(path)
             return dict(data), str(path)
     base = {
@@ -76,14 +60,20 @@ def _template(label: str, gripper: str) -> tuple[dict[str, Any], str]:
     return {**base, **_FALLBACK[label]}, f"built-in {label}"
 
 
-def _gripper_name(gripper: str) -> str:
-    """The registered name of a gripper given by name or by its YAML's path."""
-    path = Path(gripper_ref(gripper, Path.cwd()))  # absolute only for a file
-    if path.is_absolute() and path.exists():
-        from wsgrasp.spec import load_gripper_description
+def _gripper_folder(gripper: str) -> Path | None:
+    """The folder of a gripper's YAML, for a YAML path or a registered name
+    (None for a name no plugin registers, or a model registered without one)."""
+    if is_gripper_path(gripper):
+        path = Path(gripper_ref(gripper, Path.cwd()))
+        return path.parent if path.exists() else None
+    from wsgrasp.errors import PluginError
+    from wsgrasp.plugins import get_registry
 
-        return load_gripper_description(path)[0].name
-    return gripper
+    try:
+        obj = get_registry().get("grippers", gripper).obj
+    except PluginError:
+        return None
+    return Path(obj).parent if isinstance(obj, (str, Path)) else None
 
 
 def spec_entries(

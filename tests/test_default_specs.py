@@ -1,0 +1,61 @@
+"""The default specs a gripper ships beside its YAML (``specs/<label>.yaml``):
+found without the repository's ``examples/``, equal to the examples users copy."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import yaml
+
+from wsgrasp.sim.specs import LABELS, _template, spec_entries
+
+ROOT = Path(__file__).resolve().parents[1]
+SHIPPED = {
+    "franka": ROOT / "plugins/grippers/wsgrasp_grippers/franka_hand",
+    "allegro": ROOT / "plugins/grippers/wsgrasp_grippers/allegro_right",
+    "barrett": ROOT / "examples/plugins/barrett_bh8_like/wsgrasp_barrett_bh8_like",
+}
+
+
+def _settings(path: Path) -> dict:
+    data = yaml.safe_load(path.read_text())
+    data.pop("gripper")
+    return data
+
+
+@pytest.mark.parametrize("gripper", sorted(SHIPPED))
+@pytest.mark.parametrize("label", LABELS)
+def test_shipped_specs_equal_the_examples(gripper, label):
+    suffix = "" if label == "default" else f"_{label}"
+    example = ROOT / "examples" / "specs" / f"{gripper}{suffix}.yaml"
+    shipped = SHIPPED[gripper] / "specs" / f"{label}.yaml"
+    assert _settings(shipped) == _settings(example)
+
+
+def test_defaults_are_found_without_the_repository(monkeypatch, tmp_path):
+    import wsgrasp.bench
+
+    # a checkout without examples/: the shipped specs are still found
+    monkeypatch.setattr(wsgrasp.bench, "project_root", lambda: tmp_path)
+    monkeypatch.chdir(tmp_path)
+    for label in LABELS:
+        data, source = _template(label, "allegro_right")
+        assert Path(source).parent.parent.name == "allegro_right", source
+        assert data["gripper"] == "allegro_right"
+
+
+def test_a_gripper_yaml_path_gets_the_specs_beside_it():
+    barrett = SHIPPED["barrett"] / "barrett_bh8_like.yaml"
+    entries = spec_entries([str(barrett)], followup=True)
+    assert [e.label for e in entries] == list(LABELS)
+    assert all(Path(e.source).parent.name == "specs" for e in entries)
+
+
+def test_a_gripper_without_specs_gets_the_franka_hands(tmp_path):
+    import shutil
+
+    folder = tmp_path / "jaw"
+    shutil.copytree(SHIPPED["franka"], folder, ignore=shutil.ignore_patterns("specs"))
+    data, source = _template("default", str(folder / "franka_hand.yaml"))
+    assert "franka_hand" in source and source.endswith("default.yaml")
