@@ -36,7 +36,7 @@ from wsgrasp.planning.search import (
     no_grasp_hint,
     run_search,
 )
-from wsgrasp.planning.targets import grasp_targets
+from wsgrasp.planning.targets import grasp_targets, pregrasp_pose
 from wsgrasp.spec import PipelineSpec, load_spec
 
 __all__ = ["Pipeline", "Prepared", "plan", "load_spec", "as_scene"]
@@ -428,16 +428,6 @@ def _check_table_side(
         )
 
 
-#: an object narrower than the gripper opening plus this (m; noise on the
-#: measured width) may fit between the fingers
-_WIDTH_SLACK = 0.002
-#: points deeper than this (m) inside the object's convex hull are a concavity
-#: (a mug's inside, the gap under a handle) the fingers may hold a wall of
-_CONCAVE_DEPTH = 0.01
-#: fraction of points deeper than ``_CONCAVE_DEPTH`` that makes an object hollow
-_CONCAVE_SHARE = 0.02
-
-
 def _one_object(
     segmentation: Any, object_points: Array, obstacles: list[Array], spec: PipelineSpec
 ) -> tuple[Array, list[Array]]:
@@ -471,6 +461,16 @@ def _one_object(
     )
 
 
+#: an object narrower than the gripper opening plus this (m; noise on the
+#: measured width) may fit between the fingers
+_WIDTH_SLACK = 0.002
+#: points deeper than this (m) inside the object's convex hull are a concavity
+#: (a mug's inside, the gap under a handle) the fingers may hold a wall of
+_CONCAVE_DEPTH = 0.01
+#: fraction of points deeper than ``_CONCAVE_DEPTH`` that makes an object hollow
+_CONCAVE_SHARE = 0.02
+
+
 def _too_large(object_points: Array, g: GripperModel) -> str:
     """Why no pose can hold the object, or ``""``: a convex object whose narrowest
     width (over its hull's face normals) exceeds the gripper opening cannot be
@@ -500,12 +500,6 @@ def _too_large(object_points: Array, g: GripperModel) -> str:
     )
 
 
-def _pregrasp(T_world_gripper: Array, g: GripperModel, distance: float) -> Array:
-    T = np.array(T_world_gripper, dtype=np.float64)
-    T[:3, 3] -= distance * (T[:3, :3] @ g.approach_axis)
-    return T
-
-
 def _hits_table(g: GripperModel, table: TableSE, T_world_gripper: Array) -> bool:
     from wsgrasp.planning.evaluate import table_collisions
 
@@ -523,7 +517,7 @@ def _with_clear_pregrasp(
     order = [out.best, *(a.index for a in out.alternatives)]
     for i in order:
         T = out.candidates.T_world_ee[i]
-        if not _hits_table(g, table, _pregrasp(T, g, distance)):
+        if not _hits_table(g, table, pregrasp_pose(g, T, distance)):
             return int(i)
     return None
 

@@ -32,6 +32,7 @@ __all__ = [
     "grasp_targets",
     "prepare",
     "pad_positions",
+    "pregrasp_pose",
 ]
 
 Array = NDArray[np.float64]
@@ -89,6 +90,16 @@ class GraspTargets:
     fingers: list[FingerTarget]
 
 
+def pregrasp_pose(
+    gripper: GripperModel, T_world_gripper: Array, distance: float
+) -> Array:
+    """``T_world_gripper`` ``(4, 4)`` backed off ``distance`` (m) along the
+    gripper's approach axis: the pre-grasp pose."""
+    T = np.array(T_world_gripper, dtype=np.float64)
+    T[:3, 3] -= distance * (T[:3, :3] @ gripper.approach_axis)
+    return T
+
+
 def grasp_targets(
     gripper: GripperModel,
     T_world_gripper: Array,
@@ -117,8 +128,7 @@ def grasp_targets(
     """
     g = gripper
     T = np.asarray(T_world_gripper, dtype=np.float64)
-    T_pre = T.copy()
-    T_pre[:3, 3] -= approach_distance * (T[:3, :3] @ g.approach_axis)
+    T_pre = pregrasp_pose(g, T, approach_distance)
     pre = _within_limits(g, {j: g.pregrasp.get(j, 0.0) for j in g.actuated_joints})
     grasp = dict(pre)
     fingers: list[FingerTarget] = []
