@@ -117,3 +117,15 @@ def rot_y(angles: ArrayLike) -> Array:
 def rot_z(angles: ArrayLike) -> Array:
     """Rotations ``(..., 3, 3)`` about z by ``angles`` (radians)."""
     return _rot(2, angles)
+
+
+def plane_basis(normal: ArrayLike) -> Array:
+    """Two unit vectors ``(3, 2)`` spanning the plane of unit ``normal``: the
+    first is ``normal`` crossed with the world axis least aligned with it, the
+    second ``normal`` crossed with the first. ``points @ plane_basis(n)`` gives
+    points' in-plane coordinates ``(k, 2)``."""
+    n = np.asarray(normal, dtype=np.float64)
+    helper = np.eye(3)[int(np.argmin(np.abs(n)))]
+    u = np.cross(n, helper)
+    u /= np.linalg.norm(u)
+    return np.stack([u, np.cross(n, u)], axis=1)

@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
+from wsgrasp.geometry import plane_basis
 from wsgrasp.perception.types import Array, Plane
 
 __all__ = ["Touching", "find_touching", "split_touching"]
@@ -64,12 +65,7 @@ def find_touching(points: Array, table: Plane) -> Touching | None:
     p = np.asarray(points, dtype=np.float64)
     if len(p) < 20:
         return None
-    n = np.asarray(table.normal, dtype=np.float64)
-    helper = np.eye(3)[int(np.argmin(np.abs(n)))]
-    u = np.cross(n, helper)
-    u /= np.linalg.norm(u)
-    v = np.cross(n, u)
-    uv = p @ np.stack([u, v], axis=1)  # (n, 2) in the table plane
+    uv = p @ plane_basis(table.normal)  # (n, 2) in the table plane
     height = table.signed_distance(p)  # (n,)
     lo = uv.min(axis=0) - 2 * CELL
     ij = np.floor((uv - lo) / CELL).astype(np.int64)  # (n, 2)

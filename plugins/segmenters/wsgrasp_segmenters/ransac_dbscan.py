@@ -21,6 +21,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from scipy.spatial import cKDTree
 
 from wsgrasp.errors import InputError
+from wsgrasp.geometry import plane_basis
 from wsgrasp.perception.process import cluster_labels, fit_plane_ransac
 from wsgrasp.perception.types import Array, Plane, Segmentation
 
@@ -263,11 +264,7 @@ def _reaches_past(
     cluster's footprint (its bounding box in the plane) by ``_FOOTPRINT_MARGIN``
     on ``_FOOTPRINT_SIDES`` or more sides. A table seen around an object does; an
     object's face, which the rest of the object seems to stand on, does not."""
-    helper = np.eye(3)[int(np.argmin(np.abs(normal)))]
-    u = np.cross(normal, helper)
-    u /= np.linalg.norm(u)
-    v = np.cross(normal, u)
-    basis = np.stack([u, v], axis=1)  # (3, 2)
+    basis = plane_basis(normal)  # (3, 2)
     plane_uv = plane_points @ basis  # (m, 2)
     lo_p, hi_p = np.percentile(plane_uv, [1, 99], axis=0)  # (2,) each
     uv = p[idx] @ basis  # (k, 2)
