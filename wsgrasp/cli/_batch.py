@@ -72,6 +72,7 @@ def batch_specs(specs: list[str], grippers: list[str]) -> list[Any]:
     gripper's default spec (labelled by the gripper) without ``--spec``."""
     from wsgrasp.batch import BatchSpec
     from wsgrasp.cli._plan import plan_spec
+    from wsgrasp.sim.specs import spec_arg
 
     if not specs and not grippers:
         raise typer.BadParameter(
@@ -82,14 +83,7 @@ def batch_specs(specs: list[str], grippers: list[str]) -> list[Any]:
     if not specs:
         out = [BatchSpec(Path(g).stem, plan_spec(None, g)) for g in grippers]
     for item in specs:
-        label, _, file = item.rpartition("=")
-        path = Path(file)
-        if not path.exists():
-            raise InputError(
-                f"spec file {file!r} does not exist",
-                hint="pass --spec FILE or --spec LABEL=FILE",
-            )
-        label = label or path.stem
+        label, path = spec_arg(item)
         replaced: list[str | None] = [*grippers] or [None]
         for g in replaced:
             name = label if g is None else f"{label}@{Path(g).stem}"

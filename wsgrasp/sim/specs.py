@@ -20,7 +20,7 @@ from wsgrasp._names import gripper_ref, is_gripper_path
 from wsgrasp.errors import InputError
 from wsgrasp.sim.runner import SpecEntry
 
-__all__ = ["LABELS", "spec_entries"]
+__all__ = ["LABELS", "spec_arg", "spec_entries"]
 
 #: the spec labels a gripper may ship, in ``specs/<label>.yaml`` beside its YAML
 LABELS = ("default", "paper", "followup")
@@ -76,6 +76,19 @@ def _gripper_folder(gripper: str) -> Path | None:
     return Path(obj).parent if isinstance(obj, (str, Path)) else None
 
 
+def spec_arg(item: str) -> tuple[str, Path]:
+    """A ``--spec`` argument, ``FILE`` or ``LABEL=FILE``: its label (the file's
+    stem when none is given) and its existing path."""
+    label, _, file = item.rpartition("=")
+    path = Path(file)
+    if not path.exists():
+        raise InputError(
+            f"spec file {file!r} does not exist",
+            hint="pass --spec FILE or --spec LABEL=FILE",
+        )
+    return label or path.stem, path
+
+
 def spec_entries(
     grippers: list[str],
     specs: list[str] | None = None,
@@ -95,15 +108,9 @@ def spec_entries(
             return [(lb, *_template(lb, gripper)) for lb in labels]
         out = []
         for item in specs:
-            label, _, file = item.rpartition("=")
-            path = Path(file)
-            if not path.exists():
-                raise InputError(
-                    f"spec file {file!r} does not exist",
-                    hint="pass --spec FILE or --spec LABEL=FILE",
-                )
+            label, path = spec_arg(item)
             data, _ = load_document(path)
-            out.append((label or path.stem, dict(data), str(path)))
+            out.append((label, dict(data), str(path)))
         return out
 
     out = []
