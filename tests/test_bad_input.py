@@ -427,8 +427,6 @@ def test_a_hollow_object_wider_than_the_opening_is_left_to_the_search():
 # grippers and simulation settings
 # ------------------------------------------------------------------------------
 def _write_gripper(tmp_path: Path, urdf: str, **changes) -> Path:
-    from urdf_factory import jaw_urdf  # noqa: F401 - the fixture module
-
     (tmp_path / "jaw.urdf").write_text(urdf)
     desc = {
         "version": 1,

@@ -30,7 +30,7 @@ from wsgrasp._loading import (
     load_document,
     validate_document,
 )
-from wsgrasp._names import is_gripper_path as _looks_like_path
+from wsgrasp._names import is_gripper_path
 from wsgrasp.errors import PluginError, SpecError
 
 __all__ = [
@@ -507,7 +507,7 @@ def load_spec(
         _check_plugin(reg, "segmenters", spec.segmenter, ("segmenter",), lines)
         for i, ref in enumerate(spec.scorers):
             _check_plugin(reg, "scorers", ref, ("scorers", i), lines)
-        if not _looks_like_path(spec.gripper):
+        if not is_gripper_path(spec.gripper):
             _check_name(reg, "grippers", spec.gripper, ("gripper",), lines)
     return spec
 

@@ -86,20 +86,17 @@ def main(argv: list[str] | None = None) -> int:
         if state.debug:
             raise
         _print_error(
-            f"internal error: {type(exc).__name__}: {exc} "
+            f"{type(exc).__name__}: {exc} "
             "(run again with --debug for the traceback, and please report it)",
-            bold=False,
+            label="internal error",
         )
         return 1
     return 0
 
 
-def _print_error(text: str, *, bold: bool = True) -> None:
+def _print_error(text: str, label: str = "error") -> None:
     from rich.markup import escape
 
-    label = "error" if bold else "internal error"
-    if not bold:
-        text = text.removeprefix("internal error: ")
     err_console.print(
         f"[bold red]{label}:[/] {escape(text)}", highlight=False, soft_wrap=True
     )

@@ -28,6 +28,7 @@ def spec_problems(path: str | Path) -> list[str]:
         The file is missing, unreadable or does not parse (nothing to check).
     """
     from wsgrasp._loading import load_document, validation_messages
+    from wsgrasp._names import is_gripper_path
     from wsgrasp.plugins import get_registry
     from wsgrasp.spec import (
         PipelineSpec,
@@ -35,7 +36,6 @@ def spec_problems(path: str | Path) -> list[str]:
         ScorerRef,
         _check_name,
         _check_plugin,
-        _looks_like_path,
     )
 
     data, lines = load_document(path)
@@ -75,7 +75,7 @@ def spec_problems(path: str | Path) -> list[str]:
         except SpecError as exc:
             problems.append(exc.message)
     gripper = data.get("gripper")
-    if isinstance(gripper, str) and not _looks_like_path(gripper):
+    if isinstance(gripper, str) and not is_gripper_path(gripper):
         try:
             _check_name(reg, "grippers", gripper, ("gripper",), lines)
         except SpecError as exc:
