@@ -294,6 +294,26 @@ def test_corrupt_chunk_is_one_clear_error(recorded, tmp_path: Path) -> None:
         open_run(bad)
 
 
+@pytest.mark.parametrize("name", ["gripper/model.npz", "gripper/description.json"])
+def test_a_changed_byte_of_an_attachment_is_corruption(
+    recorded, tmp_path: Path, name: str
+) -> None:
+    from mcap.reader import make_reader
+
+    open_run(recorded[0])  # waits until the recording is finished
+    data = bytearray(recorded[0].read_bytes())
+    with open(recorded[0], "rb") as fh:
+        summary = make_reader(fh).get_summary()
+    assert summary is not None
+    (index,) = [a for a in summary.attachment_indexes if a.name == name]
+    at = index.offset + index.length - 4 - index.data_size // 2  # inside its data
+    data[at] ^= 0x01
+    bad = tmp_path / "bad.mcap"
+    bad.write_bytes(bytes(data))
+    with pytest.raises(RecordingError, match=f"corrupt.*attachment '{name}'"):
+        open_run(bad)
+
+
 def test_an_mcap_that_is_not_a_run(tmp_path: Path) -> None:
     from bag_factory import write_cloud_bag
 

@@ -1,19 +1,18 @@
 """Reading a recorded run back: :func:`open_run`.
 
-The file is read with mcap's ``StreamReader``, record by record, chunk CRCs
-checked. A file that stops early (a crash, a copy cut short) is read up to its last
-complete record and marked truncated, with what is missing; a file that is not
-MCAP, is MCAP but not a wsgrasp run, is corrupt, or was written in a newer format
-gets one :class:`~wsgrasp.errors.RecordingError`.
-
-mcap's ``make_reader`` refuses a file without its summary (one cut short); the
-stream reader reads it up to the cut and then fails like it does on a damaged
-record, so the record where it stopped is looked at here: one that runs past the
-end of the file is a cut, anything else is corruption.
+The file is read with mcap's ``StreamReader``, record by record, the CRCs of
+chunks and attachments checked (the latter here: the reader skips them). A file
+cut short (a crash), which ``make_reader`` refuses for lack of a summary, is read
+up to the cut, where the stream reader fails as on a damaged record; so the record
+where it stopped is looked at: one that runs past the end of the file is a cut
+(the run is read up to its last complete record and marked truncated), anything
+else corruption. Corruption, a file that is not MCAP or not a wsgrasp run, and a
+newer format are each one :class:`~wsgrasp.errors.RecordingError`.
 """
 
 from __future__ import annotations
 
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
@@ -90,6 +89,8 @@ def _scan(path: Path, fh: IO[bytes], size: int) -> _Scan:
     pos = 0  # the end of the last complete record
     try:
         for rec in StreamReader(fh, validate_crcs=True).records:
+            if isinstance(rec, Attachment):
+                _check_attachment(path, fh, pos, rec.name)
             scan.add(rec)
             pos = fh.tell()
     except RecordingError:
@@ -99,6 +100,16 @@ def _scan(path: Path, fh: IO[bytes], size: int) -> _Scan:
             raise _corrupt(path, pos, f"{type(exc).__name__}: {exc}") from None
         scan.truncated_at = pos
     return scan
+
+
+def _check_attachment(path: Path, fh: IO[bytes], start: int, name: str) -> None:
+    """Compare the CRC closing the attachment record at ``start`` (which mcap's
+    reader skips) with one of the record's fields before it."""
+    end = fh.tell()
+    fh.seek(start + 9)  # past the opcode and the length
+    body, crc = fh.read(end - start - 13), int.from_bytes(fh.read(4), "little")
+    if crc != 0 and zlib.crc32(body) != crc:
+        raise _corrupt(path, start, f"attachment {name!r} fails its CRC")
 
 
 def _runs_past_the_end(fh: IO[bytes], pos: int, size: int) -> bool:
