@@ -17,7 +17,7 @@ from test_record_fakes import box_scene, fake_gripper, fake_spec
 
 from wsgrasp.errors import RecordingError
 from wsgrasp.record import RunRecorder, open_run
-from wsgrasp.record._codec import Array, Record, as_float32_exact, dumps, loads
+from wsgrasp.record._codec import Array, Record, as_float32_exact, encode, loads
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -37,7 +37,7 @@ def test_float32_exact_arrays_are_stored_as_float32_and_read_back_bit_for_bit() 
     a[0] = [-0.0, 0.0, np.inf]
     a[1] = [-np.inf, np.nan, -np.nan]  # the standard NaNs, both signs
     a[2] = [float(np.float32(1e-45)), -float(np.float32(3.4e38)), 0.5]  # extremes
-    data = dumps({"a": a})
+    data = encode({"a": a})[0]
     ref = _record_json(data)["a"]
     assert ref["$as"] == "<f8"
     arrays = Record.FromString(data).arrays
@@ -65,7 +65,7 @@ def test_an_array_that_is_not_float32_exact_stays_float64(spoil) -> None:
     assert as_float32_exact(a) is not None
     spoil(a)
     assert as_float32_exact(a) is None
-    data = dumps({"a": a})
+    data = encode({"a": a})[0]
     assert "$as" not in _record_json(data)["a"]
     assert _bits(loads(data)["a"]) == _bits(a)
 
@@ -77,7 +77,7 @@ def test_small_and_non_float_arrays_are_stored_as_they_are() -> None:
         "f32": np.arange(100, dtype=np.float32),
         "empty": np.zeros((0, 3)),
     }
-    data = dumps(value)
+    data = encode(value)[0]
     text = _record_json(data)
     assert all("$as" not in text[k] for k in value)
     back = loads(data)

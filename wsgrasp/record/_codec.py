@@ -1,17 +1,13 @@
 """The full-fidelity encoding of a run: exact arrays inside a protobuf record.
 
-Each full-fidelity message is one ``wsgrasp.Record`` (``Array``: dtype, shape,
-data; ``Record``: format_version, kind, json, arrays), a proto3 file described
-below as protobuf text; the message classes are made from it at import, and
+Each full-fidelity message is one ``wsgrasp.Record`` of the proto3 file below;
 :data:`DESCRIPTOR_SET`, the schema the MCAP file declares, lets any protobuf
-reader (Foxglove included) decode it.
-
-``json`` holds the record's structure, in which ``{"$array": i}`` stands for
-``arrays[i]``: the array's raw little-endian bytes, so arrays decode bit for bit.
-A float JSON cannot hold (NaN, ±inf) is ``{"$float": "nan"}``. A float64 array
-whose every value is exactly a float32 (sensor clouds usually are) is stored as
-float32, half the bytes, and marked ``{"$array": i, "$as": "<f8"}``: the test is
-on the bits, so it decodes to the very float64 bits it was recorded from.
+reader (Foxglove included) decode it. ``json`` holds the record's structure, in
+which ``{"$array": i}`` stands for ``arrays[i]`` (raw little-endian bytes: arrays
+decode bit for bit) and ``{"$float": "nan"}`` for a float JSON cannot hold. A
+float64 array whose every value is exactly a float32 (sensor clouds usually are)
+is stored as float32 and marked ``"$as": "<f8"``: the test is on the bits, so it
+decodes to the very float64 bits it was recorded from.
 """
 
 from __future__ import annotations
@@ -40,7 +36,6 @@ __all__ = [
     "PROFILE",
     "SCHEMA_NAME",
     "TOPICS",
-    "dumps",
     "encode",
     "is_mcap",
     "loads",
@@ -131,21 +126,19 @@ def _same_bits(x: NDArray[Any], y: NDArray[Any]) -> bool:
 
 def _stored_dtype(dtype: np.dtype[Any]) -> str:
     """The little-endian dtype an array of ``dtype`` is stored as."""
-    if dtype.kind == "f":
-        out = "<f8" if dtype.itemsize == 8 else "<f4"
-    elif dtype.kind in "iu" and dtype != np.uint8:
-        out = "<i8" if dtype.itemsize == 8 else "<i4"
-    else:
-        out = "|b1" if dtype.kind == "b" else dtype.str
+    wide = dtype.itemsize == 8
+    out = {"f": "<f8" if wide else "<f4", "b": "|b1"}.get(dtype.kind, dtype.str)
+    if dtype.kind in "iu" and dtype != np.uint8:
+        out = "<i8" if wide else "<i4"
     if out not in _DTYPES:
         raise RecordingError(f"cannot record an array of dtype {dtype}")
     return out
 
 
 class _Arrays(list):  # type: ignore[type-arg]
-    """A record's arrays, ``(dtype, shape, bytes)``, and the reference of each
-    array object met so far: one array met twice (a scene whose merged points
-    are its only view's very array) is stored once."""
+    """A record's arrays, ``(dtype, shape, bytes)``; ``seen``: the reference of
+    each array object met, so that one met twice (a scene whose merged points are
+    its only view's very array) is stored once."""
 
     def __init__(self) -> None:
         super().__init__()
@@ -153,9 +146,8 @@ class _Arrays(list):  # type: ignore[type-arg]
 
 
 def _encode_array(value: NDArray[Any], arrays: _Arrays) -> dict[str, Any]:
-    ref = arrays.seen.get(id(value))
-    if ref is not None:
-        return dict(ref)
+    if id(value) in arrays.seen:
+        return dict(arrays.seen[id(value)])
     a = np.ascontiguousarray(value, dtype=_stored_dtype(value.dtype))
     ref = {"$array": len(arrays)}
     if a.dtype.str == "<f8" and a.size >= F32_MIN_SIZE:
@@ -174,11 +166,8 @@ def _float(f: float) -> Any:
 
 
 def encode_value(value: Any, arrays: _Arrays) -> Any:
-    """Turn ``value`` into plain JSON data, moving arrays into ``arrays``.
-
-    Dataclasses become dicts of their fields, pydantic models their JSON dump, numpy
-    scalars Python numbers; anything else its ``repr``.
-    """
+    """``value`` as plain JSON data, its arrays moved into ``arrays``: dataclasses
+    as dicts, pydantic models as their JSON dump, anything unknown as its repr."""
     t = type(value)
     if t is float:  # plain scalars by exact type first (a record holds thousands)
         return _float(value)
@@ -252,11 +241,6 @@ def encode(value: Any, kind: str = "") -> tuple[bytes, Any]:
         msg.arrays.add(dtype=dtype, shape=shape, data=data)
         stored[i] = np.frombuffer(data, dtype=dtype).reshape(shape)
     return bytes(msg.SerializeToString()), decode_value(plain, [], stored)
-
-
-def dumps(value: Any, kind: str = "") -> bytes:
-    """Encode ``value`` to the bytes of one ``wsgrasp.Record``."""
-    return encode(value, kind)[0]
 
 
 def loads(data: bytes) -> Any:

@@ -1,11 +1,7 @@
-"""The Foxglove views of a run: messages in Foxglove's well-known schemas
-(``foxglove.PointCloud``, ``PoseInFrame``, ``PosesInFrame``, ``FrameTransform``,
-``SceneUpdate``), built with foxglove-sdk's message classes, so that Foxglove
-shows a run as it is.
-
-Each builder returns ``(topic, message)`` pairs; the recorder writes
-``message.encode()`` under the schema ``type(message).get_schema()``. Quaternions
-(``q_xyzw``, Foxglove's order) come from scipy's ``Rotation``, one call for all
+"""The Foxglove views of a run: ``(topic, message)`` pairs of foxglove-sdk's
+message classes (``PointCloud``, ``PoseInFrame``, ``PosesInFrame``,
+``FrameTransform``, ``SceneUpdate``), so that Foxglove shows a run as it is. The
+quaternions (``q_xyzw``, Foxglove's order) come from one scipy ``Rotation`` for all
 the poses of a stage.
 """
 
@@ -44,7 +40,7 @@ _OTHER_RGBA = (0.3, 0.3, 0.3, 0.8)
 
 View = tuple[str, Any]  # (topic, foxglove-sdk message)
 PQ = tuple[list[float], list[float]]  # a position (3,) and q_xyzw (4,)
-_AT_ORIGIN: PQ = ([0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0])
+_UNROTATED = [0.0, 0.0, 0.0, 1.0]
 
 
 def _stamp(t_ns: int) -> Any:
@@ -60,13 +56,6 @@ def _pqs(T: ArrayLike) -> list[PQ]:
     return list(zip(T[:, :3, 3].tolist(), q.tolist(), strict=True))
 
 
-def _at(p: ArrayLike) -> list[PQ]:
-    """Unrotated poses at positions ``p`` (k, 3)."""
-    return [
-        (x, _AT_ORIGIN[1]) for x in np.asarray(p, np.float64).reshape(-1, 3).tolist()
-    ]
-
-
 def _v3(v: Any) -> Any:
     return fm.Vector3(x=float(v[0]), y=float(v[1]), z=float(v[2]))
 
@@ -77,6 +66,11 @@ def _quat(q: list[float]) -> Any:
 
 def _pose(pq: PQ) -> Any:
     return fm.Pose(position=_v3(pq[0]), orientation=_quat(pq[1]))
+
+
+def _at(p: ArrayLike) -> list[Any]:
+    """Unrotated poses at positions ``p`` (k, 3)."""
+    return [_pose((x, _UNROTATED)) for x in np.asarray(p, np.float64).reshape(-1, 3)]
 
 
 def _color(rgba: tuple[float, ...]) -> Any:
@@ -113,7 +107,7 @@ def point_cloud(
     return fm.PointCloud(
         timestamp=_stamp(t_ns),
         frame_id=frame_id,
-        pose=_pose(_AT_ORIGIN),
+        pose=_pose(([0.0, 0.0, 0.0], _UNROTATED)),
         point_stride=12 if rgba is None else 16,
         fields=fields,
         data=rows.tobytes(),
@@ -264,11 +258,10 @@ def _result_views(result: dict[str, Any], g: GripperModel, t: int) -> list[View]
         ("/grasp/gripper_cloud", point_cloud(g.cloud, "gripper", t)),
     ]
     grey = _color((0.5, 0.5, 0.55, 0.35))
+    semi_axes = np.asarray(g.se_semi_axes).reshape(-1, 3)  # (B, 3)
     body = [
-        fm.CubePrimitive(pose=_pose(at), size=_v3(2 * s), color=grey)
-        for at, s in zip(
-            _at(g.se_centers), np.asarray(g.se_semi_axes).reshape(-1, 3), strict=True
-        )
+        fm.CubePrimitive(pose=at, size=_v3(2 * s), color=grey)
+        for at, s in zip(_at(g.se_centers), semi_axes, strict=True)
     ]
     centers = np.asarray(g.sphere_centers, dtype=np.float64).reshape(-1, 3)  # (S, 3)
     radii = np.asarray(g.sphere_radii, dtype=np.float64).reshape(-1)  # (S,)
@@ -280,7 +273,7 @@ def _result_views(result: dict[str, Any], g: GripperModel, t: int) -> list[View]
     def spheres(eid: str, mask: NDArray[np.bool_], rgba: tuple[float, ...]) -> Any:
         color = _color(rgba)
         shapes = [
-            fm.SpherePrimitive(pose=_pose(at), size=_v3((2 * r,) * 3), color=color)
+            fm.SpherePrimitive(pose=at, size=_v3((2 * r,) * 3), color=color)
             for at, r in zip(_at(centers[mask]), radii[mask].tolist(), strict=True)
         ]
         return _entity(eid, "gripper", t, spheres=shapes)

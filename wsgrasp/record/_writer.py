@@ -1,14 +1,12 @@
 """The MCAP recorder: a plan observer that writes every stage as it ends.
 
-A run file (``FORMAT_VERSION`` 3), written with ``mcap.writer.Writer``: profile
-``wsgrasp``; the ``/wsgrasp/run`` record (:mod:`._runinfo`), also as metadata; the
-gripper attachments; the full-fidelity records (:mod:`._codec`), each encoded at once
-and flushed as a chunk of its own in the planner's thread (a process killed mid-plan
-leaves every finished stage), float clouds uncompressed (zstd saves under 1 % on them
-and costs milliseconds a megabyte), the others zstd; after the result, on the
-process's writer thread, the Foxglove views (:mod:`._views`, built from the arrays
-as encoded, so a caller changing its arrays changes nothing), ``run_end`` metadata
-and the summary. ``close()``, a new recording and ``open_run`` wait for them.
+A run file, written with ``mcap.writer.Writer`` (profile ``wsgrasp``): the
+``/wsgrasp/run`` record (:mod:`._runinfo`), also as metadata; the gripper
+attachments; the full-fidelity records (:mod:`._codec`), each flushed as a chunk of
+its own in the planner's thread (a process killed mid-plan leaves every finished
+stage), float clouds uncompressed (zstd saves under 1 % on them and costs
+milliseconds a megabyte), the others zstd; then, on the writer thread, the Foxglove
+views (:mod:`._views`, of the arrays as recorded), ``run_end`` and the summary.
 """
 
 from __future__ import annotations
@@ -32,7 +30,6 @@ from wsgrasp.record._codec import (
     PROFILE,
     SCHEMA_NAME,
     TOPICS,
-    dumps,
     encode,
     is_mcap,
 )
@@ -55,9 +52,7 @@ RAW, ZSTD = CompressionType.NONE, CompressionType.ZSTD
 def default_run_path(
     spec: PipelineSpec, gripper_name: str, *, now: datetime | None = None
 ) -> Path:
-    """Where ``plan`` records by default:
-    ``<spec.record.dir>/<UTC time>-<gripper>.mcap`` (microseconds: two runs in one
-    second get two files)."""
+    """``<spec.record.dir>/<UTC time to the microsecond>-<gripper>.mcap``."""
     t = (now or datetime.now(timezone.utc)).astimezone(timezone.utc)
     stamp = t.strftime("%Y%m%dT%H%M%S.%fZ")
     safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in gripper_name)
@@ -75,16 +70,9 @@ _EXISTS_HINT = "choose another path, or pass --force to replace it"
 def check_record_path(
     path: str | Path, *, force: bool = False, inputs: Sequence[str | Path] = ()
 ) -> Path:
-    """Refuse to overwrite an existing recording unless ``force``, and never
-    overwrite anything else: ``force`` replaces only an MCAP file that is not
-    one of ``inputs``, and never writes through a symbolic link.
-
-    Raises
-    ------
-    RecordingError
-        ``path`` exists (and ``force`` is False), is a directory, a symbolic
-        link, an input of the run, or a file that is not a recording.
-    """
+    """``path``, unless it is a symbolic link, a directory, one of ``inputs``, or
+    exists and is not replaced (``force`` replaces only an MCAP file): then a
+    ``RecordingError``."""
     p = Path(path)
     if p.is_symlink():
         why = "is a symbolic link; wsgrasp writes recordings to plain files only"
@@ -108,11 +96,10 @@ def check_record_path(
 class RunRecorder:
     """Record one plan to an MCAP file; pass it to ``Pipeline.plan(observers=...)``.
 
-    ``path`` (its directory is created) must not exist unless ``force``; that
-    error is raised here, before the plan starts. ``overhead_ms`` is the time the
-    planner's thread spent in the recorder, ``views_ms`` and ``finish_ms`` the
-    writer thread's, building the Foxglove views and finishing the file (views
-    included).
+    ``path`` is checked here, before the plan starts (:func:`check_record_path`).
+    ``overhead_ms`` is the time the planner's thread spent in the recorder,
+    ``views_ms`` and ``finish_ms`` the writer thread's (building the views, and
+    finishing the file, views included).
     """
 
     def __init__(self, path: str | Path, *, force: bool = False) -> None:
@@ -127,9 +114,9 @@ class RunRecorder:
         self._table_axes = (0.0, 0.0, 0.0)
         self._candidates: Any = None
         self._stages_written: list[str] = []
-        self._recorded: list[tuple[str, Any, int]] = []  # (stage, held, t_ns)
-        # the records as written: freeing megabytes takes the planner's thread
-        # milliseconds (unmapped, then faulted in again), so the writer thread does
+        # (stage, what the record holds, t_ns) for the views, and the records'
+        # bytes: the writer thread frees them (megabytes: milliseconds)
+        self._recorded: list[tuple[str, Any, int]] = []
         self._written: list[bytes] = []
         self._finished = False  # no more hooks taken
         self._done: threading.Event | None = None  # set when the file is finished
@@ -138,8 +125,7 @@ class RunRecorder:
 
     # -- PlanObserver ------------------------------------------------------------
     def on_start(self, spec: PipelineSpec, gripper: GripperModel, scene: Scene) -> None:
-        """Write the run's versions and spec, the gripper model and the inputs,
-        and flush."""
+        """Write the run's versions and spec, the gripper model and the inputs."""
         wait_for_recorders()  # earlier runs' views: not while this one plans
         with self._writing():
             a, b, c = spec.table.semi_axes  # for the views, as the spec is now
@@ -158,11 +144,15 @@ class RunRecorder:
                 for v in scene.views
             ]
             dropped = int(scene.dropped_nonfinite)
-            inputs = {"views": views, "points": scene.points}
-            self._record("inputs", inputs | {"dropped_nonfinite": dropped}, now)
+            inputs = {
+                "views": views,
+                "points": scene.points,
+                "dropped_nonfinite": dropped,
+            }
+            self._record("inputs", inputs, now)
 
     def on_stage(self, stage: str, data: dict[str, Any]) -> None:
-        """Write one stage's record and flush."""
+        """Write one stage's record."""
         if self._writer is None or self._finished:
             return
         with self._writing():
@@ -172,15 +162,14 @@ class RunRecorder:
         self._stages_written.append(stage)
 
     def on_result(self, result: PlanResult) -> None:
-        """Write the result and flush; the writer thread finishes the file."""
+        """Write the result; the writer thread finishes the file."""
         record = {f.name: getattr(result, f.name) for f in fields(result)}
         if result.candidates is self._candidates and self._candidates is not None:
             record["candidates"] = "stage:candidates"  # the same, already recorded
         self._last("result", record, "ok")
 
     def on_error(self, error: BaseException) -> None:
-        """Write what stopped the plan and flush; the writer thread finishes the
-        file."""
+        """Write what stopped the plan; the writer thread finishes the file."""
         record = {
             "type": getattr(error, "type_name", None) or type(error).__name__,
             "message": getattr(error, "message", str(error)),
@@ -197,15 +186,8 @@ class RunRecorder:
             self._finish_later(status)
 
     def close(self) -> None:
-        """Wait until the file is finished; finish it here if the plan never
-        reported a result or an error (safe to call twice).
-
-        Raises
-        ------
-        RecordingError
-            Writing the views or the file's end failed (the run's records, written
-            before, are in the file).
-        """
+        """Finish the file (also when the plan reported no result or error) and
+        wait for it; a ``RecordingError`` when the views or the file's end failed."""
         if self._writer is None:
             return
         if not self._finished:
@@ -237,26 +219,24 @@ class RunRecorder:
         return self._writer
 
     def _record(self, stage: str, value: Any, t_ns: int) -> None:
-        """Write one record as a chunk of its own; keep what it holds (arrays
-        over the recorded bytes) for the views."""
+        """Write one record as a chunk of its own."""
         topic = TOPICS.get(stage, f"/wsgrasp/stage/{stage}")
         data, held = encode(value, topic.removeprefix("/wsgrasp/"))
-        self._put(topic, SCHEMA_NAME, DESCRIPTOR_SET, data, t_ns)
+        self._put(topic, data, t_ns)
         self._flush(RAW if topic in RAW_TOPICS else ZSTD)
         self._recorded.append((stage, held, t_ns))
         self._written.append(data)
 
     def _flush(self, compression: CompressionType) -> None:
-        """End the chunk in progress, compressed with ``compression`` (the Writer
-        has one setting for all chunks; a test checks each gets its own)."""
+        """End the chunk, compressed with ``compression`` (the Writer has one
+        setting for all chunks; a test checks each gets its own)."""
         setattr(self._w, "_Writer__compression", compression)  # noqa: B010
         self._w.flush()
 
     @contextmanager
     def _writing(self) -> Iterator[None]:
-        """Time spent in the planner's thread (``overhead_ms``). A failed write
-        (disk full) is one ``RecordingError``; the file keeps what was flushed
-        before, and nothing more is written."""
+        """Count the time as ``overhead_ms``; a failed write (disk full) is one
+        ``RecordingError``, after which nothing more is written."""
         t0 = time.perf_counter()
         try:
             yield
@@ -282,7 +262,7 @@ class RunRecorder:
     def _finish_later(self, status: str) -> None:
         """Hand the views and the file's end to the writer thread."""
         self._finished = True
-        self._done = threading.Event()
+        done = self._done = threading.Event()
         with _worker.REGISTRY:
             _worker.PENDING.add(self)
 
@@ -293,21 +273,20 @@ class RunRecorder:
                 self._finish(status)
             except BaseException as exc:  # noqa: BLE001 - raised by close()
                 self._error = exc
-                self._close_stream()
             finally:
+                self._close_stream()
                 self._recorded.clear()  # the records' buffers freed here, too
                 self._written.clear()
                 self.finish_ms += (time.perf_counter() - t0) * 1e3
                 with _worker.REGISTRY:
                     _worker.PENDING.discard(self)
-                assert self._done is not None
-                self._done.set()
+                done.set()
 
         _worker.submit(job)
 
     def _write_views(self) -> None:
-        """The views of every recorded stage, from its record: clouds in one
-        uncompressed chunk, the rest zstd. A view that fails is a warning."""
+        """Every stage's views: clouds in one uncompressed chunk, the rest zstd. A
+        view that fails is a warning."""
         t0 = time.perf_counter()
         clouds: list[Any] = []
         rest: list[Any] = []
@@ -316,14 +295,11 @@ class RunRecorder:
                 assert self._gripper is not None  # set in on_start
                 views = _views.views_of(stage, held, t, self._gripper, self._table_axes)
             except Exception as exc:  # noqa: BLE001 - views are a convenience
-                warning = dumps({"stage": stage, "error": repr(exc)}, "warnings")
-                rest.append(
-                    ("/wsgrasp/warnings", SCHEMA_NAME, DESCRIPTOR_SET, warning, t)
-                )
+                warning = encode({"stage": stage, "error": repr(exc)}, "warnings")
+                rest.append(("/wsgrasp/warnings", warning[0], t, None))
                 continue
             for topic, msg in views:
-                schema = type(msg).get_schema()
-                row = (topic, schema.name, bytes(schema.data), msg.encode(), t)
+                row = (topic, msg.encode(), t, type(msg))
                 (clouds if isinstance(msg, _views.fm.PointCloud) else rest).append(row)
         self.views_ms += (time.perf_counter() - t0) * 1e3
         for rows, compression in ((clouds, RAW), (rest, ZSTD)):
@@ -357,31 +333,26 @@ class RunRecorder:
             _worker.OPEN.add(self)
 
     def _finish(self, status: str) -> None:
-        """Write ``run_end`` and the summary, and close the file."""
-        try:
-            end = {
-                "status": status,
-                "stages": ",".join(self._stages_written),
-                "finished_utc": datetime.now(timezone.utc).isoformat(),
-                "recorder_ms": f"{self.overhead_ms:.3f}",
-                "views_ms": f"{self.views_ms:.3f}",
-            }
-            self._w.add_metadata("run_end", end)
-            self._w.finish()
-        finally:
-            self._close_stream()
+        end = {
+            "status": status,
+            "stages": ",".join(self._stages_written),
+            "finished_utc": datetime.now(timezone.utc).isoformat(),
+            "recorder_ms": f"{self.overhead_ms:.3f}",
+            "views_ms": f"{self.views_ms:.3f}",
+        }
+        self._w.add_metadata("run_end", end)
+        self._w.finish()
 
-    def _put(
-        self, topic: str, schema: str, schema_data: bytes, data: bytes, t: int
-    ) -> None:
+    def _put(self, topic: str, data: bytes, t: int, kind: Any = None) -> None:
+        """Add a ``wsgrasp.Record``, or a message of foxglove-sdk's class ``kind``."""
         cid = self._channels.get(topic)
         if cid is None:
-            sid = self._schemas.get(schema)
-            if sid is None:
-                sid = self._w.register_schema(schema, "protobuf", schema_data)
-                self._schemas[schema] = sid
-            cid = self._w.register_channel(
-                topic, "protobuf", sid, {"wsgrasp_format": str(FORMAT_VERSION)}
-            )
+            schema = None if kind is None else kind.get_schema()
+            name = SCHEMA_NAME if schema is None else schema.name
+            if name not in self._schemas:
+                data_ = DESCRIPTOR_SET if schema is None else bytes(schema.data)
+                self._schemas[name] = self._w.register_schema(name, "protobuf", data_)
+            meta = {"wsgrasp_format": str(FORMAT_VERSION)}
+            cid = self._w.register_channel(topic, "protobuf", self._schemas[name], meta)
             self._channels[topic] = cid
         self._w.add_message(cid, log_time=t, data=data, publish_time=t)
