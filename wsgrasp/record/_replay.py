@@ -13,6 +13,7 @@ from wsgrasp.errors import RecordingError, WsgraspError
 from wsgrasp.record._reader import open_run
 from wsgrasp.record._run import Run
 from wsgrasp.record._summary import reason_counts
+from wsgrasp.record._writer import RunRecorder, check_record_path
 
 if TYPE_CHECKING:
     from wsgrasp.planning.result import PlanResult
@@ -164,27 +165,15 @@ def replay_run(
         The run lacks what a replay needs (inputs, spec, gripper model), or the
         replay's own recording cannot be written.
     """
-    from wsgrasp.record._writer import RunRecorder, check_record_path
+    from wsgrasp.api import Pipeline
 
     if not isinstance(run, Run):
         run = open_run(run)
-    if record is not None:
+    if record is not None:  # never the run itself (an input of the replay)
         check_record_path(record, force=force, inputs=[run.path])
-        if Path(record).resolve() == run.path.resolve():
-            raise RecordingError(
-                f"{record}: is the run being replayed; a replay never overwrites it",
-                hint="give --record a new path",
-            )
-    try:
-        from wsgrasp.api import Pipeline
-    except ImportError as exc:  # pragma: no cover - the planner is part of wsgrasp
-        raise RecordingError(f"replay needs the planner (wsgrasp.api): {exc}") from None
-
     recorded_spec, gripper, scene = run.spec, run.gripper, run.scene
     notes: list[str] = []
-    if spec is None:
-        use_spec = recorded_spec
-    elif isinstance(spec, (str, Path)):
+    if isinstance(spec, (str, Path)):
         from wsgrasp.spec import load_spec
 
         # the recorded gripper needs no plugin: check plugin names only when the
@@ -193,7 +182,7 @@ def replay_run(
         if use_spec.gripper != recorded_spec.gripper:
             use_spec = load_spec(spec)
     else:
-        use_spec = spec
+        use_spec = recorded_spec if spec is None else spec
     model = gripper if use_spec.gripper == recorded_spec.gripper else None
     if model is None:
         notes.append(
@@ -203,8 +192,7 @@ def replay_run(
     if run.truncated and run.result_data is None and run.error is None:
         notes.append("the run is truncated before its result: nothing to compare")
 
-    recorder = None if record is None else RunRecorder(record, force=force)
-    observers = [] if recorder is None else [recorder]
+    observers = [] if record is None else [RunRecorder(record, force=force)]
     new: PlanResult | None = None
     new_error: dict[str, Any] | None = None
     try:
@@ -216,7 +204,7 @@ def replay_run(
     except WsgraspError as exc:
         new_error = {"type": type(exc).__name__, "message": exc.message}
     finally:
-        if recorder is not None:
+        for recorder in observers:
             recorder.close()
 
     old = run.result

@@ -51,11 +51,9 @@ class RawMessage:
 class Run:
     """A recorded run, as read by :func:`open_run`: ``metadata`` (by record name:
     ``wsgrasp``, ``spec``, ``plugins``, ``run_end``, each str to str),
-    ``attachments``, the decoded records ``inputs``, ``stages`` (by stage name),
-    ``result_data`` and ``error`` (what stopped the plan), arrays exact;
-    ``truncated`` (no footer: the process stopped), ``truncated_at`` (the byte
-    offset of the first incomplete record), ``missing`` (parts of :data:`PARTS`
-    the file lacks) and every message in file order."""
+    ``attachments``, the decoded records (arrays exact), ``truncated`` (no footer),
+    ``truncated_at`` (the offset of the first incomplete record), ``missing``
+    (parts of :data:`PARTS` the file lacks) and every message in file order."""
 
     path: Path
     format_version: int
@@ -71,7 +69,6 @@ class Run:
     missing: list[str]
     messages: list[RawMessage] = field(repr=False, default_factory=list)
 
-    # -- typed views ----------------------------------------------------------------
     @property
     def status(self) -> str:
         """``"ok"`` (a result), ``"error"`` (the plan raised) or ``"truncated"``."""
@@ -111,10 +108,13 @@ class Run:
     @property
     def plugins(self) -> list[dict[str, Any]]:
         """Every plugin loaded when the run was recorded (distribution, version)."""
-        return [
-            _json_or(raw, {"name": k, "error": raw})
-            for k, raw in sorted(self.metadata.get("plugins", {}).items())
-        ]
+        out = []
+        for k, raw in sorted(self.metadata.get("plugins", {}).items()):
+            try:
+                out.append(json.loads(raw))
+            except ValueError:
+                out.append({"name": k, "error": raw})
+        return out
 
     @cached_property
     def gripper(self) -> GripperModel:
@@ -219,10 +219,3 @@ def _candidate_set(d: dict[str, Any]) -> CandidateSet:
     d = _known(CandidateSet, d)
     d["terms"] = dict(d.get("terms") or {})
     return CandidateSet(**d)
-
-
-def _json_or(raw: str, fallback: Any) -> Any:
-    try:
-        return json.loads(raw)
-    except ValueError:
-        return fallback
