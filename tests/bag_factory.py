@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from wsgrasp.record.bag import POINTCLOUD2, TF_MESSAGE
+from wsgrasp.perception.bag import POINTCLOUD2, TF_MESSAGE
 
 _HEADER = "builtin_interfaces/Time stamp\nstring frame_id\n"
 _TIME = "int32 sec\nuint32 nanosec\n"

@@ -9,7 +9,7 @@ import pytest
 from bag_factory import write_cloud_bag
 
 from wsgrasp.errors import InputError
-from wsgrasp.record.bag import read_bag_scene
+from wsgrasp.perception.bag import read_bag_scene
 
 S = 1_000_000_000
 

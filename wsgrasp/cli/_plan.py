@@ -152,7 +152,7 @@ def plan(
         )
     bag = len(clouds) == 1 and clouds[0].suffix.lower() == ".mcap"
     if bag:
-        from wsgrasp.record.bag import read_bag_scene
+        from wsgrasp.perception.bag import read_bag_scene
 
         if topic is None:
             raise InputError(

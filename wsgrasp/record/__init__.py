@@ -7,7 +7,6 @@
   :func:`copy_with_views` writes it again with its Foxglove views.
 - :func:`replay_run` re-plans a run's inputs and compares the results.
 - :func:`summarize_run` is what ``wsgrasp inspect --json`` prints.
-- :mod:`wsgrasp.record.bag` reads ROS 2 bags (``sensor_msgs/msg/PointCloud2``).
 """
 
 from __future__ import annotations

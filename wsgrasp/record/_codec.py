@@ -15,7 +15,6 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import fields, is_dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -25,7 +24,6 @@ from google.protobuf import (
     message_factory,
     text_format,
 )
-from mcap.writer import MCAP0_MAGIC
 from numpy.typing import NDArray
 
 from wsgrasp.errors import RecordingError
@@ -37,7 +35,6 @@ __all__ = [
     "SCHEMA_NAME",
     "TOPICS",
     "encode",
-    "is_mcap",
     "loads",
 ]
 
@@ -45,15 +42,6 @@ __all__ = [
 #: 3: the merged points always stored; spec and versions in ``/wsgrasp/run``.
 #: 2: float64 arrays as float32 (``"$as"``), merged points as ``"merge(views)"``.
 FORMAT_VERSION = 3
-
-
-def is_mcap(path: str | Path) -> bool:
-    """Whether ``path`` is a file that starts with the MCAP magic."""
-    try:
-        with open(path, "rb") as fh:
-            return fh.read(len(MCAP0_MAGIC)) == MCAP0_MAGIC
-    except OSError:
-        return False
 
 
 #: MCAP header profile of wsgrasp runs.
@@ -149,7 +137,7 @@ def _encode_array(value: NDArray[Any], arrays: _Arrays) -> dict[str, Any]:
     if id(value) in arrays.seen:
         return dict(arrays.seen[id(value)])
     a = np.ascontiguousarray(value, dtype=_stored_dtype(value.dtype))
-    ref = {"$array": len(arrays)}
+    ref: dict[str, Any] = {"$array": len(arrays)}
     if a.dtype.str == "<f8" and a.size >= F32_MIN_SIZE:
         f32 = as_float32_exact(a)
         if f32 is not None:

@@ -70,7 +70,8 @@ def _pose(pq: PQ) -> Any:
 
 def _at(p: ArrayLike) -> list[Any]:
     """Unrotated poses at positions ``p`` (k, 3)."""
-    return [_pose((x, _UNROTATED)) for x in np.asarray(p, np.float64).reshape(-1, 3)]
+    xyz = np.asarray(p, np.float64).reshape(-1, 3).tolist()  # (k, 3)
+    return [_pose((x, _UNROTATED)) for x in xyz]
 
 
 def _color(rgba: tuple[float, ...]) -> Any:

@@ -23,6 +23,7 @@ from typing import IO, TYPE_CHECKING, Any
 from mcap.writer import CompressionType, Writer
 
 from wsgrasp.errors import RecordingError
+from wsgrasp.perception.bag import is_mcap
 from wsgrasp.record import _views, _worker
 from wsgrasp.record._codec import (
     DESCRIPTOR_SET,
@@ -31,7 +32,6 @@ from wsgrasp.record._codec import (
     SCHEMA_NAME,
     TOPICS,
     encode,
-    is_mcap,
 )
 from wsgrasp.record._runinfo import gripper_attachments, run_info
 from wsgrasp.record._worker import wait_for_recorders

@@ -20,7 +20,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wsgrasp.errors import InputError
-from wsgrasp.record._codec import is_mcap
 
 if TYPE_CHECKING:
     from collections.abc import Iterator
@@ -48,6 +47,17 @@ class BagCloud:
     frame_id: str
     stamp_ns: int
     points: Array
+
+
+def is_mcap(path: str | Path) -> bool:
+    """Whether ``path`` is a file that starts with the MCAP magic."""
+    from mcap.writer import MCAP0_MAGIC
+
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(len(MCAP0_MAGIC)) == MCAP0_MAGIC
+    except OSError:
+        return False
 
 
 def _open(path: str | Path) -> Path:
