@@ -8,7 +8,7 @@ and the time the planner's thread spent in the recorder. ``--baseline MODULE``
 ``wsgrasp.record`` importable under another name) to the same alternation.
 
     .venv/bin/python benchmarks/record_overhead.py [--runs 15] [--spec S ...]
-        [--scene S ...] [--baseline MODULE] [--json]
+        [--scene S ...] [--baseline MODULE] [--hooks] [--json]
 
 Two overheads are measured on every recorded run:
 
@@ -21,6 +21,13 @@ Two overheads are measured on every recorded run:
 ``paired`` is the median of the per-round differences, ``min`` the difference of
 the fastest runs: both are steadier than the difference of medians on a loaded
 machine. ``cpu`` (JSON only) is the process's CPU time, all threads.
+
+``--hooks`` measures the recorders alone, by CPU time, which load on a shared
+machine disturbs far less than wall-clock time: the hooks of one captured plan are
+replayed into each recorder in turn (alternating, as above), and the medians are
+the planner's thread's CPU time in the hooks (``thread``) and the writer thread's
+until ``close`` returns (``writer``: the process's CPU time less the planner's
+thread's). The load average is printed before and after.
 """
 
 from __future__ import annotations
@@ -28,6 +35,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import os
 import statistics
 import tempfile
 import time
@@ -125,6 +133,73 @@ def measure(
     return rows
 
 
+class _Capture:
+    """A plan observer that keeps every hook call, to replay it into recorders."""
+
+    def __init__(self) -> None:
+        self.calls: list[tuple[str, tuple[Any, ...]]] = []
+
+    def __getattr__(self, hook: str) -> Any:
+        if not hook.startswith("on_"):
+            raise AttributeError(hook)
+        return lambda *args: self.calls.append((hook, args))
+
+
+def measure_hooks(
+    spec_path: str, scene_path: str, runs: int, recorders: dict[str, Any]
+) -> list[dict[str, Any]]:
+    """One row per recorder: medians over ``runs`` rounds (after 2 warm-ups) of the
+    CPU time of one captured plan's hooks replayed into it, and of its writer
+    thread's work until ``close`` returns."""
+    from wsgrasp import Pipeline, load_spec
+    from wsgrasp.perception.io import load_scene
+
+    pipe = Pipeline(load_spec(ROOT / spec_path))
+    scene = load_scene(ROOT / scene_path)
+    capture = _Capture()
+    pipe.plan(scene, observers=[capture])
+    names = list(recorders)
+    thread: dict[str, list[float]] = {n: [] for n in names}
+    writer: dict[str, list[float]] = {n: [] for n in names}
+    with tempfile.TemporaryDirectory() as tmp:
+        for i in range(runs + 2):
+            k = i % len(names)
+            for name in names[k:] + names[:k]:
+                path = Path(tmp) / f"{name}{i}.mcap"
+                rec = recorders[name](path)
+                c0, t0 = time.process_time(), time.thread_time()
+                for hook, args in capture.calls:
+                    getattr(rec, hook)(*args)
+                t1 = time.thread_time()
+                rec.close()
+                c1, t2 = time.process_time(), time.thread_time()
+                path.unlink()
+                if i >= 2:
+                    thread[name].append((t1 - t0) * 1e3)
+                    writer[name].append(((c1 - c0) - (t2 - t0)) * 1e3)
+    rows = []
+    for name in names:
+        a, b = statistics.median(thread[name]), statistics.median(writer[name])
+        rows.append(
+            {
+                "recorder": name,
+                "spec": spec_path,
+                "gripper": pipe.gripper.name,
+                "scene": scene_path,
+                "points": int(scene.points.shape[0]),
+                "runs": runs,
+                "thread_ms": round(a, 2),
+                "writer_ms": round(b, 2),
+                "cpu_ms": round(a + b, 2),
+            }
+        )
+    return rows
+
+
+def _load() -> str:
+    return " ".join(f"{x:.2f}" for x in os.getloadavg())
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     ap.add_argument("--runs", type=int, default=15)
@@ -133,6 +208,7 @@ def main() -> None:
     ap.add_argument(
         "--baseline", action="append", help="module with another RunRecorder"
     )
+    ap.add_argument("--hooks", action="store_true", help="the recorders' CPU time")
     ap.add_argument("--json", action="store_true")
     a = ap.parse_args()
     from wsgrasp.record import RunRecorder
@@ -140,14 +216,31 @@ def main() -> None:
     recorders: dict[str, Any] = {"wsgrasp": RunRecorder}
     for name in a.baseline or []:
         recorders[name] = importlib.import_module(name).RunRecorder
+    load_before = _load()
     rows = [
         row
         for spec in a.spec or SPECS
         for scene in a.scene or SCENES
-        for row in measure(spec, scene, a.runs, recorders)
+        for row in (measure_hooks if a.hooks else measure)(
+            spec, scene, a.runs, recorders
+        )
     ]
     if a.json:
         print(json.dumps(rows, indent=2))
+        return
+    print(f"load average {load_before} before, {_load()} after")
+    if a.hooks:
+        print(
+            f"{'recorder':<12}{'gripper':<14}{'scene':<22}{'points':>7}"
+            f" | {'thread ms':>9}{'writer ms':>10}{'cpu ms':>8}"
+        )
+        for r in rows:
+            scene = "/".join(Path(str(r["scene"])).parts[-2:])
+            print(
+                f"{r['recorder']:<12.12}{r['gripper']:<14}{scene:<22.22}"
+                f"{r['points']:>7} | {r['thread_ms']:>9.2f}{r['writer_ms']:>10.2f}"
+                f"{r['cpu_ms']:>8.2f}"
+            )
         return
     print(
         f"{'recorder':<12}{'gripper':<14}{'scene':<22}{'points':>7}{'plan ms':>8}"
