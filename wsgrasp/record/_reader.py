@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
+from mcap.opcode import Opcode
 from mcap.records import Attachment, Channel, Footer, Header, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap.writer import MCAP0_MAGIC
@@ -103,13 +104,17 @@ def _scan(path: Path, fh: IO[bytes], size: int) -> _Scan:
 
 
 def _check_attachment(path: Path, fh: IO[bytes], start: int, name: str) -> None:
-    """Compare the CRC closing the attachment record at ``start`` (which mcap's
-    reader skips) with one of the record's fields before it."""
+    """Compare the CRC closing the attachment record that ends here (mcap's reader
+    skips it) with one of the record's fields before it; ``start``: where the
+    record before it ended (unless a record mcap does not know came between)."""
     end = fh.tell()
-    fh.seek(start + 9)  # past the opcode and the length
-    body, crc = fh.read(end - start - 13), int.from_bytes(fh.read(4), "little")
-    if crc != 0 and zlib.crc32(body) != crc:
-        raise _corrupt(path, start, f"attachment {name!r} fails its CRC")
+    fh.seek(start)
+    opcode, length = fh.read(1), int.from_bytes(fh.read(8), "little")
+    if opcode == bytes([Opcode.ATTACHMENT]) and start + 9 + length == end:
+        body, crc = fh.read(length - 4), int.from_bytes(fh.read(4), "little")
+        if crc != 0 and zlib.crc32(body) != crc:
+            raise _corrupt(path, start, f"attachment {name!r} fails its CRC")
+    fh.seek(end)
 
 
 def _runs_past_the_end(fh: IO[bytes], pos: int, size: int) -> bool:
