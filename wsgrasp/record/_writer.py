@@ -70,9 +70,15 @@ _EXISTS_HINT = "choose another path, or pass --force to replace it"
 def check_record_path(
     path: str | Path, *, force: bool = False, inputs: Sequence[str | Path] = ()
 ) -> Path:
-    """``path``, unless it is a symbolic link, a directory, one of ``inputs``, or
-    exists and is not replaced (``force`` replaces only an MCAP file): then a
-    ``RecordingError``."""
+    """``path``, where a recording may be written: ``force`` replaces only an MCAP
+    file that is not one of ``inputs``, never through a symbolic link.
+
+    Raises
+    ------
+    RecordingError
+        ``path`` exists (and ``force`` is False), is a directory, a symbolic
+        link, an input of the run, or a file that is not a recording.
+    """
     p = Path(path)
     if p.is_symlink():
         why = "is a symbolic link; wsgrasp writes recordings to plain files only"
@@ -144,12 +150,8 @@ class RunRecorder:
                 for v in scene.views
             ]
             dropped = int(scene.dropped_nonfinite)
-            inputs = {
-                "views": views,
-                "points": scene.points,
-                "dropped_nonfinite": dropped,
-            }
-            self._record("inputs", inputs, now)
+            inputs = {"views": views, "points": scene.points}
+            self._record("inputs", inputs | {"dropped_nonfinite": dropped}, now)
 
     def on_stage(self, stage: str, data: dict[str, Any]) -> None:
         """Write one stage's record."""
@@ -187,7 +189,13 @@ class RunRecorder:
 
     def close(self) -> None:
         """Finish the file (also when the plan reported no result or error) and
-        wait for it; a ``RecordingError`` when the views or the file's end failed."""
+        wait for it; safe to call twice.
+
+        Raises
+        ------
+        RecordingError
+            Writing the views or the file's end failed (the records are written).
+        """
         if self._writer is None:
             return
         if not self._finished:
@@ -295,8 +303,8 @@ class RunRecorder:
                 assert self._gripper is not None  # set in on_start
                 views = _views.views_of(stage, held, t, self._gripper, self._table_axes)
             except Exception as exc:  # noqa: BLE001 - views are a convenience
-                warning = encode({"stage": stage, "error": repr(exc)}, "warnings")
-                rest.append(("/wsgrasp/warnings", warning[0], t, None))
+                warning, _ = encode({"stage": stage, "error": repr(exc)}, "warnings")
+                rest.append(("/wsgrasp/warnings", warning, t, None))
                 continue
             for topic, msg in views:
                 row = (topic, msg.encode(), t, type(msg))
@@ -350,8 +358,9 @@ class RunRecorder:
             schema = None if kind is None else kind.get_schema()
             name = SCHEMA_NAME if schema is None else schema.name
             if name not in self._schemas:
-                data_ = DESCRIPTOR_SET if schema is None else bytes(schema.data)
-                self._schemas[name] = self._w.register_schema(name, "protobuf", data_)
+                described = DESCRIPTOR_SET if schema is None else bytes(schema.data)
+                sid = self._w.register_schema(name, "protobuf", described)
+                self._schemas[name] = sid
             meta = {"wsgrasp_format": str(FORMAT_VERSION)}
             cid = self._w.register_channel(topic, "protobuf", self._schemas[name], meta)
             self._channels[topic] = cid
