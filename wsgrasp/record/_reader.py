@@ -105,7 +105,7 @@ def _scan(path: Path, fh: IO[bytes], size: int) -> _Scan:
 
 def _check_attachment(path: Path, fh: IO[bytes], start: int, name: str) -> None:
     """Compare the CRC closing the attachment record that ends here (mcap's reader
-    skips it) with one of the record's fields before it; ``start``: where the
+    skips it) with the CRC of the record's fields before it; ``start``: where the
     record before it ended (unless a record mcap does not know came between)."""
     end = fh.tell()
     fh.seek(start)
