@@ -4,7 +4,9 @@ object frame, box sampling, table superellipsoid, synthetic scenes.
 Modules: ``io`` (loading and writing clouds and scenes), ``process`` (downsampling,
 RANSAC plane, DBSCAN, target selection), ``frame`` (object and table frames, box
 samples, normals), ``synth`` (rendering objects on a table from virtual depth
-cameras), ``types`` (View, Scene, Plane, Segmentation, Segmenter).
+cameras), ``touching`` (two objects touching), ``bag`` (scenes from ROS 2 bags'
+PointCloud2 and /tf messages), ``types`` (View, Scene, Plane, Segmentation,
+Segmenter).
 """
 
 from wsgrasp.perception.frame import (
