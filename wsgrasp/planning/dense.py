@@ -32,8 +32,16 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import ConvexHull, QhullError
 
-from wsgrasp.geometry import invert_transforms
+from wsgrasp.geometry import coordinates_in_superellipsoids, invert_transforms
 from wsgrasp.gripper.model import GripperModel
+from wsgrasp.planning import _dense_numba
+from wsgrasp.planning._dense_grid import (
+    FingerDepth,
+    ObjectDistance,
+    finger_depth,
+    inscribed_balls,
+)
+from wsgrasp.planning._dense_numba import held_by_fingers
 from wsgrasp.planning.spheres import FingerSpheres
 
 if TYPE_CHECKING:
@@ -49,6 +57,8 @@ MARGIN = 1e-9
 _CHUNK_CANDIDATES = 262_144
 #: at most this many (candidate, point) pairs through the sphere grid at once
 _CHUNK_PAIRS = 100_000
+#: from this many candidates on, the object's distance grid proves body hits
+_BALLS_FROM = 20_000
 
 
 @dataclass(frozen=True)
@@ -297,26 +307,31 @@ def body_and_fingers(
     obstacle_points: Array,
     coarse: int = 24,
     chunk_points: int = 2_000_000,
+    compiled: bool = True,
 ) -> BodyFingerVerdicts:
     """Algorithm 1's object, obstacle and finger tests for candidates ``index``
     (those clear of the table), per orientation with the samples as translations.
 
     In the gripper frame a candidate's object points are ``Q[o] - u[c]``:
     ``Q[o] = p_world R[o]`` once per orientation, ``u[c] = (A[s] + B[o]) R[o]``
-    per candidate. Two conservative bounds settle most candidates without a
-    point:
+    per candidate. Conservative bounds settle most candidates without a point:
 
     - the object's box in the gripper axes (``Q[o]``'s extremes less ``u``) apart
       from a body superellipsoid's box means no object point is inside it; apart
       from all of them, the body is clear;
-    - apart from a finger's sphere box, that finger holds no point (count 0).
+    - a ball inscribed in a body superellipsoid that the object's distance grid
+      proves to hold a point proves the hit (``_dense_grid.ObjectDistance``);
+    - a finger whose sphere box is apart from the object's box holds none; for
+      the others, a point whose nearest node of the finger's depth grid is deep
+      inside its union of spheres is held, one far outside it is not
+      (``_dense_grid.FingerDepth``).
 
     The rest get the exact tests: a subset of ``coarse`` points first (a hit by a
-    subset is a hit), then every point, and the sphere grid of ``spheres``
-    (``FingerSpheres``) for the fingers not settled.
+    subset is a hit), then every point in a superellipsoid's slab; the points the
+    depth grid leaves undecided through the sphere grid of ``spheres``. With numba
+    installed (and ``compiled``), the finger test is one compiled loop over every
+    point instead (``_dense_numba``), with the same answers.
     """
-    from wsgrasp.geometry import coordinates_in_superellipsoids
-
     g, sp = gripper, spheres
     nf = int(g.num_fingers)
     n_or = len(poses.R)
@@ -339,12 +354,20 @@ def body_and_fingers(
     )
     index = np.asarray(index, dtype=np.int64)
     s_all, o_all = np.divmod(index, n_or)
+    proven = np.zeros(len(index), dtype=bool)
+    if len(index) >= _BALLS_FROM:  # below, the grid costs more than it saves
+        ball_c, ball_r, body = inscribed_balls(*se)  # (b, 3), (b,), (b,)
+        first = np.lexsort((np.abs(ball_c - g.se_centers[body]).sum(1), -ball_r))
+        ball_c, ball_r = ball_c[first], ball_r[first]  # largest, central first
+        Bb = poses.B[:, None, :] + np.einsum("oij,bj->obi", poses.R, ball_c)
+        proven = ObjectDistance(P, ball_r).hits(poses.A, Bb, s_all, o_all)
+    fingers_compiled = compiled and _dense_numba.available()
+    depth = finger_depth(sp, g.sphere_centers, g.sphere_radii, g.sphere_finger, nf)
     order = np.argsort(o_all, kind="stable")  # candidates grouped by orientation
     k_all = len(index)
     reason = np.zeros(k_all, dtype=np.int64)
     contacts = np.zeros((k_all, nf), dtype=np.int64)
-    feasible_at: list[NDArray[np.int64]] = []
-    holding_parts: list[NDArray[np.bool_]] = []
+    held = _HeldParts(nf)
     step = max(1, chunk_points // max(no, len(X), 1))
     for a in range(0, k_all, step):
         at = order[a : a + step]  # positions in index, orientation-sorted
@@ -352,11 +375,12 @@ def body_and_fingers(
         used, ol = np.unique(o, return_inverse=True)
         R = poses.R[used]  # (q, 3, 3)
         Q = np.einsum("nj,qjk->qkn", P, R)  # (q, 3, no) gripper axes, untranslated
-        u = np.einsum("cj,cjk->ck", poses.A[s] + poses.B[o], R[ol])  # (m, 3)
+        w = poses.A[s] + poses.B[o]  # (m, 3) gripper origins, world frame
+        u = np.einsum("cj,cjk->ck", w, R[ol])  # (m, 3)
         Q_lo, Q_hi = Q.min(axis=2)[ol], Q.max(axis=2)[ol]  # (m, 3)
         clear = _object_box_clear(Q_lo, Q_hi, u, se_lo, se_hi)  # (m,)
-        hit = np.zeros(len(at), dtype=bool)
-        todo = np.flatnonzero(~clear)
+        hit = proven[at] & ~clear
+        todo = np.flatnonzero(~clear & ~hit)
         if todo.size:
             # a subset first: a hit by some points is a hit by the cloud
             Qs = Q[:, :, :: max(1, no // max(coarse, 1))]
@@ -387,24 +411,83 @@ def body_and_fingers(
         lo = (Q_lo[live] - u[live])[:, None, :]  # (l, 1, 3)
         hi = (Q_hi[live] - u[live])[:, None, :]
         empty = _separated(lo, hi, f_lo[None], f_hi[None])  # (l, nf)
-        held = np.zeros((len(live), no, nf), dtype=bool)
+        counts = np.zeros((len(live), nf), dtype=np.int64)
         need = np.flatnonzero(~empty.all(axis=1))
-        if need.size:
-            held[need] = _held_in_slab(slabs, ol, u, live[need], sp, f_lo, f_hi)
-        counts = np.count_nonzero(held, axis=1)  # (l, nf)
+        if need.size == 0:
+            contacts[at[live]] = counts
+            reason[at[live]] = 4
+            continue
+        c = live[need]
+        if fingers_compiled:
+            hold, counts[need] = held_by_fingers(sp, depth, Q, ol[c], u[c])
+        else:
+            hold = _held_numpy(depth, sp, Q, ol, u, c)  # (n, no, nf)
+            counts[need] = _count_held(hold)
         contacts[at[live]] = counts
         ok = np.all(counts > 0, axis=1)
         reason[at[live[~ok]]] = 4
-        feasible_at.append(at[live[ok]])
-        holding_parts.append(held[ok])
-    if feasible_at:
-        f_at = np.concatenate(feasible_at)
-        hold = np.concatenate(holding_parts)
-        back = np.argsort(f_at, kind="stable")  # back into the order of index
-        hold = hold[back]
-    else:
-        hold = np.zeros((0, no, nf), dtype=bool)
-    return BodyFingerVerdicts(reason, contacts, hold)
+        good = ok[need]
+        if good.any():
+            held.add(at[c[good]], hold[good])
+    return BodyFingerVerdicts(reason, contacts, held.assemble(no))
+
+
+def _held_numpy(
+    depth: FingerDepth,
+    sp: FingerSpheres,
+    Q: Array,
+    ol: NDArray[np.int64],
+    u: Array,
+    c: NDArray[np.int64],
+) -> NDArray[np.bool_]:
+    """Which object points each finger holds for candidates ``c``: the depth grid
+    decides most, the sphere grid the points it leaves unsure: (n, no, nf)."""
+    hold, unsure = depth.held_points(Q, ol[c], u[c])  # (n, no, nf), (n, no)
+    row, j = np.nonzero(unsure)
+    for b in range(0, len(row), _CHUNK_PAIRS):  # bounds the sphere lists
+        rb, jb = row[b : b + _CHUNK_PAIRS], j[b : b + _CHUNK_PAIRS]
+        cb = c[rb]
+        qb = ol[cb]
+        hold[rb, jb] = sp.holding_coordinates(
+            Q[qb, 0, jb] - u[cb, 0],
+            Q[qb, 1, jb] - u[cb, 1],
+            Q[qb, 2, jb] - u[cb, 2],
+        )  # (pairs, nf)
+    return hold
+
+
+def _count_held(hold: NDArray[np.bool_]) -> NDArray[np.int64]:
+    """Points held per candidate and finger, ``(n, no, nf)`` -> ``(n, nf)``."""
+    return np.add.reduce(hold.view(np.uint8), axis=1, dtype=np.int64)
+
+
+class _HeldParts:
+    """The feasible candidates' holdings per chunk, put into the order of
+    ``index`` once at the end (one copy of the answer, freed part by part)."""
+
+    def __init__(self, nf: int) -> None:
+        self.nf = nf
+        self.at: list[NDArray[np.int64]] = []
+        self.parts: list[NDArray[np.bool_]] = []
+
+    def add(self, at: NDArray[np.int64], hold: NDArray[np.bool_]) -> None:
+        """``at`` (f,): positions in index; ``hold`` (f, no, nf)."""
+        self.at.append(at)
+        self.parts.append(hold)
+
+    def assemble(self, no: int) -> NDArray[np.bool_]:
+        if not self.at:
+            return np.zeros((0, no, self.nf), dtype=bool)
+        at = np.concatenate(self.at)
+        final = np.empty(len(at), dtype=np.int64)
+        final[np.argsort(at, kind="stable")] = np.arange(len(at))
+        out = np.empty((len(at), no, self.nf), dtype=bool)
+        start = 0
+        while self.parts:
+            part = self.parts.pop(0)
+            out[final[start : start + len(part)]] = part
+            start += len(part)
+        return out
 
 
 class _Slabs:
@@ -511,8 +594,6 @@ def _body_hits(
     """Whether some point lies inside some superellipsoid, for candidates
     ``cand``: per superellipsoid, only the candidates not yet hit and only the
     points in its slab along its thinnest axis: (n,) bool."""
-    from wsgrasp.geometry import coordinates_in_superellipsoids
-
     Q = slabs.Q
     hit = np.zeros(len(cand), dtype=bool)
     lo_all, hi_all = centers - semi_axes, centers + semi_axes

@@ -1,0 +1,301 @@
+"""Grids that prove verdicts of the dense search before any point is tested.
+
+Two conservative tests, both exact where they decide and silent where they cannot:
+
+``ObjectDistance``
+    The object's distance field on a voxel grid (``scipy.ndimage``'s Euclidean
+    distance transform of its occupancy), queried at ball centres: a ball inscribed
+    in a body superellipsoid that provably holds an object point proves the body
+    hits the object. Distances are rotation-invariant, so one grid in the world
+    frame serves every orientation.
+``FingerDepth``
+    Per finger, ``D(y) = max_k (r_k - |y - c_k|)`` at the nodes of a grid in the
+    gripper frame (the depth of ``y`` inside the finger's union of spheres, exact
+    outside it, a lower bound inside). ``D`` is 1-Lipschitz, so a point within
+    ``t`` of a node is held where ``D > t`` (strictly inside the sphere that
+    gives ``D``) and not held where ``D < -t`` (outside every sphere).
+
+Both keep ``MARGIN`` (m) on the safe side of every bound, far above rounding in
+the coordinates and in the float32 grids, so a verdict decided here is the one the
+exact test gives.
+"""
+
+from __future__ import annotations
+
+import weakref
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+
+from wsgrasp.planning.spheres import FingerSpheres
+
+__all__ = [
+    "ObjectDistance",
+    "FingerDepth",
+    "inscribed_balls",
+    "finger_depth",
+]
+
+Array = NDArray[np.float64]
+
+#: bounds decide a verdict only this far (m) from it
+MARGIN = 1e-6
+_SQRT3 = float(np.sqrt(3.0))
+
+
+def inscribed_balls(
+    centers: Array, semi_axes: Array, exponent: float, fill: float = 0.8
+) -> tuple[Array, Array, NDArray[np.int64]]:
+    """Balls inside each superellipsoid, strung along its longest axis.
+
+    A ball of radius ``rho`` at offset ``t`` along axis ``k`` from the centre lies
+    in the box ``|x_i| <= rho`` (``i != k``), ``|x_k| <= |t| + rho``, on which eq.
+    (1) is largest at the far corner (it grows with each ``|x_i|``); the balls kept
+    have that corner's value below ``1 - 1e-6``.
+
+    Parameters
+    ----------
+    centers, semi_axes : (e, 3) float
+    exponent : float
+    fill : float
+        Ball radius as a fraction of the smallest semi-axis.
+
+    Returns
+    -------
+    ball_centers : (b, 3) float
+        Gripper frame.
+    radii : (b,) float
+    body : (b,) int
+        The superellipsoid each ball lies in.
+    """
+    out_c, out_r, out_e = [], [], []
+    powers = np.array([exponent, exponent, 2.0])
+    for e, (c, a) in enumerate(zip(centers, semi_axes, strict=True)):
+        rho = fill * float(a.min())
+        k = int(np.argmax(a))
+        rest = [i for i in range(3) if i != k]
+        used = sum((rho / a[i]) ** powers[i] for i in rest)
+        room = 1.0 - 1e-6 - used
+        if room <= 0:
+            continue
+        t = a[k] * room ** (1.0 / powers[k]) - rho  # farthest offset along k
+        if t < 0:
+            continue
+        n = int(np.ceil(2.0 * t / (0.5 * rho))) + 1
+        offsets = np.linspace(-t, t, n) if n > 1 else np.zeros(1)
+        ball = np.tile(c, (len(offsets), 1))
+        ball[:, k] += offsets
+        out_c.append(ball)
+        out_r.append(np.full(len(offsets), rho))
+        out_e.append(np.full(len(offsets), e, dtype=np.int64))
+    if not out_c:
+        return np.zeros((0, 3)), np.zeros(0), np.zeros(0, dtype=np.int64)
+    return np.concatenate(out_c), np.concatenate(out_r), np.concatenate(out_e)
+
+
+class ObjectDistance:
+    """Upper bounds on the distance from a query point to the nearest object point.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+    radii : (b,) float
+        The radii of the balls :meth:`hits` tests, in the order it tests them;
+        queries farther than the largest outside the points' box are never
+        proven.
+    cell : float
+        Voxel size (m).
+    """
+
+    def __init__(self, points: Array, radii: Array, cell: float = 0.003) -> None:
+        p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        self.radii = np.asarray(radii, dtype=np.float64)
+        reach = float(self.radii.max()) if len(self.radii) else 0.0
+        self.cell = h = float(cell)
+        self.empty = len(p) == 0 or reach <= 0
+        if self.empty:
+            return
+        self.origin = p.min(axis=0) - reach - h
+        shape = np.ceil((p.max(axis=0) + reach + h - self.origin) / h).astype(np.int64)
+        self.shape = np.maximum(shape, 1)
+        occupied = np.zeros(tuple(self.shape), dtype=bool)
+        ijk = np.floor((p - self.origin) / h).astype(np.int64)
+        occupied[ijk[:, 0], ijk[:, 1], ijk[:, 2]] = True
+        # distance from each voxel centre to the nearest occupied voxel's centre
+        dist = ndimage.distance_transform_edt(~occupied, sampling=h)
+        # a point lies within h√3/2 of its voxel's centre, a query within h√3/2
+        # of its own: the nearest point is at most this far from the query
+        self.upper = (np.asarray(dist) + h * _SQRT3).astype(np.float32).ravel()
+        self.strides = np.array([shape[1] * shape[2], shape[2], 1], dtype=np.int64)
+
+    def within(self, x: Array, radius: float) -> NDArray[np.bool_]:
+        """Whether some object point provably lies strictly within ``radius`` of
+        each query ``x`` (k, 3): (k,) bool; False where not proven."""
+        if self.empty:
+            return np.zeros(len(x), dtype=bool)
+        q = np.floor((x - self.origin) * (1.0 / self.cell)).astype(np.int64)  # (k, 3)
+        inside = np.all((q >= 0) & (q < self.shape), axis=1)
+        np.clip(q, 0, self.shape - 1, out=q)
+        flat = q[:, 0] * self.strides[0] + q[:, 1] * self.strides[1] + q[:, 2]
+        return inside & (self.upper[flat] < radius - MARGIN)
+
+    def hits(
+        self, A: Array, Bb: Array, s: NDArray[np.int64], o: NDArray[np.int64]
+    ) -> NDArray[np.bool_]:
+        """Candidates ``(s, o)`` (k,) with some ball ``b`` around ``A[s] + Bb[o,
+        b]`` provably holding an object point; the balls in turn, each on the
+        candidates not yet proven.
+
+        Parameters
+        ----------
+        A : (ns, 3) float
+        Bb : (O, b, 3) float
+            Ball centres less the sample's part, world frame.
+        s, o : (k,) int
+        """
+        hit = np.zeros(len(s), dtype=bool)
+        rest = np.arange(len(s))
+        for b, radius in enumerate(self.radii):
+            if rest.size == 0:
+                break
+            x = A[s[rest]] + Bb[o[rest], b]  # (r, 3)
+            got = self.within(x, float(radius))
+            hit[rest[got]] = True
+            rest = rest[~got]
+        return hit
+
+
+class FingerDepth:
+    """Per finger, the depth ``D`` (m) inside its union of spheres at grid nodes
+    (see the module docstring), kept as two bits per finger and node: held (``D >
+    t``), unsure (``-t <= D <= t``), neither (``D < -t``), with ``t`` the farthest
+    a point can lie from its nearest node plus ``MARGIN``.
+
+    Parameters
+    ----------
+    centers, radii, finger : (s, 3), (s,), (s,)
+        The gripper's spheres and the finger of each.
+    num_fingers : int
+    cell : float, optional
+        Node spacing (m); by default a quarter of the smallest radius within
+        1-2 mm, coarser where the grid would exceed 8 million nodes.
+    """
+
+    def __init__(
+        self,
+        centers: Array,
+        radii: Array,
+        finger: NDArray[np.int64],
+        num_fingers: int,
+        cell: float | None = None,
+    ) -> None:
+        if num_fingers > 4:
+            raise ValueError(f"FingerDepth packs 4 fingers a byte, got {num_fingers}")
+        lo0 = (centers - radii[:, None]).min(axis=0)
+        hi0 = (centers + radii[:, None]).max(axis=0)
+        h = cell if cell is not None else float(np.clip(radii.min() / 4, 1e-3, 2e-3))
+        while np.prod((hi0 - lo0) / h + 8) > 8e6:
+            h *= 1.25
+        self.cell = h
+        self.lim = lim = 0.5 * _SQRT3 * h + MARGIN
+        reach = 2.0 * lim  # nodes farther than this from every sphere: D < -lim
+        lo, hi = lo0 - reach - h, hi0 + reach + h
+        shape = np.ceil((hi - lo) / h).astype(np.int64) + 1
+        self.origin, self.shape = lo, shape
+        self.strides = np.array([shape[1] * shape[2], shape[2], 1], dtype=np.int64)
+        self.codes = np.zeros(tuple(shape), dtype=np.uint8)
+        for f in range(num_fingers):
+            depth = np.full(tuple(shape), -reach, dtype=np.float32)
+            # once per gripper: each sphere raises D in the window of nodes it
+            # can bring above -reach (those within r + reach of its centre)
+            for c, r in zip(centers[finger == f], radii[finger == f], strict=True):
+                a = np.maximum(np.floor((c - r - reach - lo) / h).astype(np.int64), 0)
+                b = np.ceil((c + r + reach - lo) / h).astype(np.int64) + 1
+                b = np.minimum(b, shape)
+                axes = [lo[i] + h * np.arange(a[i], b[i]) - c[i] for i in range(3)]
+                d = np.sqrt(
+                    axes[0][:, None, None] ** 2
+                    + axes[1][None, :, None] ** 2
+                    + axes[2][None, None, :] ** 2
+                )  # (wx, wy, wz) distances to the centre
+                win = depth[a[0] : b[0], a[1] : b[1], a[2] : b[2]]
+                np.maximum(win, (r - d).astype(np.float32), out=win)
+            # float32 moves a value by far less than MARGIN
+            self.codes |= (depth > lim).astype(np.uint8) << (2 * f)
+            self.codes |= ((depth >= -lim) & (depth <= lim)).astype(np.uint8) << (
+                2 * f + 1
+            )
+        self.codes = self.codes.ravel()
+        byte = np.arange(256, dtype=np.uint8)[:, None]
+        bit = 2 * np.arange(num_fingers, dtype=np.uint8)[None, :]
+        self._held = ((byte >> bit) & 1).astype(bool)  # (256, nf)
+        unsure = ((byte >> (bit + 1)) & 1).astype(bool)  # (256, nf)
+        self._unsure: NDArray[np.bool_] = np.asarray(unsure.any(axis=1))  # (256,)
+
+    def held_points(
+        self, Q: Array, ol: NDArray[np.int64], u: Array
+    ) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+        """Which object points each finger provably holds, and which it may.
+
+        Parameters
+        ----------
+        Q : (q, 3, n) float
+            Object points per orientation in the gripper axes, untranslated.
+        ol : (m,) int
+            Each candidate's row of ``Q``, nondecreasing.
+        u : (m, 3) float
+            Each candidate's translation: its points are ``Q[ol] - u``.
+
+        Returns
+        -------
+        held : (m, n, nf) bool
+            Strictly inside one of the finger's spheres.
+        unsure : (m, n) bool
+            Some finger neither proven to hold the point nor proven not to.
+        """
+        h = self.cell
+        m, n = len(ol), Q.shape[2]
+        # node coordinates in cells, offset half a cell so that truncation of a
+        # non-negative value rounds to the nearest node; float32 errors stay
+        # below 1e-7 m, inside MARGIN
+        Qn = ((Q - self.origin[None, :, None]) * (1.0 / h) + 0.5).astype(np.float32)
+        un = (u * (1.0 / h)).astype(np.float32)  # (m, 3)
+        top = (self.shape - 1).astype(np.float32)
+        strides = self.strides.astype(np.int32)
+        flat = np.empty((m, n), dtype=np.int32)
+        t = np.empty((m, n), dtype=np.float32)
+        cut = np.flatnonzero(np.diff(ol)) + 1
+        for a, b in zip(np.r_[0, cut], np.r_[cut, m], strict=True):
+            r = ol[a]
+            for k in range(3):
+                # beyond the grid a point is clipped onto its border nodes, all
+                # farther than `reach` from every sphere (neither held nor unsure)
+                np.subtract(Qn[r, k][None, :], un[a:b, k, None], out=t[a:b])
+                np.clip(t[a:b], 0.0, top[k], out=t[a:b])
+                if k == 0:
+                    np.multiply(t[a:b].astype(np.int32), strides[0], out=flat[a:b])
+                else:
+                    flat[a:b] += t[a:b].astype(np.int32) * strides[k]
+        code = self.codes[flat]  # (m, n)
+        return self._held[code], self._unsure[code]
+
+
+_CACHE: weakref.WeakKeyDictionary[FingerSpheres, FingerDepth] = (
+    weakref.WeakKeyDictionary()
+)
+
+
+def finger_depth(
+    spheres: FingerSpheres,
+    centers: Array,
+    radii: Array,
+    finger: NDArray[np.int64],
+    num_fingers: int,
+) -> FingerDepth:
+    """The :class:`FingerDepth` of a gripper, built once per ``spheres`` index."""
+    got = _CACHE.get(spheres)
+    if got is None:
+        got = FingerDepth(centers, radii, finger, num_fingers)
+        _CACHE[spheres] = got
+    return got

@@ -1,0 +1,239 @@
+"""The finger test of the dense search as one compiled loop (optional: numba).
+
+Per candidate and object point, the depth grid's verdict at the nearest node
+(``_dense_grid.FingerDepth``) and, for a finger it leaves unsure, the sphere grid
+of ``FingerSpheres`` (its cell status, then the spheres listed for a partial cell)
+with the arithmetic of ``FingerSpheres.holding_coordinates``: the numpy path's
+answers, without its temporary arrays. numba is an optional dependency
+(``pip install 'wsgrasp[fast]'``); without it :func:`available` is False and the
+dense search keeps its numpy path.
+``_held_loop`` is the plain Python function numba compiles, so tests hold its
+logic to the numpy path with or without numba.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from wsgrasp.planning._dense_grid import FingerDepth
+from wsgrasp.planning.spheres import FingerSpheres
+
+__all__ = ["held_by_fingers", "kernel_arrays", "available"]
+
+Array = NDArray[np.float64]
+
+try:  # pragma: no cover - depends on the environment
+    if os.environ.get("WSGRASP_NUMBA", "1") == "0":
+        raise ImportError("numba disabled by WSGRASP_NUMBA=0")
+    import numba
+
+    _prange: Any = numba.prange
+except ImportError:
+    numba = None
+    _prange = range
+
+_FULL, _PARTIAL = 1, 2
+
+
+def _held_loop(
+    Q: Array,
+    ol: NDArray[np.int64],
+    u: Array,
+    d_origin: Array,
+    d_inv_cell: float,
+    d_last: Array,
+    d_strides: Array,
+    d_codes: NDArray[np.uint8],
+    origin: Array,
+    inv_cell: float,
+    last: Array,
+    strides: Array,
+    status: NDArray[np.uint8],
+    cell_index: NDArray[np.int64],
+    start: NDArray[np.int64],
+    count: NDArray[np.int64],
+    sphere: NDArray[np.int64],
+    centers: Array,
+    radii: Array,
+    held: NDArray[np.bool_],
+    counts: NDArray[np.int64],
+) -> None:  # pragma: no cover - run compiled, or by the tests on tiny inputs
+    """``held[i, j, f]``: point ``j`` of candidate ``i`` (``Q[ol[i], :, j] -
+    u[i]``) strictly inside a sphere of finger ``f``; ``counts[i, f]`` their
+    number. ``d_*``: the depth grid's two bits per finger at the point's nearest
+    node (``_dense_grid.FingerDepth``) decide first; ``cell_index`` (nf, cells):
+    compact partial-cell id per finger, -1 elsewhere; ``start``, ``count`` index
+    ``sphere`` (global sphere ids into ``centers``, ``radii``) per compact id."""
+    m = ol.shape[0]
+    n = Q.shape[2]
+    nf = status.shape[1]
+    for i in _prange(m):
+        r = ol[i]
+        ux, uy, uz = u[i, 0], u[i, 1], u[i, 2]
+        for j in range(n):
+            x = Q[r, 0, j] - ux
+            y = Q[r, 1, j] - uy
+            z = Q[r, 2, j] - uz
+            # the nearest node of the depth grid (clipped onto its border, whose
+            # nodes are far from every sphere)
+            nx = min(
+                max(np.floor((x - d_origin[0]) * d_inv_cell + 0.5), 0.0), d_last[0]
+            )
+            ny = min(
+                max(np.floor((y - d_origin[1]) * d_inv_cell + 0.5), 0.0), d_last[1]
+            )
+            nz = min(
+                max(np.floor((z - d_origin[2]) * d_inv_cell + 0.5), 0.0), d_last[2]
+            )
+            code = d_codes[
+                int(nx * d_strides[0] + ny * d_strides[1] + nz * d_strides[2])
+            ]
+            unsure = False
+            for f in range(nf):
+                if (code >> (2 * f)) & 1:
+                    held[i, j, f] = True
+                    counts[i, f] += 1
+                elif (code >> (2 * f + 1)) & 1:
+                    unsure = True
+            if not unsure:
+                continue
+            # as holding_coordinates: a float sum of clipped floors × strides
+            qx = min(max(np.floor((x - origin[0]) * inv_cell), 0.0), last[0])
+            qy = min(max(np.floor((y - origin[1]) * inv_cell), 0.0), last[1])
+            qz = min(max(np.floor((z - origin[2]) * inv_cell), 0.0), last[2])
+            flat = int(((0.0 + qx * strides[0]) + qy * strides[1]) + qz * strides[2])
+            for f in range(nf):
+                if not (code >> (2 * f + 1)) & 1:
+                    continue  # decided by the depth grid
+                st = status[flat, f]
+                if st == _FULL:
+                    held[i, j, f] = True
+                    counts[i, f] += 1
+                elif st == _PARTIAL:
+                    k = cell_index[f, flat]
+                    for t in range(start[k], start[k] + count[k]):
+                        s = sphere[t]
+                        dx = x - centers[s, 0]
+                        dy = y - centers[s, 1]
+                        dz = z - centers[s, 2]
+                        if dx * dx + dy * dy + dz * dz < radii[s] * radii[s]:
+                            held[i, j, f] = True
+                            counts[i, f] += 1
+                            break
+
+
+_compiled: Callable[..., None] | None = (
+    numba.njit(cache=True, parallel=True, nogil=True)(_held_loop)
+    if numba is not None
+    else None
+)
+
+
+def available() -> bool:
+    """Whether the compiled finger test is in use (numba importable)."""
+    return _compiled is not None
+
+
+def kernel_arrays(spheres: FingerSpheres, depth: FingerDepth) -> tuple[Any, ...]:
+    """The arrays of ``depth`` and ``spheres`` the loop reads, in its argument
+    order from ``d_origin`` to ``radii``; built once per index and kept."""
+    got = _ARRAYS.get(id(spheres))
+    if got is not None and got[0] is spheres:
+        return got[1]
+    fingers = spheres._fingers  # (centers, radii, _PartialCells) per finger
+    nf = len(fingers)
+    n_cells = len(spheres.status)
+    cell_index = np.full((nf, n_cells), -1, dtype=np.int64)
+    starts: list[NDArray[np.int64]] = []
+    counts: list[NDArray[np.int64]] = []
+    ids: list[NDArray[np.int64]] = []
+    centers: list[Array] = []
+    radii: list[Array] = []
+    n_ids = n_spheres = n_listed = 0
+    for f, (c, r, cells) in enumerate(fingers):
+        has = cells.index >= 0
+        cell_index[f, has] = cells.index[has] + n_ids
+        starts.append(cells.start + n_listed)
+        counts.append(cells.count)
+        ids.append(cells.sphere + n_spheres)
+        centers.append(c)
+        radii.append(r)
+        n_ids += len(cells.start)
+        n_listed += len(cells.sphere)
+        n_spheres += len(r)
+    arrays = (
+        np.asarray(depth.origin, dtype=np.float64),
+        float(1.0 / depth.cell),
+        np.asarray(depth.shape - 1, dtype=np.float64),
+        np.asarray(depth.strides, dtype=np.float64),
+        depth.codes,
+        np.asarray(spheres.origin, dtype=np.float64),
+        float(1.0 / spheres.cell),
+        np.asarray(spheres._last, dtype=np.float64),
+        np.asarray(spheres._strides, dtype=np.float64),
+        np.ascontiguousarray(spheres.status),
+        cell_index,
+        np.concatenate(starts).astype(np.int64),
+        np.concatenate(counts).astype(np.int64),
+        np.concatenate(ids).astype(np.int64),
+        np.ascontiguousarray(np.concatenate(centers), dtype=np.float64),
+        np.ascontiguousarray(np.concatenate(radii), dtype=np.float64),
+    )
+    _ARRAYS.clear()  # one gripper at a time is the common case
+    _ARRAYS[id(spheres)] = (spheres, arrays)
+    return arrays
+
+
+_ARRAYS: dict[int, tuple[FingerSpheres, tuple[Any, ...]]] = {}
+
+
+def held_by_fingers(
+    spheres: FingerSpheres,
+    depth: FingerDepth,
+    Q: Array,
+    ol: NDArray[np.int64],
+    u: Array,
+    loop: Callable[..., None] | None = None,
+) -> tuple[NDArray[np.bool_], NDArray[np.int64]]:
+    """Which object points each finger's spheres hold, per candidate.
+
+    Parameters
+    ----------
+    spheres : FingerSpheres
+    depth : FingerDepth
+        Of the same gripper.
+    Q : (q, 3, n) float
+        Object points per orientation, gripper axes, untranslated.
+    ol : (m,) int
+        Each candidate's row of ``Q``.
+    u : (m, 3) float
+        Each candidate's translation (its points are ``Q[ol] - u``).
+    loop : callable, optional
+        The loop to run: the compiled one by default, ``_held_loop`` itself in
+        tests.
+
+    Returns
+    -------
+    held : (m, n, nf) bool
+    counts : (m, nf) int
+    """
+    run = loop or _compiled
+    if run is None:
+        raise RuntimeError("numba is not installed: pip install 'wsgrasp[fast]'")
+    m, n, nf = len(ol), Q.shape[2], spheres.num_fingers
+    held = np.zeros((m, n, nf), dtype=bool)
+    counts = np.zeros((m, nf), dtype=np.int64)
+    run(
+        np.ascontiguousarray(Q, dtype=np.float64),
+        np.ascontiguousarray(ol, dtype=np.int64),
+        np.ascontiguousarray(u, dtype=np.float64),
+        *kernel_arrays(spheres, depth),
+        held,
+        counts,
+    )
+    return held, counts
