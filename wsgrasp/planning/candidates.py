@@ -333,18 +333,32 @@ def candidate_poses(
     orientation : (C,) int
         Index into the orientations.
     """
-    ns = len(samples_object)
-    nos = len(R_object_gwc)
-    T_object_gwc = np.zeros((ns, nos, 4, 4))
-    T_object_gwc[:, :, :3, :3] = np.asarray(R_object_gwc)[None]
-    T_object_gwc[:, :, :3, 3] = np.asarray(samples_object)[:, None, :]
+    # built from the structure: per orientation a rotation and an offset, per
+    # sample a shift, so that t[s, o] = A[s] + B[o] (no (C, 4, 4) products)
+    T_wo = np.asarray(T_world_object, dtype=np.float64)
+    R_og = np.asarray(R_object_gwc, dtype=np.float64).reshape(-1, 3, 3)  # (O, 3, 3)
+    s_obj = np.asarray(samples_object, dtype=np.float64).reshape(-1, 3)
+    ns, nos = len(s_obj), len(R_og)
+    T_gwc_gripper = invert_transforms(T_gripper_gwc)
+    R_wgwc = T_wo[:3, :3] @ R_og  # (O, 3, 3)
+    A = s_obj @ T_wo[:3, :3].T + T_wo[:3, 3]  # (ns, 3)
+    B_gwc = np.zeros((nos, 3))
     if depth is not None:
-        shift = np.asarray(R_object_gwc)[:, :, 2] * np.asarray(depth)[:, None]
-        T_object_gwc[:, :, :3, 3] += shift[None]  # (ns, O, 3)
-    T_object_gwc[:, :, 3, 3] = 1.0
-    T_object_gwc_flat = T_object_gwc.reshape(ns * nos, 4, 4)  # (C, 4, 4)
-    T_world_gwc = T_world_object @ T_object_gwc_flat
-    T_world_gripper = T_world_gwc @ invert_transforms(T_gripper_gwc)
+        B_gwc = np.asarray(depth, dtype=np.float64)[:, None] * R_wgwc[:, :, 2]
+    B_gripper = R_wgwc @ T_gwc_gripper[:3, 3] + B_gwc  # (O, 3)
+    T_world_gwc = _poses(R_wgwc, A, B_gwc)
+    T_world_gripper = _poses(R_wgwc @ T_gwc_gripper[:3, :3], A, B_gripper)
     sample = np.repeat(np.arange(ns, dtype=np.int64), nos)
     orientation = np.tile(np.arange(nos, dtype=np.int64), ns)
     return T_world_gwc, T_world_gripper, sample, orientation
+
+
+def _poses(R: Array, A: Array, B: Array) -> Array:
+    """``T[s * O + o] = [R[o], A[s] + B[o]]``: (ns * O, 4, 4) from ``R`` (O, 3, 3),
+    ``A`` (ns, 3) and ``B`` (O, 3)."""
+    T = np.empty((len(A), len(R), 4, 4))  # (ns, O, 4, 4)
+    T[:, :, :3, :3] = R[None]
+    np.add(A[:, None, :], B[None, :, :], out=T[:, :, :3, 3])
+    T[:, :, 3, :3] = 0.0
+    T[:, :, 3, 3] = 1.0
+    return T.reshape(-1, 4, 4)  # (C, 4, 4)
