@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 export MPLBACKEND := Agg
 
-.PHONY: demo test lint bench eval eval-random eval-heldout schema clean sysdeps
+.PHONY: demo test lint bench bench-peers eval eval-random eval-heldout schema clean sysdeps
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -57,6 +57,32 @@ eval-heldout: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/wsgrasp bench
+
+# wsgrasp's plan beside GPG's candidate generation (benchmarks/peers.py); not in
+# `make test`. GPG's binding (grasp-pose-generator, an sdist) builds with CMake
+# against Debian's PCL; its setup.py asks for a vcpkg toolchain (none is needed:
+# /dev/null) and a platform name CMake's Makefiles take (benchmarks/gpg_build.cfg),
+# and its pybind11 finds Python on PATH unless VIRTUAL_ENV names this one
+PEERS_APT := libpcl-dev cmake g++
+bench-peers: $(STAMP)
+	@missing=$$(for p in $(PEERS_APT); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
+	if [ -n "$$missing" ]; then \
+	  if [ "$$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then \
+	    echo "wsgrasp: installing" $$missing "(GPG builds against them) with apt"; \
+	    apt-get update -qq; \
+	    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq \
+	      --no-install-recommends $$missing >/dev/null; \
+	  else \
+	    echo "wsgrasp: GPG builds against" $$missing". Install them with:" >&2; \
+	    echo "    sudo apt-get install -y --no-install-recommends" $$missing >&2; \
+	    exit 1; \
+	  fi; \
+	fi
+	@echo "wsgrasp: installing grasp-pose-generator (built from source the first time)"
+	VIRTUAL_ENV=$(abspath $(VENV)) VCPKG_TOOLCHAIN_FILE=/dev/null \
+		DIST_EXTRA_CONFIG=$(CURDIR)/benchmarks/gpg_build.cfg \
+		$(BIN)/python -m pip install -q -e '.[peers]'
+	$(BIN)/python benchmarks/peers.py
 
 schema: $(STAMP)
 	$(BIN)/wsgrasp schema
