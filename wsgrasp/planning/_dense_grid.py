@@ -141,11 +141,21 @@ class ObjectDistance:
         return inside & (self.upper[flat] < radius - MARGIN)
 
     def hits(
-        self, A: Array, Bb: Array, s: NDArray[np.int64], o: NDArray[np.int64]
+        self,
+        A: Array,
+        Bb: Array,
+        s: NDArray[np.int64],
+        o: NDArray[np.int64],
+        body: NDArray[np.int64],
+        min_yield: float = 0.02,
     ) -> NDArray[np.bool_]:
         """Candidates ``(s, o)`` (k,) with some ball ``b`` around ``A[s] + Bb[o,
-        b]`` provably holding an object point; the balls in turn, each on the
-        candidates not yet proven.
+        b]`` provably holding an object point.
+
+        The balls in turn, each on the candidates not yet proven; once a ball
+        proves fewer than ``min_yield`` of those it was given, the other balls
+        of its ``body`` are skipped (they only cost time; what they would have
+        proven, the exact tests decide).
 
         Parameters
         ----------
@@ -153,14 +163,20 @@ class ObjectDistance:
         Bb : (O, b, 3) float
             Ball centres less the sample's part, world frame.
         s, o : (k,) int
+        body : (b,) int
         """
         hit = np.zeros(len(s), dtype=bool)
         rest = np.arange(len(s))
+        spent: set[int] = set()
         for b, radius in enumerate(self.radii):
             if rest.size == 0:
                 break
+            if int(body[b]) in spent:
+                continue
             x = A[s[rest]] + Bb[o[rest], b]  # (r, 3)
             got = self.within(x, float(radius))
+            if np.count_nonzero(got) < min_yield * len(rest):
+                spent.add(int(body[b]))
             hit[rest[got]] = True
             rest = rest[~got]
         return hit

@@ -61,10 +61,11 @@ def _held_loop(
     centers: Array,
     radii: Array,
     held: NDArray[np.bool_],
+    dest: NDArray[np.int64],
     counts: NDArray[np.int64],
 ) -> None:  # pragma: no cover - run compiled, or by the tests on tiny inputs
-    """``held[i, j, f]``: point ``j`` of candidate ``i`` (``Q[ol[i], :, j] -
-    u[i]``) strictly inside a sphere of finger ``f``; ``counts[i, f]`` their
+    """``held[dest[i], j, f]``: point ``j`` of candidate ``i`` (``Q[ol[i], :, j]
+    - u[i]``) strictly inside a sphere of finger ``f``; ``counts[i, f]`` their
     number. ``d_*``: the depth grid's two bits per finger at the point's nearest
     node (``_dense_grid.FingerDepth``) decide first; ``cell_index`` (nf, cells):
     compact partial-cell id per finger, -1 elsewhere; ``start``, ``count`` index
@@ -74,6 +75,10 @@ def _held_loop(
     nf = status.shape[1]
     for i in _prange(m):
         r = ol[i]
+        row = dest[i]
+        for j in range(n):
+            for f in range(nf):
+                held[row, j, f] = False
         ux, uy, uz = u[i, 0], u[i, 1], u[i, 2]
         for j in range(n):
             x = Q[r, 0, j] - ux
@@ -96,7 +101,7 @@ def _held_loop(
             unsure = False
             for f in range(nf):
                 if (code >> (2 * f)) & 1:
-                    held[i, j, f] = True
+                    held[row, j, f] = True
                     counts[i, f] += 1
                 elif (code >> (2 * f + 1)) & 1:
                     unsure = True
@@ -112,7 +117,7 @@ def _held_loop(
                     continue  # decided by the depth grid
                 st = status[flat, f]
                 if st == _FULL:
-                    held[i, j, f] = True
+                    held[row, j, f] = True
                     counts[i, f] += 1
                 elif st == _PARTIAL:
                     k = cell_index[f, flat]
@@ -122,7 +127,7 @@ def _held_loop(
                         dy = y - centers[s, 1]
                         dz = z - centers[s, 2]
                         if dx * dx + dy * dy + dz * dz < radii[s] * radii[s]:
-                            held[i, j, f] = True
+                            held[row, j, f] = True
                             counts[i, f] += 1
                             break
 
@@ -198,8 +203,10 @@ def held_by_fingers(
     Q: Array,
     ol: NDArray[np.int64],
     u: Array,
+    out: NDArray[np.bool_] | None = None,
+    dest: NDArray[np.int64] | None = None,
     loop: Callable[..., None] | None = None,
-) -> tuple[NDArray[np.bool_], NDArray[np.int64]]:
+) -> NDArray[np.int64]:
     """Which object points each finger's spheres hold, per candidate.
 
     Parameters
@@ -213,27 +220,35 @@ def held_by_fingers(
         Each candidate's row of ``Q``.
     u : (m, 3) float
         Each candidate's translation (its points are ``Q[ol] - u``).
+    out : (k, n, nf) bool, optional
+        Where the holdings go: candidate ``i`` to row ``dest[i]`` (by default a
+        new ``(m, n, nf)`` array, row ``i``).
+    dest : (m,) int, optional
     loop : callable, optional
         The loop to run: the compiled one by default, ``_held_loop`` itself in
         tests.
 
     Returns
     -------
-    held : (m, n, nf) bool
     counts : (m, nf) int
+        Points held per candidate and finger.
     """
     run = loop or _compiled
     if run is None:
         raise RuntimeError("numba is not installed: pip install 'wsgrasp[fast]'")
     m, n, nf = len(ol), Q.shape[2], spheres.num_fingers
-    held = np.zeros((m, n, nf), dtype=bool)
+    if out is None:
+        out = np.empty((m, n, nf), dtype=bool)
+    if dest is None:
+        dest = np.arange(m, dtype=np.int64)
     counts = np.zeros((m, nf), dtype=np.int64)
     run(
         np.ascontiguousarray(Q, dtype=np.float64),
         np.ascontiguousarray(ol, dtype=np.int64),
         np.ascontiguousarray(u, dtype=np.float64),
         *kernel_arrays(spheres, depth),
-        held,
+        out,
+        np.ascontiguousarray(dest, dtype=np.int64),
         counts,
     )
-    return held, counts
+    return counts

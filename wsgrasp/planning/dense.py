@@ -356,27 +356,39 @@ def body_and_fingers(
     s_all, o_all = np.divmod(index, n_or)
     proven = np.zeros(len(index), dtype=bool)
     if len(index) >= _BALLS_FROM:  # below, the grid costs more than it saves
+        # the object's box in the gripper axes per orientation: (O, 3) each
+        ext_lo, ext_hi = _extremes(P, poses.R)
+        u_all = np.einsum(
+            "cj,cjk->ck", poses.A[s_all] + poses.B[o_all], poses.R[o_all]
+        )  # (k, 3)
+        near = ~_object_box_clear(ext_lo[o_all], ext_hi[o_all], u_all, se_lo, se_hi)
+        del u_all
         ball_c, ball_r, body = inscribed_balls(*se)  # (b, 3), (b,), (b,)
-        first = np.lexsort((np.abs(ball_c - g.se_centers[body]).sum(1), -ball_r))
-        ball_c, ball_r = ball_c[first], ball_r[first]  # largest, central first
+        # per body the central ball first, bodies in turn
+        rank = np.abs(ball_c - g.se_centers[body]).sum(axis=1)
+        rank = np.argsort(np.argsort(rank, kind="stable"), kind="stable")
+        within = np.empty(len(body), dtype=np.int64)
+        for e in np.unique(body):
+            mine = np.flatnonzero(body == e)
+            within[mine[np.argsort(rank[mine], kind="stable")]] = np.arange(len(mine))
+        first = np.lexsort((body, within))
+        ball_c, ball_r, body = ball_c[first], ball_r[first], body[first]
         Bb = poses.B[:, None, :] + np.einsum("oij,bj->obi", poses.R, ball_c)
-        proven = ObjectDistance(P, ball_r).hits(poses.A, Bb, s_all, o_all)
+        at_near = np.flatnonzero(near)
+        proven[at_near] = ObjectDistance(P, ball_r).hits(
+            poses.A, Bb, s_all[at_near], o_all[at_near], body
+        )
     fingers_compiled = compiled and _dense_numba.available()
     depth = finger_depth(sp, g.sphere_centers, g.sphere_radii, g.sphere_finger, nf)
     order = np.argsort(o_all, kind="stable")  # candidates grouped by orientation
     k_all = len(index)
     reason = np.zeros(k_all, dtype=np.int64)
     contacts = np.zeros((k_all, nf), dtype=np.int64)
-    held = _HeldParts(nf)
     step = max(1, chunk_points // max(no, len(X), 1))
+    # 1. bodies: object, then obstacles
     for a in range(0, k_all, step):
         at = order[a : a + step]  # positions in index, orientation-sorted
-        s, o = s_all[at], o_all[at]
-        used, ol = np.unique(o, return_inverse=True)
-        R = poses.R[used]  # (q, 3, 3)
-        Q = np.einsum("nj,qjk->qkn", P, R)  # (q, 3, no) gripper axes, untranslated
-        w = poses.A[s] + poses.B[o]  # (m, 3) gripper origins, world frame
-        u = np.einsum("cj,cjk->ck", w, R[ol])  # (m, 3)
+        R, Q, ol, u = _chunk(poses, P, s_all[at], o_all[at])
         Q_lo, Q_hi = Q.min(axis=2)[ol], Q.max(axis=2)[ol]  # (m, 3)
         clear = _object_box_clear(Q_lo, Q_hi, u, se_lo, se_hi)  # (m,)
         hit = proven[at] & ~clear
@@ -387,49 +399,70 @@ def body_and_fingers(
             x, y, z = (Qs[ol[todo], i] - u[todo, i, None] for i in range(3))
             hit[todo] = coordinates_in_superellipsoids(x, y, z, *se).any(axis=1)
             todo = todo[~hit[todo]]
-        slabs = _Slabs(Q)
         if todo.size:
-            hit[todo] = _body_hits(slabs, ol, u, todo, *se)
+            hit[todo] = _body_hits(_Slabs(Q), ol, u, todo, *se)
         reason[at[hit]] = 2
-        alive = ~hit
-        if len(X) and alive.any():
+        alive = np.flatnonzero(~hit)
+        if len(X) and alive.size:
             QX = np.einsum("nj,qjk->qkn", X, R)  # (q, 3, nx)
-            ok = np.flatnonzero(alive)
             xclear = _object_box_clear(
-                QX.min(axis=2)[ol[ok]], QX.max(axis=2)[ol[ok]], u[ok], se_lo, se_hi
+                QX.min(axis=2)[ol[alive]],
+                QX.max(axis=2)[ol[alive]],
+                u[alive],
+                se_lo,
+                se_hi,
             )
-            t = ok[~xclear]
+            t = alive[~xclear]
             if t.size:
                 x, y, z = (QX[ol[t], i] - u[t, i, None] for i in range(3))
                 obs = coordinates_in_superellipsoids(x, y, z, *se).any(axis=1)
                 reason[at[t[obs]]] = 3
-                alive[t[obs]] = False
-        live = np.flatnonzero(alive)
-        if live.size == 0:
-            continue
-        # fingers: a finger whose sphere box is apart from the object box holds none
-        lo = (Q_lo[live] - u[live])[:, None, :]  # (l, 1, 3)
-        hi = (Q_hi[live] - u[live])[:, None, :]
-        empty = _separated(lo, hi, f_lo[None], f_hi[None])  # (l, nf)
-        counts = np.zeros((len(live), nf), dtype=np.int64)
-        need = np.flatnonzero(~empty.all(axis=1))
+    # 2. fingers, for the candidates clear of every body: their holdings go
+    # straight into one buffer in the order of index (row = rank among them)
+    live = np.flatnonzero(reason == 0)  # positions in index, ascending
+    store = np.empty((len(live), no, nf), dtype=bool)
+    counts = np.zeros((len(live), nf), dtype=np.int64)
+    order = np.argsort(o_all[live], kind="stable")  # rows grouped by orientation
+    for a in range(0, len(live), step):
+        rows = order[a : a + step]
+        at = live[rows]
+        _, Q, ol, u = _chunk(poses, P, s_all[at], o_all[at])
+        # a finger whose sphere box is apart from the object box holds none
+        lo = (Q.min(axis=2)[ol] - u)[:, None, :]  # (m, 1, 3)
+        hi = (Q.max(axis=2)[ol] - u)[:, None, :]
+        need = np.flatnonzero(~_separated(lo, hi, f_lo[None], f_hi[None]).all(axis=1))
         if need.size == 0:
-            contacts[at[live]] = counts
-            reason[at[live]] = 4
             continue
-        c = live[need]
+        dest = rows[need]
         if fingers_compiled:
-            hold, counts[need] = held_by_fingers(sp, depth, Q, ol[c], u[c])
+            counts[dest] = held_by_fingers(sp, depth, Q, ol[need], u[need], store, dest)
         else:
-            hold = _held_numpy(depth, sp, Q, ol, u, c)  # (n, no, nf)
-            counts[need] = _count_held(hold)
-        contacts[at[live]] = counts
-        ok = np.all(counts > 0, axis=1)
-        reason[at[live[~ok]]] = 4
-        good = ok[need]
-        if good.any():
-            held.add(at[c[good]], hold[good])
-    return BodyFingerVerdicts(reason, contacts, held.assemble(no))
+            hold = _held_numpy(depth, sp, Q, ol, u, need)  # (n, no, nf)
+            counts[dest] = _count_held(hold)
+            store[dest] = hold
+    contacts[live] = counts
+    ok = np.all(counts > 0, axis=1)
+    reason[live[~ok]] = 4
+    # the feasible rows moved to the front, in order (each row moves up or stays,
+    # and a block is read before it is written)
+    keep = np.flatnonzero(ok)
+    for a in range(0, len(keep), 4096):
+        store[a : a + len(keep[a : a + 4096])] = store[keep[a : a + 4096]]
+    return BodyFingerVerdicts(reason, contacts, store[: len(keep)])
+
+
+def _chunk(
+    poses: StructuredPoses, P: Array, s: NDArray[np.int64], o: NDArray[np.int64]
+) -> tuple[Array, Array, NDArray[np.int64], Array]:
+    """For candidates ``(s, o)`` (m,): the rotations of their orientations ``R``
+    (q, 3, 3), the object points in those axes ``Q`` (q, 3, no), each candidate's
+    row ``ol`` (m,) and translation ``u`` (m, 3) (its points are ``Q[ol] - u``)."""
+    used, ol = np.unique(o, return_inverse=True)
+    R = poses.R[used]  # (q, 3, 3)
+    Q = np.einsum("nj,qjk->qkn", P, R)  # (q, 3, no) gripper axes, untranslated
+    w = poses.A[s] + poses.B[o]  # (m, 3) gripper origins, world frame
+    u = np.einsum("cj,cjk->ck", w, R[ol])  # (m, 3)
+    return R, Q, ol.reshape(-1), u
 
 
 def _held_numpy(
@@ -461,33 +494,16 @@ def _count_held(hold: NDArray[np.bool_]) -> NDArray[np.int64]:
     return np.add.reduce(hold.view(np.uint8), axis=1, dtype=np.int64)
 
 
-class _HeldParts:
-    """The feasible candidates' holdings per chunk, put into the order of
-    ``index`` once at the end (one copy of the answer, freed part by part)."""
-
-    def __init__(self, nf: int) -> None:
-        self.nf = nf
-        self.at: list[NDArray[np.int64]] = []
-        self.parts: list[NDArray[np.bool_]] = []
-
-    def add(self, at: NDArray[np.int64], hold: NDArray[np.bool_]) -> None:
-        """``at`` (f,): positions in index; ``hold`` (f, no, nf)."""
-        self.at.append(at)
-        self.parts.append(hold)
-
-    def assemble(self, no: int) -> NDArray[np.bool_]:
-        if not self.at:
-            return np.zeros((0, no, self.nf), dtype=bool)
-        at = np.concatenate(self.at)
-        final = np.empty(len(at), dtype=np.int64)
-        final[np.argsort(at, kind="stable")] = np.arange(len(at))
-        out = np.empty((len(at), no, self.nf), dtype=bool)
-        start = 0
-        while self.parts:
-            part = self.parts.pop(0)
-            out[final[start : start + len(part)]] = part
-            start += len(part)
-        return out
+def _extremes(P: Array, R: Array) -> tuple[Array, Array]:
+    """Smallest and largest coordinates of the points ``P`` (n, 3) in the axes
+    of each rotation ``R`` (O, 3, 3): (O, 3) each, ``P @ R[o]``'s extremes."""
+    lo = np.empty((len(R), 3))
+    hi = np.empty((len(R), 3))
+    step = max(1, 2_000_000 // max(3 * len(P), 1))
+    for a in range(0, len(R), step):
+        Q = np.einsum("nj,qjk->qkn", P, R[a : a + step])  # (q, 3, n)
+        lo[a : a + step], hi[a : a + step] = Q.min(axis=2), Q.max(axis=2)
+    return lo, hi
 
 
 class _Slabs:

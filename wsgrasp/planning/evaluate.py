@@ -216,7 +216,9 @@ def evaluate_candidates(
         reason[alive] = v.reason
         contacts[alive] = v.contacts
         feasible = alive[v.reason == 0]
-        low = _min_heights(T_world_gripper[feasible], gripper.cloud, table)
+        # the lowest point of a cloud along a direction is a hull vertex
+        cloud = np.ascontiguousarray(gripper.cloud, dtype=np.float64)
+        low = _min_heights(T_world_gripper[feasible], _hull(cloud.tobytes()), table)
         return Evaluation(reason, contacts, feasible, v.holding, low)
     reason[table_hit] = 1
     alive = np.flatnonzero(~table_hit)
