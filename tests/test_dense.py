@@ -11,6 +11,8 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from wsgrasp.geometry import coordinates_in_superellipsoids, transform_points
+from wsgrasp.planning import _dense_numba, dense
+from wsgrasp.planning._dense_grid import FingerDepth, ObjectDistance, inscribed_balls
 from wsgrasp.planning.candidates import candidate_poses
 from wsgrasp.planning.dense import (
     CandidateStructure,
@@ -28,6 +30,47 @@ from wsgrasp.planning.reference import reference_search
 SETTINGS = settings(
     max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow]
 )
+
+
+def _hand(seed: int, fingers: int = 2, spheres: int = 10):
+    """The jaw gripper with ``fingers`` fingers of ``spheres`` random spheres each,
+    3-30 mm, around the fingertips: small jaw pads to Allegro-sized workspaces."""
+    from dataclasses import replace
+
+    g = make_jaw_gripper(seed=seed)
+    rng = np.random.default_rng(seed)
+    n = fingers * spheres
+    centers = rng.uniform([-0.03, -0.06, 0.05], [0.03, 0.06, 0.14], (n, 3))
+    radii = rng.uniform(0.003, 0.03, n)
+    finger = np.repeat(np.arange(fingers), spheres).astype(np.int64)
+    return replace(
+        g,
+        sphere_centers=centers,
+        sphere_radii=radii,
+        sphere_finger=finger,
+        finger_names=[f"f{i}" for i in range(fingers)],
+    )
+
+
+class _Forced:
+    """Every optional proof on at any candidate count (the ball proofs start at
+    ``dense._BALLS_FROM`` candidates), and the compiled finger loop replaced by
+    ``loop`` (its plain Python function, so that its logic is tested without
+    numba) or left as installed."""
+
+    def __init__(self, balls: bool, loop=None) -> None:
+        self.balls, self.loop = balls, loop
+
+    def __enter__(self):
+        self.saved = dense._BALLS_FROM, _dense_numba._compiled
+        if self.balls:
+            dense._BALLS_FROM = 0
+        if self.loop is not None:
+            _dense_numba._compiled = self.loop
+        return self
+
+    def __exit__(self, *exc):
+        dense._BALLS_FROM, _dense_numba._compiled = self.saved
 
 
 def _frame(rotvec, shift) -> np.ndarray:
@@ -119,14 +162,20 @@ def test_table_bounds_never_contradict_the_cloud(seed, rotvec, shift, n_orient):
 )
 def test_structured_evaluation_matches_reference(seed, rotvec, shift, n_orient):
     """Reasons, contacts and the feasible set equal the reference's and the
-    unstructured path's, for random frames, orientations, depths and spheres."""
-    g = make_jaw_gripper(spheres_per_finger=1 + seed % 12)
+    unstructured path's, for random frames, orientations, depths and spheres (the
+    jaw's, or 2-4 fingers of random sizes), with and without the ball proofs."""
+    g = (
+        make_jaw_gripper(spheres_per_finger=1 + seed % 12)
+        if seed % 4
+        else _hand(seed, 2 + seed % 3, 1 + seed % 20)
+    )
     obj, T_wo, samples, R, depth, obs, table = _scene(
         seed, _frame(rotvec, shift), n_orient, bool(seed % 3 == 0)
     )
     _, T_wg, _, _ = candidate_poses(T_wo, samples, R, g.T_gripper_gwc, depth)
     structure = CandidateStructure(T_wo, samples, R, depth)
-    fast = evaluate_candidates(T_wg, g, obj, obs, table, structure=structure)
+    with _Forced(balls=bool(seed % 2)):  # with and without the ball proofs
+        fast = evaluate_candidates(T_wg, g, obj, obs, table, structure=structure)
     plain = evaluate_candidates(T_wg, g, obj, obs, table)
     ref = reference_search(g, T_wo, samples, R, obj, obs, table, depth)
     np.testing.assert_array_equal(fast.reason, ref.reason)
@@ -320,3 +369,120 @@ def test_no_candidates(jaw_gripper, ns, n_orient):
         structure=CandidateStructure(T_wo, samples, R, None),
     )
     assert ev.reason.shape == (0,) and ev.feasible.shape == (0,)
+
+
+@SETTINGS
+@given(seed=st.integers(0, 10_000), n_orient=st.integers(1, 3))
+def test_compiled_finger_loop_gives_the_numpy_paths_answers(seed, n_orient):
+    """The finger loop numba compiles, run as plain Python (and compiled, where
+    numba is installed), gives the numpy path's verdicts, contacts and holdings."""
+    g = _hand(seed, 2 + seed % 3, 1 + seed % 12) if seed % 2 else make_jaw_gripper()
+    obj, T_wo, samples, R, depth, obs, table = _scene(
+        seed, _frame((0.3, -0.2, 0.1), (0.1, 0.0, 0.2)), n_orient, False
+    )
+    obj, samples = obj[::4], samples[:6]  # plain Python: a few thousand pairs
+    _, T_wg, _, _ = candidate_poses(T_wo, samples, R, g.T_gripper_gwc, depth)
+    structure = CandidateStructure(T_wo, samples, R, depth)
+    sp = FingerSpheres(g)
+
+    def run(loop):
+        with _Forced(balls=True, loop=loop):
+            return evaluate_candidates(
+                T_wg, g, obj, obs, table, sp, structure=structure
+            )
+
+    numpy_path = run(None) if not _dense_numba.available() else None
+    if numpy_path is None:  # numba installed: the numpy path by hand
+        saved = _dense_numba._compiled
+        _dense_numba._compiled = None
+        try:
+            numpy_path = run(None)
+        finally:
+            _dense_numba._compiled = saved
+    loops = [_dense_numba._held_loop]
+    if _dense_numba.available():
+        loops.append(_dense_numba._compiled)
+    for loop in loops:
+        got = run(loop)
+        np.testing.assert_array_equal(got.reason, numpy_path.reason)
+        np.testing.assert_array_equal(got.contacts, numpy_path.contacts)
+        np.testing.assert_array_equal(got.holding, numpy_path.holding)
+
+
+@SETTINGS
+@given(
+    seed=st.integers(0, 10_000),
+    fingers=st.integers(1, 4),
+    spheres=st.integers(1, 40),
+    spread=st.floats(0.01, 0.1),
+)
+def test_finger_depth_decides_only_what_the_spheres_decide(
+    seed, fingers, spheres, spread
+):
+    """A point the depth grid calls held is inside one of the finger's spheres;
+    one it calls not held is outside all of them; only the unsure are left."""
+    g = _hand(seed, fingers, spheres)
+    depth = FingerDepth(g.sphere_centers, g.sphere_radii, g.sphere_finger, fingers)
+    rng = np.random.default_rng(seed)
+    q, n, m = 3, 200, 20
+    Q = rng.normal([0.0, 0.0, 0.1], spread, (q, n, 3)).transpose(0, 2, 1)
+    ol = np.sort(rng.integers(0, q, m))
+    u = rng.normal(0.0, 0.3 * spread, (m, 3))
+    held, unsure = depth.held_points(Q, ol, u)
+    p = Q[ol].transpose(0, 2, 1) - u[:, None, :]  # (m, n, 3) gripper frame
+    d2 = ((p[:, :, None, :] - g.sphere_centers) ** 2).sum(-1)  # (m, n, s)
+    inside = d2 < g.sphere_radii**2
+    truth = np.stack(
+        [inside[..., g.sphere_finger == f].any(-1) for f in range(fingers)], -1
+    )
+    assert np.all(truth[held])
+    np.testing.assert_array_equal(held[~unsure], truth[~unsure])
+
+
+@SETTINGS
+@given(
+    seed=st.integers(0, 10_000),
+    n=st.integers(1, 300),
+    radius=st.floats(0.001, 0.03),
+    cell=st.sampled_from([0.002, 0.003, 0.006]),
+)
+def test_object_distance_proves_only_true_neighbours(seed, n, radius, cell):
+    """Where the grid proves an object point within ``radius`` of a query, there
+    is one; queries far outside the grid are never proven."""
+    rng = np.random.default_rng(seed)
+    pts = rng.normal(0.0, 0.02, (n, 3)) + rng.uniform(-1, 1, 3)
+    grid = ObjectDistance(pts, np.array([radius]), cell)
+    x = pts[rng.integers(0, n, 400)] + rng.normal(0.0, radius, (400, 3))
+    x = np.concatenate([x, pts[:1] + 10.0])
+    got = grid.within(x, radius)
+    nearest = np.sqrt(((x[:, None, :] - pts[None]) ** 2).sum(-1)).min(axis=1)
+    assert np.all(nearest[got] < radius)
+    assert not got[-1]
+
+
+@SETTINGS
+@given(
+    axes=st.lists(st.tuples(*[st.floats(0.003, 0.2)] * 3), min_size=1, max_size=6),
+    exponent=st.sampled_from([2.0, 4.0, 10.0]),
+    seed=st.integers(0, 10_000),
+)
+def test_inscribed_balls_lie_inside_their_superellipsoids(axes, exponent, seed):
+    """Points of every ball, its surface included, are inside its body."""
+    rng = np.random.default_rng(seed)
+    semi = np.asarray(axes)
+    centers = rng.uniform(-0.1, 0.1, semi.shape)
+    c, r, body = inscribed_balls(centers, semi, exponent)
+    assert len(c) >= 1
+    d = rng.normal(size=(len(c), 64, 3))
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    p = c[:, None, :] + r[:, None, None] * d  # (b, 64, 3) on each ball's surface
+    for e in np.unique(body):
+        mine = p[body == e].reshape(-1, 3)
+        assert coordinates_in_superellipsoids(
+            mine[:, 0],
+            mine[:, 1],
+            mine[:, 2],
+            centers[e : e + 1],
+            semi[e : e + 1],
+            exponent,
+        ).all()

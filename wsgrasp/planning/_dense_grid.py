@@ -59,7 +59,8 @@ def inscribed_balls(
     centers, semi_axes : (e, 3) float
     exponent : float
     fill : float
-        Ball radius as a fraction of the smallest semi-axis.
+        Ball radius as a fraction of the smallest semi-axis (less where the
+        other axes' terms would leave too little room).
 
     Returns
     -------
@@ -76,6 +77,11 @@ def inscribed_balls(
         k = int(np.argmax(a))
         rest = [i for i in range(3) if i != k]
         used = sum((rho / a[i]) ** powers[i] for i in rest)
+        # smaller where even a centred ball's box corner is outside (low
+        # exponents: an ellipsoid's inscribed cube is smaller than its axes)
+        while used + (rho / a[k]) ** powers[k] > 0.9:
+            rho *= 0.8
+            used = sum((rho / a[i]) ** powers[i] for i in rest)
         room = 1.0 - 1e-6 - used
         if room <= 0:
             continue
