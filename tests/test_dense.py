@@ -53,8 +53,9 @@ def _hand(seed: int, fingers: int = 2, spheres: int = 10):
 
 
 class _Forced:
-    """Every optional proof on at any candidate count (the ball proofs start at
-    ``dense._BALLS_FROM`` candidates), and the compiled finger loop replaced by
+    """Every optional path on at any candidate count (the ball proofs start at
+    ``dense._BALLS_FROM`` candidates, the compiled finger loop at
+    ``dense._COMPILED_FROM`` pairs), and the compiled finger loop replaced by
     ``loop`` (its plain Python function, so that its logic is tested without
     numba) or left as installed."""
 
@@ -62,15 +63,16 @@ class _Forced:
         self.balls, self.loop = balls, loop
 
     def __enter__(self):
-        self.saved = dense._BALLS_FROM, _dense_numba._compiled
+        self.saved = dense._BALLS_FROM, dense._COMPILED_FROM, _dense_numba._compiled
         if self.balls:
             dense._BALLS_FROM = 0
+        dense._COMPILED_FROM = 0
         if self.loop is not None:
             _dense_numba._compiled = self.loop
         return self
 
     def __exit__(self, *exc):
-        dense._BALLS_FROM, _dense_numba._compiled = self.saved
+        dense._BALLS_FROM, dense._COMPILED_FROM, _dense_numba._compiled = self.saved
 
 
 def _frame(rotvec, shift) -> np.ndarray:

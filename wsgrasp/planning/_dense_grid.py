@@ -88,7 +88,7 @@ def inscribed_balls(
         t = a[k] * room ** (1.0 / powers[k]) - rho  # farthest offset along k
         if t < 0:
             continue
-        n = int(np.ceil(2.0 * t / (0.5 * rho))) + 1
+        n = int(np.ceil(2.0 * t / rho)) + 1  # a radius apart
         offsets = np.linspace(-t, t, n) if n > 1 else np.zeros(1)
         ball = np.tile(c, (len(offsets), 1))
         ball[:, k] += offsets

@@ -59,6 +59,8 @@ _CHUNK_CANDIDATES = 262_144
 _CHUNK_PAIRS = 100_000
 #: from this many candidates on, the object's distance grid proves body hits
 _BALLS_FROM = 20_000
+#: from this many (candidate, point) pairs on, the compiled finger loop runs
+_COMPILED_FROM = 1_000_000
 
 
 @dataclass(frozen=True)
@@ -355,13 +357,15 @@ def body_and_fingers(
     index = np.asarray(index, dtype=np.int64)
     s_all, o_all = np.divmod(index, n_or)
     proven = np.zeros(len(index), dtype=bool)
+    clear_all: NDArray[np.bool_] | None = None
     if len(index) >= _BALLS_FROM:  # below, the grid costs more than it saves
         # the object's box in the gripper axes per orientation: (O, 3) each
         ext_lo, ext_hi = _extremes(P, poses.R)
         u_all = np.einsum(
             "cj,cjk->ck", poses.A[s_all] + poses.B[o_all], poses.R[o_all]
         )  # (k, 3)
-        near = ~_object_box_clear(ext_lo[o_all], ext_hi[o_all], u_all, se_lo, se_hi)
+        clear_all = _object_box_clear(ext_lo[o_all], ext_hi[o_all], u_all, se_lo, se_hi)
+        near = ~clear_all
         del u_all
         ball_c, ball_r, body = inscribed_balls(*se)  # (b, 3), (b,), (b,)
         # per body the central ball first, bodies in turn
@@ -378,7 +382,6 @@ def body_and_fingers(
         proven[at_near] = ObjectDistance(P, ball_r).hits(
             poses.A, Bb, s_all[at_near], o_all[at_near], body
         )
-    fingers_compiled = compiled and _dense_numba.available()
     depth = finger_depth(sp, g.sphere_centers, g.sphere_radii, g.sphere_finger, nf)
     order = np.argsort(o_all, kind="stable")  # candidates grouped by orientation
     k_all = len(index)
@@ -389,8 +392,11 @@ def body_and_fingers(
     for a in range(0, k_all, step):
         at = order[a : a + step]  # positions in index, orientation-sorted
         R, Q, ol, u = _chunk(poses, P, s_all[at], o_all[at])
-        Q_lo, Q_hi = Q.min(axis=2)[ol], Q.max(axis=2)[ol]  # (m, 3)
-        clear = _object_box_clear(Q_lo, Q_hi, u, se_lo, se_hi)  # (m,)
+        if clear_all is not None:
+            clear = clear_all[at]
+        else:
+            Q_lo, Q_hi = Q.min(axis=2)[ol], Q.max(axis=2)[ol]  # (m, 3)
+            clear = _object_box_clear(Q_lo, Q_hi, u, se_lo, se_hi)  # (m,)
         hit = proven[at] & ~clear
         todo = np.flatnonzero(~clear & ~hit)
         if todo.size:
@@ -420,6 +426,10 @@ def body_and_fingers(
     # 2. fingers, for the candidates clear of every body: their holdings go
     # straight into one buffer in the order of index (row = rank among them)
     live = np.flatnonzero(reason == 0)  # positions in index, ascending
+    # the compiled loop's start-up is worth it from about a million pairs on
+    fingers_compiled = (
+        compiled and _dense_numba.available() and len(live) * no >= _COMPILED_FROM
+    )
     store = np.empty((len(live), no, nf), dtype=bool)
     counts = np.zeros((len(live), nf), dtype=np.int64)
     order = np.argsort(o_all[live], kind="stable")  # rows grouped by orientation
@@ -437,7 +447,7 @@ def body_and_fingers(
         if fingers_compiled:
             counts[dest] = held_by_fingers(sp, depth, Q, ol[need], u[need], store, dest)
         else:
-            hold = _held_numpy(depth, sp, Q, ol, u, need)  # (n, no, nf)
+            hold = _held_in_slab(_Slabs(Q), ol, u, need, sp, f_lo, f_hi, depth)
             counts[dest] = _count_held(hold)
             store[dest] = hold
     contacts[live] = counts
@@ -562,10 +572,12 @@ def _held_in_slab(
     spheres: FingerSpheres,
     f_lo: Array,
     f_hi: Array,
+    depth: FingerDepth | None = None,
 ) -> NDArray[np.bool_]:
     """Which object points each finger's spheres hold, for candidates ``cand``,
     testing only the points in the slab of the fingers' sphere box along its
-    thinnest gripper axis (the others are outside every sphere).
+    thinnest gripper axis (the others are outside every sphere); where the slab
+    holds most points, every point (through ``depth`` first, when given).
 
     Returns
     -------
@@ -576,6 +588,8 @@ def _held_in_slab(
     lo, hi = f_lo.min(axis=0), f_hi.max(axis=0)  # the fingers' box, gripper frame
     k = int(np.argmin(hi - lo))
     pair, j, r = slabs.pairs(ol[cand], u[cand, k], k, float(lo[k]), float(hi[k]))
+    if depth is not None and len(pair) > 0.25 * len(cand) * slabs.n:
+        return _held_numpy(depth, spheres, Q, ol, u, cand)
     if len(pair) > 0.5 * len(cand) * slabs.n:
         # the slab holds most points: every point, as contiguous rows, is cheaper
         held = np.empty((len(cand), slabs.n, nf), dtype=bool)
