@@ -60,19 +60,23 @@ class _Forced:
     numba) or left as installed."""
 
     def __init__(self, balls: bool, loop=None) -> None:
+        # loop: (finger loop, body loop), each a callable or None (no numba)
         self.balls, self.loop = balls, loop
 
     def __enter__(self):
-        self.saved = dense._BALLS_FROM, dense._COMPILED_FROM, _dense_numba._compiled
+        N = _dense_numba
+        self.saved = (dense._BALLS_FROM, dense._COMPILED_FROM)
+        self.saved_loops = (N._compiled, N._compiled_body)
         if self.balls:
             dense._BALLS_FROM = 0
         dense._COMPILED_FROM = 0
         if self.loop is not None:
-            _dense_numba._compiled = self.loop
+            N._compiled, N._compiled_body = self.loop
         return self
 
     def __exit__(self, *exc):
-        dense._BALLS_FROM, dense._COMPILED_FROM, _dense_numba._compiled = self.saved
+        dense._BALLS_FROM, dense._COMPILED_FROM = self.saved
+        _dense_numba._compiled, _dense_numba._compiled_body = self.saved_loops
 
 
 def _frame(rotvec, shift) -> np.ndarray:
@@ -376,8 +380,9 @@ def test_no_candidates(jaw_gripper, ns, n_orient):
 @SETTINGS
 @given(seed=st.integers(0, 10_000), n_orient=st.integers(1, 3))
 def test_compiled_finger_loop_gives_the_numpy_paths_answers(seed, n_orient):
-    """The finger loop numba compiles, run as plain Python (and compiled, where
-    numba is installed), gives the numpy path's verdicts, contacts and holdings."""
+    """The finger and body loops numba compiles, run as plain Python (and
+    compiled, where numba is installed), give the numpy path's verdicts, contacts
+    and holdings."""
     g = _hand(seed, 2 + seed % 3, 1 + seed % 12) if seed % 2 else make_jaw_gripper()
     obj, T_wo, samples, R, depth, obs, table = _scene(
         seed, _frame((0.3, -0.2, 0.1), (0.1, 0.0, 0.2)), n_orient, False
@@ -388,22 +393,15 @@ def test_compiled_finger_loop_gives_the_numpy_paths_answers(seed, n_orient):
     sp = FingerSpheres(g)
 
     def run(loop):
-        with _Forced(balls=True, loop=loop):
+        with _Forced(balls=bool(seed % 3), loop=loop):
             return evaluate_candidates(
                 T_wg, g, obj, obs, table, sp, structure=structure
             )
 
-    numpy_path = run(None) if not _dense_numba.available() else None
-    if numpy_path is None:  # numba installed: the numpy path by hand
-        saved = _dense_numba._compiled
-        _dense_numba._compiled = None
-        try:
-            numpy_path = run(None)
-        finally:
-            _dense_numba._compiled = saved
-    loops = [_dense_numba._held_loop]
+    numpy_path = run((None, None))  # available() is False: the numpy path
+    loops = [(_dense_numba._held_loop, _dense_numba._body_loop)]
     if _dense_numba.available():
-        loops.append(_dense_numba._compiled)
+        loops.append((_dense_numba._compiled, _dense_numba._compiled_body))
     for loop in loops:
         got = run(loop)
         np.testing.assert_array_equal(got.reason, numpy_path.reason)

@@ -4,7 +4,10 @@ Per candidate and object point, the depth grid's verdict at the nearest node
 (``_dense_grid.FingerDepth``) and, for a finger it leaves unsure, the sphere grid
 of ``FingerSpheres`` (its cell status, then the spheres listed for a partial cell)
 with the arithmetic of ``FingerSpheres.holding_coordinates``: the numpy path's
-answers, without its temporary arrays. numba is an optional dependency
+answers, without its temporary arrays. One thread: on a machine shared with
+other work, numba's thread pools cost more than they gave (measured on 2 cores
+under load: the dense entries 20-40 % slower with 2 threads than with 1). numba
+is an optional dependency
 (``pip install 'wsgrasp[fast]'``); without it :func:`available` is False and the
 dense search keeps its numpy path.
 ``_held_loop`` is the plain Python function numba compiles, so tests hold its
@@ -23,7 +26,7 @@ from numpy.typing import NDArray
 from wsgrasp.planning._dense_grid import FingerDepth
 from wsgrasp.planning.spheres import FingerSpheres
 
-__all__ = ["held_by_fingers", "kernel_arrays", "available"]
+__all__ = ["held_by_fingers", "body_hits", "kernel_arrays", "available"]
 
 Array = NDArray[np.float64]
 
@@ -31,11 +34,8 @@ try:  # pragma: no cover - depends on the environment
     if os.environ.get("WSGRASP_NUMBA", "1") == "0":
         raise ImportError("numba disabled by WSGRASP_NUMBA=0")
     import numba
-
-    _prange: Any = numba.prange
 except ImportError:
     numba = None
-    _prange = range
 
 _FULL, _PARTIAL = 1, 2
 
@@ -73,7 +73,7 @@ def _held_loop(
     m = ol.shape[0]
     n = Q.shape[2]
     nf = status.shape[1]
-    for i in _prange(m):
+    for i in range(m):
         r = ol[i]
         row = dest[i]
         for j in range(n):
@@ -132,10 +132,106 @@ def _held_loop(
                             break
 
 
+def _power(x: float, exponent: float) -> float:  # pragma: no cover - compiled
+    """``x ** exponent`` as ``wsgrasp.geometry``'s superellipsoid test computes it
+    (repeated squaring for 2, 4 and 10)."""
+    if exponent == 2.0:
+        return x * x
+    if exponent == 10.0:
+        x2 = x * x
+        x4 = x2 * x2
+        return x4 * x4 * x2
+    if exponent == 4.0:
+        x2 = x * x
+        return x2 * x2
+    return x**exponent
+
+
+if numba is not None:  # pragma: no cover - depends on the environment
+    _power = numba.njit(inline="always")(_power)
+
+
+def _body_loop(
+    Q: Array,
+    ol: NDArray[np.int64],
+    u: Array,
+    centers: Array,
+    semi_axes: Array,
+    exponent: float,
+    hit: NDArray[np.bool_],
+) -> None:  # pragma: no cover - run compiled, or by the tests on tiny inputs
+    """``hit[i]``: some point of candidate ``i`` (``Q[ol[i], :, j] - u[i]``)
+    strictly inside some superellipsoid, with the arithmetic of
+    ``coordinates_in_superellipsoids``; stops at the first such point."""
+    m = ol.shape[0]
+    n = Q.shape[2]
+    ne = centers.shape[0]
+    for i in range(m):
+        r = ol[i]
+        ux, uy, uz = u[i, 0], u[i, 1], u[i, 2]
+        found = False
+        for j in range(n):
+            x = Q[r, 0, j] - ux
+            y = Q[r, 1, j] - uy
+            z = Q[r, 2, j] - uz
+            for e in range(ne):
+                dx = abs(x - centers[e, 0])
+                if not dx < semi_axes[e, 0]:
+                    continue
+                dy = abs(y - centers[e, 1])
+                if not dy < semi_axes[e, 1]:
+                    continue
+                dz = abs(z - centers[e, 2])
+                if not dz < semi_axes[e, 2]:
+                    continue
+                c = dz / semi_axes[e, 2]
+                value = (
+                    _power(dx / semi_axes[e, 0], exponent)
+                    + _power(dy / semi_axes[e, 1], exponent)
+                    + c * c
+                )
+                if value < 1.0:
+                    found = True
+                    break
+            if found:
+                break
+        hit[i] = found
+
+
+_compiled_body: Callable[..., None] | None = (
+    numba.njit(cache=True, nogil=True)(_body_loop) if numba is not None else None
+)
+
+
+def body_hits(
+    Q: Array,
+    ol: NDArray[np.int64],
+    u: Array,
+    centers: Array,
+    semi_axes: Array,
+    exponent: float,
+    loop: Callable[..., None] | None = None,
+) -> NDArray[np.bool_]:
+    """Whether some object point lies inside some body superellipsoid, per
+    candidate (``Q``, ``ol``, ``u`` as in :func:`held_by_fingers`): (m,) bool."""
+    run = loop or _compiled_body
+    if run is None:
+        raise RuntimeError("numba is not installed: pip install 'wsgrasp[fast]'")
+    hit = np.zeros(len(ol), dtype=bool)
+    run(
+        np.ascontiguousarray(Q, dtype=np.float64),
+        np.ascontiguousarray(ol, dtype=np.int64),
+        np.ascontiguousarray(u, dtype=np.float64),
+        np.ascontiguousarray(centers, dtype=np.float64),
+        np.ascontiguousarray(semi_axes, dtype=np.float64),
+        float(exponent),
+        hit,
+    )
+    return hit
+
+
 _compiled: Callable[..., None] | None = (
-    numba.njit(cache=True, parallel=True, nogil=True)(_held_loop)
-    if numba is not None
-    else None
+    numba.njit(cache=True, nogil=True)(_held_loop) if numba is not None else None
 )
 
 

@@ -383,6 +383,10 @@ def body_and_fingers(
             poses.A, Bb, s_all[at_near], o_all[at_near], body
         )
     depth = finger_depth(sp, g.sphere_centers, g.sphere_radii, g.sphere_finger, nf)
+    # the compiled loops' start-up is worth it from about a million pairs on
+    bodies_compiled = (
+        compiled and _dense_numba.available() and len(index) * no >= _COMPILED_FROM
+    )
     order = np.argsort(o_all, kind="stable")  # candidates grouped by orientation
     k_all = len(index)
     reason = np.zeros(k_all, dtype=np.int64)
@@ -399,6 +403,9 @@ def body_and_fingers(
             clear = _object_box_clear(Q_lo, Q_hi, u, se_lo, se_hi)  # (m,)
         hit = proven[at] & ~clear
         todo = np.flatnonzero(~clear & ~hit)
+        if todo.size and bodies_compiled:
+            hit[todo] = _dense_numba.body_hits(Q, ol[todo], u[todo], *se)
+            todo = todo[:0]
         if todo.size:
             # a subset first: a hit by some points is a hit by the cloud
             Qs = Q[:, :, :: max(1, no // max(coarse, 1))]
@@ -426,7 +433,6 @@ def body_and_fingers(
     # 2. fingers, for the candidates clear of every body: their holdings go
     # straight into one buffer in the order of index (row = rank among them)
     live = np.flatnonzero(reason == 0)  # positions in index, ascending
-    # the compiled loop's start-up is worth it from about a million pairs on
     fingers_compiled = (
         compiled and _dense_numba.available() and len(live) * no >= _COMPILED_FROM
     )
