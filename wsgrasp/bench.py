@@ -20,6 +20,7 @@ import numpy as np
 
 from wsgrasp.api import Pipeline, as_scene
 from wsgrasp.perception.frame import sample_box
+from wsgrasp.planning import _dense_numba
 from wsgrasp.planning.candidates import candidate_poses, orientation_set
 from wsgrasp.planning.evaluate import (
     CandidateStructure,
@@ -260,6 +261,8 @@ def _dense_row(
         "structured_us_per_candidate": ms["new"] * 1e3 / max(C, 1),
         "peak_mb": _peak_mb(lambda: pipe.search(prep)),
         "evaluate_structured_peak_mb": _peak_mb(new),
+        # 1 where numba is installed (extra `fast`): the compiled loops ran
+        "compiled": float(_dense_numba.available()),
     }
 
 
