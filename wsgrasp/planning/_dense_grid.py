@@ -288,17 +288,23 @@ class FingerDepth:
         flat = np.empty((m, n), dtype=np.int32)
         t = np.empty((m, n), dtype=np.float32)
         cut = np.flatnonzero(np.diff(ol)) + 1
-        for a, b in zip(np.r_[0, cut], np.r_[cut, m], strict=True):
-            r = ol[a]
+        if len(cut) > m // 32:  # small groups: one gather beats a loop over them
+            groups = [(np.s_[:], ol)]
+        else:
+            groups = [
+                (np.s_[a:b], ol[a])
+                for a, b in zip(np.r_[0, cut], np.r_[cut, m], strict=True)
+            ]
+        for sl, r in groups:
             for k in range(3):
                 # beyond the grid a point is clipped onto its border nodes, all
                 # farther than `reach` from every sphere (neither held nor unsure)
-                np.subtract(Qn[r, k][None, :], un[a:b, k, None], out=t[a:b])
-                np.clip(t[a:b], 0.0, top[k], out=t[a:b])
+                np.subtract(Qn[r, k], un[sl, k, None], out=t[sl])  # (g, n)
+                np.clip(t[sl], 0.0, top[k], out=t[sl])
                 if k == 0:
-                    np.multiply(t[a:b].astype(np.int32), strides[0], out=flat[a:b])
+                    np.multiply(t[sl].astype(np.int32), strides[0], out=flat[sl])
                 else:
-                    flat[a:b] += t[a:b].astype(np.int32) * strides[k]
+                    flat[sl] += t[sl].astype(np.int32) * strides[k]
         code = self.codes[flat]  # (m, n)
         return self._held[code], self._unsure[code]
 

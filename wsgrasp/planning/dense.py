@@ -507,7 +507,10 @@ def _held_numpy(
 
 def _count_held(hold: NDArray[np.bool_]) -> NDArray[np.int64]:
     """Points held per candidate and finger, ``(n, no, nf)`` -> ``(n, nf)``."""
-    return np.add.reduce(hold.view(np.uint8), axis=1, dtype=np.int64)
+    # a float32 product of ones: exact (counts below 2**24), several times faster
+    # than numpy's reductions over the middle axis
+    ones = np.ones(hold.shape[1], dtype=np.float32)
+    return np.matmul(ones, hold.astype(np.float32)).astype(np.int64)  # (n, nf)
 
 
 def _extremes(P: Array, R: Array) -> tuple[Array, Array]:
@@ -594,7 +597,8 @@ def _held_in_slab(
     lo, hi = f_lo.min(axis=0), f_hi.max(axis=0)  # the fingers' box, gripper frame
     k = int(np.argmin(hi - lo))
     pair, j, r = slabs.pairs(ol[cand], u[cand, k], k, float(lo[k]), float(hi[k]))
-    if depth is not None and len(pair) > 0.25 * len(cand) * slabs.n:
+    many = len(cand) >= 1024  # below, the depth grid saves less than it costs
+    if depth is not None and many and len(pair) > 0.25 * len(cand) * slabs.n:
         return _held_numpy(depth, spheres, Q, ol, u, cand)
     if len(pair) > 0.5 * len(cand) * slabs.n:
         # the slab holds most points: every point, as contiguous rows, is cheaper
