@@ -412,8 +412,11 @@ def body_and_fingers(
             x, y, z = (Qs[ol[todo], i] - u[todo, i, None] for i in range(3))
             hit[todo] = coordinates_in_superellipsoids(x, y, z, *se).any(axis=1)
             todo = todo[~hit[todo]]
-        if todo.size:
+        if todo.size > 2 * len(Q):
             hit[todo] = _body_hits(_Slabs(Q), ol, u, todo, *se)
+        elif todo.size:  # few per orientation: every point beats sorting them
+            x, y, z = (Q[ol[todo], i] - u[todo, i, None] for i in range(3))
+            hit[todo] = coordinates_in_superellipsoids(x, y, z, *se).any(axis=1)
         reason[at[hit]] = 2
         alive = np.flatnonzero(~hit)
         if len(X) and alive.size:
@@ -453,7 +456,12 @@ def body_and_fingers(
         if fingers_compiled:
             counts[dest] = held_by_fingers(sp, depth, Q, ol[need], u[need], store, dest)
         else:
-            hold = _held_in_slab(_Slabs(Q), ol, u, need, sp, f_lo, f_hi, depth)
+            if len(need) >= 1024 and len(need) < 8 * len(Q):
+                # few candidates per orientation: sorting the points per
+                # orientation for the slab costs more than the depth grid saves
+                hold = _held_numpy(depth, sp, Q, ol, u, need)
+            else:
+                hold = _held_in_slab(_Slabs(Q), ol, u, need, sp, f_lo, f_hi, depth)
             counts[dest] = _count_held(hold)
             store[dest] = hold
     contacts[live] = counts
