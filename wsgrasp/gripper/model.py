@@ -148,16 +148,30 @@ class GripperModel:
 
     @property
     def config_offsets(self) -> NDArray[np.int64]:
-        """Start of each finger's block in ``config_pad``, ``(nf + 1,)``."""
-        counts = np.bincount(self.config_finger, minlength=self.num_fingers)
-        return np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        """Start of each finger's block in ``config_pad``, ``(nf + 1,)`` (computed
+        once, kept on the model: the joint targets ask for it per finger)."""
+        cached = self.__dict__.get("_config_offsets")
+        if cached is None:
+            counts = np.bincount(self.config_finger, minlength=self.num_fingers)
+            cached = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+            cached.flags.writeable = False
+            self.__dict__["_config_offsets"] = cached
+        return cached  # type: ignore[no-any-return]
 
     def finger_configurations(self, finger: int) -> NDArray[np.float64]:
-        """The joint grid of one finger, ``(K, d)``, in ``config_pad`` order."""
+        """The joint grid of one finger, ``(K, d)``, in ``config_pad`` order
+        (built once per finger, kept on the model, read-only)."""
         from wsgrasp.geometry import grid_configurations
 
-        lim = np.asarray(self.finger_limits[finger], dtype=np.float64)
-        return grid_configurations(lim[:, 0], lim[:, 1], self.joint_samples)
+        grids: dict[int, NDArray[np.float64]] = self.__dict__.setdefault(
+            "_finger_grids", {}
+        )
+        if finger not in grids:
+            lim = np.asarray(self.finger_limits[finger], dtype=np.float64)
+            q = grid_configurations(lim[:, 0], lim[:, 1], self.joint_samples)
+            q.flags.writeable = False
+            grids[finger] = q
+        return grids[finger]
 
     def sphere_configurations(self, spheres: NDArray[np.int64]) -> NDArray[np.int64]:
         """Indices into ``config_pad`` of the configurations that put a pad sample
