@@ -225,14 +225,19 @@ def _evaluators(inp: Any) -> tuple[Callable[[], Any], Callable[[], Any]]:
     return old, new
 
 
-def _side_by_side(fns: dict[str, Callable[[], Any]], repeat: int) -> dict[str, float]:
-    """Medians (ms) of each of ``fns``, run alternately ``repeat`` times."""
-    times: dict[str, list[float]] = {k: [] for k in fns}
+def _side_by_side(
+    fns: dict[str, Callable[[], Any]],
+    repeat: int,
+    times: dict[str, list[float]] | None = None,
+) -> dict[str, float]:
+    """Medians (ms) of each of ``fns``, run alternately ``repeat`` times (with the
+    times already in ``times``, which is extended)."""
+    times = times if times is not None else {}
     for _ in range(repeat):
         for k, fn in fns.items():
             t = time.perf_counter()
             fn()
-            times[k].append((time.perf_counter() - t) * 1e3)
+            times.setdefault(k, []).append((time.perf_counter() - t) * 1e3)
     return {k: statistics.median(v) for k, v in times.items()}
 
 
@@ -246,9 +251,12 @@ def _dense_row(
     old, new = _evaluators(inp)
     say(f"{label}: {C} candidates, structured evaluation")
     new()  # warm-up (caches, page faults)
+    pipe.search(prep)  # the same for the search (its own sphere index's grids)
     say(f"{label}: search, evaluation old and structured, alternating")
-    ms = _side_by_side({"search": lambda: pipe.search(prep), "old": old, "new": new}, 1)
-    ms.update(_side_by_side({"new": new}, 2))
+    times: dict[str, list[float]] = {}
+    search = lambda: pipe.search(prep)  # noqa: E731
+    _side_by_side({"search": search, "old": old, "new": new}, 1, times)
+    ms = _side_by_side({"search": search, "new": new}, 2, times)  # medians of 3
     return {
         "candidates": float(C),
         "samples": float(len(inp.samples_object)),
