@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from wsgrasp.geometry._superellipsoid import _power as superellipsoid_power
 from wsgrasp.planning._dense_grid import FingerDepth
 from wsgrasp.planning.spheres import FingerSpheres
 
@@ -132,19 +133,9 @@ def _held_loop(
                             break
 
 
-def _power(x: float, exponent: float) -> float:  # pragma: no cover - compiled
-    """``x ** exponent`` as ``wsgrasp.geometry``'s superellipsoid test computes it
-    (repeated squaring for 2, 4 and 10)."""
-    if exponent == 2.0:
-        return x * x
-    if exponent == 10.0:
-        x2 = x * x
-        x4 = x2 * x2
-        return x4 * x4 * x2
-    if exponent == 4.0:
-        x2 = x * x
-        return x2 * x2
-    return x**exponent
+#: ``x ** exponent`` as ``wsgrasp.geometry``'s superellipsoid test computes it
+#: (repeated squaring for 2, 4 and 10): the same function, on scalars here
+_power = superellipsoid_power
 
 
 if numba is not None:  # pragma: no cover - depends on the environment
