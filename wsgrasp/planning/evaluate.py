@@ -13,7 +13,6 @@ The finger check's cost does not grow with the number of spheres: see
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 from numpy.typing import NDArray
@@ -217,8 +216,7 @@ def evaluate_candidates(
         contacts[alive] = v.contacts
         feasible = alive[v.reason == 0]
         # the lowest point of a cloud along a direction is a hull vertex
-        cloud = np.ascontiguousarray(gripper.cloud, dtype=np.float64)
-        low = _min_heights(T_world_gripper[feasible], _hull(cloud.tobytes()), table)
+        low = _min_heights(T_world_gripper[feasible], _cloud_hull(gripper), table)
         return Evaluation(reason, contacts, feasible, v.holding, low)
     reason[table_hit] = 1
     alive = np.flatnonzero(~table_hit)
@@ -281,9 +279,14 @@ def evaluate_candidates(
     )
 
 
-@lru_cache(maxsize=16)
-def _hull(cloud_bytes: bytes) -> Array:
-    return hull_vertices(np.frombuffer(cloud_bytes, dtype=np.float64).reshape(-1, 3))
+def _cloud_hull(gripper: GripperModel) -> Array:
+    """The gripper cloud's convex-hull vertices, computed once and kept on the
+    model (as its other derived lookups are)."""
+    hull = gripper.__dict__.get("_cloud_hull")
+    if hull is None:
+        hull = hull_vertices(np.ascontiguousarray(gripper.cloud, dtype=np.float64))
+        gripper.__dict__["_cloud_hull"] = hull
+    return hull  # type: ignore[no-any-return]
 
 
 def _structured_table(
@@ -310,7 +313,7 @@ def _structured_table(
                 "orientations and depths candidate_poses was given"
             )
     cloud = np.ascontiguousarray(gripper.cloud, dtype=np.float64)
-    hit, unsure = table_bounds(poses, _hull(cloud.tobytes()), table)
+    hit, unsure = table_bounds(poses, _cloud_hull(gripper), table)
     idx = np.flatnonzero(unsure)
     if idx.size:
         hit[idx] = table_exact(poses, cloud, table, idx)
