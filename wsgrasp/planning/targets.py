@@ -200,25 +200,41 @@ def _finger_target(
     joints = g.finger_joints[f]
     start = int(g.config_offsets[f])
     q_grid = g.finger_configurations(f)  # (K, d)
-    allowed = g.sphere_configurations(spheres) - start  # (c,) into the finger's grid
-    if len(allowed) == 0 or len(held) == 0:
-        allowed = np.arange(len(q_grid))
+    is_allowed = _allowed_mask(g, f, spheres)  # (K,)
+    if not is_allowed.any() or len(held) == 0:
+        is_allowed[:] = True
+    allowed = np.flatnonzero(is_allowed)  # (c,) into the finger's grid
     # first the few configurations nearest each held point (the finger's pad tree,
     # built once per model), then, if none of them qualifies, all allowed ones
-    _, near = config_tree(g, f).query(held, k=min(_NEAR, len(q_grid)))  # (k, m)
-    is_allowed = np.zeros(len(q_grid), dtype=bool)
-    is_allowed[allowed] = True
+    m = min(_NEAR, len(q_grid))
+    d_near, near = config_tree(g, f).query(held, k=m)
+    near = np.asarray(near).reshape(len(held), m)  # (k, m)
+    d_near = np.asarray(d_near).reshape(len(held), m)  # (k, m)
     is_near = np.zeros(len(q_grid), dtype=bool)
-    is_near[np.asarray(near).reshape(-1)] = True
+    is_near[near.reshape(-1)] = True
     first = np.flatnonzero(is_near & is_allowed)
-    for local in (first, allowed):
-        if len(local) == 0:
+    local, best, gap = allowed, 0, np.inf
+    if len(held) == 0:
+        gap = 0.0
+    for candidates in (first, allowed):
+        if len(held) == 0 or len(candidates) == 0:
             continue
-        pads = g.config_pad[start + local]  # (c, 3)
-        nearest = _pad_distances(pads, held, centre)
-        if np.isfinite(nearest).any():
-            break
-    best = int(np.argmin(nearest))
+        outside = _outside(g.config_pad[start + candidates], held, centre)  # (c,)
+        if not outside.any():
+            continue
+        bound = np.inf
+        if candidates is first:
+            # a held point's distance to a qualifying configuration among its
+            # nearest bounds the least pad distance from above
+            qualifies = np.zeros(len(q_grid), dtype=bool)
+            qualifies[candidates[outside]] = True
+            bound = float(d_near[qualifies[near]].min())
+        kept = np.flatnonzero(outside)  # (o,)
+        nearest = _held_distances(g.config_pad[start + candidates[kept]], held, bound)
+        k = int(np.argmin(nearest))
+        local, best, gap = candidates, int(kept[k]), float(nearest[k])
+        break
+    pad = g.config_pad[start + local[best]].copy()  # (3,)
     q_contact = q_grid[local[best]]  # (d,)
     closed = np.array(
         [g.closed.get(j, pre.get(j, q)) for j, q in zip(joints, q_contact, strict=True)]
@@ -235,25 +251,64 @@ def _finger_target(
         finger=g.finger_names[f],
         contact={j: float(v) for j, v in zip(joints, q_contact, strict=True)},
         grasp={j: float(v) for j, v in zip(joints, ray[k], strict=True)},
-        pad_world=pads[best].copy(),
-        gap=float(nearest[best]),
+        pad_world=pad,
+        gap=gap,
         squeeze=float(travel[k]),
     )
 
 
-def _pad_distances(pads: Array, held: Array, centre: Array) -> Array:
-    """Distance of each pad centre ``(c, 3)`` to the nearest held point ``(k, 3)``;
-    infinite for pads nearer the grasp's middle ``centre`` than the held points'
-    centroid (inside the object)."""
-    if len(held) == 0:
-        return np.zeros(len(pads))
-    nearest, _ = cKDTree(held).query(pads)  # (c,)
+def _allowed_mask(
+    g: GripperModel, finger: int, spheres: NDArray[np.int64]
+) -> NDArray[np.bool_]:
+    """``(K,)`` over the finger's grid: the configurations that put a pad sample
+    point inside any of ``spheres`` (the finger's own): the set
+    ``GripperModel.sphere_configurations`` gives, less the finger's offset."""
+    o = g.config_offsets
+    count = int(o[finger + 1] - o[finger])
+    rows = sphere_config_bits(g)[np.asarray(spheres, dtype=np.int64)]  # (s, B)
+    return np.unpackbits(np.bitwise_or.reduce(rows, axis=0), count=count).view(bool)
+
+
+def sphere_config_bits(g: GripperModel) -> NDArray[np.uint8]:
+    """Per workspace sphere, its configurations as bits over its finger's grid
+    (``np.packbits`` of a ``(K,)`` mask, ``K`` the finger's configurations),
+    ``(S, ceil(max K / 8))``: the sphere lists of ``sphere_config_index`` in a
+    form whose union over a few spheres is one OR. Built once per model and kept
+    on it."""
+    cached = g.__dict__.get("_sphere_config_bits")
+    if cached is None:
+        ptr, o = g.sphere_config_ptr, g.config_offsets
+        width = int(np.diff(o).max()) if len(o) > 1 else 0
+        owner = np.repeat(np.arange(len(ptr) - 1), np.diff(ptr))  # (M,) sphere
+        local = g.sphere_config_index - o[g.config_finger[g.sphere_config_index]]
+        mask = np.zeros((len(ptr) - 1, width), dtype=bool)  # (S, max K)
+        mask[owner, local] = True
+        cached = np.packbits(mask, axis=1)
+        cached.flags.writeable = False
+        g.__dict__["_sphere_config_bits"] = cached
+    return cached  # type: ignore[no-any-return]
+
+
+def _outside(pads: Array, held: Array, centre: Array) -> NDArray[np.bool_]:
+    """``(c,)``: which pad centres ``(c, 3)`` lie on the outer side of the held
+    points ``(k, 3)``, not nearer the grasp's middle ``centre`` than their
+    centroid (inside the object); all of them when that centroid is at the
+    middle."""
     c_f = held.mean(axis=0)
     out = c_f - centre
     norm = float(np.linalg.norm(out))
     if norm > 1e-9:
-        outside = (pads - c_f) @ (out / norm) >= 0.0  # (c,)
-        nearest = np.where(outside, nearest, np.inf)
+        return np.asarray((pads - c_f) @ (out / norm) >= 0.0)
+    return np.ones(len(pads), dtype=bool)
+
+
+def _held_distances(pads: Array, held: Array, bound: float) -> Array:
+    """Distance of each pad centre ``(c, 3)`` to the nearest held point ``(k, 3)``,
+    ``(c,)``; infinite for pads farther than ``bound`` (m), which the KD-tree
+    search then leaves early. Within it, exactly ``cKDTree(held).query(pads)``."""
+    # a relative margin, so that a pad at exactly ``bound`` stays found
+    limit = bound * (1.0 + 1e-9) + 1e-12 if np.isfinite(bound) else np.inf
+    nearest, _ = cKDTree(held).query(pads, distance_upper_bound=limit)  # (c,)
     return np.asarray(nearest, dtype=np.float64)
 
 
@@ -274,12 +329,14 @@ def pad_positions(g: GripperModel, finger: int, q: Array) -> Array:
 
 
 def prepare(g: GripperModel) -> None:
-    """Build the per-finger lookups the joint targets use (pad KD-trees and
-    interpolators), so that the first plan does not pay for them."""
+    """Build the per-finger lookups the joint targets use (pad KD-trees,
+    interpolators and the spheres' configuration bits), so that the first plan
+    does not pay for them."""
     if g.has_configurations:
         for f in range(g.num_fingers):
             config_tree(g, f)
             _interpolator(g, f)
+        sphere_config_bits(g)
 
 
 def _interpolator(g: GripperModel, finger: int) -> _PadInterpolator:
