@@ -254,6 +254,12 @@ class FingerDepth:
         self._held = ((byte >> bit) & 1).astype(bool)  # (256, nf)
         unsure = ((byte >> (bit + 1)) & 1).astype(bool)  # (256, nf)
         self._unsure: NDArray[np.bool_] = np.asarray(unsure.any(axis=1))  # (256,)
+        self._unsure_f: NDArray[np.bool_] = unsure  # (256, nf)
+        # per code, finger f's held bit at bit 16 f (nf <= 4 fits 64 bits)
+        lanes = (16 * np.arange(num_fingers)).astype(np.uint64)
+        self._packed = (self._held.astype(np.uint64) << lanes[None, :]).sum(
+            axis=1, dtype=np.uint64
+        )  # (256,)
 
     def held_points(
         self, Q: Array, ol: NDArray[np.int64], u: Array
@@ -276,6 +282,47 @@ class FingerDepth:
         unsure : (m, n) bool
             Some finger neither proven to hold the point nor proven not to.
         """
+        code = self.codes_at(Q, ol, u)  # (m, n)
+        return self._held[code], self._unsure[code]
+
+    def counts(
+        self, Q: Array, ol: NDArray[np.int64], u: Array
+    ) -> tuple[NDArray[np.int64], NDArray[np.uint8]]:
+        """Per candidate and finger, the points it provably holds, and each
+        point's code (for :attr:`unsure_fingers`).
+
+        Parameters as :meth:`held_points`.
+
+        Returns
+        -------
+        counts : (m, nf) int
+        code : (m, n) uint8
+        """
+        code = self.codes_at(Q, ol, u)  # (m, n)
+        m, n = code.shape
+        nf = self._held.shape[1]
+        if n < 2**16:
+            # each finger's held bit in its own 16-bit lane: one sum per row
+            # counts every finger at once (a row's count stays below 2**16)
+            total = self._packed[code].sum(axis=1, dtype=np.uint64)  # (m,)
+            shift = (16 * np.arange(nf)).astype(np.uint64)
+            counts = (total[:, None] >> shift[None, :]) & np.uint64(0xFFFF)
+            return counts.astype(np.int64), code
+        return np.count_nonzero(self._held[code], axis=1).astype(np.int64), code
+
+    @property
+    def unsure_fingers(self) -> NDArray[np.bool_]:
+        """Per code, the fingers it leaves undecided: (256, nf) bool."""
+        return self._unsure_f
+
+    @property
+    def unsure_codes(self) -> NDArray[np.bool_]:
+        """Per code, whether it leaves some finger undecided: (256,) bool."""
+        return self._unsure
+
+    def codes_at(self, Q: Array, ol: NDArray[np.int64], u: Array) -> NDArray[np.uint8]:
+        """The code of each point's nearest node, (m, n) uint8 (parameters as
+        :meth:`held_points`)."""
         h = self.cell
         m, n = len(ol), Q.shape[2]
         # node coordinates in cells, offset half a cell so that truncation of a
@@ -305,8 +352,7 @@ class FingerDepth:
                     np.multiply(t[sl].astype(np.int32), strides[0], out=flat[sl])
                 else:
                     flat[sl] += t[sl].astype(np.int32) * strides[k]
-        code = self.codes[flat]  # (m, n)
-        return self._held[code], self._unsure[code]
+        return self.codes[flat]  # type: ignore[no-any-return]
 
 
 _CACHE: weakref.WeakKeyDictionary[FingerSpheres, FingerDepth] = (

@@ -25,8 +25,9 @@ evaluation of eq. (1) in floating point gives.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -42,6 +43,7 @@ from wsgrasp.planning._dense_grid import (
     inscribed_balls,
 )
 from wsgrasp.planning._dense_numba import held_by_fingers
+from wsgrasp.planning._holdings import Holdings
 from wsgrasp.planning.spheres import FingerSpheres
 
 if TYPE_CHECKING:
@@ -61,6 +63,12 @@ _CHUNK_PAIRS = 100_000
 _BALLS_FROM = 20_000
 #: from this many (candidate, point) pairs on, the compiled finger loop runs
 _COMPILED_FROM = 1_000_000
+#: a denser subset of points in the body test while it takes at most this many
+#: (candidate, point) pairs
+_SUBSET_PAIRS = 50_000
+#: up to this many (candidate, point, finger) entries, the finger test keeps the
+#: holdings it computes; beyond, it counts, and builds holdings when asked
+_KEEP_ENTRIES = 4_000_000
 
 
 @dataclass(frozen=True)
@@ -218,6 +226,27 @@ def table_bounds(
     return hit, unsure
 
 
+def lowest_heights(
+    poses: StructuredPoses,
+    vertices: Array,
+    table: TableSE,
+    index: NDArray[np.int64],
+) -> Array:
+    """Height above the table surface of the lowest of ``vertices`` (h, 3),
+    gripper frame, for the candidates ``index`` (k,): per orientation the lowest
+    vertex's height without the sample's part, plus the sample's shift: (k,)."""
+    T_table_world = invert_transforms(table.T_world_table)
+    R_tw, t_tw = T_table_world[:3, :3], T_table_world[:3, 3]
+    n_or = len(poses.R)
+    s, o = np.divmod(np.asarray(index, dtype=np.int64), n_or)
+    if len(vertices) == 0:
+        return np.full(len(s), np.inf)
+    z_axes = poses.R.transpose(0, 2, 1) @ R_tw[2]  # (O, 3) table normal, gripper axes
+    low = (vertices @ z_axes.T).min(axis=0)  # (O,)
+    low = low + poses.B @ R_tw[2] + t_tw[2]
+    return low[o] + poses.A[s] @ R_tw[2]  # type: ignore[no-any-return]
+
+
 def table_exact(
     poses: StructuredPoses, cloud: Array, table: TableSE, index: NDArray[np.int64]
 ) -> NDArray[np.bool_]:
@@ -271,13 +300,14 @@ class BodyFingerVerdicts:
     reason : (k,) int
         2, 3, 4 or 0 (feasible), per candidate of ``index``.
     contacts : (k, nf) int
-    holding : (F, no, nf) bool
-        For the feasible ones, in the order of ``index``.
+    holding : Holdings
+        For the feasible ones, in the order of ``index``: their counts, and
+        their ``(F, no, nf)`` holdings computed when asked for.
     """
 
     reason: NDArray[np.int64]
     contacts: NDArray[np.int64]
-    holding: NDArray[np.bool_]
+    holding: Holdings
 
 
 def _separated(lo_a: Array, hi_a: Array, lo_b: Array, hi_b: Array) -> NDArray[np.bool_]:
@@ -408,12 +438,16 @@ def body_and_fingers(
         if todo.size and bodies_compiled:
             hit[todo] = _dense_numba.body_hits(Q, ol[todo], u[todo], *se)
             todo = todo[:0]
-        if todo.size:
-            # a subset first: a hit by some points is a hit by the cloud
-            Qs = Q[:, :, :: max(1, no // max(coarse, 1))]
+        # subsets first, each 4× denser than the last: a hit by some points is a
+        # hit by the cloud, and most colliding candidates show one early
+        stride = max(1, no // max(coarse, 1))
+        while todo.size and stride > 1:
+            Qs = Q[:, :, ::stride]
             x, y, z = (Qs[ol[todo], i] - u[todo, i, None] for i in range(3))
             hit[todo] = coordinates_in_superellipsoids(x, y, z, *se).any(axis=1)
             todo = todo[~hit[todo]]
+            # denser while that stays small; then slabs or every point
+            stride = stride // 4 if todo.size * no <= _SUBSET_PAIRS * stride else 1
         if todo.size > 2 * len(Q):
             hit[todo] = _body_hits(_Slabs(Q), ol, u, todo, *se)
         elif todo.size:  # few per orientation: every point beats sorting them
@@ -435,46 +469,209 @@ def body_and_fingers(
                 x, y, z = (QX[ol[t], i] - u[t, i, None] for i in range(3))
                 obs = coordinates_in_superellipsoids(x, y, z, *se).any(axis=1)
                 reason[at[t[obs]]] = 3
-    # 2. fingers, for the candidates clear of every body: their holdings go
-    # straight into one buffer in the order of index (row = rank among them)
+    # 2. fingers, for the candidates clear of every body: how many points each
+    # finger holds (the holdings themselves are built for the feasible ones only
+    # when something asks for them, see ``Holdings``)
     live = np.flatnonzero(reason == 0)  # positions in index, ascending
     fingers_compiled = (
         compiled and _dense_numba.available() and len(live) * no >= _COMPILED_FROM
     )
-    store = np.empty((len(live), no, nf), dtype=bool)
-    counts = np.zeros((len(live), nf), dtype=np.int64)
-    order = np.argsort(o_all[live], kind="stable")  # rows grouped by orientation
-    for a in range(0, len(live), step):
-        rows = order[a : a + step]
-        at = live[rows]
-        _, Q, ol, u = _chunk(poses, P, s_all[at], o_all[at])
-        # a finger whose sphere box is apart from the object box holds none
-        lo = (Q.min(axis=2)[ol] - u)[:, None, :]  # (m, 1, 3)
-        hi = (Q.max(axis=2)[ol] - u)[:, None, :]
-        need = np.flatnonzero(~_separated(lo, hi, f_lo[None], f_hi[None]).all(axis=1))
-        if need.size == 0:
-            continue
-        dest = rows[need]
-        if fingers_compiled:
-            counts[dest] = held_by_fingers(sp, depth, Q, ol[need], u[need], store, dest)
-        else:
-            if len(need) >= 1024 and len(need) < 8 * len(Q):
-                # few candidates per orientation: sorting the points per
-                # orientation for the slab costs more than the depth grid saves
-                hold = _held_numpy(depth, sp, Q, ol, u, need)
-            else:
-                hold = _held_in_slab(_Slabs(Q), ol, u, need, sp, f_lo, f_hi, depth)
-            counts[dest] = _count_held(hold)
-            store[dest] = hold
+    fingers = _Fingers(poses, P, sp, depth, f_lo, f_hi, step, fingers_compiled)
+    if len(live) * no * nf <= _KEEP_ENTRIES:
+        # few: the holdings themselves, counted, and the feasible ones kept
+        held = fingers.holding(s_all[live], o_all[live])  # (k, no, nf)
+        counts = np.count_nonzero(held, axis=1)
+    else:
+        counts = fingers.counts(s_all[live], o_all[live])
     contacts[live] = counts
     ok = np.all(counts > 0, axis=1)
     reason[live[~ok]] = 4
-    # the feasible rows moved to the front, in order (each row moves up or stays,
-    # and a block is read before it is written)
-    keep = np.flatnonzero(ok)
-    for a in range(0, len(keep), 4096):
-        store[a : a + len(keep[a : a + 4096])] = store[keep[a : a + 4096]]
-    return BodyFingerVerdicts(reason, contacts, store[: len(keep)])
+    keep = live[ok]
+    if len(live) * no * nf <= _KEEP_ENTRIES:
+        holdings = Holdings(counts[ok], no, dense=held[ok])
+    else:
+        rows = fingers.rows_of(s_all[keep], o_all[keep])
+        holdings = Holdings(counts[ok], no, rows=rows)
+    return BodyFingerVerdicts(reason, contacts, holdings)
+
+
+class _Fingers:
+    """The finger test of structured candidates ``(s, o)``: per finger the number
+    of points held (for the verdicts and contacts), and the holdings themselves
+    (for the candidates something asks about), with the same answers.
+
+    The compiled loop, when ``compiled``, is the one installed when this was
+    built, so that holdings asked for later come from the same kernel.
+    """
+
+    def __init__(
+        self,
+        poses: StructuredPoses,
+        P: Array,
+        spheres: FingerSpheres,
+        depth: FingerDepth,
+        f_lo: Array,
+        f_hi: Array,
+        step: int,
+        compiled: bool,
+    ) -> None:
+        self.poses, self.P, self.sp, self.depth = poses, P, spheres, depth
+        self.f_lo, self.f_hi, self.step = f_lo, f_hi, step
+        self.loop = _dense_numba._compiled if compiled else None
+        self.nf = len(f_lo)
+        lo, hi = f_lo.min(axis=0), f_hi.max(axis=0)  # the fingers' box
+        self.k = int(np.argmin(hi - lo))  # its thinnest gripper axis
+        self.width = float(hi[self.k] - lo[self.k])
+
+    def _groups(
+        self, s: NDArray[np.int64], o: NDArray[np.int64]
+    ) -> Iterator[tuple[NDArray[np.int64], Array, NDArray[np.int64], Array, Any]]:
+        """Chunks of candidates grouped by orientation, as ``(rows, Q, ol, u,
+        need)``: positions ``rows`` (m,) into ``s``, the chunk's arrays as
+        :func:`_chunk` gives them, and ``need``: the chunk's candidates with
+        some finger's sphere box meeting the object's box."""
+        order = np.argsort(o, kind="stable")  # rows grouped by orientation
+        for a in range(0, len(s), self.step):
+            rows = order[a : a + self.step]
+            _, Q, ol, u = _chunk(self.poses, self.P, s[rows], o[rows])
+            lo = (Q.min(axis=2)[ol] - u)[:, None, :]  # (m, 1, 3)
+            hi = (Q.max(axis=2)[ol] - u)[:, None, :]
+            apart = _separated(lo, hi, self.f_lo[None], self.f_hi[None])  # (m, nf)
+            need = np.flatnonzero(~apart.all(axis=1))
+            if need.size:
+                yield rows, Q, ol, u, need
+
+    def counts(self, s: NDArray[np.int64], o: NDArray[np.int64]) -> NDArray[np.int64]:
+        """Points held per candidate and finger: (k, nf) int."""
+        out = np.zeros((len(s), self.nf), dtype=np.int64)
+        for rows, Q, ol, u, need in self._groups(s, o):
+            if self.loop is not None:
+                out[rows[need]] = held_by_fingers(
+                    self.sp, self.depth, Q, ol[need], u[need], loop=self.loop
+                )
+                continue
+            ext = float(np.ptp(Q[:, self.k, :], axis=1).max()) if Q.size else 0.0
+            slab = self.width < 0.5 * ext  # the slab leaves most points out
+            if len(need) >= 1024 and not (slab and len(need) >= 8 * len(Q)):
+                out[rows[need]] = _count_depth(self.depth, self.sp, Q, ol, u, need)
+            elif slab and len(need) >= 2 * len(Q):
+                out[rows[need]] = _count_in_slab(
+                    _Slabs(Q), ol, u, need, self.sp, self.k, self.f_lo, self.f_hi
+                )
+            else:
+                out[rows[need]] = _count_every_point(self.sp, Q, ol, u, need)
+        return out
+
+    def rows_of(
+        self, s: NDArray[np.int64], o: NDArray[np.int64]
+    ) -> Callable[[NDArray[np.int64]], NDArray[np.bool_]]:
+        """``rows(i)``: the holdings of candidates ``(s[i], o[i])``, (k, no, nf)."""
+
+        def rows(i: NDArray[np.int64]) -> NDArray[np.bool_]:
+            return self.holding(s[i], o[i])
+
+        return rows
+
+    def holding(self, s: NDArray[np.int64], o: NDArray[np.int64]) -> NDArray[np.bool_]:
+        """Which object points each finger holds: (k, no, nf) bool."""
+        out = np.zeros((len(s), len(self.P), self.nf), dtype=bool)
+        for rows, Q, ol, u, need in self._groups(s, o):
+            dest = rows[need]
+            if self.loop is not None:
+                held_by_fingers(
+                    self.sp, self.depth, Q, ol[need], u[need], out, dest, self.loop
+                )
+            elif len(need) >= 1024 and len(need) < 8 * len(Q):
+                # few candidates per orientation: sorting the points per
+                # orientation for the slab costs more than the depth grid saves
+                out[dest] = _held_numpy(self.depth, self.sp, Q, ol, u, need)
+            else:
+                out[dest] = _held_in_slab(
+                    _Slabs(Q), ol, u, need, self.sp, self.f_lo, self.f_hi, self.depth
+                )
+        return out
+
+
+def _count_depth(
+    depth: FingerDepth,
+    sp: FingerSpheres,
+    Q: Array,
+    ol: NDArray[np.int64],
+    u: Array,
+    c: NDArray[np.int64],
+) -> NDArray[np.int64]:
+    """Points held per finger for candidates ``c`` (n,): the depth grid counts
+    the points it proves held, the sphere grid decides the ones it leaves
+    unsure: (n, nf) int."""
+    counts, code = depth.counts(Q, ol[c], u[c])  # (n, nf), (n, no)
+    row, j = np.nonzero(depth.unsure_codes[code])
+    open_f = depth.unsure_fingers
+    n = len(c)
+    for b in range(0, len(row), _CHUNK_PAIRS):  # bounds the sphere lists
+        rb, jb = row[b : b + _CHUNK_PAIRS], j[b : b + _CHUNK_PAIRS]
+        cb = c[rb]
+        qb = ol[cb]
+        held = sp.holding_coordinates(
+            Q[qb, 0, jb] - u[cb, 0],
+            Q[qb, 1, jb] - u[cb, 1],
+            Q[qb, 2, jb] - u[cb, 2],
+        )  # (pairs, nf)
+        # only the fingers the depth grid left open: the others are counted
+        held &= open_f[code[rb, jb]]
+        for f in range(held.shape[1]):
+            counts[:, f] += np.bincount(rb[held[:, f]], minlength=n)
+    return counts
+
+
+def _count_in_slab(
+    slabs: _Slabs,
+    ol: NDArray[np.int64],
+    u: Array,
+    cand: NDArray[np.int64],
+    spheres: FingerSpheres,
+    k: int,
+    f_lo: Array,
+    f_hi: Array,
+) -> NDArray[np.int64]:
+    """Points held per finger for candidates ``cand`` (n,), testing only the
+    points in the slab of the fingers' sphere box along gripper axis ``k`` (the
+    others are outside every sphere): (n, nf) int."""
+    Q = slabs.Q
+    lo, hi = float(f_lo[:, k].min()), float(f_hi[:, k].max())
+    pair, j, r = slabs.pairs(ol[cand], u[cand, k], k, lo, hi)
+    c = cand[pair]
+    counts = np.zeros((len(cand), len(f_lo)), dtype=np.int64)
+    for a in range(0, len(pair), _CHUNK_PAIRS):  # bounds the sphere lists' memory
+        b = slice(a, a + _CHUNK_PAIRS)
+        rb, jb, cb = r[b], j[b], c[b]
+        held = spheres.holding_coordinates(
+            Q[rb, 0, jb] - u[cb, 0], Q[rb, 1, jb] - u[cb, 1], Q[rb, 2, jb] - u[cb, 2]
+        )  # (pairs, nf)
+        for f in range(held.shape[1]):
+            counts[:, f] += np.bincount(pair[b][held[:, f]], minlength=len(cand))
+    return counts
+
+
+def _count_every_point(
+    sp: FingerSpheres,
+    Q: Array,
+    ol: NDArray[np.int64],
+    u: Array,
+    cand: NDArray[np.int64],
+) -> NDArray[np.int64]:
+    """Points held per finger for candidates ``cand`` (n,), every point through
+    the sphere grid: (n, nf) int."""
+    n = Q.shape[2]
+    counts = np.empty((len(cand), sp.num_fingers), dtype=np.int64)
+    step = max(1, _CHUNK_PAIRS // max(n, 1))
+    for a in range(0, len(cand), step):
+        cb = cand[a : a + step]
+        rb = ol[cb]
+        held = sp.holding_coordinates(
+            *(Q[rb, i] - u[cb, i, None] for i in range(3))
+        )  # (b, no, nf)
+        counts[a : a + step] = np.count_nonzero(held, axis=1)
+    return counts
 
 
 def _chunk(
@@ -513,14 +710,6 @@ def _held_numpy(
             Q[qb, 2, jb] - u[cb, 2],
         )  # (pairs, nf)
     return hold
-
-
-def _count_held(hold: NDArray[np.bool_]) -> NDArray[np.int64]:
-    """Points held per candidate and finger, ``(n, no, nf)`` -> ``(n, nf)``."""
-    # a float32 product of ones: exact (counts below 2**24), several times faster
-    # than numpy's reductions over the middle axis
-    ones = np.ones(hold.shape[1], dtype=np.float32)
-    return np.matmul(ones, hold.astype(np.float32)).astype(np.int64)  # (n, nf)
 
 
 def _in_axes(P: Array, R: Array) -> Array:

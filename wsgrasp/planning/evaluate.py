@@ -13,6 +13,7 @@ The finger check's cost does not grow with the number of spheres: see
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -22,11 +23,13 @@ from wsgrasp.geometry import (
     invert_transforms,
 )
 from wsgrasp.gripper.model import GripperModel
+from wsgrasp.planning._holdings import HoldingField, Holdings
 from wsgrasp.planning.dense import (
     CandidateStructure,
     StructuredPoses,
     body_and_fingers,
     hull_vertices,
+    lowest_heights,
     table_bounds,
     table_exact,
 )
@@ -79,6 +82,7 @@ class Evaluation:
         Indices of the feasible candidates.
     holding : (F, no, nf) bool
         Which object points each finger's spheres hold, per feasible candidate.
+        The structured path builds it only when read (see :attr:`holdings`).
     min_table_height : (F,) float
         Lowest gripper-cloud point above the table surface, per feasible candidate.
     """
@@ -86,8 +90,18 @@ class Evaluation:
     reason: NDArray[np.int64]
     contacts: NDArray[np.int64]
     feasible: NDArray[np.int64]
-    holding: NDArray[np.bool_]
+    if TYPE_CHECKING:  # read as the array; set as the array or Holdings
+        holding: NDArray[np.bool_]
+    else:
+        holding: NDArray[np.bool_] = HoldingField()
     min_table_height: Array
+
+    @property
+    def holdings(self) -> Holdings:
+        """The feasible candidates' holdings as
+        :class:`~wsgrasp.planning._holdings.Holdings`: their counts, and their
+        rows or sums over the held points, without building ``holding``."""
+        return type(self).__dict__["holding"].holdings_of(self)  # type: ignore[no-any-return]
 
 
 def _chunks(n_items: int, points_per_item: int) -> list[slice]:
@@ -142,18 +156,6 @@ def table_collisions(
             block[rest[ci[inside]]] = True
         hit[sl] = block
     return hit, min_height
-
-
-def _min_heights(T_world_gripper: Array, cloud: Array, table: TableSE) -> Array:
-    """Lowest cloud point above the table surface per candidate (C,), with
-    :func:`table_collisions`' arithmetic."""
-    T_table_gripper = invert_transforms(table.T_world_table) @ T_world_gripper
-    out = np.empty(len(T_world_gripper))
-    for sl in _chunks(len(T_world_gripper), len(cloud)):
-        z = T_table_gripper[sl, 2, :3] @ cloud.T  # (c, ng)
-        z += T_table_gripper[sl, 2, 3][:, None]
-        out[sl] = z.min(axis=1)
-    return out
 
 
 def _coordinates(T: Array, points: Array) -> tuple[Array, Array, Array]:
@@ -216,8 +218,9 @@ def evaluate_candidates(
         contacts[alive] = v.contacts
         feasible = alive[v.reason == 0]
         # the lowest point of a cloud along a direction is a hull vertex
-        low = _min_heights(T_world_gripper[feasible], _cloud_hull(gripper), table)
-        return Evaluation(reason, contacts, feasible, v.holding, low)
+        low = lowest_heights(poses, _cloud_hull(gripper), table, feasible)
+        # the holdings as Holdings: built only if read
+        return Evaluation(reason, contacts, feasible, v.holding, low)  # type: ignore[arg-type]
     reason[table_hit] = 1
     alive = np.flatnonzero(~table_hit)
 

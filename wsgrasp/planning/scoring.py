@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, ClassVar, Protocol
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -14,6 +14,7 @@ from pydantic import BaseModel
 from wsgrasp.errors import PluginError
 from wsgrasp.geometry import invert_transforms, transform_points
 from wsgrasp.gripper.model import GripperModel
+from wsgrasp.planning._holdings import HoldingField, Holdings
 
 __all__ = ["CandidateBatch", "Scorer", "combine_scores"]
 
@@ -30,7 +31,10 @@ class CandidateBatch:
     T_world_gwc, T_world_gripper : (F, 4, 4) float
     theta : (F,) float
     holding : (F, no, nf) bool
-        Which object points each finger's spheres hold.
+        Which object points each finger's spheres hold. May be given as a
+        :class:`~wsgrasp.planning._holdings.Holdings`, whose mask is built only
+        if something reads ``holding``; counts, centroids and normals are
+        computed from the held points without it.
     object_points : (no, 3) float
     T_world_object : (4, 4) float
         Origin at the object's centroid, z along its major axis.
@@ -48,7 +52,10 @@ class CandidateBatch:
     T_world_gwc: Array
     T_world_gripper: Array
     theta: Array
-    holding: NDArray[np.bool_]
+    if TYPE_CHECKING:  # read as the array; set as the array or Holdings
+        holding: NDArray[np.bool_]
+    else:
+        holding: NDArray[np.bool_] = HoldingField()
     object_points: Array
     T_world_object: Array
     extents: Array
@@ -60,20 +67,22 @@ class CandidateBatch:
     def __len__(self) -> int:
         return int(self.T_world_gwc.shape[0])
 
+    @property
+    def holdings(self) -> Holdings:
+        """``holding`` as :class:`~wsgrasp.planning._holdings.Holdings` (counts,
+        blocks of rows, sums over the held points), without building the mask."""
+        field_ = type(self).__dict__["holding"]
+        return field_.holdings_of(self)  # type: ignore[no-any-return]
+
     @cached_property
     def contacts(self) -> NDArray[np.int64]:
         """Object points held per finger, ``(F, nf)``."""
-        return np.count_nonzero(self.holding, axis=1)
-
-    @cached_property
-    def _held_weights(self) -> Array:
-        """``holding`` as float weights per finger, ``(F, nf, no)``."""
-        return np.ascontiguousarray(self.holding.transpose(0, 2, 1), dtype=np.float64)
+        return self.holdings.counts
 
     @cached_property
     def contact_centroids(self) -> Array:
         """Centroid of the points each finger holds, ``(F, nf, 3)`` (NaN if none)."""
-        sums = self._held_weights @ self.object_points  # (F, nf, 3)
+        sums = self.holdings.sums(self.object_points)  # (F, nf, 3)
         with np.errstate(invalid="ignore", divide="ignore"):
             return sums / self.contacts[..., None]
 
@@ -91,7 +100,7 @@ class CandidateBatch:
     def contact_normals(self) -> Array:
         """Mean outward normal of the points each finger holds, unit, ``(F, nf, 3)``
         (zero where a finger holds nothing)."""
-        n = self._held_weights @ self.object_normals  # (F, nf, 3)
+        n = self.holdings.sums(self.object_normals)  # (F, nf, 3)
         norm = np.linalg.norm(n, axis=-1, keepdims=True)
         return np.divide(n, norm, out=np.zeros_like(n), where=norm > 0)
 

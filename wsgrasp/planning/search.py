@@ -123,7 +123,8 @@ def run_search(
             T_world_gwc=T_world_gwc[f],
             T_world_gripper=T_world_gripper[f],
             theta=theta[f],
-            holding=ev.holding,
+            # as Holdings: the mask is built only if a scorer reads it
+            holding=ev.holdings,  # type: ignore[arg-type]
             object_points=inp.object_points,
             T_world_object=inp.T_world_object,
             extents=inp.extents,
@@ -152,7 +153,7 @@ def run_search(
                     terms={k: float(v[j]) for k, v in terms.items()},
                 )
             )
-        holding = ev.holding[best_local]
+        holding = ev.holdings.rows([best_local])[0]  # (no, nf)
         backed = _back_off(g, T_world_gripper[best], inp, spheres)
         if backed is not None:  # the chosen candidate's pose, moved back
             T_world_gripper[best], holding = backed

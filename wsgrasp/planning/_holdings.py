@@ -1,0 +1,162 @@
+"""The feasible candidates' holdings, held densely or computed in blocks on demand.
+
+Evaluation decides feasibility from per-finger counts; scorers need per finger the
+sums of the held points (and of their normals); the chosen grasp needs its own
+holding. None of these needs the dense ``(F, no, nf)`` mask of every feasible
+candidate at once, which for the Allegro's dense sampling is ~90,000 × 800 × 4
+bools. :class:`Holdings` gives the counts, row blocks, per-finger sums over the
+held points and, for code that reads it, the whole mask, built on first use.
+
+``HoldingField`` lets a dataclass field named ``holding`` take either a bool array
+or a :class:`Holdings` and read back as the bool array.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["Holdings", "HoldingField"]
+
+Array = NDArray[np.float64]
+
+#: the held pairs of at most this many (candidate, point, finger) entries at once
+_BLOCK_ENTRIES = 4_000_000
+
+
+class Holdings:
+    """Which object points each finger holds, per feasible candidate.
+
+    Parameters
+    ----------
+    counts : (F, nf) int
+        Points held per candidate and finger.
+    num_points : int
+        ``no``, the object points.
+    rows : callable, optional
+        ``rows(i)`` for positions ``i`` (k,) int: their holdings, (k, no, nf) bool.
+    dense : (F, no, nf) bool, optional
+        The holdings themselves (then ``rows`` is not needed).
+    """
+
+    def __init__(
+        self,
+        counts: NDArray[np.int64],
+        num_points: int,
+        rows: Callable[[NDArray[np.int64]], NDArray[np.bool_]] | None = None,
+        dense: NDArray[np.bool_] | None = None,
+    ) -> None:
+        if rows is None and dense is None:
+            raise ValueError("Holdings needs the holdings or a function giving rows")
+        self.counts = np.asarray(counts, dtype=np.int64)
+        self.num_points = int(num_points)
+        self._rows = rows
+        self._dense = dense
+
+    @classmethod
+    def of(cls, holding: NDArray[np.bool_]) -> Holdings:
+        """Holdings of a dense ``(F, no, nf)`` bool array."""
+        h = np.asarray(holding, dtype=bool)
+        return cls(np.count_nonzero(h, axis=1), h.shape[1], dense=h)
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        F, nf = self.counts.shape
+        return F, self.num_points, nf
+
+    def __len__(self) -> int:
+        return int(self.counts.shape[0])
+
+    @property
+    def is_dense(self) -> bool:
+        """Whether the whole mask is held (no work to read it)."""
+        return self._dense is not None
+
+    def rows(self, index: NDArray[np.int64] | list[int]) -> NDArray[np.bool_]:
+        """The holdings of candidates ``index`` (k,): (k, no, nf) bool."""
+        i = np.asarray(index, dtype=np.int64).reshape(-1)
+        if self._dense is not None:
+            return self._dense[i]
+        assert self._rows is not None
+        if i.size == 0:
+            return np.zeros((0, *self.shape[1:]), dtype=bool)
+        return self._rows(i)
+
+    def blocks(self) -> Iterator[tuple[slice, NDArray[np.bool_]]]:
+        """The holdings in consecutive blocks of rows, bounded in size."""
+        F, no, nf = self.shape
+        step = max(1, _BLOCK_ENTRIES // max(no * nf, 1))
+        for a in range(0, F, step):
+            sl = slice(a, min(a + step, F))
+            if self._dense is not None:
+                yield sl, self._dense[sl]
+            else:
+                yield sl, self.rows(np.arange(sl.start, sl.stop))
+
+    def dense(self) -> NDArray[np.bool_]:
+        """The whole ``(F, no, nf)`` mask (built once, then kept)."""
+        if self._dense is None:
+            out = np.empty(self.shape, dtype=bool)
+            for sl, block in self.blocks():
+                out[sl] = block
+            self._dense = out
+        return self._dense
+
+    def sums(self, values: Array) -> Array:
+        """Per candidate and finger, the sum of ``values`` (no, d) over the points
+        the finger holds: (F, nf, d) float.
+
+        Each sum adds its terms in the order of the points, whatever the blocks,
+        so the result does not depend on how the holdings are stored.
+        """
+        v = np.asarray(values, dtype=np.float64).reshape(self.num_points, -1)
+        F, _, nf = self.shape
+        d = v.shape[1]
+        out = np.zeros((F, nf, d))
+        for sl, block in self.blocks():
+            n = sl.stop - sl.start
+            # (candidate, point, finger) of every held entry, row-major
+            c, j, f = np.nonzero(block)
+            key = c * nf + f  # (pairs,) the (candidate, finger) of each
+            for k in range(d):
+                out[sl, :, k] = np.bincount(
+                    key, weights=v[j, k], minlength=n * nf
+                ).reshape(n, nf)
+        return out
+
+
+class HoldingField:
+    """A dataclass field that stores a bool array or a :class:`Holdings` and
+    reads as the ``(F, no, nf)`` bool array (built from the holdings on first
+    read). ``holdings_of(obj)`` gives the :class:`Holdings` without building it.
+
+    The field has no default: reading it on the class raises AttributeError,
+    which is how ``dataclasses`` tells a descriptor that supplies none.
+    """
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self._slot = "_" + name
+
+    def __get__(self, obj: Any, objtype: type | None = None) -> NDArray[np.bool_]:
+        if obj is None:
+            raise AttributeError(self._slot[1:])
+        got = obj.__dict__[self._slot]
+        if isinstance(got, Holdings):
+            return got.dense()
+        return got  # type: ignore[no-any-return]
+
+    def __set__(self, obj: Any, value: NDArray[np.bool_] | Holdings) -> None:
+        if not isinstance(value, Holdings):
+            value = np.asarray(value, dtype=bool)
+        obj.__dict__[self._slot] = value
+
+    def holdings_of(self, obj: Any) -> Holdings:
+        got = obj.__dict__[self._slot]
+        if isinstance(got, Holdings):
+            return got
+        h = Holdings.of(got)
+        obj.__dict__[self._slot] = h
+        return h
