@@ -63,9 +63,6 @@ _CHUNK_PAIRS = 100_000
 _BALLS_FROM = 20_000
 #: from this many (candidate, point) pairs on, the compiled finger loop runs
 _COMPILED_FROM = 1_000_000
-#: a denser subset of points in the body test while it takes at most this many
-#: (candidate, point) pairs
-_SUBSET_PAIRS = 50_000
 #: up to this many (candidate, point, finger) entries, the finger test keeps the
 #: holdings it computes; beyond, it counts, and builds holdings when asked
 _KEEP_ENTRIES = 4_000_000
@@ -330,6 +327,42 @@ def _object_box_clear(
     return np.all(_separated(lo, hi, box_lo[None], box_hi[None]), axis=1)
 
 
+def _boxes_clear(
+    poses: StructuredPoses,
+    s: NDArray[np.int64],
+    o: NDArray[np.int64],
+    ext_lo: Array,
+    ext_hi: Array,
+    box_lo: Array,
+    box_hi: Array,
+) -> NDArray[np.bool_]:
+    """:func:`_object_box_clear` for candidates ``(s, o)`` (k,), with the object's
+    box in the gripper axes per orientation ``[ext_lo, ext_hi]`` (O, 3).
+
+    A candidate's translation in the gripper axes is ``u = A[s] R[o] + B[o]
+    R[o]``, whose two parts come from one product per orientation; each box
+    and axis is then two comparisons per candidate."""
+    out = np.empty(len(s), dtype=bool)
+    AR = np.matmul(poses.A[None], poses.R)  # (O, ns, 3) A[s] R[o]
+    BR = np.matmul(poses.B[:, None, :], poses.R)[:, 0]  # (O, 3)
+    ns = len(poses.A)
+    for a in range(0, len(s), _CHUNK_CANDIDATES):
+        sa, oa = s[a : a + _CHUNK_CANDIDATES], o[a : a + _CHUNK_CANDIDATES]
+        flat = oa * ns + sa
+        apart_all = np.ones(len(sa), dtype=bool)
+        u = [AR[:, :, k].ravel()[flat] + BR[oa, k] for k in range(3)]  # 3 × (c,)
+        lo = [ext_lo[oa, k] - u[k] for k in range(3)]  # the object box, gripper axes
+        hi = [ext_hi[oa, k] - u[k] for k in range(3)]
+        for e in range(len(box_lo)):
+            apart = np.zeros(len(sa), dtype=bool)
+            for k in range(3):
+                apart |= lo[k] > box_hi[e, k] + MARGIN
+                apart |= hi[k] < box_lo[e, k] - MARGIN
+            apart_all &= apart
+        out[a : a + len(sa)] = apart_all
+    return out
+
+
 def body_and_fingers(
     poses: StructuredPoses,
     index: NDArray[np.int64],
@@ -391,14 +424,8 @@ def body_and_fingers(
     if len(index) >= _BALLS_FROM:  # below, the grid costs more than it saves
         # the object's box in the gripper axes per orientation: (O, 3) each
         ext_lo, ext_hi = _extremes(P, poses.R)
-        u_all = np.empty((len(index), 3))
-        for a in range(0, len(index), _CHUNK_CANDIDATES):  # bounds R[o]'s copy
-            sa, oa = s_all[a : a + _CHUNK_CANDIDATES], o_all[a : a + _CHUNK_CANDIDATES]
-            w = poses.A[sa] + poses.B[oa]  # (c, 3) gripper origins, world frame
-            u_all[a : a + len(sa)] = np.matmul(w[:, None, :], poses.R[oa])[:, 0]
-        clear_all = _object_box_clear(ext_lo[o_all], ext_hi[o_all], u_all, se_lo, se_hi)
+        clear_all = _boxes_clear(poses, s_all, o_all, ext_lo, ext_hi, se_lo, se_hi)
         near = ~clear_all
-        del u_all
         ball_c, ball_r, body = inscribed_balls(*se)  # (b, 3), (b,), (b,)
         # per body the central ball first, bodies in turn
         rank = np.abs(ball_c - g.se_centers[body]).sum(axis=1)
@@ -438,16 +465,12 @@ def body_and_fingers(
         if todo.size and bodies_compiled:
             hit[todo] = _dense_numba.body_hits(Q, ol[todo], u[todo], *se)
             todo = todo[:0]
-        # subsets first, each 4× denser than the last: a hit by some points is a
-        # hit by the cloud, and most colliding candidates show one early
-        stride = max(1, no // max(coarse, 1))
-        while todo.size and stride > 1:
-            Qs = Q[:, :, ::stride]
+        if todo.size:
+            # a subset first: a hit by some points is a hit by the cloud
+            Qs = Q[:, :, :: max(1, no // max(coarse, 1))]
             x, y, z = (Qs[ol[todo], i] - u[todo, i, None] for i in range(3))
             hit[todo] = coordinates_in_superellipsoids(x, y, z, *se).any(axis=1)
             todo = todo[~hit[todo]]
-            # denser while that stays small; then slabs or every point
-            stride = stride // 4 if todo.size * no <= _SUBSET_PAIRS * stride else 1
         if todo.size > 2 * len(Q):
             hit[todo] = _body_hits(_Slabs(Q), ol, u, todo, *se)
         elif todo.size:  # few per orientation: every point beats sorting them
