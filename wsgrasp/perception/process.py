@@ -176,8 +176,9 @@ def fit_plane_ransac(
     for _ in range(2):
         if inliers.size < 3:
             break
-        c = p[inliers].mean(axis=0)
-        _, _, vt = np.linalg.svd(p[inliers] - c, full_matrices=False)
+        q = p[inliers]  # (k, 3)
+        c = q.mean(axis=0)
+        _, _, vt = np.linalg.svd(q - c, full_matrices=False)
         normal = vt[2]
         offset = -float(normal @ c)
         inliers = np.flatnonzero(np.abs(p @ normal + offset) <= distance)

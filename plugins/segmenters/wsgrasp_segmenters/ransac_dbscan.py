@@ -192,10 +192,7 @@ class RansacDbscan:
         low = np.full(nlab, np.inf)
         np.minimum.at(low, lab, ah[idx])
         side = np.bincount(lab, weights=np.sign(h[idx]), minlength=nlab)
-        lo = np.full((nlab, 3), np.inf)
-        hi = np.full((nlab, 3), -np.inf)
-        np.minimum.at(lo, lab, p[idx])
-        np.maximum.at(hi, lab, p[idx])
+        lo, hi = _bounds(p[idx], lab, nlab)
         extent = np.linalg.norm(hi - lo, axis=1)
         small = counts < o.min_points
         far = ~small & (low > o.contact_distance)
@@ -266,14 +263,25 @@ def _reaches_past(
     object's face, which the rest of the object seems to stand on, does not."""
     basis = plane_basis(normal)  # (3, 2)
     plane_uv = plane_points @ basis  # (m, 2)
-    lo_p, hi_p = np.percentile(plane_uv, [1, 99], axis=0)  # (2,) each
+    # (2,) each; plane_uv is a temporary the partition may reorder in place
+    lo_p, hi_p = np.percentile(plane_uv, [1, 99], axis=0, overwrite_input=True)
     uv = p[idx] @ basis  # (k, 2)
-    lo = np.full((nlab, 2), np.inf)
-    hi = np.full((nlab, 2), -np.inf)
-    np.minimum.at(lo, lab, uv)
-    np.maximum.at(hi, lab, uv)
+    lo, hi = _bounds(uv, lab, nlab)
     sides = np.concatenate([lo - lo_p, hi_p - hi], axis=1)  # (nlab, 4)
     return np.count_nonzero(sides >= _FOOTPRINT_MARGIN, axis=1) >= _FOOTPRINT_SIDES
+
+
+def _bounds(values: Array, lab: NDArray[np.int64], nlab: int) -> tuple[Array, Array]:
+    """Per label, the least and greatest of ``values`` ``(k, d)`` over the points
+    of that label ``lab`` ``(k,)``: two ``(nlab, d)`` arrays, ``inf`` and
+    ``-inf`` for a label without points. One column at a time, where
+    ``ufunc.at`` takes its fast one-dimensional path."""
+    lo = np.full((nlab, values.shape[1]), np.inf)
+    hi = np.full((nlab, values.shape[1]), -np.inf)
+    for k in range(values.shape[1]):
+        np.minimum.at(lo[:, k], lab, values[:, k])
+        np.maximum.at(hi[:, k], lab, values[:, k])
+    return lo, hi
 
 
 class _PlaneFinder:
@@ -312,7 +320,10 @@ class _PlaneFinder:
         inliers = self.remaining[inl]
         wide = False
         if inliers.size:
-            lo, hi = np.percentile(self.p[inliers], [1, 99], axis=0)
+            # a gathered copy, which the partition may reorder in place
+            lo, hi = np.percentile(
+                self.p[inliers], [1, 99], axis=0, overwrite_input=True
+            )
             wide = bool(np.linalg.norm(hi - lo) > o.max_object_extent / 2.0)
         self.planes.append((normal, offset, inliers, wide))
         if inliers.size < o.min_plane_points:
