@@ -18,9 +18,15 @@ from wsgrasp.planning.dense import (
     CandidateStructure,
     StructuredPoses,
     _body_hits,
+    _boxes_clear,
+    _count_depth,
+    _count_every_point,
+    _count_in_slab,
     _held_in_slab,
+    _object_box_clear,
     _Slabs,
     hull_vertices,
+    lowest_heights,
     table_bounds,
     table_exact,
 )
@@ -59,23 +65,40 @@ class _Forced:
     ``loop`` (its plain Python function, so that its logic is tested without
     numba) or left as installed."""
 
-    def __init__(self, balls: bool, loop=None) -> None:
-        # loop: (finger loop, body loop), each a callable or None (no numba)
-        self.balls, self.loop = balls, loop
+    def __init__(self, balls: bool, loop=None, counts: str = "keep") -> None:
+        # loop: (finger loop, body loop), each a callable or None (no numba);
+        # counts: "keep" (holdings computed and kept, the small-set path),
+        # "count" (counts only, holdings built when read) or "depth" (counts
+        # through the depth grid and its sphere lists at any chunk size)
+        self.balls, self.loop, self.counts = balls, loop, counts
 
     def __enter__(self):
         N = _dense_numba
-        self.saved = (dense._BALLS_FROM, dense._COMPILED_FROM)
+        self.saved = (
+            dense._BALLS_FROM,
+            dense._COMPILED_FROM,
+            dense._KEEP_ENTRIES,
+            dense._DEPTH_FROM,
+        )
         self.saved_loops = (N._compiled, N._compiled_body)
         if self.balls:
             dense._BALLS_FROM = 0
         dense._COMPILED_FROM = 0
+        if self.counts != "keep":
+            dense._KEEP_ENTRIES = -1
+        if self.counts == "depth":
+            dense._DEPTH_FROM = 0
         if self.loop is not None:
             N._compiled, N._compiled_body = self.loop
         return self
 
     def __exit__(self, *exc):
-        dense._BALLS_FROM, dense._COMPILED_FROM = self.saved
+        (
+            dense._BALLS_FROM,
+            dense._COMPILED_FROM,
+            dense._KEEP_ENTRIES,
+            dense._DEPTH_FROM,
+        ) = self.saved
         _dense_numba._compiled, _dense_numba._compiled_body = self.saved_loops
 
 
@@ -180,14 +203,19 @@ def test_structured_evaluation_matches_reference(seed, rotvec, shift, n_orient):
     )
     _, T_wg, _, _ = candidate_poses(T_wo, samples, R, g.T_gripper_gwc, depth)
     structure = CandidateStructure(T_wo, samples, R, depth)
-    with _Forced(balls=bool(seed % 2)):  # with and without the ball proofs
+    # with and without the ball proofs; holdings kept, or counts only (through
+    # the depth grid's sphere lists, or as the chunk size chooses)
+    mode = ("keep", "count", "depth")[seed % 3]
+    with _Forced(balls=bool(seed % 2), counts=mode):
         fast = evaluate_candidates(T_wg, g, obj, obs, table, structure=structure)
+        fast_holding = fast.holding  # a counting mode builds it when read
     plain = evaluate_candidates(T_wg, g, obj, obs, table)
     ref = reference_search(g, T_wo, samples, R, obj, obs, table, depth)
     np.testing.assert_array_equal(fast.reason, ref.reason)
     np.testing.assert_array_equal(fast.contacts, ref.contacts)
     np.testing.assert_array_equal(fast.feasible, plain.feasible)
-    np.testing.assert_array_equal(fast.holding, plain.holding)
+    np.testing.assert_array_equal(fast_holding, plain.holding)
+    np.testing.assert_array_equal(fast.holdings.counts, plain.contacts[plain.feasible])
     # a scoring input, not a verdict: equal to rounding (the matrix products
     # group candidates differently)
     np.testing.assert_allclose(
@@ -392,21 +420,21 @@ def test_compiled_finger_loop_gives_the_numpy_paths_answers(seed, n_orient):
     structure = CandidateStructure(T_wo, samples, R, depth)
     sp = FingerSpheres(g)
 
-    def run(loop):
-        with _Forced(balls=bool(seed % 3), loop=loop):
-            return evaluate_candidates(
-                T_wg, g, obj, obs, table, sp, structure=structure
-            )
+    def run(loop, counts):
+        with _Forced(balls=bool(seed % 3), loop=loop, counts=counts):
+            ev = evaluate_candidates(T_wg, g, obj, obs, table, sp, structure=structure)
+            return ev, ev.holding  # the holdings from the kernel under test
 
-    numpy_path = run((None, None))  # available() is False: the numpy path
+    numpy_path, numpy_holding = run((None, None), "keep")  # the numpy path
     loops = [(_dense_numba._held_loop, _dense_numba._body_loop)]
     if _dense_numba.available():
         loops.append((_dense_numba._compiled, _dense_numba._compiled_body))
     for loop in loops:
-        got = run(loop)
-        np.testing.assert_array_equal(got.reason, numpy_path.reason)
-        np.testing.assert_array_equal(got.contacts, numpy_path.contacts)
-        np.testing.assert_array_equal(got.holding, numpy_path.holding)
+        for counts in ("keep", "count"):
+            got, holding = run(loop, counts)
+            np.testing.assert_array_equal(got.reason, numpy_path.reason)
+            np.testing.assert_array_equal(got.contacts, numpy_path.contacts)
+            np.testing.assert_array_equal(holding, numpy_holding)
 
 
 @SETTINGS
@@ -486,3 +514,135 @@ def test_inscribed_balls_lie_inside_their_superellipsoids(axes, exponent, seed):
             semi[e : e + 1],
             exponent,
         ).all()
+
+
+def _finger_boxes(g):
+    nf = g.num_fingers
+    mine = [g.sphere_finger == f for f in range(nf)]
+    lo = np.stack(
+        [(g.sphere_centers - g.sphere_radii[:, None])[m].min(0) for m in mine]
+    )
+    hi = np.stack(
+        [(g.sphere_centers + g.sphere_radii[:, None])[m].max(0) for m in mine]
+    )
+    return lo, hi
+
+
+@SETTINGS
+@given(
+    seed=st.integers(0, 10_000),
+    fingers=st.integers(1, 4),
+    spheres=st.integers(1, 40),
+    spread=st.floats(0.01, 0.1),
+    k=st.integers(0, 2),
+)
+def test_counting_kernels_match_every_point(seed, fingers, spheres, spread, k):
+    """Points held per finger, counted through the depth grid and its sphere
+    lists, through a slab, or point by point, are the counts of the exact test
+    of every point against every sphere, for random sphere sets (3-30 mm) and
+    translations."""
+    g = _hand(seed, fingers, spheres)
+    sp = FingerSpheres(g)
+    depth = FingerDepth(g.sphere_centers, g.sphere_radii, g.sphere_finger, fingers)
+    rng = np.random.default_rng(seed)
+    q, n, m = 3, 150, 24
+    Q = rng.normal([0.0, 0.0, 0.1], spread, (q, n, 3)).transpose(0, 2, 1)
+    ol = np.sort(rng.integers(0, q, m))
+    u = rng.normal(0.0, 0.3 * spread, (m, 3))
+    p = Q[ol].transpose(0, 2, 1) - u[:, None, :]  # (m, n, 3) gripper frame
+    d2 = ((p[:, :, None, :] - g.sphere_centers) ** 2).sum(-1)  # (m, n, s)
+    inside = d2 < g.sphere_radii**2
+    truth = np.stack(
+        [inside[..., g.sphere_finger == f].any(-1) for f in range(fingers)], -1
+    ).sum(axis=1)  # (m, nf)
+    cand = np.arange(m)
+    np.testing.assert_array_equal(_count_depth(depth, sp, Q, ol, u, cand), truth)
+    np.testing.assert_array_equal(_count_every_point(sp, Q, ol, u, cand), truth)
+    lo, hi = _finger_boxes(g)
+    got = _count_in_slab(_Slabs(Q), ol, u, cand, sp, k, lo, hi)
+    np.testing.assert_array_equal(got, truth)
+    # a subset of the candidates, in any order
+    some = rng.permutation(m)[: m // 2]
+    np.testing.assert_array_equal(_count_depth(depth, sp, Q, ol, u, some), truth[some])
+
+
+@SETTINGS
+@given(
+    seed=st.integers(0, 10_000),
+    fingers=st.integers(1, 4),
+    spheres=st.integers(1, 40),
+)
+def test_sphere_lists_hold_every_sphere_that_can_hold_a_point(seed, fingers, spheres):
+    """At a point whose nearest node the depth grid leaves unsure for a finger,
+    every sphere of that finger holding the point is in the node's list."""
+    g = _hand(seed, fingers, spheres)
+    depth = FingerDepth(g.sphere_centers, g.sphere_radii, g.sphere_finger, fingers)
+    node_id, lists, centers, radii = depth.sphere_lists()
+    rng = np.random.default_rng(seed)
+    # points near the spheres' surfaces, where nodes are unsure
+    s = rng.integers(0, len(g.sphere_radii), 4000)
+    v = rng.normal(size=(4000, 3))
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    r = g.sphere_radii[s] * rng.uniform(0.9, 1.1, 4000)
+    pts = g.sphere_centers[s] + v * r[:, None]  # (n, 3)
+    Q, ol, u = pts.T[None], np.zeros(1, dtype=np.int64), np.zeros((1, 3))
+    flat = depth.nodes_at(Q, ol, u)[0]  # (n,)
+    code = depth.codes[flat]
+    open_f = depth.unsure_fingers[code]  # (n, nf)
+    assert open_f.any()
+    inside = ((pts[:, None, :] - g.sphere_centers) ** 2).sum(-1) < g.sphere_radii**2
+    for f in range(fingers):
+        at = np.flatnonzero(open_f[:, f])
+        listed = lists[node_id[flat[at]], f]  # (k, K)
+        assert np.all(node_id[flat[at]] >= 0)
+        for sphere in np.flatnonzero(g.sphere_finger == f):
+            holds = inside[at, sphere]
+            assert np.all((listed[holds] == sphere).any(axis=1))
+    assert radii[-1] == 0.0 and len(centers) == len(radii) == len(g.sphere_radii) + 1
+
+
+@SETTINGS
+@given(
+    seed=st.integers(0, 10_000),
+    rotvec=st.tuples(*[st.floats(-3.0, 3.0)] * 3),
+    shift=st.tuples(*[st.floats(-2.0, 2.0)] * 3),
+    n_orient=st.integers(1, 30),
+)
+def test_lowest_heights_are_the_clouds_lowest_points(seed, rotvec, shift, n_orient):
+    """The lowest gripper-cloud point above the table from the per-orientation
+    support vertex is the lowest of every cloud point, to rounding."""
+    g = make_jaw_gripper(seed=seed)
+    obj, T_wo, samples, R, depth, _, table = _scene(
+        seed, _frame(rotvec, shift), n_orient, False
+    )
+    _, T_wg, _, _ = candidate_poses(T_wo, samples, R, g.T_gripper_gwc, depth)
+    poses = StructuredPoses.build(
+        CandidateStructure(T_wo, samples, R, depth), g.T_gripper_gwc
+    )
+    rng = np.random.default_rng(seed)
+    index = np.sort(rng.choice(len(T_wg), min(len(T_wg), 50), replace=False))
+    got = lowest_heights(poses, hull_vertices(g.cloud), table, index)
+    T = np.linalg.inv(table.T_world_table) @ T_wg[index]
+    z = np.einsum("cj,nj->cn", T[:, 2, :3], g.cloud) + T[:, 2, 3][:, None]
+    np.testing.assert_allclose(got, z.min(axis=1), rtol=0, atol=1e-12)
+
+
+@SETTINGS
+@given(seed=st.integers(0, 10_000), n_orient=st.integers(1, 30))
+def test_box_separation_per_orientation_matches_per_candidate(seed, n_orient):
+    """The object-box test from per-orientation products gives the verdicts of
+    the per-candidate boxes."""
+    g = make_jaw_gripper(seed=seed)
+    obj, T_wo, samples, R, depth, _, _ = _scene(seed, np.eye(4), n_orient, False)
+    poses = StructuredPoses.build(
+        CandidateStructure(T_wo, samples, R, depth), g.T_gripper_gwc
+    )
+    C = len(samples) * len(R)
+    s, o = np.divmod(np.arange(C), len(R))
+    Q = np.matmul(poses.R.transpose(0, 2, 1), obj.T)  # (O, 3, no)
+    lo, hi = Q.min(axis=2), Q.max(axis=2)
+    u = np.matmul((poses.A[s] + poses.B[o])[:, None, :], poses.R[o])[:, 0]
+    se_lo, se_hi = g.se_centers - g.se_semi_axes, g.se_centers + g.se_semi_axes
+    want = _object_box_clear(lo[o], hi[o], u, se_lo, se_hi)
+    got = _boxes_clear(poses, s, o, lo, hi, se_lo, se_hi)
+    np.testing.assert_array_equal(got, want)

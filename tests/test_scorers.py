@@ -163,3 +163,64 @@ def test_joint_margin_prefers_contacts_inside_the_joint_range():
         )
         scores.append(float(scorer.score(batch, opts)[0]))
     assert scores[1] > 0.8 and scores[0] < 0.2 and scores[2] < 0.2, scores
+
+
+@pytest.mark.parametrize("seed", range(4), ids=lambda s: f"seed{s}")
+def test_contact_quantities_from_held_points_match_the_mask(seed):
+    """Counts, centroids and normals per finger equal those of the float mask's
+    products (to rounding), and every built-in scorer gives the same values
+    from holdings built on demand as from the mask, without building it."""
+    from wsgrasp.planning._holdings import Holdings
+
+    rng = np.random.default_rng(seed)
+    F, no, nf = 30, 50, 2
+    holding = rng.random((F, no, nf)) < 0.2
+    holding[0, :, 1] = False  # a finger that holds nothing
+    points = rng.normal(0.0, 0.05, (no, 3))
+    normals = rng.normal(size=(no, 3))
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    T = np.tile(np.eye(4), (F, 1, 1))
+    T[:, :3, 3] = rng.normal(0.0, 0.05, (F, 3))
+
+    def batch(h):
+        return CandidateBatch(
+            gripper=make_jaw_gripper(),
+            T_world_gwc=T,
+            T_world_gripper=T,
+            theta=np.zeros(F),
+            holding=h,
+            object_points=points,
+            T_world_object=np.eye(4),
+            extents=np.array([0.06, 0.06, 0.1]),
+            table_normal=np.array([0.0, 0.0, 1.0]),
+            min_table_height=np.full(F, 0.01),
+            normals_fn=lambda p: normals,
+            T_world_table=np.eye(4),
+        )
+
+    dense = batch(holding)
+    weights = holding.transpose(0, 2, 1).astype(np.float64)  # (F, nf, no)
+    counts = np.count_nonzero(holding, axis=1)
+    np.testing.assert_array_equal(dense.contacts, counts)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        centroids = (weights @ points) / counts[..., None]
+    np.testing.assert_allclose(dense.contact_centroids, centroids, rtol=1e-12)
+    n = weights @ normals
+    norm = np.linalg.norm(n, axis=-1, keepdims=True)
+    unit = np.divide(n, norm, out=np.zeros_like(n), where=norm > 0)
+    np.testing.assert_allclose(dense.contact_normals, unit, rtol=1e-12, atol=1e-15)
+
+    built: list[int] = []
+
+    def rows(i):
+        built.append(len(i))
+        return holding[i]
+
+    lazy = batch(Holdings(counts, no, rows=rows))
+    for name in ("contact_balance", "antipodal", "mass_center", "centroid_distance"):
+        scorer, opts = _scorer(name)
+        np.testing.assert_array_equal(
+            scorer.score(lazy, opts), scorer.score(dense, opts)
+        )
+    assert "holding" not in lazy.__dict__ and isinstance(lazy._holding, Holdings)
+    assert not lazy._holding.is_dense  # the sums read blocks; no mask was kept

@@ -3,17 +3,21 @@
 Two conservative tests, both exact where they decide and silent where they cannot:
 
 ``ObjectDistance``
-    The object's distance field on a voxel grid (``scipy.ndimage``'s Euclidean
-    distance transform of its occupancy), queried at ball centres: a ball inscribed
-    in a body superellipsoid that provably holds an object point proves the body
-    hits the object. Distances are rotation-invariant, so one grid in the world
-    frame serves every orientation.
+    The distance from each voxel centre of a grid to the nearest object point
+    (exact, from a KD-tree, for the voxels that ``scipy.ndimage``'s Euclidean
+    distance transform of the occupancy puts near the object), queried at ball
+    centres: the nearest point lies at most the query's distance to its voxel's
+    centre farther, so a ball inscribed in a body superellipsoid that provably
+    holds an object point proves the body hits the object. Distances are
+    rotation-invariant, so one grid in the world frame serves every orientation.
 ``FingerDepth``
     Per finger, ``D(y) = max_k (r_k - |y - c_k|)`` at the nodes of a grid in the
     gripper frame (the depth of ``y`` inside the finger's union of spheres, exact
     outside it, a lower bound inside). ``D`` is 1-Lipschitz, so a point within
     ``t`` of a node is held where ``D > t`` (strictly inside the sphere that
-    gives ``D``) and not held where ``D < -t`` (outside every sphere).
+    gives ``D``) and not held where ``D < -t`` (outside every sphere). At the
+    nodes it leaves unsure, a short list of the finger's spheres that can hold a
+    point nearest the node decides (``FingerDepth.sphere_lists``).
 
 Both keep ``MARGIN`` (m) on the safe side of every bound, far above rounding in
 the coordinates and in the float32 grids, so a verdict decided here is the one the
@@ -27,6 +31,7 @@ import weakref
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
+from scipy.spatial import cKDTree
 
 from wsgrasp.planning.spheres import FingerSpheres
 
@@ -128,11 +133,18 @@ class ObjectDistance:
         occupied = np.zeros(tuple(self.shape), dtype=bool)
         ijk = np.floor((p - self.origin) / h).astype(np.int64)
         occupied[ijk[:, 0], ijk[:, 1], ijk[:, 2]] = True
-        # distance from each voxel centre to the nearest occupied voxel's centre
-        dist = ndimage.distance_transform_edt(~occupied, sampling=h)
-        # a point lies within h√3/2 of its voxel's centre, a query within h√3/2
-        # of its own: the nearest point is at most this far from the query
-        self.upper = (np.asarray(dist) + h * _SQRT3).astype(np.float32).ravel()
+        # distance from each voxel centre to the nearest occupied voxel's centre;
+        # the nearest point is within h√3/2 of that, so only voxels closer than
+        # reach + h√3/2 can prove anything, and get their exact distance to the
+        # nearest point (a KD-tree query); the others never prove
+        dist = np.asarray(ndimage.distance_transform_edt(~occupied, sampling=h))
+        near = np.flatnonzero(dist.ravel() < reach + 0.5 * h * _SQRT3)
+        ijk_near = np.stack(np.unravel_index(near, tuple(self.shape)), axis=1)
+        centres = self.origin + (ijk_near + 0.5) * h  # (v, 3)
+        d, _ = cKDTree(p).query(centres, distance_upper_bound=reach + h)
+        self.upper = np.full(int(np.prod(self.shape)), np.inf, dtype=np.float32)
+        # float32 moves a distance by far less than MARGIN
+        self.upper[near] = np.asarray(d, dtype=np.float32)
         self.strides = np.array([shape[1] * shape[2], shape[2], 1], dtype=np.int64)
 
     def within(self, x: Array, radius: float) -> NDArray[np.bool_]:
@@ -140,11 +152,16 @@ class ObjectDistance:
         each query ``x`` (k, 3): (k,) bool; False where not proven."""
         if self.empty:
             return np.zeros(len(x), dtype=bool)
-        q = np.floor((x - self.origin) * (1.0 / self.cell)).astype(np.int64)  # (k, 3)
+        g = np.floor((x - self.origin) * (1.0 / self.cell))  # (k, 3) voxel, float
+        # the query's distance to its voxel's centre: the nearest point lies
+        # at most that much farther from the query than from the centre
+        off = x - (self.origin + (g + 0.5) * self.cell)
+        to_centre = np.sqrt(np.einsum("ij,ij->i", off, off))
+        q = g.astype(np.int64)
         inside = np.all((q >= 0) & (q < self.shape), axis=1)
         np.clip(q, 0, self.shape - 1, out=q)
         flat = q[:, 0] * self.strides[0] + q[:, 1] * self.strides[1] + q[:, 2]
-        return inside & (self.upper[flat] < radius - MARGIN)
+        return inside & (self.upper[flat] + to_centre < radius - MARGIN)
 
     def hits(
         self,
@@ -221,6 +238,11 @@ class FingerDepth:
             h *= 1.25
         self.cell = h
         self.lim = lim = 0.5 * _SQRT3 * h + MARGIN
+        self.centers = np.asarray(centers, dtype=np.float64)
+        self.radii = np.asarray(radii, dtype=np.float64)
+        self.finger = np.asarray(finger, dtype=np.int64)
+        self._lists: tuple[NDArray[np.int32], NDArray[np.int32], Array, Array] | None
+        self._lists = None
         reach = 2.0 * lim  # nodes farther than this from every sphere: D < -lim
         lo, hi = lo0 - reach - h, hi0 + reach + h
         shape = np.ceil((hi - lo) / h).astype(np.int64) + 1
@@ -287,9 +309,10 @@ class FingerDepth:
 
     def counts(
         self, Q: Array, ol: NDArray[np.int64], u: Array
-    ) -> tuple[NDArray[np.int64], NDArray[np.uint8]]:
-        """Per candidate and finger, the points it provably holds, and each
-        point's code (for :attr:`unsure_fingers`).
+    ) -> tuple[NDArray[np.int64], NDArray[np.uint8], NDArray[np.int32]]:
+        """Per candidate and finger, the points it provably holds, each point's
+        code (for :attr:`unsure_fingers`) and nearest node (for
+        :meth:`sphere_lists`).
 
         Parameters as :meth:`held_points`.
 
@@ -297,18 +320,22 @@ class FingerDepth:
         -------
         counts : (m, nf) int
         code : (m, n) uint8
+        flat : (m, n) int32
+            Each point's nearest node.
         """
-        code = self.codes_at(Q, ol, u)  # (m, n)
+        flat = self.nodes_at(Q, ol, u)  # (m, n)
+        code = np.take(self.codes, flat)  # faster than self.codes[flat]
         m, n = code.shape
         nf = self._held.shape[1]
         if n < 2**16:
             # each finger's held bit in its own 16-bit lane: one sum per row
             # counts every finger at once (a row's count stays below 2**16)
-            total = self._packed[code].sum(axis=1, dtype=np.uint64)  # (m,)
+            total = np.take(self._packed, code).sum(axis=1, dtype=np.uint64)  # (m,)
             shift = (16 * np.arange(nf)).astype(np.uint64)
             counts = (total[:, None] >> shift[None, :]) & np.uint64(0xFFFF)
-            return counts.astype(np.int64), code
-        return np.count_nonzero(self._held[code], axis=1).astype(np.int64), code
+            return counts.astype(np.int64), code, flat
+        held = np.count_nonzero(self._held[code], axis=1).astype(np.int64)
+        return held, code, flat
 
     @property
     def unsure_fingers(self) -> NDArray[np.bool_]:
@@ -322,6 +349,11 @@ class FingerDepth:
 
     def codes_at(self, Q: Array, ol: NDArray[np.int64], u: Array) -> NDArray[np.uint8]:
         """The code of each point's nearest node, (m, n) uint8 (parameters as
+        :meth:`held_points`)."""
+        return self.codes[self.nodes_at(Q, ol, u)]  # type: ignore[no-any-return]
+
+    def nodes_at(self, Q: Array, ol: NDArray[np.int64], u: Array) -> NDArray[np.int32]:
+        """Each point's nearest node (flat index), (m, n) int32 (parameters as
         :meth:`held_points`)."""
         h = self.cell
         m, n = len(ol), Q.shape[2]
@@ -352,7 +384,71 @@ class FingerDepth:
                     np.multiply(t[sl].astype(np.int32), strides[0], out=flat[sl])
                 else:
                     flat[sl] += t[sl].astype(np.int32) * strides[k]
-        return self.codes[flat]  # type: ignore[no-any-return]
+        return flat
+
+    def sphere_lists(
+        self,
+    ) -> tuple[NDArray[np.int32], NDArray[np.int32], Array, Array]:
+        """Per node left unsure for some finger, the spheres a point nearest it
+        can lie in (built on first use, then kept).
+
+        A point ``y`` lies within ``lim - MARGIN`` of its nearest node ``n``, so a
+        sphere holding it has ``r - |n - c| > -lim``; at an unsure node no sphere
+        has ``r - |n - c| > lim``. The list of finger ``f`` at ``n`` is its
+        spheres with ``r - |n - c| > -lim``: few (a node is unsure only near the
+        surface of the finger's union of spheres).
+
+        Returns
+        -------
+        node_id : (nodes,) int32
+            Compact id of each node unsure for some finger, -1 elsewhere.
+        lists : (u, nf, K) int32
+            Per compact id and finger, sphere ids (into ``centers``), padded
+            with ``len(centers)``, the id of a sphere of radius 0 (holds no point).
+        centers : (s + 1, 3) float
+        radii : (s + 1,) float
+        """
+        if self._lists is not None:
+            return self._lists
+        nf = self._held.shape[1]
+        unsure_any = self._unsure[self.codes]  # (nodes,)
+        nodes = np.flatnonzero(unsure_any)
+        node_id = np.full(len(self.codes), -1, dtype=np.int32)
+        node_id[nodes] = np.arange(len(nodes), dtype=np.int32)
+        ijk = np.stack(np.unravel_index(nodes, tuple(self.shape)), axis=1)
+        pos = self.origin + ijk * self.cell  # (u, 3) node positions
+        S = len(self.radii)
+        per: list[tuple[int, NDArray[np.int64], NDArray[np.int64]]] = []
+        width = 1
+        tree = cKDTree(pos) if len(pos) else None
+        for f in range(nf):
+            mine = np.flatnonzero(self.finger == f)
+            open_f = np.flatnonzero(self._unsure_f[self.codes[nodes], f])  # (v,)
+            if tree is None or mine.size == 0 or open_f.size == 0:
+                continue
+            # every (node, sphere) pair closer than r + lim, then r - |n - c| > -lim
+            pairs = cKDTree(self.centers[mine]).sparse_distance_matrix(
+                tree, float(self.radii[mine].max()) + self.lim, output_type="ndarray"
+            )
+            k, n, d = pairs["i"], pairs["j"], pairs["v"]
+            keep = (self.radii[mine][k] - d > -self.lim) & self._unsure_f[
+                self.codes[nodes[n]], f
+            ]
+            k, n = mine[k[keep]], n[keep]
+            order = np.lexsort((k, n))
+            k, n = k[order], n[order]
+            counts = np.bincount(n, minlength=len(nodes))
+            width = max(width, int(counts.max()) if counts.size else 1)
+            per.append((f, n, k))
+        lists = np.full((len(nodes), nf, width), S, dtype=np.int32)
+        for f, n, k in per:
+            first = np.searchsorted(n, n, side="left")  # each pair's rank at its node
+            rank = np.arange(len(n)) - first
+            lists[n, f, rank] = k
+        centers = np.vstack([self.centers, np.zeros((1, 3))])
+        radii = np.append(self.radii, 0.0)
+        self._lists = (node_id, lists, centers, radii)
+        return self._lists
 
 
 _CACHE: weakref.WeakKeyDictionary[FingerSpheres, FingerDepth] = (

@@ -59,13 +59,17 @@ MARGIN = 1e-9
 _CHUNK_CANDIDATES = 262_144
 #: at most this many (candidate, point) pairs through the sphere grid at once
 _CHUNK_PAIRS = 100_000
+#: at most this many unsure (candidate, point) pairs through the sphere lists at once
+_CHUNK_LISTED = 1_000_000
 #: from this many candidates on, the object's distance grid proves body hits
 _BALLS_FROM = 20_000
 #: from this many (candidate, point) pairs on, the compiled finger loop runs
 _COMPILED_FROM = 1_000_000
+#: from this many candidates of a chunk on, the finger test reads the depth grid
+_DEPTH_FROM = 1024
 #: up to this many (candidate, point, finger) entries, the finger test keeps the
 #: holdings it computes; beyond, it counts, and builds holdings when asked
-_KEEP_ENTRIES = 4_000_000
+_KEEP_ENTRIES = 24_000_000
 
 
 @dataclass(frozen=True)
@@ -393,9 +397,15 @@ def body_and_fingers(
 
     The rest get the exact tests: a subset of ``coarse`` points first (a hit by a
     subset is a hit), then every point in a superellipsoid's slab; the points the
-    depth grid leaves undecided through the sphere grid of ``spheres``. With numba
-    installed (and ``compiled``), the finger test is one compiled loop over every
-    point instead (``_dense_numba``), with the same answers.
+    depth grid leaves undecided against the spheres listed at their node (or
+    through the sphere grid of ``spheres``). With numba installed (and
+    ``compiled``), the finger test is one compiled loop over every point instead
+    (``_dense_numba``), with the same answers.
+
+    The finger test counts the points each finger holds; the feasible
+    candidates' holdings come back as ``Holdings``, computed and kept when they
+    are few (up to ``_KEEP_ENTRIES`` bools), else built when something reads
+    them, with the same kernels.
     """
     g, sp = gripper, spheres
     nf = int(g.num_fingers)
@@ -575,7 +585,7 @@ class _Fingers:
                 continue
             ext = float(np.ptp(Q[:, self.k, :], axis=1).max()) if Q.size else 0.0
             slab = self.width < 0.5 * ext  # the slab leaves most points out
-            if len(need) >= 1024 and not (slab and len(need) >= 8 * len(Q)):
+            if len(need) >= _DEPTH_FROM and not (slab and len(need) >= 8 * len(Q)):
                 out[rows[need]] = _count_depth(self.depth, self.sp, Q, ol, u, need)
             elif slab and len(need) >= 2 * len(Q):
                 out[rows[need]] = _count_in_slab(
@@ -604,7 +614,7 @@ class _Fingers:
                 held_by_fingers(
                     self.sp, self.depth, Q, ol[need], u[need], out, dest, self.loop
                 )
-            elif len(need) >= 1024 and len(need) < 8 * len(Q):
+            elif len(need) >= _DEPTH_FROM and len(need) < 8 * len(Q):
                 # few candidates per orientation: sorting the points per
                 # orientation for the slab costs more than the depth grid saves
                 out[dest] = _held_numpy(self.depth, self.sp, Q, ol, u, need)
@@ -624,25 +634,48 @@ def _count_depth(
     c: NDArray[np.int64],
 ) -> NDArray[np.int64]:
     """Points held per finger for candidates ``c`` (n,): the depth grid counts
-    the points it proves held, the sphere grid decides the ones it leaves
-    unsure: (n, nf) int."""
-    counts, code = depth.counts(Q, ol[c], u[c])  # (n, nf), (n, no)
-    row, j = np.nonzero(depth.unsure_codes[code])
+    the points it proves held; a point it leaves unsure for a finger is tested
+    against the few spheres listed at its node (``FingerDepth.sphere_lists``),
+    with the sphere grid's arithmetic: (n, nf) int."""
+    counts, code, flat = depth.counts(Q, ol[c], u[c])  # (n, nf), (n, no) × 2
+    no = code.shape[1]
+    # np.take on flat indices: several times faster than fancy indexing here
+    unsure = np.flatnonzero(np.take(depth.unsure_codes, code))  # (pairs,) flat
     open_f = depth.unsure_fingers
+    node_id, lists, centers, radii = depth.sphere_lists()
+    pad = len(radii) - 1  # the padding's sphere, of radius 0
     n = len(c)
-    for b in range(0, len(row), _CHUNK_PAIRS):  # bounds the sphere lists
-        rb, jb = row[b : b + _CHUNK_PAIRS], j[b : b + _CHUNK_PAIRS]
-        cb = c[rb]
-        qb = ol[cb]
-        held = sp.holding_coordinates(
-            Q[qb, 0, jb] - u[cb, 0],
-            Q[qb, 1, jb] - u[cb, 1],
-            Q[qb, 2, jb] - u[cb, 2],
-        )  # (pairs, nf)
-        # only the fingers the depth grid left open: the others are counted
-        held &= open_f[code[rb, jb]]
-        for f in range(held.shape[1]):
-            counts[:, f] += np.bincount(rb[held[:, f]], minlength=n)
+    Qf = Q.reshape(-1)  # (q * 3 * no,)
+    for b in range(0, len(unsure), _CHUNK_LISTED):  # bounds the temporaries
+        at = unsure[b : b + _CHUNK_LISTED]
+        rb, jb = np.divmod(at, no)
+        cb = np.take(c, rb)
+        base = np.take(ol, cb) * (3 * no) + jb  # Q[ol[cb], 0, jb], flat
+        x = np.take(Qf, base) - np.take(u[:, 0], cb)  # (pairs,) gripper frame
+        y = np.take(Qf, base + no) - np.take(u[:, 1], cb)
+        z = np.take(Qf, base + 2 * no) - np.take(u[:, 2], cb)
+        nid = np.take(node_id, np.take(flat, at))  # all >= 0: the nodes are unsure
+        todo = open_f[np.take(code, at)]  # (pairs, nf) the fingers left open
+        for f in range(todo.shape[1]):
+            p = np.flatnonzero(todo[:, f])  # pairs open for finger f
+            mine = lists[np.take(nid, p), f]  # (p, K) candidate spheres, padded
+            held = np.zeros(len(p), dtype=bool)
+            act = np.arange(len(p))
+            for t in range(mine.shape[1]):
+                sid = mine[act, t]
+                real = sid != pad  # a list ends at its first padding
+                act, sid = act[real], sid[real]
+                if act.size == 0:
+                    break
+                pa = np.take(p, act)
+                dx = np.take(x, pa) - np.take(centers[:, 0], sid)
+                dy = np.take(y, pa) - np.take(centers[:, 1], sid)
+                dz = np.take(z, pa) - np.take(centers[:, 2], sid)
+                r = np.take(radii, sid)
+                inside = dx * dx + dy * dy + dz * dz < r * r
+                held[act[inside]] = True
+                act = act[~inside]
+            counts[:, f] += np.bincount(rb[p[held]], minlength=n)
     return counts
 
 
@@ -825,7 +858,7 @@ def _held_in_slab(
     lo, hi = f_lo.min(axis=0), f_hi.max(axis=0)  # the fingers' box, gripper frame
     k = int(np.argmin(hi - lo))
     pair, j, r = slabs.pairs(ol[cand], u[cand, k], k, float(lo[k]), float(hi[k]))
-    many = len(cand) >= 1024  # below, the depth grid saves less than it costs
+    many = len(cand) >= _DEPTH_FROM  # below, the depth grid saves less than it costs
     if depth is not None and many and len(pair) > 0.25 * len(cand) * slabs.n:
         return _held_numpy(depth, spheres, Q, ol, u, cand)
     if len(pair) > 0.5 * len(cand) * slabs.n:
