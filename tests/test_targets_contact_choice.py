@@ -46,7 +46,9 @@ def _plain_contact(g, f, held, spheres, centre):
 def _cases(g, rng, n):
     """``n`` random (finger, held, spheres, centre): held points around some of
     the finger's pad centres, at several spreads; a middle far off, at the held
-    points' centroid, or beyond them; sometimes no spheres or no points."""
+    points' centroid, or beyond them; a few points just off one pad centre with
+    the middle towards their nearest pads (none of which qualifies, so farther
+    ones must); sometimes no spheres or no points."""
     for i in range(n):
         f = int(rng.integers(g.num_fingers))
         own = np.flatnonzero(g.sphere_finger == f)
