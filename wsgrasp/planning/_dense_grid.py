@@ -145,23 +145,40 @@ class ObjectDistance:
         self.upper = np.full(int(np.prod(self.shape)), np.inf, dtype=np.float32)
         # float32 moves a distance by far less than MARGIN
         self.upper[near] = np.asarray(d, dtype=np.float32)
+        # the border voxels prove nothing (a query beyond the grid is read there)
+        border = np.ones(tuple(self.shape), dtype=bool)
+        border[1:-1, 1:-1, 1:-1] = False
+        self.upper[border.ravel()] = np.inf
         self.strides = np.array([shape[1] * shape[2], shape[2], 1], dtype=np.int64)
 
     def within(self, x: Array, radius: float) -> NDArray[np.bool_]:
         """Whether some object point provably lies strictly within ``radius`` of
         each query ``x`` (k, 3): (k,) bool; False where not proven."""
+        return self.within_coordinates(x[:, 0], x[:, 1], x[:, 2], radius)
+
+    def within_coordinates(
+        self, x: Array, y: Array, z: Array, radius: float
+    ) -> NDArray[np.bool_]:
+        """:meth:`within` for queries given as three coordinate arrays (k,)."""
         if self.empty:
             return np.zeros(len(x), dtype=bool)
-        g = np.floor((x - self.origin) * (1.0 / self.cell))  # (k, 3) voxel, float
-        # the query's distance to its voxel's centre: the nearest point lies
-        # at most that much farther from the query than from the centre
-        off = x - (self.origin + (g + 0.5) * self.cell)
-        to_centre = np.sqrt(np.einsum("ij,ij->i", off, off))
-        q = g.astype(np.int64)
-        inside = np.all((q >= 0) & (q < self.shape), axis=1)
-        np.clip(q, 0, self.shape - 1, out=q)
-        flat = q[:, 0] * self.strides[0] + q[:, 1] * self.strides[1] + q[:, 2]
-        return inside & (self.upper[flat] + to_centre < radius - MARGIN)
+        inv = 1.0 / self.cell
+        flat = np.zeros(len(x))  # flat voxel index, exact in floats below 2**53
+        d2 = np.zeros(len(x))  # squared distance to the voxel's centre, in cells
+        for k, c in enumerate((x, y, z)):
+            t = (c - self.origin[k]) * inv
+            g = np.floor(t)
+            f = t - g - 0.5
+            d2 += f * f
+            # beyond the grid: read at its border, whose voxels prove nothing
+            np.clip(g, 0.0, float(self.shape[k] - 1), out=g)
+            g *= float(self.strides[k])
+            flat += g
+        # the nearest point lies at most the query's distance to its voxel's
+        # centre farther from the query than from the centre
+        to_centre = np.sqrt(d2) * self.cell
+        upper = np.take(self.upper, flat.astype(np.int64))
+        return upper + to_centre < radius - MARGIN  # type: ignore[no-any-return]
 
     def hits(
         self,
@@ -196,8 +213,11 @@ class ObjectDistance:
                 break
             if int(body[b]) in spent:
                 continue
-            x = A[s[rest]] + Bb[o[rest], b]  # (r, 3)
-            got = self.within(x, float(radius))
+            sr, orr = s[rest], o[rest]
+            got = self.within_coordinates(
+                *(np.take(A[:, k], sr) + np.take(Bb[:, b, k], orr) for k in range(3)),
+                float(radius),
+            )  # the ball centres A[s] + Bb[o, b], (r,) each
             if np.count_nonzero(got) < min_yield * len(rest):
                 spent.add(int(body[b]))
             hit[rest[got]] = True
