@@ -214,10 +214,11 @@ class ObjectDistance:
             if int(body[b]) in spent:
                 continue
             sr, orr = s[rest], o[rest]
-            got = self.within_coordinates(
-                *(np.take(A[:, k], sr) + np.take(Bb[:, b, k], orr) for k in range(3)),
-                float(radius),
-            )  # the ball centres A[s] + Bb[o, b], (r,) each
+            # the ball centres A[s] + Bb[o, b], (r,) per coordinate
+            x, y, z = (
+                np.take(A[:, k], sr) + np.take(Bb[:, b, k], orr) for k in range(3)
+            )
+            got = self.within_coordinates(x, y, z, float(radius))
             if np.count_nonzero(got) < min_yield * len(rest):
                 spent.add(int(body[b]))
             hit[rest[got]] = True
