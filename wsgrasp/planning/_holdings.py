@@ -19,12 +19,20 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["Holdings", "HoldingField"]
+__all__ = ["Holdings", "HoldingField", "count_held"]
 
 Array = NDArray[np.float64]
 
 #: the held pairs of at most this many (candidate, point, finger) entries at once
 _BLOCK_ENTRIES = 4_000_000
+
+
+def count_held(hold: NDArray[np.bool_]) -> NDArray[np.int64]:
+    """Points held per candidate and finger, ``(n, no, nf)`` -> ``(n, nf)``."""
+    # a float32 product of ones: exact (counts below 2**24), several times faster
+    # than numpy's count_nonzero over the middle axis
+    ones = np.ones(hold.shape[1], dtype=np.float32)
+    return np.matmul(ones, hold.astype(np.float32)).astype(np.int64)  # (n, nf)
 
 
 class Holdings:
@@ -60,7 +68,7 @@ class Holdings:
     def of(cls, holding: NDArray[np.bool_]) -> Holdings:
         """Holdings of a dense ``(F, no, nf)`` bool array."""
         h = np.asarray(holding, dtype=bool)
-        return cls(np.count_nonzero(h, axis=1), h.shape[1], dense=h)
+        return cls(count_held(h), h.shape[1], dense=h)
 
     @property
     def shape(self) -> tuple[int, int, int]:

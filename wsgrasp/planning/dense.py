@@ -43,7 +43,7 @@ from wsgrasp.planning._dense_grid import (
     inscribed_balls,
 )
 from wsgrasp.planning._dense_numba import held_by_fingers
-from wsgrasp.planning._holdings import Holdings
+from wsgrasp.planning._holdings import Holdings, count_held
 from wsgrasp.planning.spheres import FingerSpheres
 
 if TYPE_CHECKING:
@@ -513,7 +513,7 @@ def body_and_fingers(
     if len(live) * no * nf <= _KEEP_ENTRIES:
         # few: the holdings themselves, counted, and the feasible ones kept
         held = fingers.holding(s_all[live], o_all[live])  # (k, no, nf)
-        counts = np.count_nonzero(held, axis=1)
+        counts = count_held(held)
     else:
         counts = fingers.counts(s_all[live], o_all[live])
     contacts[live] = counts
@@ -726,7 +726,7 @@ def _count_every_point(
         held = sp.holding_coordinates(
             *(Q[rb, i] - u[cb, i, None] for i in range(3))
         )  # (b, no, nf)
-        counts[a : a + step] = np.count_nonzero(held, axis=1)
+        counts[a : a + step] = count_held(held)
     return counts
 
 

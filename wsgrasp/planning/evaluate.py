@@ -23,7 +23,7 @@ from wsgrasp.geometry import (
     invert_transforms,
 )
 from wsgrasp.gripper.model import GripperModel
-from wsgrasp.planning._holdings import HoldingField, Holdings
+from wsgrasp.planning._holdings import HoldingField, Holdings, count_held
 from wsgrasp.planning.dense import (
     CandidateStructure,
     StructuredPoses,
@@ -257,7 +257,7 @@ def evaluate_candidates(
         # (no, b, nf) -> (b, no, nf)
         held = spheres.holding_coordinates(*(c[:, keep] for c in xyz))
         held = held.transpose(1, 0, 2)
-        counts = np.count_nonzero(held, axis=1)  # (b, nf)
+        counts = count_held(held)  # (b, nf)
         kept_idx = idx[keep]
         contacts[kept_idx] = counts
         ok = np.all(counts > 0, axis=1)
