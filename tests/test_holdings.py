@@ -31,16 +31,21 @@ def _lazy(holding: np.ndarray, calls: list[int]) -> Holdings:
     no=st.integers(1, 60),
     nf=st.integers(1, 4),
     block=st.integers(1, 500),
+    small=st.sampled_from([0, 100, 10**9]),
 )
-def test_lazy_and_dense_holdings_read_the_same(seed, F, no, nf, block):
+def test_lazy_and_dense_holdings_read_the_same(seed, F, no, nf, block, small):
+    """Sums by held entries (bincount) or by one product per block, in blocks of
+    any size: lazy and dense holdings give the same bits, and the sums are the
+    held points' to rounding."""
     rng = np.random.default_rng(seed)
     holding = rng.random((F, no, nf)) < 0.3
     values = rng.normal(size=(no, 3))
-    saved, _holdings._BLOCK_ENTRIES = _holdings._BLOCK_ENTRIES, block
+    saved = _holdings._BLOCK_ENTRIES, _holdings._SMALL_BLOCK
+    _holdings._BLOCK_ENTRIES, _holdings._SMALL_BLOCK = block, small
     try:
         _check_lazy_and_dense(holding, values, rng, F)
     finally:
-        _holdings._BLOCK_ENTRIES = saved
+        _holdings._BLOCK_ENTRIES, _holdings._SMALL_BLOCK = saved
 
 
 def _check_lazy_and_dense(holding, values, rng, F):

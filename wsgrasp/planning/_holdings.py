@@ -25,6 +25,8 @@ Array = NDArray[np.float64]
 
 #: the held pairs of at most this many (candidate, point, finger) entries at once
 _BLOCK_ENTRIES = 4_000_000
+#: up to this many entries, a block's sums are one matrix product
+_SMALL_BLOCK = 65_536
 
 
 def count_held(hold: NDArray[np.bool_]) -> NDArray[np.int64]:
@@ -117,8 +119,10 @@ class Holdings:
         """Per candidate and finger, the sum of ``values`` (no, d) over the points
         the finger holds: (F, nf, d) float.
 
-        Each sum adds its terms in the order of the points, whatever the blocks,
-        so the result does not depend on how the holdings are stored.
+        The blocks, and so the sums' rounding, depend only on ``(F, no, nf)``,
+        not on how the holdings are stored. A small block is one matrix
+        product; a large one sums its held entries (``bincount``), at a cost
+        proportional to them.
         """
         v = np.asarray(values, dtype=np.float64).reshape(self.num_points, -1)
         F, _, nf = self.shape
@@ -126,6 +130,11 @@ class Holdings:
         out = np.zeros((F, nf, d))
         for sl, block in self.blocks():
             n = sl.stop - sl.start
+            if block.size <= _SMALL_BLOCK:
+                # few entries: one product (its cost is the mask's size)
+                w = block.transpose(0, 2, 1).astype(np.float64)  # (n, nf, no)
+                out[sl] = w @ v
+                continue
             # (candidate, point, finger) of every held entry, row-major
             c, j, f = np.nonzero(block)
             key = c * nf + f  # (pairs,) the (candidate, finger) of each

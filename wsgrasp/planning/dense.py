@@ -506,6 +506,10 @@ def body_and_fingers(
     # finger holds (the holdings themselves are built for the feasible ones only
     # when something asks for them, see ``Holdings``)
     live = np.flatnonzero(reason == 0)  # positions in index, ascending
+    if live.size == 0:
+        return BodyFingerVerdicts(
+            reason, contacts, Holdings.of(np.zeros((0, no, nf), dtype=bool))
+        )
     fingers_compiled = (
         compiled and _dense_numba.available() and len(live) * no >= _COMPILED_FROM
     )

@@ -218,7 +218,11 @@ def evaluate_candidates(
         contacts[alive] = v.contacts
         feasible = alive[v.reason == 0]
         # the lowest point of a cloud along a direction is a hull vertex
-        low = lowest_heights(poses, _cloud_hull(gripper), table, feasible)
+        low = (
+            lowest_heights(poses, _cloud_hull(gripper), table, feasible)
+            if feasible.size
+            else np.zeros(0)
+        )
         # the holdings as Holdings: built only if read
         return Evaluation(reason, contacts, feasible, v.holding, low)  # type: ignore[arg-type]
     reason[table_hit] = 1
