@@ -119,7 +119,7 @@ class ObjectDistance:
         Voxel size (m).
     """
 
-    def __init__(self, points: Array, radii: Array, cell: float = 0.003) -> None:
+    def __init__(self, points: Array, radii: Array, cell: float = 0.004) -> None:
         p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         self.radii = np.asarray(radii, dtype=np.float64)
         reach = float(self.radii.max()) if len(self.radii) else 0.0
