@@ -268,6 +268,8 @@ def test_dataset_rows_labels_and_resume(tmp_path: Path, capsys):
     labelled = [c for c in cands if c["label"] is not None]
     assert [c["rank"] for c in labelled] == [0, 1] and summary["labels"] == 2
     assert all(c["success"] == (c["label"] == "success") for c in labelled)
+    # each executed as the plan that takes it: its pre-grasp pose and targets
+    assert {c["label_targets"] for c in labelled} == {"plan"}
     assert {"centroid_distance", "antipodal"} <= set(dict(cands[0]["score_terms"]))
     # resumed: nothing left to do, nothing written twice
     assert _dataset(tmp_path / "d", "--resume") == 0

@@ -131,14 +131,25 @@ class Pipeline:
         scene: Scene | ArrayLike | str | Path | Sequence[str | Path],
         *,
         observers: Sequence[PlanObserver] = (),
+        choose: int | None = None,
     ) -> PlanResult:
         """Plan a grasp on a scene (points ``(N, 3)`` in any frame, a ``Scene`` or
-        cloud files). "No grasp" is a result with ``found=False`` and a hint."""
+        cloud files). "No grasp" is a result with ``found=False`` and a hint.
+
+        ``choose`` takes feasible candidate ``choose`` (an index into
+        ``result.candidates``, as ``result.alternatives`` give them) as the
+        grasp instead of the best-scored one, finished as the plan finishes its
+        own choice: backed off from the table, its contacts, pre-grasp pose and
+        joint targets; the alternatives are the candidates ranked after it. The
+        same scene and spec give the same candidates, so an index from one plan
+        names the same candidate in the next. An index out of range or naming a
+        rejected candidate raises :class:`~wsgrasp.errors.InputError`.
+        """
         scene = as_scene(scene, icp=self.spec.preprocess.icp)
         for o in observers:
             o.on_start(self.spec, self.gripper, scene)
         try:
-            result = self._plan(scene, observers)
+            result = self._plan(scene, observers, choose)
         except BaseException as exc:
             for o in observers:
                 o.on_error(exc)
@@ -265,7 +276,9 @@ class Pipeline:
             normals_fn=lambda p: _normals(p, centroid),
         )
 
-    def _plan(self, scene: Scene, observers: Sequence[PlanObserver]) -> PlanResult:
+    def _plan(
+        self, scene: Scene, observers: Sequence[PlanObserver], choose: int | None
+    ) -> PlanResult:
         g = self.gripper
         t_start = time.perf_counter()
         prep = self.prepare(scene, observers)
@@ -277,15 +290,28 @@ class Pipeline:
         inp = prep.search_input
         hist = out.candidates.histogram()
         rejections = {k: v for k, v in hist.items() if k != "feasible"}
-        best = _with_clear_pregrasp(out, g, inp.table, self.spec.approach.distance)
-        if best != out.best:
-            out = _choose(out, best, g, inp)
+        distance = self.spec.approach.distance
+        hint = ""
+        if choose is None:
+            best = _with_clear_pregrasp(out, g, inp, self._spheres, distance)
+            if best != out.best:
+                out = _choose(out, best, g, inp, self._spheres, self.spec.top_k)
+        else:
+            index = _taken(out, choose)
+            out = _choose(out, index, g, inp, self._spheres, self.spec.top_k)
+            T = out.candidates.T_world_ee[index]
+            if _hits_table(g, inp.table, pregrasp_pose(g, T, distance)):
+                out = _choose(out, None, g, inp, self._spheres, self.spec.top_k)
+                hint = (
+                    f"candidate {index}'s pre-grasp pose, {distance:g} m back along "
+                    "its approach, hits the table; choose another or lower "
+                    "approach.distance"
+                )
         found = out.best is not None
         T_world_gripper = T_world_gwc = T_world_tcp = T_world_pregrasp = None
         joints_pregrasp: dict[str, float] = {}
         joints_grasp: dict[str, float] = {}
         finger_targets: list[dict[str, Any]] = []
-        hint = ""
         if out.best is not None:
             T_world_gripper = out.candidates.T_world_ee[out.best]
             T_world_gwc = out.candidates.T_world_gwc[out.best]
@@ -315,6 +341,8 @@ class Pipeline:
                 }
                 for f in targets.fingers
             ]
+        elif hint:
+            pass
         elif prep.too_large:
             hint = prep.too_large
         elif out.candidates.feasible.any():
@@ -508,43 +536,121 @@ def _hits_table(g: GripperModel, table: TableSE, T_world_gripper: Array) -> bool
 
 
 def _with_clear_pregrasp(
-    out: SearchOutput, g: GripperModel, table: TableSE, distance: float
+    out: SearchOutput,
+    g: GripperModel,
+    inp: SearchInput,
+    spheres: FingerSpheres | None,
+    distance: float,
 ) -> int | None:
     """The best candidate whose pre-grasp pose is clear of the table too: the
-    chosen one, else the first alternative that is, else None."""
+    chosen one, else the first alternative that is (at its pose as it would be
+    taken, backed off from the table), else None."""
     if out.best is None:
         return None
-    order = [out.best, *(a.index for a in out.alternatives)]
-    for i in order:
-        T = out.candidates.T_world_ee[i]
-        if not _hits_table(g, table, pregrasp_pose(g, T, distance)):
-            return int(i)
+    if not _hits_table(
+        g, inp.table, pregrasp_pose(g, out.candidates.T_world_ee[out.best], distance)
+    ):
+        return out.best
+    for a in out.alternatives:
+        T, _ = _taken_pose(out, a.index, g, inp, spheres)
+        if not _hits_table(g, inp.table, pregrasp_pose(g, T, distance)):
+            return int(a.index)
     return None
 
 
+def _taken(out: SearchOutput, index: int) -> int:
+    """``index`` checked as a candidate a plan can take: it exists and is feasible."""
+    from wsgrasp.planning.result import REASONS
+
+    n = len(out.candidates)
+    if not 0 <= index < n:
+        raise InputError(
+            f"candidate {index} does not exist: this plan has {n} candidates "
+            f"(0 to {n - 1})",
+            hint="choose an index from a plan's alternatives on the same scene "
+            "with the same spec",
+        )
+    reason = int(out.candidates.reason[index])
+    if reason != 0:
+        raise InputError(
+            f"candidate {index} was rejected ({REASONS[reason]}); only a feasible "
+            "candidate can be taken",
+            hint="choose an index from the plan's alternatives or from "
+            "result.candidates.feasible",
+        )
+    return int(index)
+
+
+def _taken_pose(
+    out: SearchOutput,
+    index: int,
+    g: GripperModel,
+    inp: SearchInput,
+    spheres: FingerSpheres | None,
+) -> tuple[Array, NDArray[np.bool_] | None]:
+    """Candidate ``index``'s pose as a plan takes it, with what its fingers hold
+    there: backed off along its approach where its fingers' closing paths would
+    pass below the table, as the search does for its best (whose pose the
+    candidate set already holds as moved; None for its holdings then)."""
+    from wsgrasp.planning.evaluate import evaluate_candidates
+    from wsgrasp.planning.search import _back_off
+
+    T = out.candidates.T_world_ee[index]
+    if index == out.best:
+        return T, None
+    backed = _back_off(g, T, inp, spheres)
+    if backed is not None:
+        return backed
+    ev = evaluate_candidates(
+        T[None], g, inp.object_points, inp.obstacle_points, inp.table, spheres
+    )
+    return T, ev.holding[0]
+
+
 def _choose(
-    out: SearchOutput, index: int | None, g: GripperModel, inp: SearchInput
+    out: SearchOutput,
+    index: int | None,
+    g: GripperModel,
+    inp: SearchInput,
+    spheres: FingerSpheres | None,
+    top_k: int,
 ) -> SearchOutput:
-    """``out`` with candidate ``index`` chosen instead (its contacts found again;
-    the alternatives after it kept)."""
+    """``out`` with feasible candidate ``index`` chosen instead: its pose as taken
+    (:func:`_taken_pose`, written into the candidate set as the search writes its
+    best's), its contacts, its score terms, and the ``top_k`` candidates ranked
+    after it as the alternatives."""
     from dataclasses import replace
 
-    from wsgrasp.planning.evaluate import evaluate_candidates
+    from wsgrasp.planning.result import Alternative
     from wsgrasp.planning.search import _contacts
 
     if index is None:
         return replace(out, best=None, alternatives=[], contacts=[], score_terms={})
-    T = out.candidates.T_world_ee[index]
-    ev = evaluate_candidates(
-        T[None], g, inp.object_points, inp.obstacle_points, inp.table
-    )
-    rank = next(k for k, a in enumerate(out.alternatives) if a.index == index)
+    if index == out.best:
+        return out
+    c = out.candidates
+    T, holding = _taken_pose(out, index, g, inp, spheres)
+    assert holding is not None
+    c.T_world_ee[index] = T
+    c.T_world_gwc[index] = T @ g.T_gripper_gwc
+    feasible = np.flatnonzero(c.reason == 0)
+    order = feasible[np.argsort(-c.score[feasible], kind="stable")]
+    rank = int(np.flatnonzero(order == index)[0])
+    alternatives = [
+        Alternative(
+            index=int(j),
+            T_world_ee=c.T_world_ee[j],
+            score=float(c.score[j]),
+            terms={k: float(v[j]) for k, v in c.terms.items()},
+        )
+        for j in order[rank + 1 : rank + 1 + top_k]
+    ]
     return replace(
         out,
-        best=index,
-        alternatives=out.alternatives[rank + 1 :],
-        contacts=_contacts(g, T, inp.object_points, ev.holding[0]),
-        score_terms=dict(out.alternatives[rank].terms),
+        best=int(index),
+        alternatives=alternatives,
+        contacts=_contacts(g, T, inp.object_points, holding),
+        score_terms={k: float(v[index]) for k, v in c.terms.items()},
     )
 
 

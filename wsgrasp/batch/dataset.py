@@ -5,11 +5,16 @@ same seed sequence as ``wsgrasp eval``'s trial, :func:`wsgrasp.sim.runner.
 task_seed`, so the same drop and views), seen in three noisy depth views, and
 planned on; every feasible candidate is a row of the ``candidates`` table with
 its score terms, and the ``top_k`` best by score are executed in MuJoCo for a
-label. The plan's chosen grasp is executed as ``wsgrasp eval`` does (its
-pre-grasp pose and joint targets, ``label_targets`` "plan"); the other
-candidates have only a pose, so they approach from ``standoff`` and close to the
-gripper's ``closed`` posture ("closed"). The ``scenes`` table has one row per
-job: the settled pose, the views (points in camera frames) and the counts.
+label. Each is executed as ``wsgrasp eval`` executes a plan's choice: the plan
+with that candidate taken as the choice (``Pipeline.plan(..., choose=)``: its
+table back-off, pre-grasp pose and joint targets), so a label says whether the
+grasp holds when the planner picks it. ``label_targets`` is "plan" where that
+plan has per-finger joint targets and "closed" where the gripper model keeps no
+finger configurations (the fingers close to the gripper's ``closed`` posture).
+A candidate whose pre-grasp pose would hit the table is labelled
+``no_grasp``, as the plan that took it would find none. The ``scenes`` table
+has one row per job: the settled pose, the views (points in camera frames) and
+the counts.
 """
 
 from __future__ import annotations
@@ -182,8 +187,14 @@ def dataset_job(obj: Any, trial: int) -> dict[str, list[dict[str, Any]]]:
     rows = _candidate_rows(result, obj.name, trial, pay["gripper"])
     t1 = time.perf_counter()
     for row in rows[: pay["top_k"]]:
-        ex = _label(row, result, obj, settled, okey, pay)
-        row.update(label=ex.outcome, success=ex.outcome == "success")
+        # the plan that takes this candidate (the plan itself for the chosen one)
+        taken = (
+            result
+            if row["chosen"]
+            else pipeline.plan(cloud, choose=int(row["candidate"]))
+        )
+        outcome = _label(row, taken, obj, settled, okey, pay)
+        row.update(label=outcome, success=outcome == "success")
     scene_row.update(
         found=bool(result.found),
         best_candidate=result.best_index,
@@ -232,36 +243,36 @@ def _candidate_rows(
 
 def _label(
     row: dict[str, Any],
-    result: Any,
+    taken: Any,
     obj: Any,
     settled: Any,
     okey: Any,
     pay: dict[str, Any],
-) -> Any:
-    """Execute one candidate in MuJoCo (the plan's targets for the chosen one)."""
+) -> str:
+    """Execute the plan ``taken`` (one candidate as the choice) in MuJoCo; its
+    outcome."""
     from wsgrasp.sim.gripper import load_sim_gripper
     from wsgrasp.sim.runner import _cached
     from wsgrasp.sim.scene import build_scene
     from wsgrasp.sim.trial import execute_grasp
 
+    row["label_targets"] = "plan" if taken.joints_grasp else "closed"
+    if not taken.found or taken.T_world_ee is None:
+        return "no_grasp"
     p, g = pay["params"], pay["gripper"]
     sim_gripper = _cached(("gripper", g, p), lambda: load_sim_gripper(g, p))
     world = _cached(("scene", okey, g, p), lambda: build_scene(obj, sim_gripper, p))
-    T = np.asarray(row["T_world_ee"], dtype=np.float64).reshape(4, 4)
-    if row["chosen"]:
-        row["label_targets"] = "plan"
-        pre = result.T_world_pregrasp
-        return execute_grasp(
-            world,
-            settled.T_world_object,
-            T,
-            p,
-            T_world_pregrasp=None if pre is None else np.asarray(pre, np.float64),
-            joints_pregrasp=dict(result.joints_pregrasp),
-            joints_grasp=dict(result.joints_grasp),
-        )
-    row["label_targets"] = "closed"
-    return execute_grasp(world, settled.T_world_object, T, p)
+    pre = taken.T_world_pregrasp
+    ex = execute_grasp(
+        world,
+        settled.T_world_object,
+        np.asarray(taken.T_world_ee, dtype=np.float64),
+        p,
+        T_world_pregrasp=None if pre is None else np.asarray(pre, np.float64),
+        joints_pregrasp=dict(taken.joints_pregrasp),
+        joints_grasp=dict(taken.joints_grasp),
+    )
+    return str(ex.outcome)
 
 
 # --------------------------------------------------------------------------------

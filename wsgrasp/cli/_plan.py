@@ -137,6 +137,15 @@ def plan(
         callback=number(),
         help="Bag time (s) to plan at; the latest cloud by default.",
     ),
+    choose: int | None = typer.Option(
+        None,
+        "--choose",
+        min=0,
+        help=(
+            "Take this feasible candidate (an index, as in the alternatives of a "
+            "plan on the same scene) as the grasp instead of the best-scored one."
+        ),
+    ),
     as_json: bool = typer.Option(False, "--json", help="Print the result as JSON."),
 ) -> None:
     """Plan a grasp on a scene, with a spec file, a gripper's default spec
@@ -166,7 +175,7 @@ def plan(
     observers, path = _observers(
         spec, pipeline.gripper.name, record, no_record, force, list(clouds)
     )
-    result = pipeline.plan(scene, observers=observers)
+    result = pipeline.plan(scene, observers=observers, choose=choose)
     if as_json:
         data = result.to_json()
         data["recording"] = None if path is None else str(path)

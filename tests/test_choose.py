@@ -1,0 +1,92 @@
+"""``Pipeline.plan(..., choose=i)``: the plan that takes candidate ``i`` as its
+choice, finished as the plan finishes its own (back-off, pre-grasp, targets)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from wsgrasp.api import Pipeline, as_scene
+from wsgrasp.errors import InputError
+from wsgrasp.planning.closing import table_back_off
+from wsgrasp.spec import load_spec
+
+ROOT = Path(__file__).resolve().parent.parent
+SCENE = ROOT / "examples" / "scenes" / "box_upright.npz"
+
+
+@pytest.fixture(scope="module", params=["franka", "allegro"])
+def planned(request):
+    pipe = Pipeline(load_spec(ROOT / "examples" / "specs" / f"{request.param}.yaml"))
+    return pipe, pipe.plan(SCENE)
+
+
+def test_choosing_the_plans_own_choice_gives_the_same_plan(planned):
+    pipe, result = planned
+    assert result.found
+    again = pipe.plan(SCENE, choose=result.best_index)
+    assert again.best_index == result.best_index
+    np.testing.assert_array_equal(again.T_world_ee, result.T_world_ee)
+    np.testing.assert_array_equal(again.T_world_pregrasp, result.T_world_pregrasp)
+    assert again.joints_grasp == result.joints_grasp
+    assert again.joints_pregrasp == result.joints_pregrasp
+
+
+def test_an_alternative_taken_is_finished_as_a_choice(planned):
+    pipe, result = planned
+    cands = result.candidates
+    feasible = np.flatnonzero(cands.reason == 0)
+    # the lowest-ranked feasible candidate whose pre-grasp pose is clear
+    order = feasible[np.argsort(-cands.score[feasible], kind="stable")]
+    for index in map(int, order[::-1]):
+        taken = pipe.plan(SCENE, choose=index)
+        if taken.found:
+            break
+    assert taken.found and taken.best_index == index != result.best_index
+    assert taken.score == pytest.approx(cands.score[index])
+    g = pipe.gripper
+    T = cands.T_world_ee[index]  # the candidate's pose before any back-off
+    table = pipe.prepare(as_scene(SCENE)).search_input.table.T_world_table
+    moved = table_back_off(g, T, table)
+    # backed off where its fingers' closing paths would pass below the table
+    # (unless the backed-off pose fails a check), never moved otherwise
+    allowed = [T] if moved is None else [T, moved[1]]
+    assert any(np.allclose(taken.T_world_ee, A, atol=1e-12) for A in allowed)
+    # its contacts are its own: every finger holds points, and targets exist
+    assert all(len(c.points) for c in taken.contacts)
+    assert set(taken.joints_grasp) == set(g.actuated_joints)
+    assert [a.index for a in taken.alternatives] == []  # nothing ranks below it
+
+
+def test_an_infeasible_candidate_is_refused_with_its_reason(planned):
+    pipe, result = planned
+    rejected = int(np.flatnonzero(result.candidates.reason != 0)[0])
+    with pytest.raises(InputError, match=f"candidate {rejected}"):
+        pipe.plan(SCENE, choose=rejected)
+    with pytest.raises(InputError, match="candidate"):
+        pipe.plan(SCENE, choose=len(result.candidates))
+
+
+def test_plan_choose_on_the_command_line(capsys):
+    import json
+
+    from wsgrasp.cli import main
+
+    base = ["plan", str(SCENE), "-g", "franka_hand", "--no-record", "--json"]
+    assert main(base) == 0
+    first = json.loads(capsys.readouterr().out)
+    alt = first["alternatives"][1]
+    assert main([*base, "--choose", str(alt["index"])]) == 0
+    taken = json.loads(capsys.readouterr().out)
+    assert taken["found"] and taken["score"] == pytest.approx(alt["score"])
+    # the alternatives: the candidates ranked after it, as many as the spec keeps
+    after = first["alternatives"][2:]
+    assert taken["alternatives"][: len(after)] == after
+    assert len(taken["alternatives"]) == len(first["alternatives"])
+    # no such candidate: one line naming it, exit status 2, no traceback
+    n = first["candidates"]
+    assert main([*base, "--choose", str(n)]) == 2
+    err = capsys.readouterr().err
+    assert f"candidate {n}" in err and "Traceback" not in err
