@@ -356,9 +356,12 @@ def candidate_poses(
 def _poses(R: Array, A: Array, B: Array) -> Array:
     """``T[s * O + o] = [R[o], A[s] + B[o]]``: (ns * O, 4, 4) from ``R`` (O, 3, 3),
     ``A`` (ns, 3) and ``B`` (O, 3)."""
+    T_o = np.zeros((len(R), 4, 4))  # (O, 4, 4) each orientation's pose at A = 0
+    T_o[:, :3, :3] = R
+    T_o[:, :3, 3] = B
+    T_o[:, 3, 3] = 1.0
+    # one contiguous copy per sample, then its shift (B[o] + A[s] == A[s] + B[o])
     T = np.empty((len(A), len(R), 4, 4))  # (ns, O, 4, 4)
-    T[:, :, :3, :3] = R[None]
-    np.add(A[:, None, :], B[None, :, :], out=T[:, :, :3, 3])
-    T[:, :, 3, :3] = 0.0
-    T[:, :, 3, 3] = 1.0
+    T[...] = T_o[None]
+    T[:, :, :3, 3] += A[:, None, :]
     return T.reshape(-1, 4, 4)  # (C, 4, 4)
