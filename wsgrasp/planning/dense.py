@@ -696,20 +696,53 @@ def _count_in_slab(
     """Points held per finger for candidates ``cand`` (n,), testing only the
     points in the slab of the fingers' sphere box along gripper axis ``k`` (the
     others are outside every sphere): (n, nf) int."""
-    Q = slabs.Q
     lo, hi = float(f_lo[:, k].min()), float(f_hi[:, k].max())
     pair, j, r = slabs.pairs(ol[cand], u[cand, k], k, lo, hi)
-    c = cand[pair]
     counts = np.zeros((len(cand), len(f_lo)), dtype=np.int64)
-    for a in range(0, len(pair), _CHUNK_PAIRS):  # bounds the sphere lists' memory
+    for b, _, held in _slab_pairs_held(slabs.Q, u, cand, pair, j, r, spheres):
+        for f in range(held.shape[1]):
+            counts[:, f] += np.bincount(pair[b][held[:, f]], minlength=len(cand))
+    return counts
+
+
+def _slab_pairs_held(
+    Q: Array,
+    u: Array,
+    cand: NDArray[np.int64],
+    pair: NDArray[np.int64],
+    j: NDArray[np.int64],
+    r: NDArray[np.int64],
+    spheres: FingerSpheres,
+) -> Iterator[tuple[slice, NDArray[np.int64], NDArray[np.bool_]]]:
+    """The slab's (candidate, point) pairs through the sphere grid, in chunks
+    that bound the sphere lists' memory: per chunk, its slice of the pairs, their
+    points ``j`` and which fingers hold each (pairs, nf)."""
+    c = cand[pair]
+    for a in range(0, len(pair), _CHUNK_PAIRS):
         b = slice(a, a + _CHUNK_PAIRS)
         rb, jb, cb = r[b], j[b], c[b]
         held = spheres.holding_coordinates(
             Q[rb, 0, jb] - u[cb, 0], Q[rb, 1, jb] - u[cb, 1], Q[rb, 2, jb] - u[cb, 2]
         )  # (pairs, nf)
-        for f in range(held.shape[1]):
-            counts[:, f] += np.bincount(pair[b][held[:, f]], minlength=len(cand))
-    return counts
+        yield b, jb, held
+
+
+def _every_point_held(
+    sp: FingerSpheres,
+    Q: Array,
+    ol: NDArray[np.int64],
+    u: Array,
+    cand: NDArray[np.int64],
+) -> Iterator[tuple[slice, NDArray[np.bool_]]]:
+    """Every point of candidates ``cand`` through the sphere grid, as contiguous
+    rows in chunks: per chunk, its slice of ``cand`` and the holdings
+    (b, no, nf)."""
+    step = max(1, _CHUNK_PAIRS // max(Q.shape[2], 1))
+    for a in range(0, len(cand), step):
+        cb = cand[a : a + step]
+        rb = ol[cb]
+        held = sp.holding_coordinates(*(Q[rb, i] - u[cb, i, None] for i in range(3)))
+        yield slice(a, a + step), held
 
 
 def _count_every_point(
@@ -721,16 +754,9 @@ def _count_every_point(
 ) -> NDArray[np.int64]:
     """Points held per finger for candidates ``cand`` (n,), every point through
     the sphere grid: (n, nf) int."""
-    n = Q.shape[2]
     counts = np.empty((len(cand), sp.num_fingers), dtype=np.int64)
-    step = max(1, _CHUNK_PAIRS // max(n, 1))
-    for a in range(0, len(cand), step):
-        cb = cand[a : a + step]
-        rb = ol[cb]
-        held = sp.holding_coordinates(
-            *(Q[rb, i] - u[cb, i, None] for i in range(3))
-        )  # (b, no, nf)
-        counts[a : a + step] = count_held(held)
+    for b, held in _every_point_held(sp, Q, ol, u, cand):
+        counts[b] = count_held(held)
     return counts
 
 
@@ -868,22 +894,12 @@ def _held_in_slab(
     if len(pair) > 0.5 * len(cand) * slabs.n:
         # the slab holds most points: every point, as contiguous rows, is cheaper
         held = np.empty((len(cand), slabs.n, nf), dtype=bool)
-        step = max(1, _CHUNK_PAIRS // max(slabs.n, 1))
-        for a in range(0, len(cand), step):
-            cb = cand[a : a + step]
-            rb = ol[cb]
-            held[a : a + step] = spheres.holding_coordinates(
-                *(Q[rb, i] - u[cb, i, None] for i in range(3))
-            )  # (b, no, nf)
+        for b, rows in _every_point_held(spheres, Q, ol, u, cand):
+            held[b] = rows
         return held
-    c = cand[pair]
     held = np.zeros((len(cand), slabs.n, nf), dtype=bool)
-    for a in range(0, len(pair), _CHUNK_PAIRS):  # bounds the sphere lists' memory
-        b = slice(a, a + _CHUNK_PAIRS)
-        rb, jb, cb = r[b], j[b], c[b]
-        held[pair[b], jb] = spheres.holding_coordinates(
-            Q[rb, 0, jb] - u[cb, 0], Q[rb, 1, jb] - u[cb, 1], Q[rb, 2, jb] - u[cb, 2]
-        )  # (pairs, nf)
+    for b, jb, pairs_held in _slab_pairs_held(Q, u, cand, pair, j, r, spheres):
+        held[pair[b], jb] = pairs_held
     return held
 
 
