@@ -90,3 +90,21 @@ def test_plan_choose_on_the_command_line(capsys):
     assert main([*base, "--choose", str(n)]) == 2
     err = capsys.readouterr().err
     assert f"candidate {n}" in err and "Traceback" not in err
+
+
+def test_a_run_that_took_a_candidate_replays_taking_it(planned, tmp_path):
+    from wsgrasp.record import RunRecorder, open_run, replay_run
+
+    pipe, result = planned
+    index = result.alternatives[-1].index
+    path = tmp_path / "chosen.mcap"
+    recorder = RunRecorder(path)
+    taken = pipe.plan(SCENE, observers=[recorder], choose=index)
+    recorder.close()
+    assert taken.best_index == index
+    assert open_run(path).stages["choice"] == {"candidate": index}
+    report = replay_run(path)
+    assert report.identical, report.differences
+    # with another spec, its candidates are others: the re-plan takes its best
+    other = replay_run(path, spec=pipe.spec)
+    assert any("by choice" in n for n in other.notes)

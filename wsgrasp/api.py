@@ -297,6 +297,8 @@ class Pipeline:
             if best != out.best:
                 out = _choose(out, best, g, inp, self._spheres, self.spec.top_k)
         else:
+            for o in observers:  # recorded, so that a replay takes it too
+                o.on_stage("choice", {"candidate": int(choose)})
             index = _taken(out, choose)
             out = _choose(out, index, g, inp, self._spheres, self.spec.top_k)
             T = out.candidates.T_world_ee[index]
@@ -616,8 +618,8 @@ def _choose(
     top_k: int,
 ) -> SearchOutput:
     """``out`` with feasible candidate ``index`` chosen instead: its pose as taken
-    (:func:`_taken_pose`, written into the candidate set as the search writes its
-    best's), its contacts, its score terms, and the ``top_k`` candidates ranked
+    (:func:`_taken_pose`, in a copy of the candidate set, as the search writes its
+    best's into its own), its contacts, its score terms, and the ``top_k`` candidates ranked
     after it as the alternatives."""
     from dataclasses import replace
 
@@ -628,9 +630,14 @@ def _choose(
         return replace(out, best=None, alternatives=[], contacts=[], score_terms={})
     if index == out.best:
         return out
-    c = out.candidates
     T, holding = _taken_pose(out, index, g, inp, spheres)
     assert holding is not None
+    # a new candidate set: the searched one may be recorded already, as it was
+    c = replace(
+        out.candidates,
+        T_world_ee=out.candidates.T_world_ee.copy(),
+        T_world_gwc=out.candidates.T_world_gwc.copy(),
+    )
     c.T_world_ee[index] = T
     c.T_world_gwc[index] = T @ g.T_gripper_gwc
     feasible = np.flatnonzero(c.reason == 0)
@@ -647,6 +654,7 @@ def _choose(
     ]
     return replace(
         out,
+        candidates=c,
         best=int(index),
         alternatives=alternatives,
         contacts=_contacts(g, T, inp.object_points, holding),

@@ -192,11 +192,22 @@ def replay_run(
     if run.truncated and run.result_data is None and run.error is None:
         notes.append("the run is truncated before its result: nothing to compare")
 
+    # a run that took a candidate by choice (plan --choose) is replayed taking it;
+    # another spec's candidates are others, so that re-plan takes its own best
+    chosen = (run.stages.get("choice") or {}).get("candidate")
+    choose = None if chosen is None or spec is not None else int(chosen)
+    if chosen is not None and spec is not None:
+        notes.append(
+            f"the run took candidate {int(chosen)} by choice; the re-plan with "
+            "another spec takes its own best"
+        )
     observers = [] if record is None else [RunRecorder(record, force=force)]
     new: PlanResult | None = None
     new_error: dict[str, Any] | None = None
     try:
-        new = Pipeline(use_spec, gripper=model).plan(scene, observers=observers)
+        new = Pipeline(use_spec, gripper=model).plan(
+            scene, observers=observers, choose=choose
+        )
     except RecordingError:
         # the replay's own recording failed (its file cannot be written): that
         # is the user's error to fix, not a result of the replay
