@@ -617,10 +617,10 @@ def _choose(
     spheres: FingerSpheres | None,
     top_k: int,
 ) -> SearchOutput:
-    """``out`` with feasible candidate ``index`` chosen instead: its pose as taken
-    (:func:`_taken_pose`, in a copy of the candidate set, as the search writes its
-    best's into its own), its contacts, its score terms, and the ``top_k`` candidates ranked
-    after it as the alternatives."""
+    """``out`` with feasible candidate ``index`` chosen instead: its pose as
+    taken (:func:`_taken_pose`, in a copy of the candidate set, as the search
+    writes its best's into its own), its contacts, its score terms, and the
+    ``top_k`` candidates ranked after it as the alternatives."""
     from dataclasses import replace
 
     from wsgrasp.planning.result import Alternative
