@@ -108,3 +108,23 @@ def test_a_run_that_took_a_candidate_replays_taking_it(planned, tmp_path):
     # with another spec, its candidates are others: the re-plan takes its best
     other = replay_run(path, spec=pipe.spec)
     assert any("by choice" in n for n in other.notes)
+
+
+def test_plan_choices_gives_each_choose_plan_from_one_search(planned):
+    pipe, result = planned
+    picks = [result.best_index, *(a.index for a in result.alternatives[:3])]
+    many = pipe.plan_choices(SCENE, picks)
+    assert [r.best_index for r in many] == picks
+    for i, got in zip(picks, many, strict=True):
+        one = pipe.plan(SCENE, choose=i)
+        np.testing.assert_array_equal(got.T_world_ee, one.T_world_ee)
+        np.testing.assert_array_equal(got.T_world_pregrasp, one.T_world_pregrasp)
+        assert got.joints_grasp == one.joints_grasp
+        assert [a.index for a in got.alternatives] == [
+            a.index for a in one.alternatives
+        ]
+        assert [c.points.tolist() for c in got.contacts] == [
+            c.points.tolist() for c in one.contacts
+        ]
+    with pytest.raises(InputError, match="candidate"):
+        pipe.plan_choices(SCENE, [len(result.candidates)])

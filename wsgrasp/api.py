@@ -279,14 +279,47 @@ class Pipeline:
     def _plan(
         self, scene: Scene, observers: Sequence[PlanObserver], choose: int | None
     ) -> PlanResult:
-        g = self.gripper
         t_start = time.perf_counter()
         prep = self.prepare(scene, observers)
         out = self.search(prep)
         for o in observers:
             o.on_stage("candidates", {"candidates": out.candidates})
-        timing = {**prep.timing_ms, **out.timing_ms}
+        shared_ms = (time.perf_counter() - t_start) * 1e3
+        return self._finish(scene, prep, out, choose, observers, shared_ms)
 
+    def plan_choices(
+        self,
+        scene: Scene | ArrayLike | str | Path | Sequence[str | Path],
+        choices: Sequence[int],
+    ) -> list[PlanResult]:
+        """One plan per candidate index in ``choices``, each the one
+        ``plan(scene, choose=i)`` gives, from one preparation and search of the
+        scene (nothing is recorded). Raises as ``plan`` does for an index that
+        is out of range or names a rejected candidate."""
+        scene = as_scene(scene, icp=self.spec.preprocess.icp)
+        t_start = time.perf_counter()
+        prep = self.prepare(scene)
+        out = self.search(prep)
+        shared_ms = (time.perf_counter() - t_start) * 1e3
+        return [self._finish(scene, prep, out, i, (), shared_ms) for i in choices]
+
+    def _finish(
+        self,
+        scene: Scene,
+        prep: Prepared,
+        out: SearchOutput,
+        choose: int | None,
+        observers: Sequence[PlanObserver],
+        shared_ms: float,
+    ) -> PlanResult:
+        """The plan's result from its search: the choice (the best-scored
+        candidate whose pre-grasp pose is clear, or ``choose``), its targets
+        and, without a grasp, the hint. ``out`` is not changed, so one search
+        can be finished with several choices; ``shared_ms`` is the time its
+        preparation and search took, for the total."""
+        g = self.gripper
+        t_start = time.perf_counter()
+        timing = {**prep.timing_ms, **out.timing_ms}
         inp = prep.search_input
         hist = out.candidates.histogram()
         rejections = {k: v for k, v in hist.items() if k != "feasible"}
@@ -356,7 +389,7 @@ class Pipeline:
         else:
             heights = prep.table_plane.signed_distance(inp.object_points)
             hint = no_grasp_hint(hist, inp.extents, g, float(heights.max()))
-        timing["total"] = (time.perf_counter() - t_start) * 1e3
+        timing["total"] = shared_ms + (time.perf_counter() - t_start) * 1e3
         return PlanResult(
             found=found,
             gripper=g.name,

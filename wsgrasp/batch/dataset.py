@@ -6,7 +6,8 @@ task_seed`, so the same drop and views), seen in three noisy depth views, and
 planned on; every feasible candidate is a row of the ``candidates`` table with
 its score terms, and the ``top_k`` best by score are executed in MuJoCo for a
 label. Each is executed as ``wsgrasp eval`` executes a plan's choice: the plan
-with that candidate taken as the choice (``Pipeline.plan(..., choose=)``: its
+with that candidate taken as the choice (``Pipeline.plan_choices``, as
+``Pipeline.plan(..., choose=)`` gives it: its
 table back-off, pre-grasp pose and joint targets), so a label says whether the
 grasp holds when the planner picks it. ``label_targets`` is "plan" where that
 plan has per-finger joint targets and "closed" where the gripper model keeps no
@@ -186,13 +187,12 @@ def dataset_job(obj: Any, trial: int) -> dict[str, list[dict[str, Any]]]:
         return {"candidates": [], "scenes": [scene_row]}
     rows = _candidate_rows(result, obj.name, trial, pay["gripper"])
     t1 = time.perf_counter()
-    for row in rows[: pay["top_k"]]:
-        # the plan that takes this candidate (the plan itself for the chosen one)
-        taken = (
-            result
-            if row["chosen"]
-            else pipeline.plan(cloud, choose=int(row["candidate"]))
-        )
+    labelled = rows[: pay["top_k"]]
+    # the plans that take the other candidates, from one more search of the scene
+    ids = [int(r["candidate"]) for r in labelled if not r["chosen"]]
+    others = iter(pipeline.plan_choices(cloud, ids) if ids else [])
+    for row in labelled:
+        taken = result if row["chosen"] else next(others)
         outcome = _label(row, taken, obj, settled, okey, pay)
         row.update(label=outcome, success=outcome == "success")
     scene_row.update(
