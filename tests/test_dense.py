@@ -33,6 +33,9 @@ from wsgrasp.planning.dense import (
 from wsgrasp.planning.evaluate import FingerSpheres, TableSE, evaluate_candidates
 from wsgrasp.planning.reference import reference_search
 
+#: a scene frame: rotation vector and translation
+ROTVEC = st.tuples(*[st.floats(-3.0, 3.0)] * 3)
+SHIFT = st.tuples(*[st.floats(-2.0, 2.0)] * 3)
 SETTINGS = settings(
     max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow]
 )
@@ -157,8 +160,8 @@ def _table_verdicts(T_world_gripper, cloud, table):
 @SETTINGS
 @given(
     seed=st.integers(0, 10_000),
-    rotvec=st.tuples(*[st.floats(-3.0, 3.0)] * 3),
-    shift=st.tuples(*[st.floats(-2.0, 2.0)] * 3),
+    rotvec=ROTVEC,
+    shift=SHIFT,
     n_orient=st.integers(1, 40),
 )
 def test_table_bounds_never_contradict_the_cloud(seed, rotvec, shift, n_orient):
@@ -185,8 +188,8 @@ def test_table_bounds_never_contradict_the_cloud(seed, rotvec, shift, n_orient):
 @SETTINGS
 @given(
     seed=st.integers(0, 10_000),
-    rotvec=st.tuples(*[st.floats(-3.0, 3.0)] * 3),
-    shift=st.tuples(*[st.floats(-2.0, 2.0)] * 3),
+    rotvec=ROTVEC,
+    shift=SHIFT,
     n_orient=st.integers(1, 12),
 )
 def test_structured_evaluation_matches_reference(seed, rotvec, shift, n_orient):
@@ -604,8 +607,8 @@ def test_sphere_lists_hold_every_sphere_that_can_hold_a_point(seed, fingers, sph
 @SETTINGS
 @given(
     seed=st.integers(0, 10_000),
-    rotvec=st.tuples(*[st.floats(-3.0, 3.0)] * 3),
-    shift=st.tuples(*[st.floats(-2.0, 2.0)] * 3),
+    rotvec=ROTVEC,
+    shift=SHIFT,
     n_orient=st.integers(1, 30),
 )
 def test_lowest_heights_are_the_clouds_lowest_points(seed, rotvec, shift, n_orient):

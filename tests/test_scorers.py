@@ -23,19 +23,25 @@ def _batch(
     T[:, :3, 1] = c
     T[:, :3, 0] = np.cross(c, a)
     points = np.array([[0.0, 0.03, 0.0], [0.0, -0.03, 0.0], [0.03, 0.0, 0.0]])
-    n = np.asarray(normals, dtype=float)
+    heights = np.zeros(F) if heights is None else np.asarray(heights)
+    return _jaw_batch(T, holding, points, np.asarray(normals, dtype=float), heights)
+
+
+def _jaw_batch(T, holding, points, normals, heights, T_world_table=None):
+    """A batch of the jaw gripper at poses ``T`` over ``points`` with ``normals``."""
     return CandidateBatch(
         gripper=make_jaw_gripper(),
         T_world_gwc=T,
         T_world_gripper=T,
-        theta=np.zeros(F),
+        theta=np.zeros(len(T)),
         holding=holding,
         object_points=points,
         T_world_object=np.eye(4),
         extents=np.array([0.06, 0.06, 0.1]),
         table_normal=np.array([0.0, 0.0, 1.0]),
-        min_table_height=np.zeros(F) if heights is None else np.asarray(heights),
-        normals_fn=lambda p: n,
+        min_table_height=heights,
+        normals_fn=lambda p: normals,
+        T_world_table=T_world_table,
     )
 
 
@@ -183,20 +189,7 @@ def test_contact_quantities_from_held_points_match_the_mask(seed):
     T[:, :3, 3] = rng.normal(0.0, 0.05, (F, 3))
 
     def batch(h):
-        return CandidateBatch(
-            gripper=make_jaw_gripper(),
-            T_world_gwc=T,
-            T_world_gripper=T,
-            theta=np.zeros(F),
-            holding=h,
-            object_points=points,
-            T_world_object=np.eye(4),
-            extents=np.array([0.06, 0.06, 0.1]),
-            table_normal=np.array([0.0, 0.0, 1.0]),
-            min_table_height=np.full(F, 0.01),
-            normals_fn=lambda p: normals,
-            T_world_table=np.eye(4),
-        )
+        return _jaw_batch(T, h, points, normals, np.full(F, 0.01), np.eye(4))
 
     dense = batch(holding)
     weights = holding.transpose(0, 2, 1).astype(np.float64)  # (F, nf, no)
