@@ -229,36 +229,37 @@ def main() -> None:
         print(json.dumps(rows, indent=2))
         return
     print(f"load average {load_before} before, {_load()} after")
+    head = f"{'recorder':<12}{'gripper':<14}{'scene':<22}{'points':>7}"
     if a.hooks:
-        print(
-            f"{'recorder':<12}{'gripper':<14}{'scene':<22}{'points':>7}"
-            f" | {'thread ms':>9}{'writer ms':>10}{'cpu ms':>8}"
-        )
+        print(f"{head} | {'thread ms':>9}{'writer ms':>10}{'cpu ms':>8}")
         for r in rows:
-            scene = "/".join(Path(str(r["scene"])).parts[-2:])
             print(
-                f"{r['recorder']:<12.12}{r['gripper']:<14}{scene:<22.22}"
-                f"{r['points']:>7} | {r['thread_ms']:>9.2f}{r['writer_ms']:>10.2f}"
+                f"{_who(r)} | {r['thread_ms']:>9.2f}{r['writer_ms']:>10.2f}"
                 f"{r['cpu_ms']:>8.2f}"
             )
         return
     print(
-        f"{'recorder':<12}{'gripper':<14}{'scene':<22}{'points':>7}{'plan ms':>8}"
+        f"{head}{'plan ms':>8}"
         f" | {'plan +ms':>8}{'%':>5}{'paired':>7}{'%':>5}"
         f" | {'+close ms':>9}{'%':>5}{'paired':>7}{'%':>5}"
         f" | {'inside':>6}{'MB':>6}"
     )
     for r in rows:
-        scene = "/".join(Path(str(r["scene"])).parts[-2:])
         print(
-            f"{r['recorder']:<12.12}{r['gripper']:<14}{scene:<22.22}{r['points']:>7}"
-            f"{r['plan_ms']:>8.1f}"
+            f"{_who(r)}{r['plan_ms']:>8.1f}"
             f" | {r['plan_overhead_ms']:>8.1f}{r['plan_overhead_pct']:>5.0f}"
             f"{r['plan_paired_ms']:>7.1f}{r['plan_paired_pct']:>5.0f}"
             f" | {r['overhead_ms']:>9.1f}{r['overhead_pct']:>5.0f}"
             f"{r['paired_ms']:>7.1f}{r['paired_pct']:>5.0f}"
             f" | {r['recorder_ms']:>6.1f}{r['file_mb']:>6.2f}"
         )
+
+
+def _who(r: dict[str, Any]) -> str:
+    """A row's first columns: recorder, gripper, scene (its last two path parts)
+    and points."""
+    scene = "/".join(Path(str(r["scene"])).parts[-2:])
+    return f"{r['recorder']:<12.12}{r['gripper']:<14}{scene:<22.22}{r['points']:>7}"
 
 
 if __name__ == "__main__":
