@@ -376,19 +376,8 @@ class Pipeline:
                 }
                 for f in targets.fingers
             ]
-        elif hint:
-            pass
-        elif prep.too_large:
-            hint = prep.too_large
-        elif out.candidates.feasible.any():
-            hint = (
-                "every feasible grasp's pre-grasp pose, "
-                f"{self.spec.approach.distance:g} m back along its approach, hits "
-                "the table; lower approach.distance"
-            )
-        else:
-            heights = prep.table_plane.signed_distance(inp.object_points)
-            hint = no_grasp_hint(hist, inp.extents, g, float(heights.max()))
+        elif not hint:  # a chosen candidate's hint says why already
+            hint = _no_grasp(prep, out, hist, g, distance)
         timing["total"] = shared_ms + (time.perf_counter() - t_start) * 1e3
         return PlanResult(
             found=found,
@@ -591,6 +580,26 @@ def _with_clear_pregrasp(
         if not _hits_table(g, inp.table, pregrasp_pose(g, T, distance)):
             return int(a.index)
     return None
+
+
+def _no_grasp(
+    prep: Prepared,
+    out: SearchOutput,
+    hist: dict[str, int],
+    g: GripperModel,
+    distance: float,
+) -> str:
+    """Why a plan has no grasp, in one sentence a user can act on."""
+    if prep.too_large:
+        return prep.too_large
+    if out.candidates.feasible.any():
+        return (
+            f"every feasible grasp's pre-grasp pose, {distance:g} m back along its "
+            "approach, hits the table; lower approach.distance"
+        )
+    inp = prep.search_input
+    heights = prep.table_plane.signed_distance(inp.object_points)
+    return no_grasp_hint(hist, inp.extents, g, float(heights.max()))
 
 
 def _taken(out: SearchOutput, index: int) -> int:
