@@ -45,10 +45,13 @@ def run_in_processes(
 
     At most ``workers`` jobs are in flight, so a process that dies (a crash in a
     compiled library, the out-of-memory killer) can only have been running one of
-    them: those are run again one at a time, each in a process of its own, and a
-    job whose process dies again is handed to ``on_crash(i)`` (raised as an error
-    without one); then the pool starts again for the rest. Any other error from
-    ``fn`` cancels what has not started and is raised.
+    them. The pool fails every job in flight, including one no process had taken
+    up yet, so each of those is run again alone, in a process of its own, and
+    once more if that process dies too (a job that never ran before may have died
+    alone for the first time); a job whose process dies both times alone is handed
+    to ``on_crash(i)`` (raised as an error without one). Then the pool starts
+    again for the rest. Any other error from ``fn`` cancels what has not started
+    and is raised.
     """
     from concurrent.futures.process import BrokenProcessPool
 
@@ -59,10 +62,14 @@ def run_in_processes(
             finished = set(todo) - set(suspects.unstarted) - set(suspects.running)
             todo = [i for i in todo if i not in finished and i not in suspects.running]
             for i in suspects.running:  # alone, so that a crash names its job
-                again = _run_pool(fn, jobs, [i], 1, on_done, initializer)
-                if again.running:
+                for _ in range(2):
+                    if not _run_pool(fn, jobs, [i], 1, on_done, initializer).running:
+                        break
+                else:
                     if on_crash is None:
-                        raise BrokenProcessPool(f"job {i} crashed its process twice")
+                        raise BrokenProcessPool(
+                            f"job {i} crashed its process twice when run alone"
+                        )
                     on_crash(i)
 
 
