@@ -269,6 +269,31 @@ def test_squeeze_past_the_surface_becomes_a_grip(jaw_dir: Path, box_object: SimO
     assert ex.outcome == "success", ex.metrics
 
 
+def test_object_contacts_are_stiff(jaw_dir: Path, box_object: SimObject):
+    """A grip of tens of newtons sinks a fraction of a millimetre into the
+    object with the default ``contact_timeconst``, several times less than with
+    MuJoCo's default 20 ms, under which pads sank millimetres into held objects
+    and the collision normals deep inside flipped them out of the grip."""
+    sinks = {}
+    for tc in (0.005, 0.02):
+        p = SimParams(hold_time=0.5, contact_timeconst=tc)
+        scene = build_scene(
+            box_object, sim_gripper_from_files(jaw_description(), jaw_dir), p
+        )
+        T_world_base = _T((0.0, 0.0, 0.08 + 0.10 - 0.02), R_DOWN)
+        ex = execute_grasp(scene, _T(), T_world_base, p, joints_grasp={"j_left": 0.01})
+        assert ex.outcome == "success", ex.metrics
+        assert ex.metrics["grip_force"] > 20.0
+        m, d = scene.model, scene.data
+        bodies = m.geom_bodyid[np.asarray(d.contact.geom[: d.ncon])]
+        held = np.isin(bodies, scene.gripper_bodies).any(axis=1)
+        assert held.any()
+        sinks[tc] = -float(np.asarray(d.contact.dist[: d.ncon])[held].min())
+    assert SimParams().contact_timeconst == 0.005
+    assert 0.0 < sinks[0.005] < 0.3e-3
+    assert sinks[0.02] > 3 * sinks[0.005]
+
+
 def test_eval_uses_the_plans_targets_and_records_which(monkeypatch):
     """A plan with joint targets closes to them (``finger_targets: plan``), one
     without them to the YAML's ``closed`` posture (``closed``); plans with the

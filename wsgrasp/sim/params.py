@@ -11,8 +11,18 @@ Contacts
     Every contact with the object uses the object's parameters (the object's geoms
     have the higher ``priority``): sliding friction ``friction`` (0.8 by default,
     rubber pad on cardboard/plastic), torsional friction ``torsional_friction``
-    (m), ``condim`` 4, MuJoCo's default ``solref`` (0.02 s, damping ratio 1) and
-    ``solimp`` (0.9, 0.95, 1 mm). Gripper geoms do not collide with each other.
+    (m), ``condim`` 4, ``solref`` (``contact_timeconst``, damping ratio 1) and
+    MuJoCo's default ``solimp`` (0.9, 0.95, 1 mm). Gripper geoms do not collide
+    with each other.
+
+    ``contact_timeconst`` is 5 ms, not MuJoCo's default 20 ms: the objects are
+    rigid plastic, and a contact 16 times softer let a pad pressing 40-50 N sink
+    3.5 mm into the object. So deep inside a convex part, the collision's normal
+    can flip from one step to the next (``random_066`` held by the Franka hand,
+    44 N on four contacts, still for 3 s of the hold: at t = 6.546 s one pad's
+    normal turned from (0.80, 0.60, 0) to (0.95, -0.30, 0.05) and the object fell
+    out within 10 ms). At 5 ms the same grip sinks 0.5 mm. It stays above MuJoCo's
+    stability floor of two time steps (4 ms).
 
 Masses
     The object's mass is given per object (``paper13`` lists plausible masses;
@@ -45,9 +55,12 @@ Finger drive
     surface: the plan's ``joints_grasp`` drives each pad ``approach.squeeze``
     (10 mm by default) through its contact, and the grip is the gain times the
     part of that margin left when the fingers have sunk into MuJoCo's soft
-    contacts (in series with the actuator: the jaw of ``tests/test_sim.py``,
-    sent 10 mm past the faces of a 4 cm box, stops 4.8 mm in and presses 26 N at
-    5000 N/m; a mimic pair shares its master's force). With
+    contacts and in the mimic coupling (in series with the actuator: the jaw of
+    ``tests/test_sim.py``, sent 10 mm past the faces of a 4 cm box, stops 4.4 mm
+    in and presses 28 N at 5000 N/m; its contacts sink 0.1 mm, 0.8 mm with a
+    20 ms ``contact_timeconst``, and the rest is its mimic finger falling out of
+    step, as MuJoCo's default equality stiffness lets it; a mimic pair shares
+    its master's force). With
     ``kp_prismatic`` 2000 N/m a 10 mm squeeze held the Franka hand's paper13
     grasps with a median 18 N (sum of normal forces over both fingers), half of
     what closing towards ``closed`` gave (39 N); 5000 N/m gives 34 N (all 26
@@ -87,6 +100,7 @@ class SimParams:
     friction: float = 0.8
     torsional_friction: float = 0.005
     rolling_friction: float = 0.0001
+    contact_timeconst: float = 0.005
     object_mass: float = 0.2
     # gripper
     gripper_density: float = 1000.0

@@ -40,6 +40,7 @@ def scene_xml(obj: SimObject, gripper: SimGripper | None, p: SimParams) -> str:
                 conaffinity=OBJECT_CONAFFINITY,
                 priority=1,
                 condim=4,
+                solref=(p.contact_timeconst, 1.0),
                 friction=(obj.friction, p.torsional_friction, p.rolling_friction),
                 density=0,
             )
