@@ -34,6 +34,7 @@ from numpy.typing import NDArray
 from scipy.spatial import ConvexHull, QhullError
 
 from wsgrasp.geometry import coordinates_in_superellipsoids, invert_transforms
+from wsgrasp.geometry._superellipsoid import _power
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.planning import _dense_numba
 from wsgrasp.planning._dense_grid import (
@@ -718,11 +719,15 @@ def _slab_pairs_held(
     that bound the sphere lists' memory: per chunk, its slice of the pairs, their
     points ``j`` and which fingers hold each (pairs, nf)."""
     c = cand[pair]
+    n = Q.shape[2]
+    Qf = np.ascontiguousarray(Q).reshape(-1)  # (q * 3 * n,)
+    uT = np.ascontiguousarray(u.T)  # (3, m) a row per axis
     for a in range(0, len(pair), _CHUNK_PAIRS):
         b = slice(a, a + _CHUNK_PAIRS)
-        rb, jb, cb = r[b], j[b], c[b]
+        jb, cb = j[b], c[b]
+        base = r[b] * (3 * n) + jb  # Q[r, 0, j], flat
         held = spheres.holding_coordinates(
-            Q[rb, 0, jb] - u[cb, 0], Q[rb, 1, jb] - u[cb, 1], Q[rb, 2, jb] - u[cb, 2]
+            Qf[base] - uT[0, cb], Qf[base + n] - uT[1, cb], Qf[base + 2 * n] - uT[2, cb]
         )  # (pairs, nf)
         yield b, jb, held
 
@@ -820,19 +825,29 @@ class _Slabs:
     """Per orientation, the points sorted along each gripper axis, so that the
     points of a candidate inside a slab ``lo <= (Q - u)_k <= hi`` are one range.
 
-    ``Q`` (q, 3, n) are the points per orientation in the gripper axes.
+    ``Q`` (q, 3, n) are the points per orientation in the gripper axes. An axis is
+    sorted when a search along it first needs it (the body and finger tests
+    search along one or two).
     """
 
     def __init__(self, Q: Array) -> None:
         self.Q = Q
         q, _, self.n = Q.shape
-        self.rank = np.argsort(Q, axis=2)  # (q, 3, n)
-        Qs = np.take_along_axis(Q, self.rank, axis=2)
         self.span = float(np.ptp(Q) + 1.0) if Q.size else 1.0
         self.rows = np.arange(q)
-        self._flat = [
-            (Qs[:, k] + 4.0 * self.span * self.rows[:, None]).ravel() for k in range(3)
-        ]  # per axis (q * n,): rows end to end, each shifted clear of the last
+        # per axis: the sorting order (q * n,) of each row, flat, and the sorted
+        # coordinates (q * n,), rows end to end, each shifted clear of the last
+        self._rank: dict[int, NDArray[np.int64]] = {}
+        self._flat: dict[int, Array] = {}
+
+    def _axis(self, k: int) -> tuple[NDArray[np.int64], Array]:
+        if k not in self._flat:
+            Qk = self.Q[:, k]  # (q, n)
+            rank = Qk.argsort(axis=1)  # (q, n)
+            shift = 4.0 * self.span * self.rows[:, None]  # (q, 1)
+            self._flat[k] = (Qk[self.rows[:, None], rank] + shift).ravel()
+            self._rank[k] = rank.reshape(-1)
+        return self._rank[k], self._flat[k]
 
     def pairs(
         self, row: NDArray[np.int64], uk: Array, k: int, lo: float, hi: float
@@ -847,20 +862,25 @@ class _Slabs:
         if len(row) == 0 or self.n == 0:
             empty = np.zeros(0, dtype=np.int64)
             return empty, empty, empty
-        uk = np.clip(uk, -self.span, self.span)  # beyond: no point in the slab
+        rank, flat = self._axis(k)
+        # beyond the span: no point in the slab (np.clip, without its wrapper)
+        uk = np.minimum(np.maximum(uk, -self.span), self.span)
         off = 4.0 * self.span * row
-        i0 = np.searchsorted(self._flat[k], lo + uk - 1e-7 + off, side="left")
-        i1 = np.searchsorted(self._flat[k], hi + uk + 1e-7 + off, side="right")
+        i0 = flat.searchsorted(lo + uk - 1e-7 + off, side="left")
+        i1 = flat.searchsorted(hi + uk + 1e-7 + off, side="right")
         # the search can only land in the candidate's own row
         i0 = np.maximum(i0, row * self.n)
         i1 = np.minimum(i1, (row + 1) * self.n)
         counts = np.maximum(i1 - i0, 0)
         total = int(counts.sum())
+        if total == 0:
+            empty = np.zeros(0, dtype=np.int64)
+            return empty, empty, empty
         pair = np.repeat(np.arange(len(row)), counts)  # (total,)
         start = np.repeat(i0 - (np.cumsum(counts) - counts), counts)
         pos = start + np.arange(total)
         r = pos // self.n
-        j = self.rank[r, k, pos - r * self.n]
+        j = rank[pos]  # the point at sorted position pos - r n of row r
         return pair, j, r
 
 
@@ -914,8 +934,11 @@ def _body_hits(
 ) -> NDArray[np.bool_]:
     """Whether some point lies inside some superellipsoid, for candidates
     ``cand``: per superellipsoid, only the candidates not yet hit and only the
-    points in its slab along its thinnest axis: (n,) bool."""
-    Q = slabs.Q
+    points in its slab along its thinnest axis, narrowed by the box along the
+    other two before eq. (1) (:func:`_inside_narrowing`): (n,) bool."""
+    n = slabs.n
+    Qf = np.ascontiguousarray(slabs.Q).reshape(-1)  # (q * 3 * n,)
+    uT = np.ascontiguousarray(u.T)  # (3, m) a row per axis
     hit = np.zeros(len(cand), dtype=bool)
     lo_all, hi_all = centers - semi_axes, centers + semi_axes
     for e in np.argsort(-np.prod(semi_axes, axis=1)):  # largest first
@@ -930,13 +953,45 @@ def _body_hits(
         if len(pair) == 0:
             continue
         c = c0[pair]
-        inside = coordinates_in_superellipsoids(
-            Q[r, 0, j] - u[c, 0],
-            Q[r, 1, j] - u[c, 1],
-            Q[r, 2, j] - u[c, 2],
-            centers[e : e + 1],
-            semi_axes[e : e + 1],
+        base = r * (3 * n) + j  # (p,) Q[r, 0, j], flat
+        others = [i for i in np.argsort(semi_axes[e], kind="stable") if i != k]
+        inside = _inside_narrowing(
+            lambda i, at: Qf[base[at] + i * n] - uT[i, c[at]],
+            len(base),
+            centers[e],
+            semi_axes[e],
             exponent,
+            (int(others[0]), int(others[1]), k),  # the slab's axis holds them all
         )
-        hit[todo[np.unique(pair[inside])]] = True
+        hit[todo[pair[inside]]] = True
     return hit
+
+
+def _inside_narrowing(
+    coordinate: Callable[[int, NDArray[np.int64]], Array],
+    count: int,
+    center: Array,
+    semi_axes: Array,
+    exponent: float,
+    axes: tuple[int, int, int],
+) -> NDArray[np.int64]:
+    """Which of ``count`` points lie strictly inside the superellipsoid
+    ``center``, ``semi_axes`` (3,): their indices. ``coordinate(i, at)`` gives the
+    points ``at``'s coordinates along axis ``i``. The box test one axis at a time
+    in the order ``axes``, keeping only the points inside so far, then eq. (1)
+    for the points in the box: per point the arithmetic of
+    ``coordinates_in_superellipsoids``."""
+    at = np.arange(count)
+    d: dict[int, Array] = {}  # per axis done: |coordinate - centre| of the points at
+    for i in axes:
+        di = np.abs(coordinate(i, at) - center[i])  # (a,)
+        keep = np.flatnonzero(di < semi_axes[i])
+        at = at[keep]
+        d = {a: x[keep] for a, x in d.items()}
+        d[i] = di[keep]
+    value = (
+        _power(d[0] / semi_axes[0], exponent)
+        + _power(d[1] / semi_axes[1], exponent)
+        + (d[2] / semi_axes[2]) ** 2
+    )
+    return at[value < 1.0]
