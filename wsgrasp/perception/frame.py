@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from wsgrasp.errors import InputError
 from wsgrasp.geometry import transform_from
@@ -339,7 +339,11 @@ def table_superellipsoid(settings: object) -> tuple[Array, Array, float]:
 # normals
 # --------------------------------------------------------------------------------
 def estimate_normals(
-    points: ArrayLike, center: ArrayLike | None = None, k: int = 15
+    points: ArrayLike,
+    center: ArrayLike | None = None,
+    k: int = 15,
+    *,
+    rows: ArrayLike | None = None,
 ) -> Array:
     """Surface normals from ``k`` nearest neighbours (open3d), each oriented away
     from ``center`` (the object centroid; the cloud's mean if None).
@@ -350,19 +354,87 @@ def estimate_normals(
     center : (3,) float, optional
     k
         Neighbours per normal.
+    rows : (r,) int, optional
+        Only the normals of these points (their neighbours still found among all
+        the points), each bit for bit the one the whole cloud's estimate gives it
+        (see :func:`_normals_of_rows`).
 
     Returns
     -------
-    (n, 3) float
+    (n, 3) float, or (r, 3) with ``rows``
         Unit normals.
     """
-    import open3d as o3d
-
     p = np.asarray(points, dtype=np.float64)
     c = p.mean(axis=0) if center is None else np.asarray(center, dtype=np.float64)
-    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(p))
-    pcd.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(knn=int(k)))
-    n = np.asarray(pcd.normals, dtype=np.float64).copy()
-    outward = ((p - c) * n).sum(axis=1) < 0.0
+    at = None if rows is None else np.asarray(rows, dtype=np.int64).reshape(-1)
+    n = None if at is None else _normals_of_rows(p, at, int(k))
+    if n is None:
+        n = _open3d_normals(p, int(k))
+        if at is not None:
+            n = n[at]
+    q = p if at is None else p[at]
+    outward = ((q - c) * n).sum(axis=1) < 0.0
     n[outward] *= -1.0
     return n
+
+
+def _open3d_normals(p: Array, k: int, covariances: Array | None = None) -> Array:
+    """open3d's unoriented normals of the points ``p`` (n, 3) from their ``k``
+    nearest neighbours, or from the given ``covariances`` (n, 3, 3)."""
+    import open3d as o3d
+
+    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(p))
+    if covariances is not None:  # open3d then takes them instead of its own
+        pcd.covariances = o3d.utility.Matrix3dVector(covariances)
+    pcd.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(knn=k))
+    return np.asarray(pcd.normals, dtype=np.float64).copy()
+
+
+#: neighbour distances closer than this (relative) may be ordered differently by
+#: open3d's search than by scipy's; rows with such near-ties take open3d's path
+_TIE_RTOL = 1e-9
+
+
+def _normals_of_rows(p: Array, rows: NDArray[np.int64], k: int) -> Array | None:
+    """open3d's unoriented normals of the points ``p[rows]`` within the whole
+    cloud ``p``, computed for those rows only; None when this cannot promise
+    open3d's bits (few points, or a near-tie among some row's ``k + 1`` nearest
+    distances), so the caller takes open3d's path.
+
+    open3d estimates a normal from its ``k`` nearest neighbours, nearest first:
+    their covariance, accumulated in that order (``ComputeCovariance``: the sums
+    of the coordinates and of their products, divided by ``k``, less the
+    products of the means), then its eigenvector of least eigenvalue. Here the
+    neighbours come from scipy's KD-tree in the same order (a near-tie could
+    order them otherwise, hence the check), the covariances are accumulated in
+    the same order with the same operations, and open3d computes the
+    eigenvectors from them. ``tests/test_table1_fast_paths.py`` holds the result
+    to open3d's whole-cloud estimate bit for bit (an open3d that accumulated
+    otherwise would fail there).
+    """
+    from scipy.spatial import cKDTree
+
+    n_pts = len(p)
+    if n_pts <= k or len(rows) == 0:
+        return None
+    # the tree's shape changes how it searches, not what it finds; unbalanced and
+    # uncompacted, it builds in two thirds of the time
+    tree = cKDTree(p, balanced_tree=False, compact_nodes=False)
+    d, nb = tree.query(p[rows], k=k + 1)  # (r, k + 1) nearest first
+    gaps = np.diff(d, axis=1)  # (r, k)
+    if np.any(gaps <= _TIE_RTOL * d[:, 1:]):
+        return None
+    x, y, z = p[nb[:, :k].T].transpose(2, 0, 1)  # (k, r) each, nearest first
+    terms = np.stack([x, y, z, x * x, x * y, x * z, y * y, y * z, z * z], axis=1)
+    s = np.zeros((9, len(rows)))  # the cumulants, summed in open3d's order
+    for t in range(k):
+        s += terms[t]  # (9, r) every row's t-th neighbour
+    s /= float(k)
+    cov = np.empty((len(rows), 3, 3))
+    cov[:, 0, 0] = s[3] - s[0] * s[0]
+    cov[:, 1, 1] = s[6] - s[1] * s[1]
+    cov[:, 2, 2] = s[8] - s[2] * s[2]
+    cov[:, 0, 1] = cov[:, 1, 0] = s[4] - s[0] * s[1]
+    cov[:, 0, 2] = cov[:, 2, 0] = s[5] - s[0] * s[2]
+    cov[:, 1, 2] = cov[:, 2, 1] = s[7] - s[1] * s[2]
+    return _open3d_normals(p[rows], k, cov)

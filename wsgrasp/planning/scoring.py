@@ -46,6 +46,13 @@ class CandidateBatch:
         Lowest gripper point above the table surface.
     T_world_table : (4, 4) float or None
         The table frame: origin on the surface, z its normal towards the object.
+    normals_fn : callable, optional
+        ``normals_fn(object_points)``: their outward unit normals, ``(no, 3)``.
+    normals_of : callable, optional
+        ``normals_of(object_points, rows)``: the normals of the points ``rows``
+        ``(r,)`` alone, ``(r, 3)``, each bit for bit the one ``normals_fn``
+        gives it. With it, :attr:`contact_normals` estimates only the normals of
+        the points some finger holds.
     """
 
     gripper: GripperModel
@@ -63,6 +70,9 @@ class CandidateBatch:
     min_table_height: Array
     normals_fn: Callable[[Array], Array] | None = field(default=None, repr=False)
     T_world_table: Array | None = None
+    normals_of: Callable[[Array, NDArray[np.int64]], Array] | None = field(
+        default=None, repr=False
+    )
 
     def __len__(self) -> int:
         return int(self.T_world_gwc.shape[0])
@@ -100,9 +110,27 @@ class CandidateBatch:
     def contact_normals(self) -> Array:
         """Mean outward normal of the points each finger holds, unit, ``(F, nf, 3)``
         (zero where a finger holds nothing)."""
-        n = self.holdings.sums(self.object_normals)  # (F, nf, 3)
+        n = self.holdings.sums(self._held_normals())  # (F, nf, 3)
         norm = np.linalg.norm(n, axis=-1, keepdims=True)
         return np.divide(n, norm, out=np.zeros_like(n), where=norm > 0)
+
+    def _held_normals(self) -> Array:
+        """``object_normals`` where a finger of some candidate holds the point,
+        ``(no, 3)``: estimated for those points alone (zero elsewhere) when
+        ``normals_of`` is given, the holdings are at hand and the normals of
+        every point are not already known. The sums over the held points are
+        the same either way: an unheld point adds ``0 * n``, a zero."""
+        h = self.holdings
+        if self.normals_of is None or "object_normals" in self.__dict__:
+            return self.object_normals
+        if not h.is_dense:  # finding the held points would build every row
+            return self.object_normals
+        # (F, no, nf) -> (no, nf) -> (no,); one axis at a time: 10x faster
+        anyone = np.any(h.dense(), axis=0)  # (no, nf)
+        held = np.flatnonzero(np.any(anyone, axis=1))  # (r,) points
+        out = np.zeros((h.num_points, 3))
+        out[held] = self.normals_of(self.object_points, held)
+        return out
 
     @cached_property
     def contact_centroids_gripper(self) -> Array:

@@ -83,9 +83,15 @@ def run_search(
     top_k: int = 5,
     spheres: FingerSpheres | None = None,
     normals_fn: Callable[[Array], Array] | None = None,
+    normals_of: Callable[[Array, NDArray[np.int64]], Array] | None = None,
     clock: Callable[[], float] | None = None,
 ) -> SearchOutput:
-    """Generate, evaluate and score all candidates; pick the best."""
+    """Generate, evaluate and score all candidates; pick the best.
+
+    ``normals_fn`` gives the object points' outward normals to the scorers;
+    ``normals_of(points, rows)``, when given, the normals of some of them alone,
+    bit for bit those of ``normals_fn`` (see ``CandidateBatch``).
+    """
     import time
 
     now = clock or time.perf_counter
@@ -131,6 +137,7 @@ def run_search(
             table_normal=inp.table.T_world_table[:3, 2],
             min_table_height=ev.min_table_height,
             normals_fn=normals_fn,
+            normals_of=normals_of,
             T_world_table=inp.table.T_world_table,
         )
         total, terms = combine_scores(batch, scorers)
