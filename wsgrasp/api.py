@@ -274,6 +274,7 @@ class Pipeline:
             top_k=self.spec.top_k,
             spheres=self._spheres,
             normals_fn=lambda p: _normals(p, centroid),
+            normals_of=lambda p, rows: _normals(p, centroid, rows),
         )
 
     def _plan(
@@ -718,13 +719,16 @@ def _guard_table(
             )
 
 
-def _normals(points: Array, centroid: Array) -> Array:
-    """Unit normals of the object points ``(n, 3)``, pointing away from the
-    object's centroid."""
+def _normals(
+    points: Array, centroid: Array, rows: NDArray[np.int64] | None = None
+) -> Array:
+    """Unit normals of the object points ``(n, 3)`` (of the points ``rows``
+    alone, ``(r, 3)``, if given), pointing away from the object's centroid."""
     from wsgrasp.perception.frame import estimate_normals
 
-    n = estimate_normals(points)
-    flip = np.einsum("ij,ij->i", points - centroid, n) < 0.0
+    n = estimate_normals(points, rows=rows)
+    p = points if rows is None else points[rows]
+    flip = np.einsum("ij,ij->i", p - centroid, n) < 0.0
     n[flip] *= -1.0
     return n
 

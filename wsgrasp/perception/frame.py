@@ -411,6 +411,12 @@ def _normals_of_rows(p: Array, rows: NDArray[np.int64], k: int) -> Array | None:
     eigenvectors from them. ``tests/test_table1_fast_paths.py`` holds the result
     to open3d's whole-cloud estimate bit for bit (an open3d that accumulated
     otherwise would fail there).
+
+    Why not open3d alone: it estimates every point's normal or none, and the
+    contact-normal scorer needs those of the held points only. On
+    ``box_upright.npz``'s 800 object points, all of them took 1.36 ms and 51 rows
+    0.46 ms here (medians of 300, side by side, load 3.5), a quarter of the
+    Franka hand's Table I search. open3d 0.20's API has no per-point estimate.
     """
     from scipy.spatial import cKDTree
 
