@@ -257,11 +257,16 @@ def _rows(seed: int, q: int, n: int):
     k=st.integers(0, 2),
     lo=st.floats(-0.1, 0.1),
     width=st.floats(0.0, 0.1),
+    offset=st.sampled_from([0.0, 0.0, 1.5, -3.0, 10.0]),
 )
-def test_slab_pairs_are_exactly_the_points_in_the_slab(seed, q, n, k, lo, width):
+def test_slab_pairs_are_exactly_the_points_in_the_slab(
+    seed, q, n, k, lo, width, offset
+):
     """Every point in the slab comes back once; a point outside it only within
-    the 1e-7 m widening."""
+    the 1e-7 m widening. Also with the points and the candidates far from the
+    origin of the gripper axes (an object metres from the world origin)."""
     Q, ol, u = _rows(seed, q, n)
+    Q, u = Q + offset, u + offset
     pair, j, r = _Slabs(Q).pairs(ol, u[:, k], k, lo, lo + width)
     assert np.all(r == ol[pair])
     got = np.zeros((len(ol), n), dtype=bool)

@@ -834,6 +834,8 @@ class _Slabs:
         self.Q = Q
         q, _, self.n = Q.shape
         self.span = float(np.ptp(Q) + 1.0) if Q.size else 1.0
+        self.q_min = float(Q.min()) if Q.size else 0.0
+        self.q_max = float(Q.max()) if Q.size else 0.0
         self.rows = np.arange(q)
         # per axis: the sorting order (q * n,) of each row, flat, and the sorted
         # coordinates (q * n,), rows end to end, each shifted clear of the last
@@ -863,8 +865,10 @@ class _Slabs:
             empty = np.zeros(0, dtype=np.int64)
             return empty, empty, empty
         rank, flat = self._axis(k)
-        # beyond the span: no point in the slab (np.clip, without its wrapper)
-        uk = np.minimum(np.maximum(uk, -self.span), self.span)
+        # a slab beyond every point holds none: the translation is clipped to
+        # where the slab still reaches a metre past the points, which keeps the
+        # search inside the candidate's row (np.clip, without its wrapper)
+        uk = np.minimum(np.maximum(uk, self.q_min - hi - 1.0), self.q_max - lo + 1.0)
         off = 4.0 * self.span * row
         i0 = flat.searchsorted(lo + uk - 1e-7 + off, side="left")
         i1 = flat.searchsorted(hi + uk + 1e-7 + off, side="right")
