@@ -153,22 +153,15 @@ def test_search_with_the_held_points_normals_is_the_same(scene: str) -> None:
 
     def normals_of(p: np.ndarray, rows: np.ndarray) -> np.ndarray:
         asked.append(len(rows))
-        n = estimate_normals(p, rows=rows)
-        flip = np.einsum("ij,ij->i", p[rows] - centroid, n) < 0.0
-        n[flip] *= -1.0
-        return n
+        return _normals(p, centroid, rows)  # as Pipeline.search passes it
 
-    def search(**kw):  # type: ignore[no-untyped-def]
-        return run_search(
-            prep.search_input,
-            pipe._scorers,
-            top_k=pipe.spec.top_k,
-            spheres=pipe._spheres,
-            normals_fn=lambda p: _normals(p, centroid),
-            **kw,
-        )
-
-    slow, fast = search(), search(normals_of=normals_of)
+    inp, sc, k, sp = prep.search_input, pipe._scorers, pipe.spec.top_k, pipe._spheres
+    every = lambda p: _normals(p, centroid)  # noqa: E731
+    slow = run_search(inp, sc, top_k=k, spheres=sp, normals_fn=every)
+    fast = run_search(
+        inp, sc, top_k=k, spheres=sp, normals_fn=every, normals_of=normals_of
+    )
+    assert pipe.search(prep).best == fast.best
     assert asked and 0 < asked[0] < len(prep.search_input.object_points)
     assert fast.best == slow.best
     np.testing.assert_array_equal(fast.candidates.reason, slow.candidates.reason)
