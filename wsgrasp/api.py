@@ -327,9 +327,9 @@ class Pipeline:
         distance = self.spec.approach.distance
         hint = ""
         if choose is None:
-            best = _with_clear_pregrasp(out, g, inp, self._spheres, distance)
+            best, taken = _with_clear_pregrasp(out, g, inp, self._spheres, distance)
             if best != out.best:
-                out = _choose(out, best, g, inp, self._spheres, self.spec.top_k)
+                out = _choose(out, best, g, inp, self._spheres, self.spec.top_k, taken)
         else:
             for o in observers:  # recorded, so that a replay takes it too
                 o.on_stage("choice", {"candidate": int(choose)})
@@ -566,21 +566,22 @@ def _with_clear_pregrasp(
     inp: SearchInput,
     spheres: FingerSpheres | None,
     distance: float,
-) -> int | None:
+) -> tuple[int | None, tuple[Array, NDArray[np.bool_] | None] | None]:
     """The best candidate whose pre-grasp pose is clear of the table too: the
     chosen one, else the first alternative that is (at its pose as it would be
-    taken, backed off from the table), else None."""
+    taken, backed off from the table), else None; with an alternative, its pose
+    as taken (:func:`_taken_pose`), for :func:`_choose`."""
     if out.best is None:
-        return None
+        return None, None
     if not _hits_table(
         g, inp.table, pregrasp_pose(g, out.candidates.T_world_ee[out.best], distance)
     ):
-        return out.best
+        return out.best, None
     for a in out.alternatives:
-        T, _ = _taken_pose(out, a.index, g, inp, spheres)
-        if not _hits_table(g, inp.table, pregrasp_pose(g, T, distance)):
-            return int(a.index)
-    return None
+        taken = _taken_pose(out, a.index, g, inp, spheres)
+        if not _hits_table(g, inp.table, pregrasp_pose(g, taken[0], distance)):
+            return int(a.index), taken
+    return None, None
 
 
 def _no_grasp(
@@ -659,11 +660,13 @@ def _choose(
     inp: SearchInput,
     spheres: FingerSpheres | None,
     top_k: int,
+    taken: tuple[Array, NDArray[np.bool_] | None] | None = None,
 ) -> SearchOutput:
     """``out`` with feasible candidate ``index`` chosen instead: its pose as
-    taken (:func:`_taken_pose`, in a copy of the candidate set, as the search
-    writes its best's into its own), its contacts, its score terms, and the
-    ``top_k`` candidates ranked after it as the alternatives."""
+    taken (:func:`_taken_pose`, unless ``taken`` gives it already; in a copy of
+    the candidate set, as the search writes its best's into its own), its
+    contacts, its score terms, and the ``top_k`` candidates ranked after it as
+    the alternatives."""
     from dataclasses import replace
 
     from wsgrasp.planning.result import Alternative
@@ -673,7 +676,7 @@ def _choose(
         return replace(out, best=None, alternatives=[], contacts=[], score_terms={})
     if index == out.best:
         return out
-    T, holding = _taken_pose(out, index, g, inp, spheres)
+    T, holding = taken or _taken_pose(out, index, g, inp, spheres)
     assert holding is not None
     # a new candidate set: the searched one may be recorded already, as it was
     c = replace(
