@@ -128,3 +128,41 @@ def test_plan_choices_gives_each_choose_plan_from_one_search(planned):
         ]
     with pytest.raises(InputError, match="candidate"):
         pipe.plan_choices(SCENE, [len(result.candidates)])
+
+
+def test_a_best_whose_pregrasp_hits_the_table_gives_way_to_the_first_clear_one(
+    planned, monkeypatch
+):
+    """When the best's pre-grasp pose hits the table, the plan takes the first
+    alternative clear of it, finished as choosing that alternative finishes it
+    (its pose as taken, contacts, pre-grasp pose, targets)."""
+    import wsgrasp.api as api
+
+    pipe, result = planned
+    assert result.alternatives
+    best_pre = result.T_world_pregrasp
+    real = api._hits_table
+
+    def best_hits(g, table, T):  # type: ignore[no-untyped-def]
+        return bool(np.array_equal(T, best_pre)) or real(g, table, T)
+
+    monkeypatch.setattr(api, "_hits_table", best_hits)
+    fallback = pipe.plan(SCENE)
+    assert fallback.found and fallback.best_index != result.best_index
+    assert fallback.best_index in [a.index for a in result.alternatives]
+    monkeypatch.setattr(api, "_hits_table", real)
+    # the first alternative a plan can take (its pre-grasp pose clear)
+    first = next(
+        a.index for a in result.alternatives if pipe.plan(SCENE, choose=a.index).found
+    )
+    assert fallback.best_index == first
+    chosen = pipe.plan(SCENE, choose=fallback.best_index)
+    np.testing.assert_array_equal(fallback.T_world_ee, chosen.T_world_ee)
+    np.testing.assert_array_equal(fallback.T_world_pregrasp, chosen.T_world_pregrasp)
+    assert fallback.joints_grasp == chosen.joints_grasp
+    assert [len(c.points) for c in fallback.contacts] == [
+        len(c.points) for c in chosen.contacts
+    ]
+    assert [a.index for a in fallback.alternatives] == [
+        a.index for a in chosen.alternatives
+    ]
