@@ -294,6 +294,35 @@ def test_object_contacts_are_stiff(jaw_dir: Path, box_object: SimObject):
     assert sinks[0.02] > 3 * sinks[0.005]
 
 
+def test_grip_inside_its_friction_cone_does_not_creep(jaw_dir: Path):
+    """A box whose weight needs 0.6 of the grip's friction stays put in the jaw
+    with the default noslip pass, and creeps down through it without one
+    (MuJoCo's soft friction); a box beyond the friction limit slips out either
+    way, so the pass adds no stickiness beyond Coulomb friction."""
+
+    def hold(mass: float, noslip: int) -> tuple[float, float, str]:
+        box = SimObject(
+            "box", [Part("box", (0.04, 0.06, 0.08), _T((0, 0, 0.04)))], mass
+        )
+        p = SimParams(hold_time=3.0, noslip_iterations=noslip)
+        scene = build_scene(box, sim_gripper_from_files(jaw_description(), jaw_dir), p)
+        T_world_base = _T((0.0, 0.0, 0.08 + 0.10 - 0.02), R_DOWN)
+        ex = execute_grasp(scene, _T(), T_world_base, p, joints_grasp={"j_left": 0.01})
+        m = ex.metrics
+        need = mass * 9.81 / (p.friction * m["grip_force"])  # share of the limit
+        return need, m["rise_after_lift"] - m["rise_after_hold"], ex.outcome
+
+    assert SimParams().noslip_iterations == 10
+    need, slid, outcome = hold(1.5, 10)
+    assert 0.5 < need < 0.7 and outcome == "success"
+    assert abs(slid) < 0.2e-3
+    need, slid, outcome = hold(1.5, 0)
+    assert 0.5 < need < 0.7 and outcome == "success"
+    assert slid > 0.5e-3  # the creep the pass removes
+    need, _, outcome = hold(3.0, 10)
+    assert need > 1.1 and outcome == "slipped_lifting"
+
+
 def test_eval_uses_the_plans_targets_and_records_which(monkeypatch):
     """A plan with joint targets closes to them (``finger_targets: plan``), one
     without them to the YAML's ``closed`` posture (``closed``); plans with the

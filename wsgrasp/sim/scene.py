@@ -73,6 +73,7 @@ def scene_xml(obj: SimObject, gripper: SimGripper | None, p: SimParams) -> str:
             integrator="implicitfast",
             cone="elliptic",
             impratio=p.impratio,
+            noslip_iterations=p.noslip_iterations,
         )
     }/>
 <asset>
