@@ -130,6 +130,36 @@ def test_plan_choices_gives_each_choose_plan_from_one_search(planned):
         pipe.plan_choices(SCENE, [len(result.candidates)])
 
 
+def test_plan_and_choices_gives_the_plan_and_its_picks_from_one_search(
+    planned, monkeypatch
+):
+    pipe, result = planned
+    searches = []
+    search = pipe.search
+    monkeypatch.setattr(pipe, "search", lambda prep: searches.append(1) or search(prep))
+    seen = []
+
+    def pick(res):
+        seen.append(res.best_index)
+        return [a.index for a in res.alternatives[:2]]
+
+    own, many = pipe.plan_and_choices(SCENE, pick)
+    assert len(searches) == 1
+    assert seen == [result.best_index] == [own.best_index]
+    np.testing.assert_array_equal(own.T_world_ee, result.T_world_ee)
+    np.testing.assert_array_equal(own.T_world_pregrasp, result.T_world_pregrasp)
+    assert own.joints_grasp == result.joints_grasp
+    picks = [a.index for a in result.alternatives[:2]]
+    assert [r.best_index for r in many] == picks
+    for i, got in zip(picks, many, strict=True):
+        one = pipe.plan(SCENE, choose=i)
+        np.testing.assert_array_equal(got.T_world_ee, one.T_world_ee)
+        np.testing.assert_array_equal(got.T_world_pregrasp, one.T_world_pregrasp)
+        assert got.joints_grasp == one.joints_grasp
+    with pytest.raises(InputError, match="candidate"):
+        pipe.plan_and_choices(SCENE, lambda res: [len(res.candidates)])
+
+
 def test_a_best_whose_pregrasp_hits_the_table_gives_way_to_the_first_clear_one(
     planned, monkeypatch
 ):

@@ -14,7 +14,7 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -303,6 +303,28 @@ class Pipeline:
         out = self.search(prep)
         shared_ms = (time.perf_counter() - t_start) * 1e3
         return [self._finish(scene, prep, out, i, (), shared_ms) for i in choices]
+
+    def plan_and_choices(
+        self,
+        scene: Scene | ArrayLike | str | Path | Sequence[str | Path],
+        pick: Callable[[PlanResult], Sequence[int]],
+    ) -> tuple[PlanResult, list[PlanResult]]:
+        """The plan ``plan(scene)`` gives, and one plan per candidate index that
+        ``pick`` names from it, each the one ``plan(scene, choose=i)`` gives, all
+        from one preparation and search of the scene (nothing is recorded): for
+        labelling a plan's alternatives without searching the scene twice.
+        Raises as ``plan`` does for an index that is out of range or names a
+        rejected candidate."""
+        scene = as_scene(scene, icp=self.spec.preprocess.icp)
+        t_start = time.perf_counter()
+        prep = self.prepare(scene)
+        out = self.search(prep)
+        shared_ms = (time.perf_counter() - t_start) * 1e3
+        result = self._finish(scene, prep, out, None, (), shared_ms)
+        chosen = [
+            self._finish(scene, prep, out, int(i), (), shared_ms) for i in pick(result)
+        ]
+        return result, chosen
 
     def _finish(
         self,

@@ -6,8 +6,8 @@ task_seed`, so the same drop and views), seen in three noisy depth views, and
 planned on; every feasible candidate is a row of the ``candidates`` table with
 its score terms, and the ``top_k`` best by score are executed in MuJoCo for a
 label. Each is executed as ``wsgrasp eval`` executes a plan's choice: the plan
-with that candidate taken as the choice (``Pipeline.plan_choices``, as
-``Pipeline.plan(..., choose=)`` gives it: its
+with that candidate taken as the choice (``Pipeline.plan_and_choices``, as
+``Pipeline.plan(..., choose=)`` gives it, from the plan's own search: its
 table back-off, pre-grasp pose and joint targets), so a label says whether the
 grasp holds when the planner picks it. ``label_targets`` is "plan" where that
 plan has per-finger joint targets and "closed" where the gripper model keeps no
@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from wsgrasp.batch.engine import Engine, shared
 from wsgrasp.batch.sink import PartSink, require_pyarrow
@@ -179,20 +180,27 @@ def dataset_job(obj: Any, trial: int) -> dict[str, list[dict[str, Any]]]:
     }
     key = ("pipeline", id(pay))
     pipeline = _cached(key, lambda: Pipeline(pay["spec"], gripper=pay["model"]))
+    top_k = int(pay["top_k"])
+
+    def others(res: Any) -> list[int]:
+        """The labelled candidates besides the plan's choice."""
+        chosen = res.best_index if res.found else -1
+        return [int(c) for c in _ranked(res.candidates)[:top_k] if c != chosen]
+
     try:
-        result = pipeline.plan(cloud)
+        # the plan and the plans that take its other labelled candidates, from
+        # one search of the scene
+        result, taken_plans = pipeline.plan_and_choices(cloud, others)
     except WsgraspError as exc:
         scene_row["error"] = f"{type(exc).__name__}: {exc}"
         scene_row["cpu_s"] = time.process_time() - cpu0
         return {"candidates": [], "scenes": [scene_row]}
     rows = _candidate_rows(result, obj.name, trial, pay["gripper"])
     t1 = time.perf_counter()
-    labelled = rows[: pay["top_k"]]
-    # the plans that take the other candidates, from one more search of the scene
-    ids = [int(r["candidate"]) for r in labelled if not r["chosen"]]
-    others = iter(pipeline.plan_choices(cloud, ids) if ids else [])
+    labelled = rows[:top_k]
+    others_taken = iter(taken_plans)
     for row in labelled:
-        taken = result if row["chosen"] else next(others)
+        taken = result if row["chosen"] else next(others_taken)
         outcome = _label(row, taken, obj, settled, okey, pay)
         row.update(label=outcome, success=outcome == "success")
     scene_row.update(
@@ -214,8 +222,7 @@ def _candidate_rows(
 ) -> list[dict[str, Any]]:
     """Every feasible candidate, best score first (rank 0)."""
     C = result.candidates
-    feasible = np.flatnonzero(C.reason == 0)  # (F,) candidate indices
-    order = feasible[np.argsort(-C.score[feasible], kind="stable")]
+    order = _ranked(C)
     ee = C.T_world_ee[order].reshape(-1, 16)  # (F, 16) row-major poses
     gwc = C.T_world_gwc[order].reshape(-1, 16)
     terms = {k: np.asarray(v)[order] for k, v in C.terms.items()}
@@ -239,6 +246,13 @@ def _candidate_rows(
         }
         for r, c in enumerate(order)
     ]
+
+
+def _ranked(C: Any) -> NDArray[np.int64]:
+    """Indices of the feasible candidates, best score first (ties in index
+    order)."""
+    feasible = np.flatnonzero(C.reason == 0)  # (F,) candidate indices
+    return feasible[np.argsort(-C.score[feasible], kind="stable")]
 
 
 def _label(
