@@ -69,7 +69,8 @@ class _Forced:
     numba) or left as installed."""
 
     def __init__(self, balls: bool, loop=None, counts: str = "keep") -> None:
-        # loop: (finger loop, body loop), each a callable or None (no numba);
+        # loop: (finger loop, body loop, count loop), each a callable or None
+        # (no numba);
         # counts: "keep" (holdings computed and kept, the small-set path),
         # "count" (counts only, holdings built when read) or "depth" (counts
         # through the depth grid and its sphere lists at any chunk size)
@@ -83,7 +84,7 @@ class _Forced:
             dense._KEEP_ENTRIES,
             dense._DEPTH_FROM,
         )
-        self.saved_loops = (N._compiled, N._compiled_body)
+        self.saved_loops = (N._compiled, N._compiled_body, N._compiled_count)
         if self.balls:
             dense._BALLS_FROM = 0
         dense._COMPILED_FROM = 0
@@ -92,7 +93,7 @@ class _Forced:
         if self.counts == "depth":
             dense._DEPTH_FROM = 0
         if self.loop is not None:
-            N._compiled, N._compiled_body = self.loop
+            N._compiled, N._compiled_body, N._compiled_count = self.loop
         return self
 
     def __exit__(self, *exc):
@@ -102,7 +103,11 @@ class _Forced:
             dense._KEEP_ENTRIES,
             dense._DEPTH_FROM,
         ) = self.saved
-        _dense_numba._compiled, _dense_numba._compiled_body = self.saved_loops
+        (
+            _dense_numba._compiled,
+            _dense_numba._compiled_body,
+            _dense_numba._compiled_count,
+        ) = self.saved_loops
 
 
 def _frame(rotvec, shift) -> np.ndarray:
@@ -433,16 +438,55 @@ def test_compiled_finger_loop_gives_the_numpy_paths_answers(seed, n_orient):
             ev = evaluate_candidates(T_wg, g, obj, obs, table, sp, structure=structure)
             return ev, ev.holding  # the holdings from the kernel under test
 
-    numpy_path, numpy_holding = run((None, None), "keep")  # the numpy path
-    loops = [(_dense_numba._held_loop, _dense_numba._body_loop)]
-    if _dense_numba.available():
-        loops.append((_dense_numba._compiled, _dense_numba._compiled_body))
+    numpy_path, numpy_holding = run((None, None, None), "keep")  # the numpy path
+    N = _dense_numba
+    loops = [(N._held_loop, N._body_loop, N._count_loop)]
+    if N.available():
+        loops.append((N._compiled, N._compiled_body, N._compiled_count))
     for loop in loops:
         for counts in ("keep", "count"):
             got, holding = run(loop, counts)
             np.testing.assert_array_equal(got.reason, numpy_path.reason)
             np.testing.assert_array_equal(got.contacts, numpy_path.contacts)
             np.testing.assert_array_equal(holding, numpy_holding)
+
+
+@SETTINGS
+@given(
+    seed=st.integers(0, 10_000),
+    fingers=st.integers(1, 4),
+    spheres=st.integers(1, 40),
+    spread=st.floats(0.01, 0.1),
+    ordered=st.booleans(),
+)
+def test_compiled_count_gives_the_spheres_counts(
+    seed, fingers, spheres, spread, ordered
+):
+    """The count loop (plain Python, and compiled where numba is installed)
+    counts exactly the points inside each finger's spheres, with the candidates'
+    rows in order or not."""
+    g = _hand(seed, fingers, spheres)
+    depth = FingerDepth(g.sphere_centers, g.sphere_radii, g.sphere_finger, fingers)
+    rng = np.random.default_rng(seed)
+    q, n, m = 3, 120, 12
+    Q = rng.normal([0.0, 0.0, 0.1], spread, (q, n, 3)).transpose(0, 2, 1)
+    ol = rng.integers(0, q, m)
+    if ordered:
+        ol = np.sort(ol)
+    u = rng.normal(0.0, 0.3 * spread, (m, 3))
+    p = Q[ol].transpose(0, 2, 1) - u[:, None, :]  # (m, n, 3) gripper frame
+    d2 = ((p[:, :, None, :] - g.sphere_centers) ** 2).sum(-1)  # (m, n, s)
+    inside = d2 < g.sphere_radii**2
+    truth = np.stack(
+        [inside[..., g.sphere_finger == f].any(-1).sum(-1) for f in range(fingers)],
+        -1,
+    )  # (m, nf)
+    loops = [_dense_numba._count_loop]
+    if _dense_numba.available():
+        loops.append(_dense_numba._compiled_count)
+    for loop in loops:
+        got = _dense_numba.count_by_fingers(depth, Q, ol, u, loop=loop)
+        np.testing.assert_array_equal(got, truth)
 
 
 @SETTINGS

@@ -258,12 +258,14 @@ class FingerDepth:
         while np.prod((hi0 - lo0) / h + 8) > 8e6:
             h *= 1.25
         self.cell = h
+        self.num_fingers = int(num_fingers)
         self.lim = lim = 0.5 * _SQRT3 * h + MARGIN
         self.centers = np.asarray(centers, dtype=np.float64)
         self.radii = np.asarray(radii, dtype=np.float64)
         self.finger = np.asarray(finger, dtype=np.int64)
         self._lists: tuple[NDArray[np.int32], NDArray[np.int32], Array, Array] | None
         self._lists = None
+        self._compact: tuple[NDArray[np.int32], NDArray[np.int32]] | None = None
         reach = 2.0 * lim  # nodes farther than this from every sphere: D < -lim
         lo, hi = lo0 - reach - h, hi0 + reach + h
         shape = np.ceil((hi - lo) / h).astype(np.int64) + 1
@@ -470,6 +472,40 @@ class FingerDepth:
         radii = np.append(self.radii, 0.0)
         self._lists = (node_id, lists, centers, radii)
         return self._lists
+
+    def compact_lists(self) -> tuple[NDArray[np.int32], NDArray[np.int32]]:
+        """:meth:`sphere_lists` without the padding, for a loop that reads one
+        node at a time (built on first use, then kept).
+
+        Returns
+        -------
+        start : (nodes,) int32
+            Where each node's lists begin in ``listed`` (0 at the nodes unsure
+            for no finger, which are never read).
+        listed : (e,) int32
+            Per node, for each finger its code leaves unsure, in finger order:
+            that finger's sphere ids (into :meth:`sphere_lists`' ``centers``,
+            ``radii``), then -1.
+        """
+        if self._compact is not None:
+            return self._compact
+        node_id, lists, _, radii = self.sphere_lists()
+        pad = len(radii) - 1
+        nodes = np.flatnonzero(node_id >= 0)  # ascending, so compact ids in order
+        L = lists[node_id[nodes]]  # (u, nf, K)
+        open_f = self._unsure_f[self.codes[nodes]]  # (u, nf) the fingers listed
+        real = (L != pad) & open_f[:, :, None]  # (u, nf, K)
+        # entries per (node, finger): its spheres and a terminator, if listed
+        per = real.sum(axis=2) + open_f  # (u, nf)
+        ends = np.cumsum(per.ravel()).reshape(per.shape)  # (u, nf) exclusive end
+        begin = ends - per  # (u, nf) where each finger's list starts
+        listed = np.full(int(per.sum()), -1, dtype=np.int32)
+        u_i, f_i, k_i = np.nonzero(real)  # spheres in list order (k ascending)
+        listed[begin[u_i, f_i] + k_i] = L[u_i, f_i, k_i]  # lists end at padding
+        start = np.zeros(len(self.codes), dtype=np.int32)
+        start[nodes] = begin[:, 0]
+        self._compact = (start, listed)
+        return self._compact
 
 
 _CACHE: weakref.WeakKeyDictionary[FingerSpheres, FingerDepth] = (

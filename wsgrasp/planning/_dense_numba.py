@@ -27,7 +27,13 @@ from wsgrasp.geometry._superellipsoid import _power as superellipsoid_power
 from wsgrasp.planning._dense_grid import FingerDepth
 from wsgrasp.planning.spheres import FingerSpheres
 
-__all__ = ["held_by_fingers", "body_hits", "kernel_arrays", "available"]
+__all__ = [
+    "held_by_fingers",
+    "count_by_fingers",
+    "body_hits",
+    "kernel_arrays",
+    "available",
+]
 
 Array = NDArray[np.float64]
 
@@ -36,7 +42,7 @@ try:  # pragma: no cover - depends on the environment
         raise ImportError("numba disabled by WSGRASP_NUMBA=0")
     import numba
 except ImportError:
-    numba = None
+    numba = None  # type: ignore[assignment]  # (when numba is installed)
 
 _FULL, _PARTIAL = 1, 2
 
@@ -131,6 +137,132 @@ def _held_loop(
                             held[row, j, f] = True
                             counts[i, f] += 1
                             break
+
+
+def _count_loop(
+    Q: Array,
+    ol: NDArray[np.int64],
+    u: Array,
+    d_origin: Array,
+    d_inv_cell: float,
+    d_last: Array,
+    d_strides: Array,
+    d_codes: NDArray[np.uint8],
+    start: NDArray[np.int32],
+    listed: NDArray[np.int32],
+    centers: Array,
+    radii: Array,
+    counts: NDArray[np.int64],
+) -> None:  # pragma: no cover - run compiled, or by the tests on tiny inputs
+    """``counts[i, f]``: the points of candidate ``i`` (``Q[ol[i], :, j] -
+    u[i]``) strictly inside a sphere of finger ``f`` (at most 4 fingers).
+
+    The depth grid's code at each point's nearest node decides first; for a
+    finger it leaves unsure, the spheres listed at that node
+    (``FingerDepth.compact_lists``: from ``start[node]``, per unsure finger in
+    order, sphere ids ending at -1) with the arithmetic of
+    ``FingerSpheres.holding_coordinates``. The nearest nodes of a candidate's
+    points are found first, in a loop of their own, from the points in node
+    units (once per row of ``Q``; ``ol`` nondecreasing reuses them) less the
+    translation in node units: that rounds differently from ``(Q - u -
+    origin) / cell`` by about 1e-14 of a node, far inside the grid's margin.
+    Counting only, and with the lists compact, this is about twice as fast as
+    :func:`_held_loop` on the Allegro's dense search (2,500 candidates × 800
+    points: 25-30 ms against 60-95 ms)."""
+    m = ol.shape[0]
+    n = Q.shape[2]
+    nf = counts.shape[1]
+    Qn = np.empty((3, n))  # the row's points in node units, offset half a node
+    node = np.empty(n, dtype=np.int64)
+    prev = -1
+    for i in range(m):
+        r = ol[i]
+        if r != prev:
+            for k in range(3):
+                for j in range(n):
+                    Qn[k, j] = (Q[r, k, j] - d_origin[k]) * d_inv_cell + 0.5
+            prev = r
+        ux, uy, uz = u[i, 0], u[i, 1], u[i, 2]
+        vx, vy, vz = ux * d_inv_cell, uy * d_inv_cell, uz * d_inv_cell
+        for j in range(n):  # clipped onto the border, far from every sphere
+            nx = min(max(np.floor(Qn[0, j] - vx), 0.0), d_last[0])
+            ny = min(max(np.floor(Qn[1, j] - vy), 0.0), d_last[1])
+            nz = min(max(np.floor(Qn[2, j] - vz), 0.0), d_last[2])
+            node[j] = int(nx * d_strides[0] + ny * d_strides[1] + nz * d_strides[2])
+        c0 = c1 = c2 = c3 = 0
+        for j in range(n):
+            code = d_codes[node[j]]
+            held = code & 0x55  # the held bits, one per finger
+            if code & 0xAA:  # some finger unsure: its listed spheres decide
+                x = Q[r, 0, j] - ux
+                y = Q[r, 1, j] - uy
+                z = Q[r, 2, j] - uz
+                at = start[node[j]]
+                for f in range(nf):
+                    if not (code >> (2 * f + 1)) & 1:
+                        continue
+                    s = listed[at]
+                    while s >= 0:
+                        dx = x - centers[s, 0]
+                        dy = y - centers[s, 1]
+                        dz = z - centers[s, 2]
+                        if dx * dx + dy * dy + dz * dz < radii[s] * radii[s]:
+                            held |= 1 << (2 * f)
+                            while listed[at] >= 0:  # the rest of this list
+                                at += 1
+                            break
+                        at += 1
+                        s = listed[at]
+                    at += 1  # past the terminator
+            c0 += held & 1
+            c1 += (held >> 2) & 1
+            c2 += (held >> 4) & 1
+            c3 += (held >> 6) & 1
+        counts[i, 0] = c0
+        if nf > 1:
+            counts[i, 1] = c1
+        if nf > 2:
+            counts[i, 2] = c2
+        if nf > 3:
+            counts[i, 3] = c3
+
+
+_compiled_count: Callable[..., None] | None = (
+    numba.njit(cache=True, nogil=True)(_count_loop) if numba is not None else None
+)
+
+
+def count_by_fingers(
+    depth: FingerDepth,
+    Q: Array,
+    ol: NDArray[np.int64],
+    u: Array,
+    loop: Callable[..., None] | None = None,
+) -> NDArray[np.int64]:
+    """Points each finger's spheres hold, per candidate (parameters as
+    :func:`held_by_fingers`; ``ol`` nondecreasing is fastest): (m, nf) int."""
+    run = loop or _compiled_count
+    if run is None:
+        raise RuntimeError("numba is not installed: pip install 'wsgrasp[fast]'")
+    _, _, centers, radii = depth.sphere_lists()
+    start, listed = depth.compact_lists()
+    counts = np.zeros((len(ol), depth.num_fingers), dtype=np.int64)
+    run(
+        np.ascontiguousarray(Q, dtype=np.float64),
+        np.ascontiguousarray(ol, dtype=np.int64),
+        np.ascontiguousarray(u, dtype=np.float64),
+        np.asarray(depth.origin, dtype=np.float64),
+        float(1.0 / depth.cell),
+        np.asarray(depth.shape - 1, dtype=np.float64),
+        np.asarray(depth.strides, dtype=np.float64),
+        depth.codes,
+        start,
+        listed,
+        np.ascontiguousarray(centers, dtype=np.float64),
+        np.ascontiguousarray(radii, dtype=np.float64),
+        counts,
+    )
+    return counts
 
 
 #: ``x ** exponent`` as ``wsgrasp.geometry``'s superellipsoid test computes it
