@@ -285,19 +285,52 @@ def _body_loop(
 ) -> None:  # pragma: no cover - run compiled, or by the tests on tiny inputs
     """``hit[i]``: some point of candidate ``i`` (``Q[ol[i], :, j] - u[i]``)
     strictly inside some superellipsoid, with the arithmetic of
-    ``coordinates_in_superellipsoids``; stops at the first such point."""
+    ``coordinates_in_superellipsoids``; stops at the first such point.
+
+    A superellipsoid whose box the candidate's object box (its row's extremes
+    less ``u``) lies apart from is skipped: every point's ``|x - c| < a`` test
+    along that axis fails (the rounding of ``Q - u`` and of ``- c`` keeps the
+    order of the coordinates). Of the Allegro's dense candidates, those clear of
+    every body are tested against the few bodies near the object only."""
     m = ol.shape[0]
     n = Q.shape[2]
     ne = centers.shape[0]
+    lo = np.empty(3)  # the row's object box, gripper axes, untranslated
+    hi = np.empty(3)
+    near = np.empty(ne, dtype=np.int64)  # the bodies the candidate's box meets
+    prev = -1
     for i in range(m):
         r = ol[i]
+        if r != prev:
+            for k in range(3):
+                lo[k] = hi[k] = Q[r, k, 0] if n else 0.0
+                for j in range(n):
+                    lo[k] = min(lo[k], Q[r, k, j])
+                    hi[k] = max(hi[k], Q[r, k, j])
+            prev = r
         ux, uy, uz = u[i, 0], u[i, 1], u[i, 2]
+        nn = 0
+        for e in range(ne):
+            apart = False
+            for k in range(3):
+                uk = ux if k == 0 else (uy if k == 1 else uz)
+                if (lo[k] - uk) - centers[e, k] >= semi_axes[e, k]:
+                    apart = True
+                if centers[e, k] - (hi[k] - uk) >= semi_axes[e, k]:
+                    apart = True
+            if not apart:
+                near[nn] = e
+                nn += 1
         found = False
+        if nn == 0:
+            hit[i] = False
+            continue
         for j in range(n):
             x = Q[r, 0, j] - ux
             y = Q[r, 1, j] - uy
             z = Q[r, 2, j] - uz
-            for e in range(ne):
+            for t in range(nn):
+                e = near[t]
                 dx = abs(x - centers[e, 0])
                 if not dx < semi_axes[e, 0]:
                     continue
