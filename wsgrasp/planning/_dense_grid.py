@@ -361,6 +361,11 @@ class FingerDepth:
         return held, code, flat
 
     @property
+    def packed_held(self) -> NDArray[np.int64]:
+        """Per code, finger ``f``'s held bit at bit ``16 f``: (256,) int64."""
+        return self._packed.astype(np.int64)
+
+    @property
     def unsure_fingers(self) -> NDArray[np.bool_]:
         """Per code, the fingers it leaves undecided: (256, nf) bool."""
         return self._unsure_f

@@ -561,7 +561,9 @@ class _Fingers:
         self.poses, self.P, self.sp, self.depth = poses, P, spheres, depth
         self.f_lo, self.f_hi, self.step = f_lo, f_hi, step
         self.loop = _dense_numba._compiled if compiled else None
-        self.count_loop = _dense_numba._compiled_count if compiled else None
+        # (the count loop sums 16-bit lanes: fewer than 2**16 points)
+        few = len(P) < 2**16
+        self.count_loop = _dense_numba._compiled_count if compiled and few else None
         # the compiled count reads the points in space order: the depth grid's
         # nodes it reads then follow one another in memory (the Allegro's
         # dense counts 20 % faster than in the cloud's own, farthest-first
