@@ -55,7 +55,10 @@ eval-heldout: $(STAMP)
 		--json-out eval-results/random-heldout.json \
 		--md-out eval-results/random-heldout.md
 
+# with the compiled dense loops (extra `fast`, numba); the dense entries' `compiled`
+# field says which path ran
 bench: $(STAMP)
+	$(BIN)/python -m pip install -q -e '.[fast]'
 	$(BIN)/wsgrasp bench
 
 # wsgrasp's plan beside GPG's candidate generation (benchmarks/peers.py); not in
