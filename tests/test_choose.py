@@ -116,18 +116,22 @@ def test_plan_choices_gives_each_choose_plan_from_one_search(planned):
     many = pipe.plan_choices(SCENE, picks)
     assert [r.best_index for r in many] == picks
     for i, got in zip(picks, many, strict=True):
-        one = pipe.plan(SCENE, choose=i)
-        np.testing.assert_array_equal(got.T_world_ee, one.T_world_ee)
-        np.testing.assert_array_equal(got.T_world_pregrasp, one.T_world_pregrasp)
-        assert got.joints_grasp == one.joints_grasp
-        assert [a.index for a in got.alternatives] == [
-            a.index for a in one.alternatives
-        ]
-        assert [c.points.tolist() for c in got.contacts] == [
-            c.points.tolist() for c in one.contacts
-        ]
+        _assert_same_plan(got, pipe.plan(SCENE, choose=i))
     with pytest.raises(InputError, match="candidate"):
         pipe.plan_choices(SCENE, [len(result.candidates)])
+
+
+def _assert_same_plan(got, one) -> None:
+    """Two results are the same plan: pose, pre-grasp, targets, alternatives and
+    contacts."""
+    np.testing.assert_array_equal(got.T_world_ee, one.T_world_ee)
+    np.testing.assert_array_equal(got.T_world_pregrasp, one.T_world_pregrasp)
+    assert got.joints_grasp == one.joints_grasp
+    assert got.joints_pregrasp == one.joints_pregrasp
+    assert [a.index for a in got.alternatives] == [a.index for a in one.alternatives]
+    assert [c.points.tolist() for c in got.contacts] == [
+        c.points.tolist() for c in one.contacts
+    ]
 
 
 def test_plan_and_choices_gives_the_plan_and_its_picks_from_one_search(
@@ -146,16 +150,11 @@ def test_plan_and_choices_gives_the_plan_and_its_picks_from_one_search(
     own, many = pipe.plan_and_choices(SCENE, pick)
     assert len(searches) == 1
     assert seen == [result.best_index] == [own.best_index]
-    np.testing.assert_array_equal(own.T_world_ee, result.T_world_ee)
-    np.testing.assert_array_equal(own.T_world_pregrasp, result.T_world_pregrasp)
-    assert own.joints_grasp == result.joints_grasp
+    _assert_same_plan(own, result)
     picks = [a.index for a in result.alternatives[:2]]
     assert [r.best_index for r in many] == picks
     for i, got in zip(picks, many, strict=True):
-        one = pipe.plan(SCENE, choose=i)
-        np.testing.assert_array_equal(got.T_world_ee, one.T_world_ee)
-        np.testing.assert_array_equal(got.T_world_pregrasp, one.T_world_pregrasp)
-        assert got.joints_grasp == one.joints_grasp
+        _assert_same_plan(got, pipe.plan(SCENE, choose=i))
     with pytest.raises(InputError, match="candidate"):
         pipe.plan_and_choices(SCENE, lambda res: [len(res.candidates)])
 

@@ -196,7 +196,7 @@ def _count_loop(
             ny = min(max(np.floor(Qn[1, j] - vy), 0.0), d_last[1])
             nz = min(max(np.floor(Qn[2, j] - vz), 0.0), d_last[2])
             node[j] = int(nx * d_strides[0] + ny * d_strides[1] + nz * d_strides[2])
-        total = 0
+        total = np.int64(0)
         nu = 0
         for j in range(n):
             code = d_codes[node[j]]
