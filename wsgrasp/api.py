@@ -297,11 +297,7 @@ class Pipeline:
         ``plan(scene, choose=i)`` gives, from one preparation and search of the
         scene (nothing is recorded). Raises as ``plan`` does for an index that
         is out of range or names a rejected candidate."""
-        scene = as_scene(scene, icp=self.spec.preprocess.icp)
-        t_start = time.perf_counter()
-        prep = self.prepare(scene)
-        out = self.search(prep)
-        shared_ms = (time.perf_counter() - t_start) * 1e3
+        scene, prep, out, shared_ms = self._searched(scene)
         return [self._finish(scene, prep, out, i, (), shared_ms) for i in choices]
 
     def plan_and_choices(
@@ -315,16 +311,23 @@ class Pipeline:
         labelling a plan's alternatives without searching the scene twice.
         Raises as ``plan`` does for an index that is out of range or names a
         rejected candidate."""
-        scene = as_scene(scene, icp=self.spec.preprocess.icp)
-        t_start = time.perf_counter()
-        prep = self.prepare(scene)
-        out = self.search(prep)
-        shared_ms = (time.perf_counter() - t_start) * 1e3
+        scene, prep, out, shared_ms = self._searched(scene)
         result = self._finish(scene, prep, out, None, (), shared_ms)
         chosen = [
             self._finish(scene, prep, out, int(i), (), shared_ms) for i in pick(result)
         ]
         return result, chosen
+
+    def _searched(
+        self, scene: Scene | ArrayLike | str | Path | Sequence[str | Path]
+    ) -> tuple[Scene, Prepared, SearchOutput, float]:
+        """The scene, prepared and searched (nothing recorded), and the time
+        (ms) the two took, for the plans finished from them."""
+        scene = as_scene(scene, icp=self.spec.preprocess.icp)
+        t_start = time.perf_counter()
+        prep = self.prepare(scene)
+        out = self.search(prep)
+        return scene, prep, out, (time.perf_counter() - t_start) * 1e3
 
     def _finish(
         self,

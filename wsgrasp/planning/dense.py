@@ -568,7 +568,7 @@ class _Fingers:
         # nodes it reads then follow one another in memory (the Allegro's
         # dense counts 20 % faster than in the cloud's own, farthest-first
         # order); a count does not depend on the order
-        self.P_counts = P[_space_order(P)] if compiled else P
+        self.P_counts = P[_space_order(P)] if self.count_loop is not None else P
         self.nf = len(f_lo)
         lo, hi = f_lo.min(axis=0), f_hi.max(axis=0)  # the fingers' box
         self.k = int(np.argmin(hi - lo))  # its thinnest gripper axis
