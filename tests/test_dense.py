@@ -12,7 +12,12 @@ from scipy.spatial.transform import Rotation
 
 from wsgrasp.geometry import coordinates_in_superellipsoids, transform_points
 from wsgrasp.planning import _dense_numba, dense
-from wsgrasp.planning._dense_grid import FingerDepth, ObjectDistance, inscribed_balls
+from wsgrasp.planning._dense_grid import (
+    FingerDepth,
+    NearestPoint,
+    ObjectDistance,
+    inscribed_balls,
+)
 from wsgrasp.planning.candidates import candidate_poses
 from wsgrasp.planning.dense import (
     CandidateStructure,
@@ -24,6 +29,7 @@ from wsgrasp.planning.dense import (
     _count_in_slab,
     _held_in_slab,
     _object_box_clear,
+    _orientation_spans,
     _Slabs,
     hull_vertices,
     lowest_heights,
@@ -440,7 +446,7 @@ def test_compiled_finger_loop_gives_the_numpy_paths_answers(seed, n_orient):
 
     numpy_path, numpy_holding = run((None, None, None), "keep")  # the numpy path
     N = _dense_numba
-    loops = [(N._held_loop, N._body_loop, N._count_loop)]
+    loops = [(N._count_loop, N._body_loop, N._count_loop)]
     if N.available():
         loops.append((N._compiled, N._compiled_body, N._compiled_count))
     for loop in loops:
@@ -449,6 +455,51 @@ def test_compiled_finger_loop_gives_the_numpy_paths_answers(seed, n_orient):
             np.testing.assert_array_equal(got.reason, numpy_path.reason)
             np.testing.assert_array_equal(got.contacts, numpy_path.contacts)
             np.testing.assert_array_equal(holding, numpy_holding)
+
+
+@SETTINGS
+@given(
+    seed=st.integers(0, 10_000),
+    n_points=st.integers(1, 3_000_000),
+    span=st.integers(1, 50),
+)
+def test_orientation_spans_cover_every_candidate_within_their_bounds(
+    seed, n_points, span
+):
+    """The compiled body test's chunks: consecutive, covering every candidate
+    once, none over the candidate bound or over the point bound (except a
+    single orientation whose points alone exceed it)."""
+    rng = np.random.default_rng(seed)
+    o = np.sort(rng.integers(0, 1 + seed % 40, int(rng.integers(0, 400))))
+    saved = dense._SPAN_CANDIDATES
+    dense._SPAN_CANDIDATES = span
+    try:
+        spans = _orientation_spans(o, n_points)
+    finally:
+        dense._SPAN_CANDIDATES = saved
+    ends = [a for a, _ in spans] + [len(o)]
+    assert [b for _, b in spans] == ends[1:] and ends[0] == 0
+    for a, b in spans:
+        assert 0 < b - a <= span
+        rows = len(np.unique(o[a:b]))
+        assert rows == 1 or rows * 3 * n_points <= dense._SPAN_POINTS
+
+
+def test_nearest_point_names_a_point_of_the_nearest_occupied_voxel():
+    """Every voxel's hint is an object point, in a voxel at the least distance
+    from it among the occupied ones."""
+    rng = np.random.default_rng(3)
+    P = rng.uniform(-0.05, 0.05, (200, 3)) * [1.0, 0.5, 2.0]
+    grid = NearestPoint(P, cell=0.01)
+    shape = tuple(grid.shape)
+    owner_voxel = np.floor((P - grid.origin) / grid.cell).astype(int)
+    occupied = np.unique(owner_voxel, axis=0)
+    voxels = np.stack(np.unravel_index(np.arange(np.prod(shape)), shape), axis=1)
+    d2 = ((voxels[:, None, :] - occupied[None]) ** 2).sum(-1).min(axis=1)
+    hint = grid.point
+    assert hint.min() >= 0 and hint.max() < len(P)
+    got = ((voxels - owner_voxel[hint]) ** 2).sum(-1)
+    np.testing.assert_array_equal(got, d2)
 
 
 @SETTINGS
@@ -464,7 +515,8 @@ def test_compiled_count_gives_the_spheres_counts(
 ):
     """The count loop (plain Python, and compiled where numba is installed)
     counts exactly the points inside each finger's spheres, with the candidates'
-    rows in order or not."""
+    rows in order or not, and writes exactly those holdings, with the points in
+    another order and the candidates to other rows."""
     g = _hand(seed, fingers, spheres)
     depth = FingerDepth(g.sphere_centers, g.sphere_radii, g.sphere_finger, fingers)
     rng = np.random.default_rng(seed)
@@ -477,16 +529,24 @@ def test_compiled_count_gives_the_spheres_counts(
     p = Q[ol].transpose(0, 2, 1) - u[:, None, :]  # (m, n, 3) gripper frame
     d2 = ((p[:, :, None, :] - g.sphere_centers) ** 2).sum(-1)  # (m, n, s)
     inside = d2 < g.sphere_radii**2
-    truth = np.stack(
-        [inside[..., g.sphere_finger == f].any(-1).sum(-1) for f in range(fingers)],
-        -1,
-    )  # (m, nf)
+    held = np.stack(
+        [inside[..., g.sphere_finger == f].any(-1) for f in range(fingers)], -1
+    )  # (m, n, nf)
+    truth = held.sum(axis=1)  # (m, nf)
+    order = rng.permutation(n)  # column j of the loop's points: point order[j]
+    dest = rng.permutation(m + 2)[:m]
     loops = [_dense_numba._count_loop]
     if _dense_numba.available():
         loops.append(_dense_numba._compiled_count)
     for loop in loops:
         got = _dense_numba.count_by_fingers(depth, Q, ol, u, loop=loop)
         np.testing.assert_array_equal(got, truth)
+        out = np.ones((m + 2, n, fingers), dtype=bool)
+        got = _dense_numba.count_by_fingers(
+            depth, Q[:, :, order], ol, u, loop, order, out, dest
+        )
+        np.testing.assert_array_equal(got, truth)
+        np.testing.assert_array_equal(out[dest], held)
 
 
 @SETTINGS

@@ -37,6 +37,7 @@ from wsgrasp.planning.spheres import FingerSpheres
 
 __all__ = [
     "ObjectDistance",
+    "NearestPoint",
     "FingerDepth",
     "inscribed_balls",
     "finger_depth",
@@ -224,6 +225,53 @@ class ObjectDistance:
             hit[rest[got]] = True
             rest = rest[~got]
         return hit
+
+
+class NearestPoint:
+    """Per voxel of a world-frame grid around the object, an object point near
+    its centre: the one ``scipy.ndimage``'s distance transform finds in the
+    nearest occupied voxel. A hint, not a bound: the compiled body test tries
+    the point near each body's centre first (most colliding candidates hold it
+    in the body), and every verdict still comes from the exact test.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+    cell : float
+        Voxel size (m); a query outside the grid reads its border voxel.
+    """
+
+    def __init__(self, points: Array, cell: float = 0.004) -> None:
+        p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        self.cell = h = float(cell)
+        if len(p) == 0:
+            self.origin = np.zeros(3)
+            self.shape = np.ones(3, dtype=np.int64)
+            self.point = np.zeros(0, dtype=np.int32)
+            self.strides = np.array([1, 1, 1], dtype=np.int64)
+            return
+        self.origin = p.min(axis=0) - 2 * h
+        shape = np.floor((p.max(axis=0) + 2 * h - self.origin) / h).astype(np.int64)
+        self.shape = shape = np.maximum(shape + 1, 1)
+        ijk = np.floor((p - self.origin) / h).astype(np.int64)
+        owner = np.full(tuple(shape), -1, dtype=np.int32)
+        owner[ijk[:, 0], ijk[:, 1], ijk[:, 2]] = np.arange(len(p), dtype=np.int32)
+        near = ndimage.distance_transform_edt(
+            owner < 0, return_distances=False, return_indices=True
+        )
+        self.point = np.ascontiguousarray(owner[tuple(near)].ravel(), dtype=np.int32)
+        self.strides = np.array([shape[1] * shape[2], shape[2], 1], dtype=np.int64)
+
+    def arrays(self) -> tuple[Array, float, Array, Array, NDArray[np.int32]]:
+        """``origin, 1 / cell, shape - 1, strides, point``, as the compiled body
+        loop reads them (floats, so that its index arithmetic is exact)."""
+        return (
+            np.asarray(self.origin, dtype=np.float64),
+            float(1.0 / self.cell),
+            np.asarray(self.shape - 1, dtype=np.float64),
+            np.asarray(self.strides, dtype=np.float64),
+            self.point,
+        )
 
 
 class FingerDepth:

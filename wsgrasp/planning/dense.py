@@ -39,11 +39,11 @@ from wsgrasp.gripper.model import GripperModel
 from wsgrasp.planning import _dense_numba
 from wsgrasp.planning._dense_grid import (
     FingerDepth,
+    NearestPoint,
     ObjectDistance,
     finger_depth,
     inscribed_balls,
 )
-from wsgrasp.planning._dense_numba import held_by_fingers
 from wsgrasp.planning._holdings import Holdings, count_held
 from wsgrasp.planning.spheres import FingerSpheres
 
@@ -66,6 +66,10 @@ _CHUNK_LISTED = 1_000_000
 _BALLS_FROM = 20_000
 #: from this many (candidate, point) pairs on, the compiled finger loop runs
 _COMPILED_FROM = 1_000_000
+#: a chunk of the compiled body test holds at most this many candidates, and its
+#: orientations' points at most this many coordinates
+_SPAN_CANDIDATES = 65_536
+_SPAN_POINTS = 3_000_000
 #: from this many candidates of a chunk on, the finger test reads the depth grid
 _DEPTH_FROM = 1024
 #: up to this many (candidate, point, finger) entries, the finger test keeps the
@@ -437,7 +441,13 @@ def body_and_fingers(
     s_all, o_all = np.divmod(index, n_or)
     proven = np.zeros(len(index), dtype=bool)
     clear_all: NDArray[np.bool_] | None = None
-    if len(index) >= _BALLS_FROM:  # below, the grid costs more than it saves
+    # the compiled loops' start-up is worth it from about a million pairs on
+    bodies_compiled = (
+        compiled and _dense_numba.available() and len(index) * no >= _COMPILED_FROM
+    )
+    # the ball proofs serve the numpy path; the compiled body loop tries the
+    # point near each body's centre first, which settles those candidates faster
+    if len(index) >= _BALLS_FROM and not bodies_compiled:
         # the object's box in the gripper axes per orientation: (O, 3) each
         ext_lo, ext_hi = _extremes(P, poses.R)
         clear_all = _boxes_clear(poses, s_all, o_all, ext_lo, ext_hi, se_lo, se_hi)
@@ -458,28 +468,33 @@ def body_and_fingers(
             poses.A, Bb, s_all[at_near], o_all[at_near], body
         )
     depth = finger_depth(sp, g.sphere_centers, g.sphere_radii, g.sphere_finger, nf)
-    # the compiled loops' start-up is worth it from about a million pairs on
-    bodies_compiled = (
-        compiled and _dense_numba.available() and len(index) * no >= _COMPILED_FROM
-    )
+    hints = NearestPoint(P) if bodies_compiled else None
     order = np.argsort(o_all, kind="stable")  # candidates grouped by orientation
     k_all = len(index)
     reason = np.zeros(k_all, dtype=np.int64)
     contacts = np.zeros((k_all, nf), dtype=np.int64)
     step = max(1, chunk_points // max(no, len(X), 1))
     # 1. bodies: object, then obstacles
-    for a in range(0, k_all, step):
-        at = order[a : a + step]  # positions in index, orientation-sorted
+    if bodies_compiled:  # few calls: larger chunks, bounded by their points
+        spans = _orientation_spans(o_all[order], max(no, len(X), 1))
+    else:
+        spans = [(a, min(a + step, k_all)) for a in range(0, k_all, step)]
+    for a, b in spans:
+        at = order[a:b]  # positions in index, orientation-sorted
         R, Q, ol, u = _chunk(poses, P, s_all[at], o_all[at])
         if clear_all is not None:
             clear = clear_all[at]
+        elif bodies_compiled:  # the compiled loop skips the bodies apart itself
+            clear = np.zeros(len(at), dtype=bool)
         else:
             Q_lo, Q_hi = Q.min(axis=2)[ol], Q.max(axis=2)[ol]  # (m, 3)
             clear = _object_box_clear(Q_lo, Q_hi, u, se_lo, se_hi)  # (m,)
         hit = proven[at] & ~clear
         todo = np.flatnonzero(~clear & ~hit)
         if todo.size and bodies_compiled:
-            hit[todo] = _dense_numba.body_hits(Q, ol[todo], u[todo], *se)
+            hit[todo] = _dense_numba.body_hits(
+                Q, ol[todo], u[todo], *se, R=R, hints=hints
+            )
             todo = todo[:0]
         if todo.size:
             # a subset first: a hit by some points is a hit by the cloud
@@ -522,8 +537,7 @@ def body_and_fingers(
     fingers = _Fingers(poses, P, sp, depth, f_lo, f_hi, step, fingers_compiled)
     if len(live) * no * nf <= _KEEP_ENTRIES:
         # few: the holdings themselves, counted, and the feasible ones kept
-        held = fingers.holding(s_all[live], o_all[live])  # (k, no, nf)
-        counts = count_held(held)
+        held, counts = fingers.holding_and_counts(s_all[live], o_all[live])
     else:
         counts = fingers.counts(s_all[live], o_all[live])
     contacts[live] = counts
@@ -560,15 +574,16 @@ class _Fingers:
     ) -> None:
         self.poses, self.P, self.sp, self.depth = poses, P, spheres, depth
         self.f_lo, self.f_hi, self.step = f_lo, f_hi, step
-        self.loop = _dense_numba._compiled if compiled else None
-        # (the count loop sums 16-bit lanes: fewer than 2**16 points)
+        # (the compiled loop sums 16-bit lanes: fewer than 2**16 points)
         few = len(P) < 2**16
+        self.loop = _dense_numba._compiled if compiled and few else None
         self.count_loop = _dense_numba._compiled_count if compiled and few else None
-        # the compiled count reads the points in space order: the depth grid's
+        # the compiled loop reads the points in space order: the depth grid's
         # nodes it reads then follow one another in memory (the Allegro's
         # dense counts 20 % faster than in the cloud's own, farthest-first
-        # order); a count does not depend on the order
-        self.P_counts = P[_space_order(P)] if self.count_loop is not None else P
+        # order); it writes each holding to the point's own column (``perm``)
+        self.perm = _space_order(P) if compiled and few else np.arange(len(P))
+        self.P_counts = P[self.perm]
         self.nf = len(f_lo)
         lo, hi = f_lo.min(axis=0), f_hi.max(axis=0)  # the fingers' box
         self.k = int(np.argmin(hi - lo))  # its thinnest gripper axis
@@ -629,14 +644,25 @@ class _Fingers:
 
     def holding(self, s: NDArray[np.int64], o: NDArray[np.int64]) -> NDArray[np.bool_]:
         """Which object points each finger holds: (k, no, nf) bool."""
+        return self.holding_and_counts(s, o)[0]
+
+    def holding_and_counts(
+        self, s: NDArray[np.int64], o: NDArray[np.int64]
+    ) -> tuple[NDArray[np.bool_], NDArray[np.int64]]:
+        """Which object points each finger holds, (k, no, nf) bool, and how
+        many, (k, nf) int."""
         out = np.zeros((len(s), len(self.P), self.nf), dtype=bool)
+        if self.loop is not None:
+            counts = np.zeros((len(s), self.nf), dtype=np.int64)
+            for rows, Q, ol, u, need in self._groups(s, o, self.P_counts):
+                dest = rows[need]
+                counts[dest] = _dense_numba.count_by_fingers(
+                    self.depth, Q, ol[need], u[need], self.loop, self.perm, out, dest
+                )
+            return out, counts
         for rows, Q, ol, u, need in self._groups(s, o):
             dest = rows[need]
-            if self.loop is not None:
-                held_by_fingers(
-                    self.sp, self.depth, Q, ol[need], u[need], out, dest, self.loop
-                )
-            elif len(need) >= _DEPTH_FROM and len(need) < 8 * len(Q):
+            if len(need) >= _DEPTH_FROM and len(need) < 8 * len(Q):
                 # few candidates per orientation: sorting the points per
                 # orientation for the slab costs more than the depth grid saves
                 out[dest] = _held_numpy(self.depth, self.sp, Q, ol, u, need)
@@ -644,7 +670,7 @@ class _Fingers:
                 out[dest] = _held_in_slab(
                     _Slabs(Q), ol, u, need, self.sp, self.f_lo, self.f_hi, self.depth
                 )
-        return out
+        return out, count_held(out)
 
 
 def _space_order(P: Array, cell: float = 0.01) -> NDArray[np.int64]:
@@ -792,17 +818,56 @@ def _count_every_point(
     return counts
 
 
+def _orientation_spans(
+    o_sorted: NDArray[np.int64], n_points: int
+) -> list[tuple[int, int]]:
+    """Chunks ``[a, b)`` of candidates sorted by orientation ``o_sorted`` (k,)
+    that hold at most ``_SPAN_CANDIDATES`` candidates and whose orientations'
+    points (``n_points`` each, 3 coordinates) number at most ``_SPAN_POINTS``."""
+    k = len(o_sorted)
+    if k == 0:
+        return []
+    starts = np.flatnonzero(np.r_[True, o_sorted[1:] != o_sorted[:-1]])
+    per_group = max(1, _SPAN_POINTS // max(3 * n_points, 1))
+    spans = []
+    a = 0
+    g = 0  # the group where the chunk starts
+    n_groups = len(starts)
+    while a < k:
+        # at most per_group orientations, and at most _SPAN_CANDIDATES candidates
+        g_end = min(g + per_group, n_groups)
+        b = int(starts[g_end]) if g_end < n_groups else k
+        b = min(b, a + _SPAN_CANDIDATES)
+        spans.append((a, b))
+        a = b
+        g = int(np.searchsorted(starts, a, side="right")) - 1
+    return spans
+
+
 def _chunk(
     poses: StructuredPoses, P: Array, s: NDArray[np.int64], o: NDArray[np.int64]
 ) -> tuple[Array, Array, NDArray[np.int64], Array]:
     """For candidates ``(s, o)`` (m,): the rotations of their orientations ``R``
     (q, 3, 3), the object points in those axes ``Q`` (q, 3, no), each candidate's
     row ``ol`` (m,) and translation ``u`` (m, 3) (its points are ``Q[ol] - u``)."""
-    used, ol = np.unique(o, return_inverse=True)
+    o = np.asarray(o, dtype=np.int64)
+    change = o[1:] != o[:-1]
+    if len(o) and np.all(o[1:] >= o[:-1]):  # grouped (the callers' order)
+        used = o[np.r_[True, change]]
+        ol = np.r_[0, np.cumsum(change)]
+    else:
+        used, ol = np.unique(o, return_inverse=True)
     R = poses.R[used]  # (q, 3, 3)
     Q = _in_axes(P, R)  # (q, 3, no) gripper axes, untranslated
     w = poses.A[s] + poses.B[o]  # (m, 3) gripper origins, world frame
-    u = np.matmul(w[:, None, :], R[ol])[:, 0]  # (m, 3)
+    # u = w R[ol], one column at a time from gathered entries of R (a batched
+    # (1, 3) @ (3, 3) product per candidate is twice as slow)
+    u = np.empty((len(o), 3))
+    Rt = np.ascontiguousarray(R.transpose(1, 2, 0))  # (3, 3, q): Rt[i, k] per row
+    for k in range(3):
+        u[:, k] = w[:, 0] * Rt[0, k][ol]
+        u[:, k] += w[:, 1] * Rt[1, k][ol]
+        u[:, k] += w[:, 2] * Rt[2, k][ol]
     return R, Q, ol.reshape(-1), u
 
 
