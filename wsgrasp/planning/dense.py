@@ -200,7 +200,8 @@ def table_bounds(
     M = poses.A @ R_tw.T  # (ns, 3)
     # heights of the vertices per orientation, without the sample's shift
     # the vertices in the table frame per orientation, without the sample's shift
-    P = np.einsum("oij,vj->ovi", RT, vertices) + base[:, None, :]  # (O, h, 3)
+    # (one batched product: an einsum takes 7 times as long)
+    P = np.matmul(vertices, RT.transpose(0, 2, 1)) + base[:, None, :]  # (O, h, 3)
     heights = P[:, :, 2]  # (O, h)
     order = np.argsort(heights, axis=1)  # (O, h)
     sorted_h = np.take_along_axis(heights, order, axis=1)
@@ -209,6 +210,7 @@ def table_bounds(
     # searchsorted answers every (orientation, target) pair
     span = float(np.ptp(heights) + np.ptp(M[:, 2]) + abs(table.center[2]) + 1.0)
     flat = (sorted_h + span * np.arange(n_or)[:, None]).ravel()  # (O * h,)
+    lowest = P[np.arange(n_or), order[:, 0]]  # (O, 3) each orientation's lowest
     top = float(table.center[2] + table.semi_axes[2])
     ns = len(M)
     hit = np.zeros(ns * n_or, dtype=bool)
@@ -223,18 +225,36 @@ def table_bounds(
         # nothing is left to compute (43 % of the Allegro's dense candidates)
         low = np.flatnonzero(sorted_h[o, 0] + shift <= top + MARGIN)  # (l,)
         s, o, shift = s[low], o[low], shift[low]
-        # the vertex nearest the slab's middle height
-        target = table.center[2] - shift + span * o
-        j = np.clip(np.searchsorted(flat, target) - o * nv, 0, nv - 1)
-        inside = np.zeros(len(low), dtype=bool)
-        for rank in (np.zeros_like(j), j):
-            p = P[o, order[o, rank]] + M[s]  # (l, 3) table frame
-            d = np.abs(p - table.center) / table.semi_axes
-            value = d[:, 0] ** table.exponent + d[:, 1] ** table.exponent + d[:, 2] ** 2
-            inside |= value < 1.0 - MARGIN
+        # the lowest vertex, then for the others the vertex nearest the slab's
+        # middle height
+        inside = _vertices_inside(lowest[o] + M[s], table)
+        rest = np.flatnonzero(~inside)
+        target = table.center[2] - shift[rest] + span * o[rest]
+        j = np.clip(np.searchsorted(flat, target) - o[rest] * nv, 0, nv - 1)
+        inside[rest] = _vertices_inside(
+            P[o[rest], order[o[rest], j]] + M[s[rest]], table
+        )
+        # the rest against every vertex (of the Allegro's dense candidates, 8,968
+        # are left here, 8,944 of them with a vertex inside: the hand's lowest
+        # vertex below the slab and the one nearest its middle beyond its edge)
+        rest = np.flatnonzero(~inside)
+        step = max(1, 2_000_000 // max(nv, 1))
+        for b in range(0, len(rest), step):
+            r = rest[b : b + step]
+            p = P[o[r]] + M[s[r]][:, None, :]  # (k, h, 3) table frame
+            inside[r] = _vertices_inside(p, table).any(axis=1)
         hit[c[low]] = inside
         unsure[c[low]] = ~inside
     return hit, unsure
+
+
+def _vertices_inside(p: Array, table: TableSE) -> NDArray[np.bool_]:
+    """Points ``p`` (..., 3), table frame, inside the table superellipsoid by
+    more than ``MARGIN`` in eq. (1)'s value: (...) bool."""
+    d = np.abs(p - table.center) / table.semi_axes
+    l_ = table.exponent
+    value = _power(d[..., 0], l_) + _power(d[..., 1], l_) + d[..., 2] * d[..., 2]
+    return value < 1.0 - MARGIN  # type: ignore[no-any-return]
 
 
 def lowest_heights(
