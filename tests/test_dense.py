@@ -485,6 +485,37 @@ def test_orientation_spans_cover_every_candidate_within_their_bounds(
         assert rows == 1 or rows * 3 * n_points <= dense._SPAN_POINTS
 
 
+@SETTINGS
+@given(seed=st.integers(0, 10_000), bodies=st.integers(1, 6), hinted=st.booleans())
+def test_body_loop_finds_exactly_the_candidates_with_a_point_inside(
+    seed, bodies, hinted
+):
+    """The body loop (plain Python, and compiled where numba is installed), with
+    its probes (the nearest-point hints, or only the last hit) and its per-body
+    box counts, against eq. (1) at every point."""
+    rng = np.random.default_rng(seed)
+    q, n, m = 3, 60, 40
+    R = Rotation.random(q, random_state=seed).as_matrix()
+    P = rng.normal(0.0, 0.05, (n, 3))
+    Q = np.matmul(R.transpose(0, 2, 1), P.T)  # (q, 3, n)
+    ol = np.sort(rng.integers(0, q, m))
+    u = rng.normal(0.0, 0.06, (m, 3))
+    centers = rng.normal(0.0, 0.03, (bodies, 3))
+    semi = rng.uniform(0.005, 0.06, (bodies, 3))
+    exponent = float(rng.choice([2.0, 4.0, 10.0]))
+    x, y, z = (Q[ol, i] - u[:, i, None] for i in range(3))
+    truth = coordinates_in_superellipsoids(x, y, z, centers, semi, exponent).any(1)
+    hints = NearestPoint(P) if hinted else None
+    loops = [_dense_numba._body_loop]
+    if _dense_numba.available():
+        loops.append(_dense_numba._compiled_body)
+    for loop in loops:
+        got = _dense_numba.body_hits(
+            Q, ol, u, centers, semi, exponent, R=R, hints=hints, loop=loop
+        )
+        np.testing.assert_array_equal(got, truth)
+
+
 def test_nearest_point_names_a_point_of_the_nearest_occupied_voxel():
     """Every voxel's hint is an object point, in a voxel at the least distance
     from it among the occupied ones."""

@@ -231,6 +231,10 @@ if numba is not None:  # pragma: no cover - depends on the environment
     _power = numba.njit(inline="always")(_power)
 
 
+#: probes per near body: its centre and two points along its longest axis
+_PROBES = 3
+
+
 def _body_loop(
     Q: Array,
     ol: NDArray[np.int64],
@@ -267,6 +271,9 @@ def _body_loop(
     lo = np.empty(3)  # the row's object box, gripper axes, untranslated
     hi = np.empty(3)
     near = np.empty(ne, dtype=np.int64)  # the bodies the candidate's box meets
+    long_axis = np.empty(ne, dtype=np.int64)
+    for e in range(ne):
+        long_axis[e] = np.argmax(semi_axes[e])
     prev = -1
     # where the scan starts: the point that put the last candidate in a body
     # (the candidates come by orientation, a sample's neighbours next to it,
@@ -299,33 +306,74 @@ def _body_loop(
         if nn == 0 or n == 0:
             hit[i] = False
             continue
-        # the probes first: the point that put the last candidate in a body,
-        # then per near body the hint at its centre's voxel; then every point
-        # once, from the last hit's on
-        start = first
-        probes = 1 + (nn if h_point.shape[0] else 0)
-        for step in range(-probes, n):
-            if step == -probes:
-                j = first
-            elif step < 0:
-                e = near[step + probes - 1]
-                cx = centers[e, 0] + ux
-                cy = centers[e, 1] + uy
-                cz = centers[e, 2] + uz
-                g = 0.0
-                for k in range(3):  # the centre's voxel, world frame
-                    w = R[r, k, 0] * cx + R[r, k, 1] * cy + R[r, k, 2] * cz
-                    v = np.floor((w - h_origin[k]) * h_inv_cell)
-                    g += min(max(v, 0.0), h_last[k]) * h_strides[k]
-                j = h_point[int(g)]
+        # the probes first, each against every near body: the point that put
+        # the last candidate in a body, then per near body the hints at its
+        # centre and half-way to its long ends. Then per near body, a count of
+        # the points in its box (one branch-free pass); where some are, every
+        # point against that body.
+        probes = 1 + (_PROBES * nn if h_point.shape[0] else 0)
+        step = 0
+        tb = 0  # the near body of the second phase
+        jb = 0  # its next point
+        while True:
+            if step < probes:
+                t0, t1 = 0, nn
+                if step == 0:
+                    j = first
+                else:
+                    e = near[(step - 1) // _PROBES]
+                    cx = centers[e, 0] + ux
+                    cy = centers[e, 1] + uy
+                    cz = centers[e, 2] + uz
+                    k = (step - 1) % _PROBES  # 0: the centre; 1, 2: long ends
+                    if k:
+                        kl = long_axis[e]
+                        off = (0.5 if k == 1 else -0.5) * semi_axes[e, kl]
+                        if kl == 0:
+                            cx += off
+                        elif kl == 1:
+                            cy += off
+                        else:
+                            cz += off
+                    g = 0.0
+                    for k in range(3):  # the probe's voxel, world frame
+                        w = R[r, k, 0] * cx + R[r, k, 1] * cy + R[r, k, 2] * cz
+                        v = np.floor((w - h_origin[k]) * h_inv_cell)
+                        g += min(max(v, 0.0), h_last[k]) * h_strides[k]
+                    j = h_point[int(g)]
+                step += 1
             else:
-                j = start + step
-                if j >= n:
-                    j -= n
+                if tb >= nn:
+                    break
+                e = near[tb]
+                if jb == 0:  # a new body: how many points lie in its box
+                    in_box = 0
+                    for jj in range(n):
+                        in_box += (
+                            (abs((Q[r, 0, jj] - ux) - centers[e, 0]) < semi_axes[e, 0])
+                            & (
+                                abs((Q[r, 1, jj] - uy) - centers[e, 1])
+                                < semi_axes[e, 1]
+                            )
+                            & (
+                                abs((Q[r, 2, jj] - uz) - centers[e, 2])
+                                < semi_axes[e, 2]
+                            )
+                        )
+                    if in_box == 0:
+                        tb += 1
+                        continue
+                if jb >= n:
+                    tb += 1
+                    jb = 0
+                    continue
+                j = jb
+                jb += 1
+                t0, t1 = tb, tb + 1
             x = Q[r, 0, j] - ux
             y = Q[r, 1, j] - uy
             z = Q[r, 2, j] - uz
-            for t in range(nn):
+            for t in range(t0, t1):
                 e = near[t]
                 dx = abs(x - centers[e, 0])
                 if not dx < semi_axes[e, 0]:
