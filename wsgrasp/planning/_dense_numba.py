@@ -280,6 +280,7 @@ def _body_loop(
     # so the same point is often inside again: the Allegro's dense hits take
     # half the time, 0.52 -> 0.24 ms per 900-candidate chunk)
     first = 0
+    last_body = -1
     for i in range(m):
         r = ol[i]
         if r != prev:
@@ -306,6 +307,10 @@ def _body_loop(
         if nn == 0 or n == 0:
             hit[i] = False
             continue
+        for t in range(1, nn):  # the body of the last hit first
+            if near[t] == last_body:
+                near[t] = near[0]
+                near[0] = last_body
         # the probes first, each against every near body: the point that put
         # the last candidate in a body, then per near body the hints at its
         # centre and half-way to its long ends. Then per near body, a count of
@@ -392,6 +397,7 @@ def _body_loop(
                 )
                 if value < 1.0:
                     found = True
+                    last_body = e
                     break
             if found:
                 first = j
