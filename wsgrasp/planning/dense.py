@@ -238,7 +238,7 @@ def table_bounds(
         # are left here, 8,944 of them with a vertex inside: the hand's lowest
         # vertex below the slab and the one nearest its middle beyond its edge)
         rest = np.flatnonzero(~inside)
-        step = max(1, 2_000_000 // max(nv, 1))
+        step = max(1, 500_000 // max(nv, 1))  # (k, h, 3) temporaries: 12 MB
         for b in range(0, len(rest), step):
             r = rest[b : b + step]
             p = P[o[r]] + M[s[r]][:, None, :]  # (k, h, 3) table frame
