@@ -139,6 +139,15 @@ class StructuredPoses:
         A = s @ R_wo.T + t_wo  # (ns, 3)
         return cls(R, A, B)
 
+    def columns(self) -> tuple[Array, Array]:
+        """``A.T`` (3, ns) and ``B.T`` (3, O), contiguous (built once, then
+        kept): one coordinate's gather is a 1-D ``take``."""
+        got = self.__dict__.get("_columns")
+        if got is None:
+            got = (np.ascontiguousarray(self.A.T), np.ascontiguousarray(self.B.T))
+            object.__setattr__(self, "_columns", got)
+        return got  # type: ignore[no-any-return]
+
     def transforms(self, index: NDArray[np.int64]) -> Array:
         """``T_world_gripper`` of the candidates ``index`` (k,): (k, 4, 4)."""
         n_or = len(self.R)
@@ -291,7 +300,7 @@ def table_exact(
     R_tw, t_tw = T_table_world[:3, :3], T_table_world[:3, 3]
     n_or = len(poses.R)
     s_all, o_all = np.divmod(np.asarray(index, dtype=np.int64), n_or)
-    by_o = np.argsort(o_all, kind="stable")  # a chunk spans few orientations
+    by_o = _grouped(o_all)  # a chunk spans few orientations
     M = poses.A @ R_tw.T  # (ns, 3)
     out = np.zeros(len(s_all), dtype=bool)
     step = max(1, 2_000_000 // max(len(cloud), 1))
@@ -489,7 +498,7 @@ def body_and_fingers(
         )
     depth = finger_depth(sp, g.sphere_centers, g.sphere_radii, g.sphere_finger, nf)
     hints = NearestPoint(P) if bodies_compiled else None
-    order = np.argsort(o_all, kind="stable")  # candidates grouped by orientation
+    order = _grouped(o_all)  # candidates grouped by orientation
     k_all = len(index)
     reason = np.zeros(k_all, dtype=np.int64)
     contacts = np.zeros((k_all, nf), dtype=np.int64)
@@ -617,7 +626,7 @@ class _Fingers:
         :func:`_chunk` gives them (for the points ``P``, by default the
         object's), and ``need``: the chunk's candidates with some finger's
         sphere box meeting the object's box."""
-        order = np.argsort(o, kind="stable")  # rows grouped by orientation
+        order = _grouped(o)  # rows grouped by orientation
         for a in range(0, len(s), self.step):
             rows = order[a : a + self.step]
             _, Q, ol, u = _chunk(
@@ -838,6 +847,16 @@ def _count_every_point(
     return counts
 
 
+def _grouped(o: NDArray[np.int64]) -> NDArray[np.int64]:
+    """The stable order of ``o`` (k,) (orientation indices): numpy's radix sort
+    where they fit 16 bits (5 times faster than its merge sort on the Franka's
+    378,000 dense candidates), else its stable sort."""
+    o = np.asarray(o, dtype=np.int64)
+    if len(o) and 0 <= o.min() and o.max() < 2**16:
+        return np.argsort(o.astype(np.uint16), kind="stable")
+    return np.argsort(o, kind="stable")
+
+
 def _orientation_spans(
     o_sorted: NDArray[np.int64], n_points: int
 ) -> list[tuple[int, int]]:
@@ -879,15 +898,17 @@ def _chunk(
         used, ol = np.unique(o, return_inverse=True)
     R = poses.R[used]  # (q, 3, 3)
     Q = _in_axes(P, R)  # (q, 3, no) gripper axes, untranslated
-    w = poses.A[s] + poses.B[o]  # (m, 3) gripper origins, world frame
-    # u = w R[ol], one column at a time from gathered entries of R (a batched
-    # (1, 3) @ (3, 3) product per candidate is twice as slow)
+    # u = w R[ol] with w = A[s] + B[o] the gripper origins (world frame), one
+    # coordinate at a time from 1-D gathers (row gathers of (m, 3) arrays and a
+    # batched (1, 3) @ (3, 3) product per candidate are several times slower)
+    A, B = poses.columns()
+    w = [np.take(A[i], s) + np.take(B[i], o) for i in range(3)]  # 3 × (m,)
     u = np.empty((len(o), 3))
     Rt = np.ascontiguousarray(R.transpose(1, 2, 0))  # (3, 3, q): Rt[i, k] per row
     for k in range(3):
-        u[:, k] = w[:, 0] * Rt[0, k][ol]
-        u[:, k] += w[:, 1] * Rt[1, k][ol]
-        u[:, k] += w[:, 2] * Rt[2, k][ol]
+        u[:, k] = w[0] * np.take(Rt[0, k], ol)
+        u[:, k] += w[1] * np.take(Rt[1, k], ol)
+        u[:, k] += w[2] * np.take(Rt[2, k], ol)
     return R, Q, ol.reshape(-1), u
 
 
