@@ -283,7 +283,9 @@ def demo(
 
 def bench(
     as_json: bool = typer.Option(False, "--json", help="Print JSON."),
-    repeat: int = typer.Option(15, min=1, help="Runs per median."),
+    repeat: int = typer.Option(
+        15, min=1, help="Runs per median (the search alone: seven times as many)."
+    ),
     scaling: bool = typer.Option(True, help="Also measure the scaling table."),
 ) -> None:
     """Time the whole plan, the search and the loop-by-loop reference (medians)."""
