@@ -83,8 +83,9 @@ def _count_loop(
     margin; their codes, noting the unsure points without a branch; then the
     unsure points' listed spheres, each list read to its end. On one
     2,500-candidate chunk of the Allegro's dense search (800 points): 60-95 ms
-    with :func:`_held_loop`, 19-22 ms with a single loop over the points and
-    the lists read to their first holding sphere, 12-16 ms so."""
+    with the earlier holding loop (the sphere grid per point), 19-22 ms with a
+    single loop over the points and the lists read to their first holding
+    sphere, 12-16 ms so."""
     m = ol.shape[0]
     n = Q.shape[2]
     nf = counts.shape[1]
@@ -422,7 +423,7 @@ def body_hits(
     loop: Callable[..., None] | None = None,
 ) -> NDArray[np.bool_]:
     """Whether some object point lies inside some body superellipsoid, per
-    candidate (``Q``, ``ol``, ``u`` as in :func:`held_by_fingers`): (m,) bool.
+    candidate (``Q``, ``ol``, ``u`` as in :func:`count_by_fingers`): (m,) bool.
 
     With ``hints`` (the object points' :class:`~wsgrasp.planning._dense_grid.
     NearestPoint` grid) and ``R`` (q, 3, 3), the rotations whose axes ``Q`` is
