@@ -259,7 +259,7 @@ def _dense_row(
     times: dict[str, list[float]] = {}
     search = lambda: pipe.search(prep)  # noqa: E731
     _side_by_side({"search": search, "old": old, "new": new}, 1, times)
-    ms = _side_by_side({"search": search, "new": new}, 2, times)  # medians of 3
+    ms = _side_by_side({"search": search, "new": new}, 4, times)  # medians of 5
     return {
         "candidates": float(C),
         "samples": float(len(inp.samples_object)),
