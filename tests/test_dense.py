@@ -75,8 +75,7 @@ class _Forced:
     numba) or left as installed."""
 
     def __init__(self, balls: bool, loop=None, counts: str = "keep") -> None:
-        # loop: (finger loop, body loop, count loop), each a callable or None
-        # (no numba);
+        # loop: (body loop, finger loop), each a callable or None (no numba);
         # counts: "keep" (holdings computed and kept, the small-set path),
         # "count" (counts only, holdings built when read) or "depth" (counts
         # through the depth grid and its sphere lists at any chunk size)
@@ -90,7 +89,7 @@ class _Forced:
             dense._KEEP_ENTRIES,
             dense._DEPTH_FROM,
         )
-        self.saved_loops = (N._compiled, N._compiled_body, N._compiled_count)
+        self.saved_loops = (N._compiled_body, N._compiled_count)
         if self.balls:
             dense._BALLS_FROM = 0
         dense._COMPILED_FROM = 0
@@ -99,7 +98,7 @@ class _Forced:
         if self.counts == "depth":
             dense._DEPTH_FROM = 0
         if self.loop is not None:
-            N._compiled, N._compiled_body, N._compiled_count = self.loop
+            N._compiled_body, N._compiled_count = self.loop
         return self
 
     def __exit__(self, *exc):
@@ -109,11 +108,7 @@ class _Forced:
             dense._KEEP_ENTRIES,
             dense._DEPTH_FROM,
         ) = self.saved
-        (
-            _dense_numba._compiled,
-            _dense_numba._compiled_body,
-            _dense_numba._compiled_count,
-        ) = self.saved_loops
+        _dense_numba._compiled_body, _dense_numba._compiled_count = self.saved_loops
 
 
 def _frame(rotvec, shift) -> np.ndarray:
@@ -444,11 +439,11 @@ def test_compiled_finger_loop_gives_the_numpy_paths_answers(seed, n_orient):
             ev = evaluate_candidates(T_wg, g, obj, obs, table, sp, structure=structure)
             return ev, ev.holding  # the holdings from the kernel under test
 
-    numpy_path, numpy_holding = run((None, None, None), "keep")  # the numpy path
+    numpy_path, numpy_holding = run((None, None), "keep")  # the numpy path
     N = _dense_numba
-    loops = [(N._count_loop, N._body_loop, N._count_loop)]
+    loops = [(N._body_loop, N._count_loop)]
     if N.available():
-        loops.append((N._compiled, N._compiled_body, N._compiled_count))
+        loops.append((N._compiled_body, N._compiled_count))
     for loop in loops:
         for counts in ("keep", "count"):
             got, holding = run(loop, counts)

@@ -41,8 +41,6 @@ try:  # pragma: no cover - depends on the environment
 except ImportError:
     numba = None  # type: ignore[assignment]  # (when numba is installed)
 
-_FULL, _PARTIAL = 1, 2
-
 
 def _count_loop(
     Q: Array,
@@ -452,10 +450,6 @@ def body_hits(
     return hit
 
 
-#: the finger loop, holdings kept or not (one kernel)
-_compiled = _compiled_count
-
-
 def available() -> bool:
-    """Whether the compiled finger test is in use (numba importable)."""
-    return _compiled is not None
+    """Whether the compiled loops are in use (numba importable)."""
+    return _compiled_count is not None

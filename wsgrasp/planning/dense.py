@@ -207,7 +207,6 @@ def table_bounds(
     RT = R_tw @ poses.R  # (O, 3, 3) gripper axes in the table frame
     base = poses.B @ R_tw.T + t_tw  # (O, 3)
     M = poses.A @ R_tw.T  # (ns, 3)
-    # heights of the vertices per orientation, without the sample's shift
     # the vertices in the table frame per orientation, without the sample's shift
     # (one batched product: an einsum takes 7 times as long)
     P = np.matmul(vertices, RT.transpose(0, 2, 1)) + base[:, None, :]  # (O, h, 3)
@@ -605,8 +604,8 @@ class _Fingers:
         self.f_lo, self.f_hi, self.step = f_lo, f_hi, step
         # (the compiled loop sums 16-bit lanes: fewer than 2**16 points)
         few = len(P) < 2**16
-        self.loop = _dense_numba._compiled if compiled and few else None
-        self.count_loop = _dense_numba._compiled_count if compiled and few else None
+        # one kernel counts, and writes the holdings when asked
+        self.loop = _dense_numba._compiled_count if compiled and few else None
         # the compiled loop reads the points in space order: the depth grid's
         # nodes it reads then follow one another in memory (the Allegro's
         # dense counts 20 % faster than in the cloud's own, farthest-first
@@ -642,10 +641,10 @@ class _Fingers:
     def counts(self, s: NDArray[np.int64], o: NDArray[np.int64]) -> NDArray[np.int64]:
         """Points held per candidate and finger: (k, nf) int."""
         out = np.zeros((len(s), self.nf), dtype=np.int64)
-        if self.count_loop is not None:
+        if self.loop is not None:
             for rows, Q, ol, u, need in self._groups(s, o, self.P_counts):
                 out[rows[need]] = _dense_numba.count_by_fingers(
-                    self.depth, Q, ol[need], u[need], loop=self.count_loop
+                    self.depth, Q, ol[need], u[need], loop=self.loop
                 )
             return out
         for rows, Q, ol, u, need in self._groups(s, o):
