@@ -89,7 +89,7 @@ class _Forced:
             dense._KEEP_ENTRIES,
             dense._DEPTH_FROM,
         )
-        self.saved_loops = (N._compiled_body, N._compiled_count)
+        self.saved_loops = (N._compiled_body, N._compiled_count, N._AVAILABLE)
         if self.balls:
             dense._BALLS_FROM = 0
         dense._COMPILED_FROM = 0
@@ -97,8 +97,9 @@ class _Forced:
             dense._KEEP_ENTRIES = -1
         if self.counts == "depth":
             dense._DEPTH_FROM = 0
-        if self.loop is not None:
+        if self.loop is not None:  # (None, None): the numpy path
             N._compiled_body, N._compiled_count = self.loop
+            N._AVAILABLE = self.loop[0] is not None
         return self
 
     def __exit__(self, *exc):
@@ -108,7 +109,11 @@ class _Forced:
             dense._KEEP_ENTRIES,
             dense._DEPTH_FROM,
         ) = self.saved
-        _dense_numba._compiled_body, _dense_numba._compiled_count = self.saved_loops
+        (
+            _dense_numba._compiled_body,
+            _dense_numba._compiled_count,
+            _dense_numba._AVAILABLE,
+        ) = self.saved_loops
 
 
 def _frame(rotvec, shift) -> np.ndarray:
@@ -443,7 +448,8 @@ def test_compiled_finger_loop_gives_the_numpy_paths_answers(seed, n_orient):
     N = _dense_numba
     loops = [(N._body_loop, N._count_loop)]
     if N.available():
-        loops.append((N._compiled_body, N._compiled_count))
+        count_loop, body_loop = N.load()
+        loops.append((body_loop, count_loop))
     for loop in loops:
         for counts in ("keep", "count"):
             got, holding = run(loop, counts)
@@ -503,7 +509,7 @@ def test_body_loop_finds_exactly_the_candidates_with_a_point_inside(
     hints = NearestPoint(P) if hinted else None
     loops = [_dense_numba._body_loop]
     if _dense_numba.available():
-        loops.append(_dense_numba._compiled_body)
+        loops.append(_dense_numba.load()[1])
     for loop in loops:
         got = _dense_numba.body_hits(
             Q, ol, u, centers, semi, exponent, R=R, hints=hints, loop=loop
@@ -563,7 +569,7 @@ def test_compiled_count_gives_the_spheres_counts(
     dest = rng.permutation(m + 2)[:m]
     loops = [_dense_numba._count_loop]
     if _dense_numba.available():
-        loops.append(_dense_numba._compiled_count)
+        loops.append(_dense_numba.load()[0])
     for loop in loops:
         got = _dense_numba.count_by_fingers(depth, Q, ol, u, loop=loop)
         np.testing.assert_array_equal(got, truth)
@@ -839,3 +845,56 @@ def test_search_of_a_scene_metres_from_the_origin(spec: str, sampling):  # type:
     np.testing.assert_array_equal(out.candidates.contacts, ref.candidates.contacts)
     assert (ref.candidates.reason == 0).sum() > 0
     assert out.best == ref.best
+
+
+def test_small_searches_load_the_compiled_loops_from_the_fourth_on(monkeypatch):
+    """With numba installed, a test of many pairs runs the compiled loops at
+    once; a small one runs numpy's until a process has done
+    ``_SMALL_BEFORE_LOADING`` of them, or the loops are loaded, and a tiny one
+    (below ``_SMALL_FROM`` pairs) until they are loaded; without numba, numpy's
+    always."""
+    N = _dense_numba
+    monkeypatch.setattr(N, "_AVAILABLE", True)
+    monkeypatch.setattr(N, "_compiled_body", None)
+    monkeypatch.setattr(N, "_compiled_count", None)
+    monkeypatch.setattr(dense, "_small_searches", 0)
+    small = dense._COMPILED_FROM - 1
+    before = dense._SMALL_BEFORE_LOADING
+    tiny = dense._SMALL_FROM - 1  # never worth loading for, never counted
+    assert not any(dense._use_compiled(t) for t in [0, tiny] * (before + 1))
+    assert [dense._use_compiled(small) for _ in range(before + 2)] == (
+        [False] * before + [True, True]
+    )
+    monkeypatch.setattr(dense, "_small_searches", 0)
+    assert dense._use_compiled(dense._COMPILED_FROM)  # many: at once
+    assert dense._small_searches == 0  # and not counted as a small one
+    assert not dense._use_compiled(small)
+    # loaded (here as the plain Python loops): every test from then on
+    monkeypatch.setattr(N, "_compiled_body", N._body_loop)
+    monkeypatch.setattr(N, "_compiled_count", N._count_loop)
+    assert N.loaded() and dense._use_compiled(0)
+    monkeypatch.setattr(N, "_AVAILABLE", False)
+    assert not dense._use_compiled(dense._COMPILED_FROM)
+
+
+def test_importing_wsgrasp_leaves_numba_unimported(tmp_path):
+    """numba is imported when a search first runs the compiled loops, not when
+    wsgrasp is: here a ``numba`` that fails on import stands in for it, so the
+    import of the planner must not touch it, while ``available`` finds it."""
+    import os
+    import subprocess
+    import sys
+
+    (tmp_path / "numba.py").write_text("raise RuntimeError('numba imported')\n")
+    code = (
+        "import sys; import wsgrasp.api, wsgrasp.planning.evaluate; "
+        "from wsgrasp.planning import _dense_numba as N; "
+        "print(N.available(), 'numba' in sys.modules)"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "WSGRASP_NUMBA"}
+    env["PYTHONPATH"] = str(tmp_path)
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["True", "False"]

@@ -64,8 +64,14 @@ _CHUNK_PAIRS = 100_000
 _CHUNK_LISTED = 1_000_000
 #: from this many candidates on, the object's distance grid proves body hits
 _BALLS_FROM = 20_000
-#: from this many (candidate, point) pairs on, the compiled finger loop runs
+#: from this many (candidate, point) pairs on, the compiled loops run (with numba
+#: installed), loaded at once if need be, and the body loop reads nearest-point
+#: hints; below, once they are loaded, or from a process's
+#: ``_SMALL_BEFORE_LOADING + 1``-th search of ``_SMALL_FROM`` pairs or more on
+#: (see :func:`_use_compiled`)
 _COMPILED_FROM = 1_000_000
+_SMALL_BEFORE_LOADING = 3
+_SMALL_FROM = 20_000
 #: a chunk of the compiled body test holds at most this many candidates, and its
 #: orientations' points at most this many coordinates
 _SPAN_CANDIDATES = 65_536
@@ -469,12 +475,10 @@ def body_and_fingers(
     s_all, o_all = np.divmod(index, n_or)
     proven = np.zeros(len(index), dtype=bool)
     clear_all: NDArray[np.bool_] | None = None
-    # the compiled loops' start-up is worth it from about a million pairs on
-    bodies_compiled = (
-        compiled and _dense_numba.available() and len(index) * no >= _COMPILED_FROM
-    )
-    # the ball proofs serve the numpy path; the compiled body loop tries the
-    # point near each body's centre first, which settles those candidates faster
+    bodies_compiled = compiled and _use_compiled(len(index) * no)
+    # the ball proofs serve the numpy path; the compiled body loop tries a few
+    # points first (near each body's centre, or spread over the cloud), which
+    # settles those candidates faster
     if len(index) >= _BALLS_FROM and not bodies_compiled:
         # the object's box in the gripper axes per orientation: (O, 3) each
         ext_lo, ext_hi = _extremes(P, poses.R)
@@ -496,7 +500,10 @@ def body_and_fingers(
             poses.A, Bb, s_all[at_near], o_all[at_near], body
         )
     depth = finger_depth(sp, g.sphere_centers, g.sphere_radii, g.sphere_finger, nf)
-    hints = NearestPoint(P) if bodies_compiled else None
+    # the hint grid costs milliseconds to build (3.4 ms for 800 points here):
+    # worth it for the many candidates of a dense search
+    many = len(index) * no >= _COMPILED_FROM
+    hints = NearestPoint(P) if bodies_compiled and many else None
     order = _grouped(o_all)  # candidates grouped by orientation
     k_all = len(index)
     reason = np.zeros(k_all, dtype=np.int64)
@@ -559,10 +566,8 @@ def body_and_fingers(
         return BodyFingerVerdicts(
             reason, contacts, Holdings.of(np.zeros((0, no, nf), dtype=bool))
         )
-    fingers_compiled = (
-        compiled and _dense_numba.available() and len(live) * no >= _COMPILED_FROM
-    )
-    fingers = _Fingers(poses, P, sp, depth, f_lo, f_hi, step, fingers_compiled)
+    # (the live candidates are some of those tested: the same path)
+    fingers = _Fingers(poses, P, sp, depth, f_lo, f_hi, step, bodies_compiled, many)
     if len(live) * no * nf <= _KEEP_ENTRIES:
         # few: the holdings themselves, counted, and the feasible ones kept
         held, counts = fingers.holding_and_counts(s_all[live], o_all[live])
@@ -578,6 +583,30 @@ def body_and_fingers(
         rows = fingers.rows_of(s_all[keep], o_all[keep])
         holdings = Holdings(counts[ok], no, rows=rows)
     return BodyFingerVerdicts(reason, contacts, holdings)
+
+
+_small_searches = 0
+
+
+def _use_compiled(pairs: int) -> bool:
+    """Whether a test of ``pairs`` (candidate, point) pairs runs the compiled
+    loops: with numba installed, from ``_COMPILED_FROM`` pairs on (loading the
+    loops if need be); below, once they are loaded, or from the
+    ``_SMALL_BEFORE_LOADING + 1``-th test of ``_SMALL_FROM`` pairs or more in
+    the process on. Loading costs 0.3-0.4 s once per process
+    (``_dense_numba``); on a small set the loops take under half the time of
+    numpy's tests (the Franka hand's Table I: body and finger tests 2.8 -> 1.2
+    ms), so a process that plans a scene or two never loads them and one that
+    plans many pays once. The answers are the same either way."""
+    global _small_searches
+    if not _dense_numba.available():
+        return False
+    if pairs >= _COMPILED_FROM or _dense_numba.loaded():
+        return True
+    if pairs < _SMALL_FROM:  # too few to be worth loading for
+        return False
+    _small_searches += 1
+    return _small_searches > _SMALL_BEFORE_LOADING
 
 
 class _Fingers:
@@ -599,19 +628,23 @@ class _Fingers:
         f_hi: Array,
         step: int,
         compiled: bool,
+        ordered: bool = True,
     ) -> None:
         self.poses, self.P, self.sp, self.depth = poses, P, spheres, depth
         self.f_lo, self.f_hi, self.step = f_lo, f_hi, step
         # (the compiled loop sums 16-bit lanes: fewer than 2**16 points)
         few = len(P) < 2**16
         # one kernel counts, and writes the holdings when asked
-        self.loop = _dense_numba._compiled_count if compiled and few else None
-        # the compiled loop reads the points in space order: the depth grid's
-        # nodes it reads then follow one another in memory (the Allegro's
-        # dense counts 20 % faster than in the cloud's own, farthest-first
-        # order); it writes each holding to the point's own column (``perm``)
-        self.perm = _space_order(P) if compiled and few else np.arange(len(P))
-        self.P_counts = P[self.perm]
+        self.loop = _dense_numba.load()[0] if compiled and few else None
+        # the compiled loop reads the points in space order where ``ordered``
+        # (many candidates): the depth grid's nodes it reads then follow one
+        # another in memory (the Allegro's dense counts 20 % faster than in the
+        # cloud's own, farthest-first order); it writes each holding to the
+        # point's own column (``perm``). Sorting costs more than it saves on a
+        # few hundred candidates (0.13 ms of the Franka hand's Table I search).
+        ordering = compiled and few and ordered
+        self.perm = _space_order(P) if ordering else np.arange(len(P))
+        self.P_counts = P[self.perm] if ordering else P
         self.nf = len(f_lo)
         lo, hi = f_lo.min(axis=0), f_hi.max(axis=0)  # the fingers' box
         self.k = int(np.argmin(hi - lo))  # its thinnest gripper axis
