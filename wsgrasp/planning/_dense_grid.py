@@ -311,6 +311,13 @@ class FingerDepth:
         self.centers = np.asarray(centers, dtype=np.float64)
         self.radii = np.asarray(radii, dtype=np.float64)
         self.finger = np.asarray(finger, dtype=np.int64)
+        #: each finger's box of spheres, gripper frame: (nf, 3) each
+        self.box_lo = np.stack(
+            [(centers - radii[:, None])[finger == f].min(0) for f in range(num_fingers)]
+        )
+        self.box_hi = np.stack(
+            [(centers + radii[:, None])[finger == f].max(0) for f in range(num_fingers)]
+        )
         self._lists: tuple[NDArray[np.int32], NDArray[np.int32], Array, Array] | None
         self._lists = None
         self._compact: tuple[NDArray[np.int32], NDArray[np.int32]] | None = None
