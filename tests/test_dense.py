@@ -3,6 +3,8 @@ the loop-by-loop reference, in any frame, for any orientations, depths and spher
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 from conftest import box_object, make_jaw_gripper
@@ -74,12 +76,18 @@ class _Forced:
     ``loop`` (its plain Python function, so that its logic is tested without
     numba) or left as installed."""
 
-    def __init__(self, balls: bool, loop=None, counts: str = "keep") -> None:
+    def __init__(
+        self, balls: bool, loop=None, counts: str = "keep", small: bool = False
+    ) -> None:
         # loop: (body loop, finger loop), each a callable or None (no numba);
         # counts: "keep" (holdings computed and kept, the small-set path),
         # "count" (counts only, holdings built when read) or "depth" (counts
-        # through the depth grid and its sphere lists at any chunk size)
+        # through the depth grid and its sphere lists at any chunk size);
+        # small: the compiled loops as a small search runs them once loaded
+        # (no hint grid, the points in their own order, one chunk's rows for
+        # both tests) instead of as a dense one
         self.balls, self.loop, self.counts = balls, loop, counts
+        self.small = small
 
     def __enter__(self):
         N = _dense_numba
@@ -92,7 +100,7 @@ class _Forced:
         self.saved_loops = (N._compiled_body, N._compiled_count, N._AVAILABLE)
         if self.balls:
             dense._BALLS_FROM = 0
-        dense._COMPILED_FROM = 0
+        dense._COMPILED_FROM = 2**62 if self.small else 0
         if self.counts != "keep":
             dense._KEEP_ENTRIES = -1
         if self.counts == "depth":
@@ -439,8 +447,8 @@ def test_compiled_finger_loop_gives_the_numpy_paths_answers(seed, n_orient):
     structure = CandidateStructure(T_wo, samples, R, depth)
     sp = FingerSpheres(g)
 
-    def run(loop, counts):
-        with _Forced(balls=bool(seed % 3), loop=loop, counts=counts):
+    def run(loop, counts, small=False):
+        with _Forced(balls=bool(seed % 3), loop=loop, counts=counts, small=small):
             ev = evaluate_candidates(T_wg, g, obj, obs, table, sp, structure=structure)
             return ev, ev.holding  # the holdings from the kernel under test
 
@@ -450,12 +458,13 @@ def test_compiled_finger_loop_gives_the_numpy_paths_answers(seed, n_orient):
     if N.available():
         count_loop, body_loop = N.load()
         loops.append((body_loop, count_loop))
-    for loop in loops:
-        for counts in ("keep", "count"):
-            got, holding = run(loop, counts)
-            np.testing.assert_array_equal(got.reason, numpy_path.reason)
-            np.testing.assert_array_equal(got.contacts, numpy_path.contacts)
-            np.testing.assert_array_equal(holding, numpy_holding)
+    for loop, counts, small in itertools.product(
+        loops, ("keep", "count"), (False, True)
+    ):
+        got, holding = run(loop, counts, small)
+        np.testing.assert_array_equal(got.reason, numpy_path.reason)
+        np.testing.assert_array_equal(got.contacts, numpy_path.contacts)
+        np.testing.assert_array_equal(holding, numpy_holding)
 
 
 @SETTINGS

@@ -25,7 +25,7 @@ evaluation of eq. (1) in floating point gives.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -557,9 +557,16 @@ def body_and_fingers(
         )
     # (the live candidates are some of those tested: the same path)
     fingers = _Fingers(poses, P, sp, depth, f_lo, f_hi, step, bodies_compiled, many)
+    given = None
+    if bodies_compiled and not many and len(spans) == 1:
+        # one chunk held every candidate, and the finger loop reads the points
+        # in their own order: its rows serve the finger test too
+        inv = np.empty(k_all, dtype=np.int64)
+        inv[order] = np.arange(k_all)
+        given = (Q, ol[inv[live]], u[inv[live]])
     if len(live) * no * nf <= _KEEP_ENTRIES:
         # few: the holdings themselves, counted, and the feasible ones kept
-        held, counts = fingers.holding_and_counts(s_all[live], o_all[live])
+        held, counts = fingers.holding_and_counts(s_all[live], o_all[live], given)
     else:
         counts = fingers.counts(s_all[live], o_all[live])
     contacts[live] = counts
@@ -697,14 +704,24 @@ class _Fingers:
         return self.holding_and_counts(s, o)[0]
 
     def holding_and_counts(
-        self, s: NDArray[np.int64], o: NDArray[np.int64]
+        self,
+        s: NDArray[np.int64],
+        o: NDArray[np.int64],
+        given: tuple[Array, NDArray[np.int64], Array] | None = None,
     ) -> tuple[NDArray[np.bool_], NDArray[np.int64]]:
         """Which object points each finger holds, (k, no, nf) bool, and how
-        many, (k, nf) int."""
+        many, (k, nf) int. ``given``: the candidates' ``Q, ol, u`` as
+        :func:`_chunk` gives them for the points in their own order, to the
+        compiled loop without chunking again (it counts every candidate)."""
         out = np.zeros((len(s), len(self.P), self.nf), dtype=bool)
         if self.loop is not None:
             counts = np.zeros((len(s), self.nf), dtype=np.int64)
-            for rows, Q, ol, u, need in self._groups(s, o, self.P_counts):
+            if given is not None and self.P_counts is self.P:
+                every = np.arange(len(s))
+                groups: Iterable[tuple[Any, ...]] = [(every, *given, every)]
+            else:
+                groups = self._groups(s, o, self.P_counts)
+            for rows, Q, ol, u, need in groups:
                 dest = rows[need]
                 counts[dest] = _dense_numba.count_by_fingers(
                     self.depth, Q, ol[need], u[need], self.loop, self.perm, out, dest
