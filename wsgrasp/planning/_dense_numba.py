@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import threading
 from collections.abc import Callable
 
 import numpy as np
@@ -156,6 +157,7 @@ def _count_loop(
 #: the compiled loops, once :func:`load` has compiled or loaded them
 _compiled_count: Callable[..., None] | None = None
 _compiled_body: Callable[..., None] | None = None
+_LOADING = threading.Lock()  # one thread loads them, the others wait for it
 
 
 def count_by_fingers(
@@ -474,16 +476,18 @@ def load() -> tuple[Callable[..., None], Callable[..., None]]:
     beside this file: the count loop and the body loop. Once per process; raises
     RuntimeError naming the fix when numba cannot be used."""
     global _compiled_count, _compiled_body, _power
-    if _compiled_count is not None and _compiled_body is not None:
-        return _compiled_count, _compiled_body
-    if not _AVAILABLE:
-        raise RuntimeError(
-            "numba is not installed (or WSGRASP_NUMBA=0): pip install 'wsgrasp[fast]'"
-        )
-    import numba
+    with _LOADING:
+        if _compiled_count is not None and _compiled_body is not None:
+            return _compiled_count, _compiled_body
+        if not _AVAILABLE:
+            raise RuntimeError(
+                "numba is not installed (or WSGRASP_NUMBA=0): "
+                "pip install 'wsgrasp[fast]'"
+            )
+        import numba
 
-    # the body loop reads _power as a global when numba compiles it
-    _power = numba.njit(inline="always")(superellipsoid_power)
-    _compiled_count = numba.njit(cache=True, nogil=True)(_count_loop)
-    _compiled_body = numba.njit(cache=True, nogil=True)(_body_loop)
-    return _compiled_count, _compiled_body
+        # the body loop reads _power as a global when numba compiles it
+        _power = numba.njit(inline="always")(superellipsoid_power)
+        _compiled_count = numba.njit(cache=True, nogil=True)(_count_loop)
+        _compiled_body = numba.njit(cache=True, nogil=True)(_body_loop)
+        return _compiled_count, _compiled_body
