@@ -16,7 +16,7 @@ functions that numba compiles, so tests hold their logic to the numpy path with
 or without numba.
 
 numba is imported and the loops loaded from its on-disk cache only when a search
-first asks for them (:func:`load`): importing numba took 0.27-0.33 s here and
+first asks for them (:func:`load`): importing numba took 0.27-0.48 s here and
 its first call of any compiled function, cached or not, another 0.3-0.4 s
 (measured on this project's 2-core machine, numba 0.68.1), which a process that
 imports wsgrasp to plan one small scene would otherwise pay for nothing."""

@@ -460,7 +460,6 @@ def body_and_fingers(
     se = (g.se_centers, g.se_semi_axes, g.se_exponent)
     se_lo, se_hi = g.se_centers - g.se_semi_axes, g.se_centers + g.se_semi_axes
     depth = finger_depth(sp, g.sphere_centers, g.sphere_radii, g.sphere_finger, nf)
-    f_lo, f_hi = depth.box_lo, depth.box_hi  # (nf, 3) each finger's sphere box
     index = np.asarray(index, dtype=np.int64)
     s_all, o_all = np.divmod(index, n_or)
     proven = np.zeros(len(index), dtype=bool)
@@ -556,7 +555,7 @@ def body_and_fingers(
             reason, contacts, Holdings.of(np.zeros((0, no, nf), dtype=bool))
         )
     # (the live candidates are some of those tested: the same path)
-    fingers = _Fingers(poses, P, sp, depth, f_lo, f_hi, step, bodies_compiled, many)
+    fingers = _Fingers(poses, P, sp, depth, step, bodies_compiled, many)
     given = None
     if bodies_compiled and not many and len(spans) == 1:
         # one chunk held every candidate, and the finger loop reads the points
@@ -620,14 +619,13 @@ class _Fingers:
         P: Array,
         spheres: FingerSpheres,
         depth: FingerDepth,
-        f_lo: Array,
-        f_hi: Array,
         step: int,
         compiled: bool,
         ordered: bool = True,
     ) -> None:
         self.poses, self.P, self.sp, self.depth = poses, P, spheres, depth
-        self.f_lo, self.f_hi, self.step = f_lo, f_hi, step
+        # each finger's box of spheres, gripper frame: (nf, 3) each
+        self.f_lo, self.f_hi, self.step = depth.box_lo, depth.box_hi, step
         # (the compiled loop sums 16-bit lanes: fewer than 2**16 points)
         few = len(P) < 2**16
         # one kernel counts, and writes the holdings when asked
@@ -641,8 +639,8 @@ class _Fingers:
         ordering = compiled and few and ordered
         self.perm = _space_order(P) if ordering else np.arange(len(P))
         self.P_counts = P[self.perm] if ordering else P
-        self.nf = len(f_lo)
-        lo, hi = f_lo.min(axis=0), f_hi.max(axis=0)  # the fingers' box
+        self.nf = len(self.f_lo)
+        lo, hi = self.f_lo.min(axis=0), self.f_hi.max(axis=0)  # the fingers' box
         self.k = int(np.argmin(hi - lo))  # its thinnest gripper axis
         self.width = float(hi[self.k] - lo[self.k])
 
