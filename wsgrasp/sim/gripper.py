@@ -6,11 +6,13 @@ written out as MJCF: the links above the base link (an arm the hand is mounted o
 are left out, and the base link becomes the root body that the trial's drive
 carries. The bodies collide with the same shapes the planner samples (collision
 elements; visual ones for a link without any), mesh shapes as their convex hulls.
-Links with a URDF ``<inertial>`` keep it; the others get ``gripper_density`` over
-their shapes. What happens to mimic joints does not depend on the MuJoCo version:
-each becomes a joint equality ``q = offset + multiplier * q_master``. Every other
-movable joint gets a position actuator (gains in
-:class:`~wsgrasp.sim.params.SimParams`, force limit the URDF's ``effort``).
+What happens to mimic joints does not depend on the MuJoCo version: each becomes a
+joint equality ``q = offset + multiplier * q_master``, limited to the range its
+master maps to. Every other movable joint gets a position actuator (gains in
+:class:`~wsgrasp.sim.params.SimParams`). Vendor values MuJoCo refuses or that are
+placeholders (inertials, ``effort``, a mimic joint's own limits) are replaced as
+:mod:`wsgrasp.sim._repairs` describes, and each replacement is listed in
+:attr:`SimGripper.repairs`.
 
 :mod:`wsgrasp.sim.scene` mounts the root body on a 6-DoF drive that the trial
 moves.
@@ -30,7 +32,13 @@ from wsgrasp._names import is_gripper_path
 from wsgrasp.errors import SimulationError
 from wsgrasp.geometry import JOINT_FIXED, JOINT_PRISMATIC
 from wsgrasp.gripper._urdf import Joint, Kinematics, Shape, load_kinematics, shape_mesh
-from wsgrasp.sim._xml import attrs, fmt, pose_attrs
+from wsgrasp.sim._repairs import (
+    Repair,
+    effort_limit,
+    link_mass_properties,
+    mimic_range,
+)
+from wsgrasp.sim._xml import attrs, fmt, pose_attrs, quat_wxyz
 from wsgrasp.sim.params import SimParams
 
 __all__ = ["SimGripper", "load_sim_gripper", "sim_gripper_from_files"]
@@ -72,6 +80,12 @@ class SimGripper:
     mimics : dict of str to (str, float, float)
         Each mimic joint's ``(actuated master, multiplier, offset)``, the mimic
         chain composed: ``q = offset + multiplier * q_master``.
+    efforts : dict of str to (float, str)
+        Each actuated joint's force limit (N or N·m) and where it came from,
+        ``urdf`` or ``default``.
+    repairs : list of Repair
+        The URDF's values replaced (inertials, efforts, mimic limits), with what
+        was wrong and what was used instead.
     """
 
     name: str
@@ -90,6 +104,17 @@ class SimGripper:
     lower: Array = field(default_factory=lambda: np.zeros(0))
     upper: Array = field(default_factory=lambda: np.zeros(0))
     mimics: dict[str, tuple[str, float, float]] = field(default_factory=dict)
+    efforts: dict[str, tuple[float, str]] = field(default_factory=dict)
+    repairs: list[Repair] = field(default_factory=list)
+
+    def notes_json(self) -> dict[str, Any]:
+        """The efforts and repairs as plain data (what a report carries)."""
+        return {
+            "efforts": {
+                j: {"effort": v, "source": src} for j, (v, src) in self.efforts.items()
+            },
+            "repairs": [r.to_json() for r in self.repairs],
+        }
 
     def targets(
         self, posture: Mapping[str, float], default: Array, where: str = "posture"
@@ -244,8 +269,19 @@ def sim_gripper_from_files(
         mimics=mimics,
     )
     gripper.qpos_pregrasp = gripper.joint_qpos(pre)
+    repairs: list[Repair] = []
+    ranges: dict[str, tuple[float, float] | None] = {}
+    for jn, (master, mult, off) in mimics.items():
+        ranges[jn], fix = mimic_range(kin.joints[jn], kin.joints[master], mult, off)
+        repairs += [fix] if fix else []
+    for j in actuated:
+        effort, fix = effort_limit(j, p)
+        gripper.efforts[j.name] = (effort, "default" if fix else "urdf")
+        repairs += [fix] if fix else []
     assets: list[str] = []
-    gripper.body_xml = _body(kin, base, None, p, assets)
+    body_repairs: list[Repair] = []
+    gripper.body_xml = _body(kin, base, None, p, assets, ranges, body_repairs)
+    gripper.repairs = body_repairs + repairs
     gripper.asset_xml = "\n".join(assets)
     gripper.equality_xml = "\n".join(
         "<joint "
@@ -259,65 +295,98 @@ def sim_gripper_from_files(
         for j in movable
         if j.mimic is not None
     )
-    gripper.actuator_xml = "\n".join(_actuator(j, p) for j in actuated)
+    gripper.actuator_xml = "\n".join(
+        _actuator(j, p, gripper.efforts[j.name][0]) for j in actuated
+    )
     return gripper
 
 
 # --------------------------------------------------------------------------------
 def _body(
-    kin: Kinematics, link: str, joint: Joint | None, p: SimParams, assets: list[str]
+    kin: Kinematics,
+    link: str,
+    joint: Joint | None,
+    p: SimParams,
+    assets: list[str],
+    ranges: dict[str, tuple[float, float] | None],
+    repairs: list[Repair],
 ) -> str:
     """The ``<body>`` of ``link`` and, nested, of every link below it; ``joint``
-    attaches it to its parent (None for the root body)."""
+    attaches it to its parent (None for the root body). ``ranges`` holds the
+    mimic joints' ranges; the inertial repairs are appended to ``repairs``."""
     head = f'<body name="{PREFIX}{link}" gravcomp="1"'
     if joint is not None:
         head += " " + pose_attrs(joint.origin)
     lines = [head + ">"]
-    if joint is not None and joint.kind != JOINT_FIXED:
+    moving = joint is not None and joint.kind != JOINT_FIXED
+    if joint is not None and moving:
         prismatic = joint.kind == JOINT_PRISMATIC
+        limits = (
+            ranges[joint.name]
+            if joint.name in ranges
+            else (None if joint.continuous else (joint.lower, joint.upper))
+        )
         lines.append(
             "<joint "
             + attrs(
                 name=PREFIX + joint.name,
                 type="slide" if prismatic else "hinge",
                 axis=joint.axis,
-                range=None if joint.continuous else fmt((joint.lower, joint.upper)),
-                limited="false" if joint.continuous else "true",
+                range=None if limits is None else fmt(limits),
+                limited="false" if limits is None else "true",
                 damping=p.damping_prismatic if prismatic else p.damping_revolute,
                 armature=p.armature_prismatic if prismatic else p.armature_revolute,
             )
             + "/>"
         )
-    inertial = kin.inertials.get(link)
-    if inertial is not None:
-        R = inertial.T_link_inertial[:3, :3]
-        inertia = R @ inertial.inertia @ R.T  # (3, 3) in the link frame
-        full = tuple(
-            inertia[i, j] for i, j in ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
-        )
+    shapes = kin.shapes.get(link, [])
+    solids = [_solid(shape) for shape in shapes]  # each in its shape frame
+    props, fix = link_mass_properties(
+        link,
+        kin.inertials.get(link),
+        [
+            s.copy().apply_transform(shape.T_link_shape)
+            for s, shape in zip(solids, shapes, strict=True)
+        ],
+        moving,
+        p,
+    )
+    repairs += [fix] if fix else []
+    if props is not None:
+        moments, axes = props.principal()
         lines.append(
             "<inertial "
             + attrs(
-                pos=inertial.T_link_inertial[:3, 3],
-                mass=max(inertial.mass, 1e-4),
-                fullinertia=full,
+                pos=props.com,
+                quat=quat_wxyz(axes),
+                mass=props.mass,
+                diaginertia=moments,
             )
             + "/>"
         )
-    for i, shape in enumerate(kin.shapes.get(link, [])):
-        lines.append(_geom(shape, f"{PREFIX}{link}/{i}", p, assets))
+    for i, (shape, solid) in enumerate(zip(shapes, solids, strict=True)):
+        lines.append(_geom(shape, solid, f"{PREFIX}{link}/{i}", p, assets))
     for child in kin.child_joints(link):
-        lines.append(_body(kin, child.child, child, p, assets))
+        lines.append(_body(kin, child.child, child, p, assets, ranges, repairs))
     lines.append("</body>")
     return "\n".join(lines)
 
 
-def _geom(shape: Shape, name: str, p: SimParams, assets: list[str]) -> str:
+def _solid(shape: Shape) -> Any:
+    """The body MuJoCo simulates for a shape, in the shape's frame: a primitive,
+    or a mesh's (scaled) convex hull."""
+    mesh = shape_mesh(shape, frame="shape")
+    return mesh if shape.kind != "mesh" else mesh.convex_hull
+
+
+def _geom(shape: Shape, solid: Any, name: str, p: SimParams, assets: list[str]) -> str:
+    """A shape's ``<geom>``; ``solid`` is its mesh's hull (:func:`_solid`). Its
+    mass is the body's ``<inertial>``, so the geom weighs nothing of its own."""
     common = attrs(
         name=name,
         contype=GRIPPER_CONTYPE,
         conaffinity=GRIPPER_CONAFFINITY,
-        density=p.gripper_density,
+        density=0,
         friction=fmt((p.gripper_friction, p.torsional_friction, p.rolling_friction)),
         group=1,
     )
@@ -333,15 +402,13 @@ def _geom(shape: Shape, name: str, p: SimParams, assets: list[str]) -> str:
     if shape.kind == "sphere":
         return f'<geom type="sphere" size="{fmt(shape.size[0])}" {pose} {common}/>'
     # a mesh: its convex hull (scaled), in the shape's frame
-    hull = np.asarray(
-        shape_mesh(shape, frame="shape").convex_hull.vertices, dtype=np.float64
-    )  # (n, 3)
+    hull = np.asarray(solid.vertices, dtype=np.float64)  # (n, 3)
     mesh_name = name + "/mesh"
     assets.append(f'<mesh name="{mesh_name}" vertex="{fmt(hull.reshape(-1))}"/>')
     return f'<geom type="mesh" mesh="{mesh_name}" {pose} {common}/>'
 
 
-def _actuator(j: Joint, p: SimParams) -> str:
+def _actuator(j: Joint, p: SimParams, effort: float) -> str:
     prismatic = j.kind == JOINT_PRISMATIC
     return (
         "<position "
@@ -350,7 +417,7 @@ def _actuator(j: Joint, p: SimParams) -> str:
             joint=PREFIX + j.name,
             kp=p.kp_prismatic if prismatic else p.kp_revolute,
             ctrlrange=None if j.continuous else fmt((j.lower, j.upper)),
-            forcerange=fmt((-j.effort, j.effort)) if j.effort > 0 else None,
+            forcerange=fmt((-effort, effort)),
         )
         + "/>"
     )

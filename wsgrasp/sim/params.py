@@ -38,10 +38,17 @@ Contacts
 
 Masses
     The object's mass is given per object (``paper13`` lists plausible masses;
-    ``--mass`` for mesh files) and spread uniformly over its volume. Gripper links
-    without a URDF ``<inertial>`` get ``gripper_density`` (kg/m³) over their
-    collision geometry. The gripper is gravity-compensated, as an arm holding it
-    would be.
+    ``--mass`` for mesh files) and spread uniformly over its volume. A gripper
+    link keeps its URDF ``<inertial>`` when the mass lies within
+    [``link_mass_floor``, ``link_mass_ceiling``] (1 g, 50 kg) and the inertia is
+    positive definite with A + B >= C; otherwise, and where the inertial is
+    missing, its mass properties come from its collision geometry (meshes as
+    their convex hulls, as simulated) at ``gripper_density``, scaled to the
+    URDF's mass where that is plausible (:mod:`wsgrasp.sim._repairs`). 1000
+    kg/m³: aluminium and plastic parts, hollow and thinner than their hulls;
+    the six vendor hands of ``../shared/grippers`` with inertials weigh 600 to
+    3,500 kg/m³ over their links' hulls, median 1,200. The gripper is
+    gravity-compensated, as an arm holding it would be.
 
 Gripper drive
     The gripper stands on a 6-DoF drive (slides along world x, y, z and hinges
@@ -54,11 +61,16 @@ Gripper drive
 
 Finger drive
     Each actuated finger joint has a position actuator (gain ``kp_prismatic``
-    N/m or ``kp_revolute`` N·m/rad, force limited by the URDF's ``effort``),
-    joint damping ``damping_prismatic`` / ``damping_revolute`` and armature
-    ``armature_prismatic`` / ``armature_revolute``. URDF ``<mimic>`` joints are
-    coupled to their master by a joint equality ``q = offset + multiplier *
-    q_master``. Closing ramps
+    N/m or ``kp_revolute`` N·m/rad), joint damping ``damping_prismatic`` /
+    ``damping_revolute`` and armature ``armature_prismatic`` /
+    ``armature_revolute``. Its force limit is the URDF's ``effort`` when that
+    lies within [``effort_min_prismatic``, ``effort_max_prismatic``] (1-2000 N)
+    or [``effort_min_revolute``, ``effort_max_revolute``] (0.1-200 N·m), else
+    ``effort_prismatic`` (100 N, the Franka hand's jaw) or ``effort_revolute``
+    (5 N·m): 0, 1000 or 1e6 are placeholders, not a finger's force. URDF
+    ``<mimic>`` joints are coupled to their master by a joint equality ``q =
+    offset + multiplier * q_master`` and limited to the range that maps from
+    the master's. Closing ramps
     the targets from the plan's ``joints_pregrasp`` to its ``joints_grasp`` (or,
     for a plan without them, from the YAML's ``pregrasp`` to its ``closed``
     posture) over ``close_time``, then waits ``close_wait``.
@@ -117,6 +129,14 @@ class SimParams:
     object_mass: float = 0.2
     # gripper
     gripper_density: float = 1000.0
+    link_mass_floor: float = 0.001
+    link_mass_ceiling: float = 50.0
+    effort_prismatic: float = 100.0
+    effort_revolute: float = 5.0
+    effort_min_prismatic: float = 1.0
+    effort_max_prismatic: float = 2000.0
+    effort_min_revolute: float = 0.1
+    effort_max_revolute: float = 200.0
     gripper_friction: float = 0.8
     drive_kp_linear: float = 3000.0
     drive_kp_angular: float = 100.0
