@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 export MPLBACKEND := Agg
 
-.PHONY: demo test lint bench bench-peers eval eval-random eval-heldout schema clean sysdeps
+.PHONY: demo test lint bench bench-peers eval eval-random eval-heldout eval-grippers schema clean sysdeps
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -54,6 +54,15 @@ eval-heldout: $(STAMP)
 		--objects random:300-999 --trials 1 --seed 1 \
 		--json-out eval-results/random-heldout.json \
 		--md-out eval-results/random-heldout.md
+
+# every URDF under GRIPPERS_DIR (the vendor descriptions wsgrasp is developed
+# against) scaffolded with no edit, checked, planned on the bundled scenes and tried
+# on random:000-299 x 1, and every built-in and example gripper: the README's
+# gripper table (benchmarks/eval_grippers.py)
+GRIPPERS_DIR ?= ../shared/grippers
+eval-grippers: $(STAMP)
+	$(BIN)/python -m pip install -q -e '.[sim]'
+	$(BIN)/python benchmarks/eval_grippers.py --grippers-dir $(GRIPPERS_DIR)
 
 # with the compiled dense loops (extra `fast`, numba); the dense entries' `compiled`
 # field says which path ran

@@ -8,7 +8,8 @@ from pathlib import Path
 import pytest
 import yaml
 
-from wsgrasp.sim.specs import LABELS, _template, spec_entries
+from wsgrasp.default_specs import GENERIC_DEFAULT, LABELS, spec_for
+from wsgrasp.sim.specs import spec_entries
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = {
@@ -40,7 +41,7 @@ def test_defaults_are_found_without_the_repository(monkeypatch, tmp_path):
     monkeypatch.setattr(wsgrasp.bench, "project_root", lambda: tmp_path)
     monkeypatch.chdir(tmp_path)
     for label in LABELS:
-        data, source = _template(label, "allegro_right")
+        data, source = spec_for(label, "allegro_right")
         assert Path(source).parent.parent.name == "allegro_right", source
         assert data["gripper"] == "allegro_right"
 
@@ -52,10 +53,38 @@ def test_a_gripper_yaml_path_gets_the_specs_beside_it():
     assert all(Path(e.source).parent.name == "specs" for e in entries)
 
 
-def test_a_gripper_without_specs_gets_the_franka_hands(tmp_path):
+def test_a_gripper_without_specs_gets_the_generic_default(tmp_path):
     import shutil
 
     folder = tmp_path / "jaw"
     shutil.copytree(SHIPPED["franka"], folder, ignore=shutil.ignore_patterns("specs"))
-    data, source = _template("default", str(folder / "franka_hand.yaml"))
-    assert "franka_hand" in source and source.endswith("default.yaml")
+    yaml_path = str(folder / "franka_hand.yaml")
+    data, source = spec_for("default", yaml_path)
+    assert source == str(GENERIC_DEFAULT)
+    assert data["gripper"] == yaml_path
+    assert data["sampling"]["mode"] == "approach_sphere"
+    # the paper's and the follow-up's settings are the Franka hand's
+    for label in ("paper", "followup"):
+        data, source = spec_for(label, yaml_path)
+        assert "franka_hand" in source and source.endswith(f"{label}.yaml")
+
+
+def test_the_generic_default_validates_for_every_kind_of_gripper():
+    from wsgrasp.spec import load_spec
+
+    for gripper in ("franka_hand", "allegro_right", str(SHIPPED["barrett"])):
+        data = yaml.safe_load(GENERIC_DEFAULT.read_text())
+        spec = load_spec({**data, "gripper": gripper})
+        assert spec.sampling.mode == "approach_sphere"
+
+
+def test_plan_without_a_spec_uses_the_generic_default(tmp_path):
+    import shutil
+
+    from wsgrasp.cli._plan import plan_spec
+
+    folder = tmp_path / "jaw"
+    shutil.copytree(SHIPPED["franka"], folder, ignore=shutil.ignore_patterns("specs"))
+    spec = plan_spec(None, str(folder / "franka_hand.yaml"))
+    assert spec.sampling.mode == "approach_sphere"
+    assert Path(spec.gripper) == folder / "franka_hand.yaml"

@@ -134,8 +134,9 @@ def eval_command(
         for note in (skipped_note, _decomposition_note(resolved)):
             if note:
                 err_console.print(note)
-    for g in grippers:  # fail early: unknown gripper, URDF, no closed posture
-        load_sim_gripper(g, params)
+    # fail early (unknown gripper, URDF, no closed posture); the report lists
+    # what each took from its URDF and what was repaired
+    sim_grippers = {g: load_sim_gripper(g, params).notes_json() for g in grippers}
     entries = spec_entries(
         list(grippers), list(specs) or None, paper=paper, followup=followup
     )
@@ -164,7 +165,8 @@ def eval_command(
             "objects_skipped": {k.name: k.reason for k in resolved.skipped},
             "decomposition": _decomposition_meta(resolved),
             "grippers": list(grippers),
-            "specs": {e.label: e.source for e in entries},
+            "sim_grippers": sim_grippers,
+            "specs": _spec_sources(entries),
             "trials_per_object": trials,
             "seed": seed,
             "workers": eng.workers if eng.name == "ray" else workers or os.cpu_count(),
@@ -185,6 +187,9 @@ def eval_command(
         return
     for table in report_table(report):
         console.print(table)
+    for g, sources in report["specs"].items():
+        used = ", ".join(f"{label} = {src}" for label, src in sources.items())
+        console.print(f"specs of {g}: {used}", highlight=False)
     console.print(
         f"{report['trials']} trials with spec {primary!r}: success rate "
         f"{100 * report['success_rate']:.1f} %, median plan time "
@@ -193,6 +198,14 @@ def eval_command(
     for path in (json_out, md_out):
         if path is not None:
             err_console.print(f"wrote {path}")
+
+
+def _spec_sources(entries: list[Any]) -> dict[str, dict[str, str]]:
+    """Per gripper, each spec label and the file (or built-in) it came from."""
+    out: dict[str, dict[str, str]] = {}
+    for e in entries:
+        out.setdefault(e.gripper, {})[e.label] = e.source
+    return out
 
 
 def _skipped_note(resolved: ObjectList) -> str:

@@ -195,8 +195,9 @@ def plan(
 
 def plan_spec(spec_file: Path | None, gripper: str | None) -> Any:
     """The spec ``plan`` runs: the file, with its gripper replaced by ``gripper``
-    when given; with no file, the default spec ``gripper`` ships
-    (``specs/default.yaml`` beside its YAML, as ``wsgrasp eval`` uses)."""
+    when given; with no file, the gripper's default spec (the one it ships as
+    ``specs/default.yaml`` beside its YAML, else wsgrasp's generic default; the
+    one ``wsgrasp eval`` uses, see :mod:`wsgrasp.default_specs`)."""
     from wsgrasp._loading import load_document
     from wsgrasp.spec import load_spec
 
@@ -208,10 +209,10 @@ def plan_spec(spec_file: Path | None, gripper: str | None) -> Any:
     if gripper is None:
         return load_spec(spec_file)  # type: ignore[arg-type]
     from wsgrasp._names import gripper_ref
-    from wsgrasp.sim.specs import _template
+    from wsgrasp.default_specs import default_spec
 
     if spec_file is None:
-        data, _ = _template("default", gripper)
+        data, _ = default_spec(gripper)
         source = None
     else:
         spec = load_spec(spec_file)  # every problem of the file, with its lines

@@ -1,0 +1,323 @@
+"""The gripper table: every gripper description in a folder, and every built-in
+and example gripper, from URDF to held grasp with its default spec.
+
+For each URDF found under ``--grippers-dir`` (by default ``../shared/grippers``,
+the vendor descriptions wsgrasp is developed against; any folder of URDFs with
+their meshes works the same way):
+
+1. ``wsgrasp gripper new`` (Python: ``scaffold_plugin``) into a package under
+   ``--out``, with no edit: scaffolds yes / no, and why not;
+2. ``gripper check``: its errors and warnings;
+3. a plan with the gripper's default spec on each bundled scene
+   (``examples/scenes``) and on an upright 6 x 5 x 11 cm box and a 5 cm cube;
+4. ``wsgrasp eval`` with the default spec on ``--objects`` (``random:000-299``,
+   the development range, 1 trial each, by default): success rate and failure
+   kinds.
+
+The built-in grippers and the example plugins run steps 2-4 with their own
+YAMLs. Each gripper's trials run in a ``wsgrasp eval`` process of their own, so
+a crash costs only that row. Writes ``grippers.json`` (every figure) and
+``grippers.md`` (the table) under ``--out``; ``--readme FILE`` replaces the
+table between the ``<!-- gripper-table -->`` markers in that file.
+
+    python benchmarks/eval_grippers.py                  # what `make eval-grippers` runs
+    python benchmarks/eval_grippers.py --objects random:000-019 --no-readme
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENES = ROOT / "examples" / "scenes"
+BUILT_IN = {
+    "franka_hand": "franka_hand",
+    "allegro_right": "allegro_right",
+    "barrett_bh8_like": str(
+        ROOT / "examples/plugins/barrett_bh8_like/wsgrasp_barrett_bh8_like"
+        "/barrett_bh8_like.yaml"
+    ),
+    "robotiq_2f85_like": str(
+        ROOT / "examples/plugins/robotiq_2f85_like/wsgrasp_robotiq_2f85_like"
+        "/robotiq_2f85_like.yaml"
+    ),
+}
+#: the synthetic shapes every default spec must grasp: size (m), scene seed
+SHAPES = {"box 6x5x11": ((0.06, 0.05, 0.11), 2), "cube 5": ((0.05, 0.05, 0.05), 3)}
+MARK = "<!-- gripper-table -->"
+
+
+def package_name(urdf: Path) -> str:
+    """A gripper name from a URDF's file name: letters, digits and '_'."""
+    name = re.sub(r"[^A-Za-z0-9_]+", "_", urdf.stem).strip("_").lower()
+    return name if name[:1].isalpha() else f"g_{name}"
+
+
+def scenes() -> dict[str, Any]:
+    """The bundled scenes and the two synthetic shapes, by label."""
+    from wsgrasp.perception.synth import synth_scene
+
+    out: dict[str, Any] = {p.stem: p for p in sorted(SCENES.glob("*.npz"))}
+    for yaml in sorted(SCENES.glob("*/scene.yaml")):
+        out[yaml.parent.name] = yaml
+    for label, (size, seed) in SHAPES.items():
+        out[label] = synth_scene("box", size=size, seed=seed).points
+    return out
+
+
+def scaffold(urdf: Path, out: Path) -> tuple[str | None, dict[str, Any]]:
+    """Scaffold ``urdf`` into ``out``: the gripper YAML, or None, and the row."""
+    from wsgrasp.errors import WsgraspError
+    from wsgrasp.gripper.scaffold import scaffold_plugin
+
+    name = package_name(urdf)
+    t0 = time.perf_counter()
+    try:
+        yaml, sc = scaffold_plugin(name, urdf, out / name, force=True, check=False)
+    except WsgraspError as exc:
+        return None, {"scaffolds": False, "scaffold_error": str(exc)}
+    row = {
+        "scaffolds": sc.build_error is None,
+        "scaffold_s": round(time.perf_counter() - t0, 1),
+        "scaffold_warnings": list(sc.warnings),
+    }
+    if sc.build_error is not None:
+        row["scaffold_error"] = sc.build_error
+        return None, row
+    return str(yaml), row
+
+
+def check(gripper: str) -> dict[str, Any]:
+    """``gripper check``: counts and the problems, one line each."""
+    from wsgrasp.errors import WsgraspError
+    from wsgrasp.gripper.check import check_gripper
+
+    try:
+        report = check_gripper(gripper)
+    except WsgraspError as exc:
+        return {"check_error": str(exc), "errors": [str(exc)], "warnings": []}
+    m = report.model
+    return {
+        "fingers": m.num_fingers,
+        "finger_names": list(m.finger_names),
+        "errors": [f"{p.message} [{p.field}]" for p in report.errors],
+        "warnings": [f"{p.message} [{p.field}]" for p in report.warnings],
+    }
+
+
+def plans(gripper: str, scene_set: dict[str, Any]) -> dict[str, Any]:
+    """A plan with the gripper's default spec on every scene."""
+    import wsgrasp
+    from wsgrasp.errors import WsgraspError
+    from wsgrasp.sim.specs import default_spec
+    from wsgrasp.spec import load_spec
+
+    data, source = default_spec(gripper)
+    data["record"] = {"enabled": False}
+    pipeline = wsgrasp.Pipeline(load_spec(data))
+    out: dict[str, Any] = {}
+    for label, scene in scene_set.items():
+        try:
+            r = pipeline.plan(scene)
+            out[label] = "found" if r.found else f"no grasp: {r.hint}"
+        except WsgraspError as exc:
+            out[label] = f"error: {exc}"
+    return {"spec": source, "plans": out}
+
+
+def trials(gripper: str, objects: str, n: int, seed: int, out: Path) -> dict[str, Any]:
+    """``wsgrasp eval`` with the default spec, in a process of its own."""
+    json_out = out / f"eval-{package_name(Path(gripper))}.json"
+    cmd = [
+        str(Path(sys.executable).with_name("wsgrasp")),
+        "eval",
+        "-g",
+        gripper,
+        "--objects",
+        objects,
+        "-n",
+        str(n),
+        "--seed",
+        str(seed),
+        "--no-paper",
+        "-q",
+        "--json-out",
+        str(json_out),
+    ]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0 or not json_out.exists():
+        tail = (proc.stderr or proc.stdout).strip().splitlines()[-3:]
+        return {"eval_error": " ".join(tail)}
+    report = json.loads(json_out.read_text())
+    res = report["results"][0]
+    return {
+        "trials": res["trials"],
+        "successes": res["successes"],
+        "success_rate": res["success_rate"],
+        "failures": {k: v for k, v in res["failures"].items() if v},
+        "plan_ms_median": res["plan_ms_median"],
+        "sim_notes": report.get("sim_notes", {}),
+        "eval_wall_s": report.get("wall_s"),
+    }
+
+
+def _cell_plans(row: dict[str, Any]) -> str:
+    p = row.get("plans") or {}
+    if not p:
+        return "–"
+    missed = [k for k, v in p.items() if v != "found"]
+    return f"{len(p) - len(missed)}/{len(p)}" + (
+        f" (none: {', '.join(missed)})" if missed else ""
+    )
+
+
+def _cell_success(row: dict[str, Any]) -> str:
+    if "eval_error" in row:
+        return "eval failed: " + row["eval_error"][:80]
+    if "trials" not in row:
+        return "–"
+    fails = ", ".join(f"{k} {v}" for k, v in sorted(row["failures"].items()))
+    return f"{100 * row['success_rate']:.1f} % of {row['trials']}" + (
+        f" ({fails})" if fails else ""
+    )
+
+
+def _cell_check(row: dict[str, Any]) -> str:
+    if "errors" not in row:
+        return "–"
+    e, w = row["errors"], row["warnings"]
+    if not e and not w:
+        return "no problems"
+    return "; ".join([f"error: {x}" for x in e] + [f"warning: {x}" for x in w])
+
+
+def markdown(report: dict[str, Any]) -> str:
+    """The table, with the run it came from."""
+    lines = [
+        f"From `make eval-grippers` at commit {report['commit']} on "
+        f"{report['machine']} ({report['date']}); success: `wsgrasp eval` "
+        f"protocol `{report['protocol']}`, objects `{report['objects']}`, "
+        f"{report['trials']} trial each, seed {report['seed']}, default spec.",
+        "",
+        "| gripper | source | fingers | scaffolds | `gripper check` | plans found "
+        "| success (failures) |",
+        "|---|---|---:|---|---|---|---|",
+    ]
+    for r in report["rows"]:
+        scaf = (
+            "built in"
+            if r["source"] == "built-in"
+            else ("yes" if r.get("scaffolds") else "no: " + r.get("scaffold_error", ""))
+        )
+        lines.append(
+            f"| {r['name']} | {r['source']} | {r.get('fingers', '–')} | {scaf} | "
+            f"{_cell_check(r)} | {_cell_plans(r)} | {_cell_success(r)} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def replace_table(readme: Path, table: str) -> None:
+    """Put ``table`` between the two markers in ``readme``."""
+    text = readme.read_text()
+    parts = text.split(MARK)
+    if len(parts) != 3:
+        raise SystemExit(
+            f"{readme}: expected two {MARK} markers, found {len(parts) - 1}"
+        )
+    readme.write_text(parts[0] + MARK + "\n" + table + MARK + parts[2])
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument(
+        "--grippers-dir", type=Path, default=ROOT.parent / "shared/grippers"
+    )
+    ap.add_argument("--objects", default="random:000-299")
+    ap.add_argument("--trials", type=int, default=1)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", type=Path, default=ROOT / "eval-results" / "grippers")
+    ap.add_argument("--readme", type=Path, default=ROOT / "README.md")
+    ap.add_argument("--no-readme", action="store_true")
+    ap.add_argument("--no-eval", action="store_true", help="skip the trials")
+    ap.add_argument("--only", action="append", help="only these gripper names")
+    args = ap.parse_args(argv)
+
+    from rich.console import Console
+
+    console = Console(stderr=True)
+    args.out.mkdir(parents=True, exist_ok=True)
+    entries: list[tuple[str, str, Path | str]] = []
+    if args.grippers_dir.is_dir():
+        for urdf in sorted(args.grippers_dir.rglob("*.urdf")):
+            rel = urdf.relative_to(args.grippers_dir)
+            entries.append((package_name(urdf), str(rel), urdf))
+    else:
+        console.print(
+            f"no folder {args.grippers_dir}: the vendor descriptions are left out "
+            "(pass --grippers-dir)"
+        )
+    entries += [(n, "built-in", ref) for n, ref in BUILT_IN.items()]
+    if args.only:
+        entries = [e for e in entries if e[0] in args.only]
+    scene_set = scenes()
+    rows = []
+    for name, source, ref in entries:
+        console.print(f"[bold]{name}[/] ({source})")
+        row: dict[str, Any] = {"name": name, "source": source}
+        gripper: str | None = str(ref)
+        if isinstance(ref, Path):
+            gripper, scaf = scaffold(ref, args.out / "packages")
+            row.update(scaf)
+        if gripper is not None:
+            row["gripper"] = gripper
+            row.update(check(gripper))
+            if "check_error" not in row:
+                row.update(plans(gripper, scene_set))
+                if not args.no_eval:
+                    row.update(
+                        trials(gripper, args.objects, args.trials, args.seed, args.out)
+                    )
+        console.print(
+            f"  check: {_cell_check(row)}\n  plans: {_cell_plans(row)}\n"
+            f"  success: {_cell_success(row)}",
+            highlight=False,
+        )
+        rows.append(row)
+    commit = subprocess.run(
+        ["git", "rev-parse", "--short", "HEAD"],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    ).stdout.strip()
+    from wsgrasp.sim import SimParams
+
+    report = {
+        "version": 1,
+        "commit": commit,
+        "machine": f"{platform.machine()}, {__import__('os').cpu_count()} cores",
+        "date": time.strftime("%Y-%m-%d"),
+        "objects": args.objects,
+        "trials": args.trials,
+        "seed": args.seed,
+        "protocol": getattr(SimParams(), "protocol", "lift"),
+        "rows": rows,
+    }
+    (args.out / "grippers.json").write_text(json.dumps(report, indent=2) + "\n")
+    table = markdown(report)
+    (args.out / "grippers.md").write_text(table)
+    if not args.no_readme:
+        replace_table(args.readme, table)
+    console.print(f"wrote {args.out / 'grippers.json'} and grippers.md")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,97 @@
+"""The pipeline specs a gripper plans and is evaluated with when the user names
+none: ``default`` (what ``wsgrasp plan --gripper NAME`` and ``wsgrasp eval`` run),
+``paper`` (the paper's sampling and criterion alone) and ``followup`` (the
+authors' follow-up sampling).
+
+A gripper ships them beside its YAML as ``specs/<label>.yaml`` (the built-in
+grippers, the example plugins and every package ``wsgrasp gripper new`` writes
+do). A gripper that ships no ``default`` gets :data:`GENERIC_DEFAULT`, the
+setting that measures best across grippers of every kind; one without
+``paper`` or ``followup`` gets the Franka hand's with its gripper replaced.
+Nothing here reads the repository's ``examples/``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from wsgrasp._names import gripper_ref, is_gripper_path
+
+__all__ = ["GENERIC_DEFAULT", "LABELS", "default_spec", "generic_spec_text", "spec_for"]
+
+#: the spec labels a gripper may ship, in ``specs/<label>.yaml`` beside its YAML
+LABELS = ("default", "paper", "followup")
+
+#: the default spec of a gripper that ships none (a YAML in the package)
+GENERIC_DEFAULT = Path(__file__).parent / "data" / "default_spec.yaml"
+
+_BUILT_IN: dict[str, dict[str, Any]] = {
+    "paper": {
+        "version": 1,
+        "segmenter": {"name": "ransac_dbscan"},
+        "sampling": {"points": 147, "orientations": 4, "angle_range_deg": 360},
+        "scorers": [{"name": "centroid_distance", "weight": 1.0}],
+    },
+    "followup": {
+        "version": 1,
+        "segmenter": {"name": "ransac_dbscan"},
+        "sampling": {"mode": "xyz", "grid": [5, 5, 5], "steps": [8, 8, 8]},
+        "scorers": [{"name": "centroid_distance", "weight": 1.0}],
+    },
+}
+
+
+def spec_for(label: str, gripper: str) -> tuple[dict[str, Any], str]:
+    """The spec data for ``label`` and ``gripper`` and where it came from.
+
+    The one the gripper ships (``specs/<label>.yaml`` beside its gripper YAML);
+    else, for ``default``, :data:`GENERIC_DEFAULT`; else the Franka hand's; else
+    a built-in copy of the paper's (or the follow-up's) setting. The data's
+    ``gripper`` is ``gripper``.
+    """
+    from wsgrasp._loading import load_document
+
+    if label not in LABELS:
+        raise ValueError(f"spec label {label!r} is not one of {LABELS}")
+    # the gripper's own folder, then the generic default or the Franka hand's
+    folders = [_gripper_folder(gripper)]
+    if label != "default":
+        folders.append(_gripper_folder("franka_hand"))
+    paths = [f / "specs" / f"{label}.yaml" for f in folders if f is not None]
+    if label == "default":
+        paths.append(GENERIC_DEFAULT)
+    for path in paths:
+        if path.is_file():
+            data, _ = load_document(path)
+            return {**dict(data), "gripper": gripper}, str(path)
+    return {**_BUILT_IN[label], "gripper": gripper}, f"built-in {label}"
+
+
+def default_spec(gripper: str) -> tuple[dict[str, Any], str]:
+    """``spec_for("default", gripper)``: what ``plan --gripper`` runs."""
+    return spec_for("default", gripper)
+
+
+def generic_spec_text(gripper: str) -> str:
+    """:data:`GENERIC_DEFAULT` as text, naming ``gripper`` (what ``gripper new``
+    writes into a package as ``specs/default.yaml``)."""
+    lines = GENERIC_DEFAULT.read_text().splitlines()
+    out = [f"gripper: {gripper}" if ln.startswith("gripper:") else ln for ln in lines]
+    return "\n".join(out) + "\n"
+
+
+def _gripper_folder(gripper: str) -> Path | None:
+    """The folder of a gripper's YAML, for a YAML path or a registered name
+    (None for a name no plugin registers, or a model registered without one)."""
+    if is_gripper_path(gripper):
+        path = Path(gripper_ref(gripper, Path.cwd()))
+        return path.parent if path.exists() else None
+    from wsgrasp.errors import PluginError
+    from wsgrasp.plugins import get_registry
+
+    try:
+        obj = get_registry().get("grippers", gripper).obj
+    except PluginError:
+        return None
+    return Path(obj).parent if isinstance(obj, (str, Path)) else None
