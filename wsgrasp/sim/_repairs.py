@@ -220,7 +220,7 @@ def link_mass_properties(
     (MassProperties or None, Repair or None)
         None for the properties of a massless frame.
     """
-    problem = "no <inertial>"
+    problem = "the URDF gives no inertial"
     if inertial is not None:
         R = inertial.T_link_inertial[:3, :3]
         urdf = MassProperties(

@@ -80,9 +80,9 @@ class SimGripper:
     mimics : dict of str to (str, float, float)
         Each mimic joint's ``(actuated master, multiplier, offset)``, the mimic
         chain composed: ``q = offset + multiplier * q_master``.
-    efforts : dict of str to (float, str)
-        Each actuated joint's force limit (N or N·m) and where it came from,
-        ``urdf`` or ``default``.
+    efforts : dict of str to (float, str, str)
+        Each actuated joint's force limit, its unit (``N`` or ``N·m``) and where
+        it came from (``urdf`` or ``default``).
     repairs : list of Repair
         The URDF's values replaced (inertials, efforts, mimic limits), with what
         was wrong and what was used instead.
@@ -104,14 +104,15 @@ class SimGripper:
     lower: Array = field(default_factory=lambda: np.zeros(0))
     upper: Array = field(default_factory=lambda: np.zeros(0))
     mimics: dict[str, tuple[str, float, float]] = field(default_factory=dict)
-    efforts: dict[str, tuple[float, str]] = field(default_factory=dict)
+    efforts: dict[str, tuple[float, str, str]] = field(default_factory=dict)
     repairs: list[Repair] = field(default_factory=list)
 
     def notes_json(self) -> dict[str, Any]:
         """The efforts and repairs as plain data (what a report carries)."""
         return {
             "efforts": {
-                j: {"effort": v, "source": src} for j, (v, src) in self.efforts.items()
+                j: {"effort": v, "unit": unit, "source": src}
+                for j, (v, unit, src) in self.efforts.items()
             },
             "repairs": [r.to_json() for r in self.repairs],
         }
@@ -276,7 +277,8 @@ def sim_gripper_from_files(
         repairs += [fix] if fix else []
     for j in actuated:
         effort, fix = effort_limit(j, p)
-        gripper.efforts[j.name] = (effort, "default" if fix else "urdf")
+        unit = "N" if j.kind == JOINT_PRISMATIC else "N·m"
+        gripper.efforts[j.name] = (effort, unit, "default" if fix else "urdf")
         repairs += [fix] if fix else []
     assets: list[str] = []
     body_repairs: list[Repair] = []

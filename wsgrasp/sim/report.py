@@ -172,8 +172,52 @@ def _failure_rows(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
     return header, rows
 
 
+def _repair_counts(report: dict[str, Any]) -> list[str]:
+    """Per simulated gripper, one line counting what was not taken from its
+    URDF (``sim_grippers`` of the report's metadata)."""
+    from collections import Counter
+
+    lines = []
+    for gripper, notes in (report.get("sim_grippers") or {}).items():
+        kinds = Counter(r["kind"] for r in notes.get("repairs", []))
+        if kinds:
+            lines.append(
+                f"{gripper}: URDF values replaced in simulation: "
+                + ", ".join(f"{kind} {n}" for kind, n in sorted(kinds.items()))
+                + " (the report's sim_grippers says which and why)"
+            )
+    return lines
+
+
+def _repair_markdown(report: dict[str, Any]) -> list[str]:
+    """The simulated grippers' force limits and repairs as Markdown."""
+    grippers = report.get("sim_grippers") or {}
+    if not grippers:
+        return []
+    lines = ["", "**Simulated grippers: what was not taken from the URDF as it is**"]
+    for gripper, notes in grippers.items():
+        efforts = ", ".join(
+            f"{j} {e['effort']:g} {e['unit']} ({e['source']})"
+            for j, e in notes.get("efforts", {}).items()
+        )
+        lines += ["", f"{gripper}: finger force limits {efforts or '–'}"]
+        repairs = notes.get("repairs", [])
+        if repairs:
+            lines += [
+                "",
+                "| item | kind | problem | used instead |",
+                "|---|---|---|---|",
+            ]
+            lines += [
+                f"| {r['item']} | {r['kind']} | {r['problem']} | {r['action']} |"
+                for r in repairs
+            ]
+    return lines
+
+
 def report_table(report: dict[str, Any]) -> list[Any]:
-    """Rich renderables: the per-object table and the failure classes."""
+    """Rich renderables: the per-object table, the failure classes and a line
+    per simulated gripper counting what was repaired in its URDF."""
     from rich.table import Table
 
     out: list[Any] = []
@@ -191,11 +235,12 @@ def report_table(report: dict[str, Any]) -> list[Any]:
         f.add_column(h, justify="left" if i < 2 else "right")
     for row in frows:
         f.add_row(*row)
-    return [*out, f]
+    return [*out, f, *_repair_counts(report)]
 
 
 def report_markdown(report: dict[str, Any]) -> str:
-    """The report as Markdown: the Table II analogue and the outcome counts."""
+    """The report as Markdown: the Table II analogue, the outcome counts and the
+    simulated grippers' force limits and URDF repairs."""
     lines: list[str] = []
     for gripper in _grippers(report):
         header, rows = _table_rows(report, gripper)
@@ -222,4 +267,5 @@ def report_markdown(report: dict[str, Any]) -> str:
     ]
     if meta:
         lines += ["", "; ".join(meta)]
+    lines += _repair_markdown(report)
     return "\n".join(lines) + "\n"
