@@ -117,7 +117,7 @@ def plans(gripper: str, scene_set: dict[str, Any]) -> dict[str, Any]:
     """A plan with the gripper's default spec on every scene."""
     import wsgrasp
     from wsgrasp.errors import WsgraspError
-    from wsgrasp.sim.specs import default_spec
+    from wsgrasp.default_specs import default_spec
     from wsgrasp.spec import load_spec
 
     data, source = default_spec(gripper)
@@ -169,6 +169,32 @@ def trials(gripper: str, objects: str, n: int, seed: int, out: Path) -> dict[str
     }
 
 
+def commands(gripper: str, name: str, out: Path) -> dict[str, Any]:
+    """``plan``, ``view``, ``batch`` and ``dataset`` with the gripper, each in a
+    process of its own: the ones that ended in an internal error (a traceback,
+    or the CLI's "internal error"), with its last line."""
+    wsgrasp = str(Path(sys.executable).with_name("wsgrasp"))
+    run = out / "commands" / name
+    run.mkdir(parents=True, exist_ok=True)
+    mcap = run / "plan.mcap"
+    steps = {
+        "plan": ["plan", str(SCENES / "box_upright.npz"), "-g", gripper],
+        "view": ["view", str(mcap), "-o", str(run / "plan.png")],
+        "batch": ["batch", str(SCENES / "mug.npz"), "-g", gripper, "-q"],
+        "dataset": ["dataset", "random:000", "-g", gripper, "-k", "1", "-q"],
+    }
+    steps["plan"] += ["--record", str(mcap)]
+    steps["batch"] += ["-o", str(run / "batch")]
+    steps["dataset"] += ["-o", str(run / "dataset")]
+    broken = {}
+    for label, args in steps.items():
+        proc = subprocess.run([wsgrasp, *args], capture_output=True, text=True)
+        text = proc.stdout + proc.stderr
+        if "internal error" in text or "Traceback" in text:
+            broken[label] = text.strip().splitlines()[-1][:200]
+    return {"commands_broken": broken}
+
+
 def _cell_plans(row: dict[str, Any]) -> str:
     p = row.get("plans") or {}
     if not p:
@@ -190,6 +216,13 @@ def _cell_success(row: dict[str, Any]) -> str:
     )
 
 
+def _cell_commands(row: dict[str, Any]) -> str:
+    if "commands_broken" not in row:
+        return "–"
+    broken = row["commands_broken"]
+    return "; ".join(f"{k}: {v}" for k, v in broken.items()) or "no internal error"
+
+
 def _cell_check(row: dict[str, Any]) -> str:
     if "errors" not in row:
         return "–"
@@ -208,8 +241,8 @@ def markdown(report: dict[str, Any]) -> str:
         f"{report['trials']} trial each, seed {report['seed']}, default spec.",
         "",
         "| gripper | source | fingers | scaffolds | `gripper check` | plans found "
-        "| success (failures) |",
-        "|---|---|---:|---|---|---|---|",
+        "| plan, view, batch, dataset | success (failures) |",
+        "|---|---|---:|---|---|---|---|---|",
     ]
     for r in report["rows"]:
         scaf = (
@@ -219,7 +252,8 @@ def markdown(report: dict[str, Any]) -> str:
         )
         lines.append(
             f"| {r['name']} | {r['source']} | {r.get('fingers', '–')} | {scaf} | "
-            f"{_cell_check(r)} | {_cell_plans(r)} | {_cell_success(r)} |"
+            f"{_cell_check(r)} | {_cell_plans(r)} | {_cell_commands(r)} | "
+            f"{_cell_success(r)} |"
         )
     return "\n".join(lines) + "\n"
 
@@ -281,12 +315,14 @@ def main(argv: list[str] | None = None) -> int:
             row.update(check(gripper))
             if "check_error" not in row:
                 row.update(plans(gripper, scene_set))
+                row.update(commands(gripper, name, args.out))
                 if not args.no_eval:
                     row.update(
                         trials(gripper, args.objects, args.trials, args.seed, args.out)
                     )
         console.print(
             f"  check: {_cell_check(row)}\n  plans: {_cell_plans(row)}\n"
+            f"  commands: {_cell_commands(row)}\n"
             f"  success: {_cell_success(row)}",
             highlight=False,
         )
