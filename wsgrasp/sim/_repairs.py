@@ -158,15 +158,16 @@ def inertia_problem(mass: float, inertia: Array, p: SimParams) -> str:
 
 def solid_mass_properties(solids: Sequence[Any], density: float) -> MassProperties:
     """Mass properties of closed ``trimesh.Trimesh`` solids (one body, link
-    frame) at ``density`` (kg/m³); a solid without volume counts as a box of its
-    extent, at least :data:`MIN_THICKNESS` thick."""
+    frame; trimesh primitives exactly) at ``density`` (kg/m³); a solid without
+    volume counts as a box of its extent, at least :data:`MIN_THICKNESS` thick."""
     masses, coms, inertias = [], [], []
     for solid in solids:
-        if solid.is_watertight and solid.volume > MIN_THICKNESS**3:
-            props = solid.mass_properties  # with density 1
-            masses.append(density * float(props["mass"]))
-            coms.append(np.asarray(props["center_mass"], dtype=np.float64))
-            inertias.append(density * np.asarray(props["inertia"], dtype=np.float64))
+        volume = float(solid.volume)
+        if solid.is_watertight and volume > MIN_THICKNESS**3:
+            masses.append(density * volume)
+            coms.append(np.asarray(solid.center_mass, dtype=np.float64))
+            # about the centre of mass, link axes, with density 1
+            inertias.append(density * np.asarray(solid.moment_inertia, np.float64))
         else:
             lo, hi = np.asarray(solid.bounds, dtype=np.float64)  # (2, 3)
             ext = np.maximum(hi - lo, MIN_THICKNESS)  # (3,)

@@ -375,10 +375,18 @@ def _body(
 
 
 def _solid(shape: Shape) -> Any:
-    """The body MuJoCo simulates for a shape, in the shape's frame: a primitive,
-    or a mesh's (scaled) convex hull."""
-    mesh = shape_mesh(shape, frame="shape")
-    return mesh if shape.kind != "mesh" else mesh.convex_hull
+    """The body MuJoCo simulates for a shape, in the shape's frame: a trimesh
+    primitive (whose mass properties are exact, as MuJoCo's), or a mesh's
+    (scaled) convex hull."""
+    import trimesh
+
+    if shape.kind == "box":
+        return trimesh.primitives.Box(extents=shape.size)
+    if shape.kind == "cylinder":
+        return trimesh.primitives.Cylinder(radius=shape.size[0], height=shape.size[1])
+    if shape.kind == "sphere":
+        return trimesh.primitives.Sphere(radius=shape.size[0])
+    return shape_mesh(shape, frame="shape").convex_hull
 
 
 def _geom(shape: Shape, solid: Any, name: str, p: SimParams, assets: list[str]) -> str:
