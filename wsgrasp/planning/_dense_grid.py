@@ -276,9 +276,18 @@ class NearestPoint:
 
 class FingerDepth:
     """Per finger, the depth ``D`` (m) inside its union of spheres at grid nodes
-    (see the module docstring), kept as two bits per finger and node: held (``D >
-    t``), unsure (``-t <= D <= t``), neither (``D < -t``), with ``t`` the farthest
-    a point can lie from its nearest node plus ``MARGIN``.
+    (see the module docstring), as one of three states per finger and node: held
+    (``D > t``), unsure (``-t <= D <= t``), neither (``D < -t``), with ``t`` the
+    farthest a point can lie from its nearest node plus ``MARGIN``.
+
+    Each node keeps a code: its row in :attr:`states`, the table of the
+    combinations of per-finger states that occur in the grid, ``(K, nf)`` with
+    the finger count as a dimension. Any number of fingers fits; the codes are
+    one byte a node while at most 256 combinations occur (every gripper with up
+    to 5 fingers, where ``3 ** nf <= 243``, and in practice more: a node is
+    held or unsure for few fingers at once), wider where more do. The tables
+    derived from :attr:`states` (held, unsure, the packed held counts) are
+    read by code, so a node's verdict for every finger is one lookup.
 
     Parameters
     ----------
@@ -290,6 +299,9 @@ class FingerDepth:
         1-2 mm, coarser where the grid would exceed 8 million nodes.
     """
 
+    #: a finger's state at a node, as kept in :attr:`states`
+    NEITHER, HELD, UNSURE = 0, 1, 2
+
     def __init__(
         self,
         centers: Array,
@@ -298,25 +310,27 @@ class FingerDepth:
         num_fingers: int,
         cell: float | None = None,
     ) -> None:
-        if num_fingers > 4:
-            raise ValueError(f"FingerDepth packs 4 fingers a byte, got {num_fingers}")
+        if num_fingers < 1:
+            raise ValueError(
+                f"FingerDepth needs at least one finger, got {num_fingers}"
+            )
         lo0 = (centers - radii[:, None]).min(axis=0)
         hi0 = (centers + radii[:, None]).max(axis=0)
         h = cell if cell is not None else float(np.clip(radii.min() / 4, 1e-3, 2e-3))
         while np.prod((hi0 - lo0) / h + 8) > 8e6:
             h *= 1.25
         self.cell = h
-        self.num_fingers = int(num_fingers)
+        self.num_fingers = nf = int(num_fingers)
         self.lim = lim = 0.5 * _SQRT3 * h + MARGIN
         self.centers = np.asarray(centers, dtype=np.float64)
         self.radii = np.asarray(radii, dtype=np.float64)
         self.finger = np.asarray(finger, dtype=np.int64)
         #: each finger's box of spheres, gripper frame: (nf, 3) each
         self.box_lo = np.stack(
-            [(centers - radii[:, None])[finger == f].min(0) for f in range(num_fingers)]
+            [(centers - radii[:, None])[finger == f].min(0) for f in range(nf)]
         )
         self.box_hi = np.stack(
-            [(centers + radii[:, None])[finger == f].max(0) for f in range(num_fingers)]
+            [(centers + radii[:, None])[finger == f].max(0) for f in range(nf)]
         )
         self._lists: tuple[NDArray[np.int32], NDArray[np.int32], Array, Array] | None
         self._lists = None
@@ -326,8 +340,15 @@ class FingerDepth:
         shape = np.ceil((hi - lo) / h).astype(np.int64) + 1
         self.origin, self.shape = lo, shape
         self.strides = np.array([shape[1] * shape[2], shape[2], 1], dtype=np.int64)
-        self.codes = np.zeros(tuple(shape), dtype=np.uint8)
-        for f in range(num_fingers):
+        # each node's code: its fingers' states as base-3 digits (NEITHER 0,
+        # HELD 1, UNSURE 2) after the combination the last renumbering gave
+        # it, (nodes,) int below ``span``; per renumbered code, the states
+        # (K, f) uint8. Renumbered when the digits would pass 2**16 and at the
+        # end, so code 0 is every finger neither (the grid's border)
+        code: NDArray[np.integer] = np.zeros(int(np.prod(shape)), dtype=np.uint8)
+        states = np.zeros((1, 0), dtype=np.uint8)
+        digits, span = 0, 1
+        for f in range(nf):
             depth = np.full(tuple(shape), -reach, dtype=np.float32)
             # once per gripper: each sphere raises D in the window of nodes it
             # can bring above -reach (those within r + reach of its centre)
@@ -344,22 +365,45 @@ class FingerDepth:
                 win = depth[a[0] : b[0], a[1] : b[1], a[2] : b[2]]
                 np.maximum(win, (r - d).astype(np.float32), out=win)
             # float32 moves a value by far less than MARGIN
-            self.codes |= (depth > lim).astype(np.uint8) << (2 * f)
-            self.codes |= ((depth >= -lim) & (depth <= lim)).astype(np.uint8) << (
-                2 * f + 1
+            flat = depth.ravel()
+            if 3 * span > 2**16:
+                code, states = _renumber(code, states, digits)
+                digits, span = 0, len(states)
+            # the narrowest integers that hold the next digit (bandwidth)
+            wide = (
+                np.uint8
+                if 3 * span <= 2**8
+                else np.uint16
+                if 3 * span <= 2**16
+                else np.int32
             )
-        self.codes = self.codes.ravel()
-        byte = np.arange(256, dtype=np.uint8)[:, None]
-        bit = 2 * np.arange(num_fingers, dtype=np.uint8)[None, :]
-        self._held = ((byte >> bit) & 1).astype(bool)  # (256, nf)
-        unsure = ((byte >> (bit + 1)) & 1).astype(bool)  # (256, nf)
-        self._unsure: NDArray[np.bool_] = np.asarray(unsure.any(axis=1))  # (256,)
-        self._unsure_f: NDArray[np.bool_] = unsure  # (256, nf)
-        # per code, finger f's held bit at bit 16 f (nf <= 4 fits 64 bits)
-        lanes = (16 * np.arange(num_fingers)).astype(np.uint64)
-        self._packed = (self._held.astype(np.uint64) << lanes[None, :]).sum(
-            axis=1, dtype=np.uint64
-        )  # (256,)
+            if code.dtype != wide:
+                code = code.astype(wide)
+            code *= 3
+            code += flat > lim
+            unsure = flat >= -lim
+            unsure &= flat <= lim
+            code += unsure
+            code += unsure
+            digits, span = digits + 1, 3 * span
+        code, states = _renumber(code, states, digits)
+        K = len(states)
+        self.codes: NDArray[np.integer] = code  # (nodes,) uint8 to K = 256
+        #: per code, each finger's state (NEITHER, HELD, UNSURE): (K, nf) uint8
+        self.states: NDArray[np.uint8] = states
+        self._held: NDArray[np.bool_] = states == self.HELD  # (K, nf)
+        self._unsure_f: NDArray[np.bool_] = states == self.UNSURE  # (K, nf)
+        self._unsure: NDArray[np.bool_] = np.asarray(self._unsure_f.any(axis=1))
+        # per code, finger f's held bit at bit 16 (f % 4) of word f // 4: one
+        # sum of a word over a row's points counts four fingers at once
+        words = -(-nf // 4)
+        packed = np.zeros((K, words), dtype=np.uint64)  # (K, W)
+        for f in range(nf):
+            packed[:, f // 4] |= self._held[:, f].astype(np.uint64) << np.uint64(
+                16 * (f % 4)
+            )
+        self._packed = packed
+        self._packed_words = [np.ascontiguousarray(packed[:, w]) for w in range(words)]
 
     def held_points(
         self, Q: Array, ol: NDArray[np.int64], u: Array
@@ -387,7 +431,7 @@ class FingerDepth:
 
     def counts(
         self, Q: Array, ol: NDArray[np.int64], u: Array
-    ) -> tuple[NDArray[np.int64], NDArray[np.uint8], NDArray[np.int32]]:
+    ) -> tuple[NDArray[np.int64], NDArray[np.integer], NDArray[np.int32]]:
         """Per candidate and finger, the points it provably holds, each point's
         code (for :attr:`unsure_fingers`) and nearest node (for
         :meth:`sphere_lists`).
@@ -397,42 +441,55 @@ class FingerDepth:
         Returns
         -------
         counts : (m, nf) int
-        code : (m, n) uint8
+        code : (m, n) int
+            Each point's row of :attr:`states` (the dtype of :attr:`codes`).
         flat : (m, n) int32
             Each point's nearest node.
         """
         flat = self.nodes_at(Q, ol, u)  # (m, n)
         code = np.take(self.codes, flat)  # faster than self.codes[flat]
         m, n = code.shape
-        nf = self._held.shape[1]
+        nf = self.num_fingers
         if n < 2**16:
-            # each finger's held bit in its own 16-bit lane: one sum per row
-            # counts every finger at once (a row's count stays below 2**16)
-            total = np.take(self._packed, code).sum(axis=1, dtype=np.uint64)  # (m,)
-            shift = (16 * np.arange(nf)).astype(np.uint64)
-            counts = (total[:, None] >> shift[None, :]) & np.uint64(0xFFFF)
-            return counts.astype(np.int64), code, flat
+            # four fingers' held bits in 16-bit lanes of a word: one sum per
+            # row and word counts four fingers at once (a row's count stays
+            # below 2**16)
+            blocks = []
+            for w, word in enumerate(self._packed_words):
+                total = np.take(word, code).sum(axis=1, dtype=np.uint64)  # (m,)
+                shift = (16 * np.arange(min(4, nf - 4 * w))).astype(np.uint64)
+                blocks.append((total[:, None] >> shift[None, :]) & np.uint64(0xFFFF))
+            lanes = blocks[0] if len(blocks) == 1 else np.concatenate(blocks, axis=1)
+            return lanes.astype(np.int64), code, flat  # (m, nf)
         held = np.count_nonzero(self._held[code], axis=1).astype(np.int64)
         return held, code, flat
 
     @property
     def packed_held(self) -> NDArray[np.int64]:
-        """Per code, finger ``f``'s held bit at bit ``16 f``: (256,) int64."""
+        """Per code, finger ``f``'s held bit at bit ``16 (f % 4)`` of word
+        ``f // 4``: (K, ceil(nf / 4)) int64."""
         return self._packed.astype(np.int64)
 
     @property
+    def held_fingers(self) -> NDArray[np.bool_]:
+        """Per code, the fingers it proves to hold a point: (K, nf) bool."""
+        return self._held
+
+    @property
     def unsure_fingers(self) -> NDArray[np.bool_]:
-        """Per code, the fingers it leaves undecided: (256, nf) bool."""
+        """Per code, the fingers it leaves undecided: (K, nf) bool."""
         return self._unsure_f
 
     @property
     def unsure_codes(self) -> NDArray[np.bool_]:
-        """Per code, whether it leaves some finger undecided: (256,) bool."""
+        """Per code, whether it leaves some finger undecided: (K,) bool."""
         return self._unsure
 
-    def codes_at(self, Q: Array, ol: NDArray[np.int64], u: Array) -> NDArray[np.uint8]:
-        """The code of each point's nearest node, (m, n) uint8 (parameters as
-        :meth:`held_points`)."""
+    def codes_at(
+        self, Q: Array, ol: NDArray[np.int64], u: Array
+    ) -> NDArray[np.integer]:
+        """The code of each point's nearest node, (m, n) int of :attr:`codes`'
+        dtype (parameters as :meth:`held_points`)."""
         return self.codes[self.nodes_at(Q, ol, u)]  # type: ignore[no-any-return]
 
     def nodes_at(self, Q: Array, ol: NDArray[np.int64], u: Array) -> NDArray[np.int32]:
@@ -566,6 +623,39 @@ class FingerDepth:
         start[nodes] = begin[:, 0]
         self._compact = (start, listed)
         return self._compact
+
+
+def _renumber(
+    code: NDArray[np.integer], states: NDArray[np.uint8], digits: int
+) -> tuple[NDArray[np.integer], NDArray[np.uint8]]:
+    """The codes that occur, renumbered in order from 0.
+
+    Parameters
+    ----------
+    code : (nodes,) int
+        Per node, ``c 3**digits + d``: ``c`` a row of ``states``, ``d`` the
+        states of the last ``digits`` fingers as base-3 digits (the first
+        finger's the most significant).
+    states : (K, f) uint8
+    digits : int
+
+    Returns
+    -------
+    code : (nodes,) int
+        Per node, its row of the new table, in the narrowest unsigned
+        integers that hold it (int32 beyond 2**16 rows).
+    states : (K', f + digits) uint8
+    """
+    occurs = np.bincount(code)  # (span,)
+    present = np.flatnonzero(occurs)  # (K',) ascending
+    K = len(present)
+    wide = np.uint8 if K <= 2**8 else np.uint16 if K <= 2**16 else np.int32
+    renumber = np.zeros(len(occurs), dtype=wide)
+    renumber[present] = np.arange(K)
+    base = 3 ** np.arange(digits - 1, -1, -1)  # (digits,) the digits' weights
+    new = (present[:, None] // base[None, :]) % 3  # (K', digits)
+    rows = states[present // 3**digits]  # (K', f)
+    return np.take(renumber, code), np.concatenate([rows, new.astype(np.uint8)], axis=1)
 
 
 _CACHE: weakref.WeakKeyDictionary[FingerSpheres, FingerDepth] = (

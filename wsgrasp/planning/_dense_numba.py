@@ -60,8 +60,11 @@ def _count_loop(
     d_inv_cell: float,
     d_last: Array,
     d_strides: Array,
-    d_codes: NDArray[np.uint8],
+    d_codes: NDArray[np.integer],
     packed: NDArray[np.int64],
+    held_f: NDArray[np.uint8],
+    unsure_f: NDArray[np.uint8],
+    unsure_any: NDArray[np.uint8],
     start: NDArray[np.int32],
     listed: NDArray[np.int32],
     centers: Array,
@@ -72,16 +75,19 @@ def _count_loop(
     dest: NDArray[np.int64],
 ) -> None:  # pragma: no cover - run compiled, or by the tests on tiny inputs
     """``counts[i, f]``: the points of candidate ``i`` (``Q[ol[i], :, j] -
-    u[i]``) strictly inside a sphere of finger ``f`` (at most 4 fingers, fewer
-    than 2**16 points). Where ``held`` has rows, also the holdings themselves:
-    ``held[dest[i], perm[j], f]`` for point ``j`` (``perm``: each column's index
-    in the caller's point order).
+    u[i]``) strictly inside a sphere of finger ``f`` (any number of fingers,
+    fewer than 2**16 points). Where ``held`` has rows, also the holdings
+    themselves: ``held[dest[i], perm[j], f]`` for point ``j`` (``perm``: each
+    column's index in the caller's point order).
 
-    The depth grid's code at each point's nearest node decides first
-    (``packed[code]``: finger ``f``'s held bit at bit ``16 f``, so one sum
-    counts every finger); for a finger it leaves unsure, the spheres listed at
-    that node (``FingerDepth.compact_lists``: from ``start[node]``, per unsure
-    finger in order, sphere ids ending at -1) with the arithmetic of
+    The depth grid's code at each point's nearest node decides first: per
+    code (``FingerDepth``'s tables, ``(K, ...)``), ``packed[code, w]`` holds
+    finger ``f``'s held bit at bit ``16 (f % 4)`` of word ``w = f // 4``, so
+    one sum per word counts four fingers; ``held_f``, ``unsure_f`` (K, nf) and
+    ``unsure_any`` (K,) the fingers it proves to hold the point and those it
+    leaves open. For a finger it leaves unsure, the spheres listed at that node
+    (``FingerDepth.compact_lists``: from ``start[node]``, per unsure finger in
+    order, sphere ids ending at -1) decide, with the arithmetic of
     ``FingerSpheres.holding_coordinates``.
 
     Per candidate, three loops: the nearest nodes of its points, from the
@@ -97,10 +103,15 @@ def _count_loop(
     m = ol.shape[0]
     n = Q.shape[2]
     nf = counts.shape[1]
+    words = packed.shape[1]
     Qn = np.empty((3, n))  # the row's points in node units, offset half a node
     node = np.empty(n, dtype=np.int64)
     unsure = np.empty(n, dtype=np.int64)
+    first = np.ascontiguousarray(packed[:, 0])  # (K,) fingers 0-3
+    more = np.zeros(words, dtype=np.int64)  # the words past the first
+    listed_held = np.zeros(nf, dtype=np.int64)  # held per finger by the lists
     prev = -1
+    keep = held.shape[0] > 0
     for i in range(m):
         r = ol[i]
         if r != prev:
@@ -115,18 +126,44 @@ def _count_loop(
             ny = min(max(np.floor(Qn[1, j] - vy), 0.0), d_last[1])
             nz = min(max(np.floor(Qn[2, j] - vz), 0.0), d_last[2])
             node[j] = int(nx * d_strides[0] + ny * d_strides[1] + nz * d_strides[2])
-        total = np.int64(0)
+        total = np.int64(0)  # the first word: fingers 0-3
+        for w in range(1, words):
+            more[w] = 0
+        for f in range(nf):
+            listed_held[f] = 0
         nu = 0
-        keep = held.shape[0] > 0
         row = dest[i] if keep else 0
-        for j in range(n):
-            code = d_codes[node[j]]
-            total += packed[code]
-            unsure[nu] = j
-            nu += (code & 0xAA) != 0  # some finger unsure: keep the point
-            if keep:
+        # up to four fingers (one word): loops without the one over words,
+        # which LLVM keeps tight, and the point's column read once (a store
+        # to ``held`` may alias ``perm``, which would be read again)
+        if words == 1 and not keep:
+            for j in range(n):
+                code = d_codes[node[j]]
+                total += first[code]
+                unsure[nu] = j
+                nu += int(unsure_any[code])  # some finger unsure: keep it
+        elif words == 1:
+            for j in range(n):
+                code = d_codes[node[j]]
+                lanes = first[code]  # finger f's held bit at bit 16 f
+                total += lanes
+                unsure[nu] = j
+                nu += int(unsure_any[code])
+                pj = perm[j]
                 for f in range(nf):
-                    held[row, perm[j], f] = (code >> (2 * f)) & 1
+                    held[row, pj, f] = (lanes >> (16 * f)) & 1
+        else:
+            for j in range(n):
+                code = d_codes[node[j]]
+                total += first[code]
+                for w in range(1, words):
+                    more[w] += packed[code, w]
+                unsure[nu] = j
+                nu += int(unsure_any[code])
+                if keep:
+                    pj = perm[j]
+                    for f in range(nf):
+                        held[row, pj, f] = held_f[code, f] != 0
         for t in range(nu):
             j = unsure[t]
             code = d_codes[node[j]]
@@ -134,8 +171,9 @@ def _count_loop(
             y = Q[r, 1, j] - uy
             z = Q[r, 2, j] - uz
             at = start[node[j]]
+            pj = perm[j]
             for f in range(nf):
-                if not (code >> (2 * f + 1)) & 1:
+                if not unsure_f[code, f]:
                     continue
                 inside = False
                 s = listed[at]
@@ -147,11 +185,13 @@ def _count_loop(
                     at += 1
                     s = listed[at]
                 at += 1  # past the terminator
-                total += np.int64(inside) << (16 * f)
+                listed_held[f] += inside
                 if keep and inside:
-                    held[row, perm[j], f] = True
+                    held[row, pj, f] = True
         for f in range(nf):
-            counts[i, f] = (total >> (16 * f)) & 0xFFFF
+            word = total if f < 4 else more[f // 4]
+            lane = (word >> (16 * (f % 4))) & 0xFFFF
+            counts[i, f] = lane + listed_held[f]
 
 
 #: the compiled loops, once :func:`load` has compiled or loaded them
@@ -218,6 +258,9 @@ def count_by_fingers(
         np.asarray(depth.strides, dtype=np.float64),
         depth.codes,
         depth.packed_held,
+        depth.held_fingers.view(np.uint8),
+        depth.unsure_fingers.view(np.uint8),
+        depth.unsure_codes.view(np.uint8),
         start,
         listed,
         np.ascontiguousarray(centers, dtype=np.float64),
