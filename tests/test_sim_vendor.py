@@ -34,6 +34,8 @@ ROBOTIQ_2F = (
 PAD_OFFSET, BAR = 0.04, 0.05
 #: the palm's inertial: a plausible mass, principal moments with A + B < C
 PALM_MASS, PALM_INERTIA = 0.4, (1e-4, 1e-4, 5e-4)
+#: a welded frame without geometry: a mass, an inertia of zeros
+SENSOR_MASS = 0.005
 #: the right pad's inertial, valid: kept as it is
 PAD_MASS, PAD_INERTIA = 0.03, (4e-6, 5e-6, 2e-6)
 
@@ -63,7 +65,8 @@ def claw_urdf(effort: float = 0.0) -> str:
     Robotiq 2F-C2's finger tips have. Inertials: the palm's violates A + B >= C,
     the left knuckle weighs 0 kg, the right knuckle has none, the left pad's is
     not positive definite, the right pad's is valid; a welded ``tcp`` frame has
-    neither geometry nor inertial.
+    neither geometry nor inertial, a welded ``sensor`` frame a mass and an
+    inertia of zeros.
     """
     lim = f'effort="{effort}" velocity="1"'
     bar = _box(f"0.012 0.01 {BAR}", f"0 0 {BAR / 2}")
@@ -74,6 +77,10 @@ def claw_urdf(effort: float = 0.0) -> str:
   <link name="tcp"/>
   <joint name="tcp_joint" type="fixed">
     <parent link="palm"/><child link="tcp"/><origin xyz="0 0 0.17"/>
+  </joint>
+  <link name="sensor">{_inertial(SENSOR_MASS, 0, 0, 0)}</link>
+  <joint name="sensor_joint" type="fixed">
+    <parent link="palm"/><child link="sensor"/><origin xyz="0 0 0.01"/>
   </joint>
   <link name="left_knuckle">{_inertial(0.0, 1e-6, 1e-6, 1e-6)}{bar}</link>
   <joint name="left_knuckle_joint" type="revolute">
@@ -171,7 +178,13 @@ def test_inertials_are_repaired_and_the_model_compiles(claw_dir: Path):
     scene = build_scene(_box_object((0.3, 0.3, 0.04)), g)  # compiles
     m = scene.model
     repaired = {r.item: r for r in g.repairs if r.kind == "inertial"}
-    assert set(repaired) == {"palm", "left_knuckle", "right_knuckle", "left_pad"}
+    assert set(repaired) == {
+        "palm",
+        "left_knuckle",
+        "right_knuckle",
+        "left_pad",
+        "sensor",
+    }
     assert "A + B >= C" in repaired["palm"].problem
     assert "below 0.001 kg" in repaired["left_knuckle"].problem
     assert "no inertial" in repaired["right_knuckle"].problem
@@ -195,6 +208,9 @@ def test_inertials_are_repaired_and_the_model_compiles(claw_dir: Path):
         np.sort(m.body_inertia[pad]), np.sort(PAD_INERTIA), rtol=1e-9
     )
     assert "tcp" not in repaired and m.body_mass[_body_id(scene, "tcp")] < 1e-3
+    # a frame's plausible mass is kept, as a 1 cm sphere
+    assert "not positive definite" in repaired["sensor"].problem
+    assert m.body_mass[_body_id(scene, "sensor")] == pytest.approx(SENSOR_MASS)
 
 
 def test_repairs_reach_the_report(claw_dir: Path):

@@ -14,9 +14,10 @@ Inertials
     without volume, from a flat mesh, as a box of its extent, at least
     ``MIN_THICKNESS`` thick) at ``gripper_density``: the centre of mass and the
     inertia about it, scaled to the URDF's mass where that mass is plausible. A
-    moving link without geometry gets a solid sphere of radius ``POINT_RADIUS``
-    at the URDF's centre of mass (else the link origin), of the URDF's mass where
-    plausible, else ``link_mass_floor``; a welded one is a massless frame.
+    link without geometry is a solid sphere of radius ``POINT_RADIUS`` at the
+    URDF's centre of mass (else the link origin) of the URDF's mass where that is
+    plausible; else a moving one weighs ``link_mass_floor`` and a welded one is
+    a massless frame.
 
 Finger efforts
     An actuated joint's force limit is the URDF's ``effort`` when it lies within
@@ -213,8 +214,8 @@ def link_mass_properties(
         The link's geometry as simulated: closed ``trimesh.Trimesh`` in the link
         frame.
     moving
-        The link has a joint of its own (a welded link without mass or geometry
-        stays a massless frame).
+        The link has a joint of its own (a welded link without geometry or a
+        plausible mass stays a massless frame).
 
     Returns
     -------
@@ -241,13 +242,13 @@ def link_mass_properties(
         return Repair(link, "inertial", problem, action)
 
     if not solids:
-        if not moving:  # a frame: nothing to weigh unless the URDF said so
-            if urdf is None:
-                return None, None
+        if urdf is None and not moving:  # a frame: nothing to weigh
+            return None, None
+        if not mass_ok and not moving:
             return None, note("left massless (a frame welded to its parent)")
         com = np.zeros(3) if urdf is None else urdf.com
         mass = urdf.mass if (mass_ok and urdf is not None) else p.link_mass_floor
-        what = "the URDF's mass" if mass_ok else f"{_kg(mass)}"
+        what = f"the URDF's mass ({_kg(mass)})" if mass_ok else _kg(mass)
         return _sphere(mass, com), note(
             f"no geometry: {what} as a sphere of {POINT_RADIUS * 1e3:g} mm radius"
         )
