@@ -37,6 +37,12 @@ def new(
     mesh_units: str | None = typer.Option(
         None, "--mesh-units", help="Units of the mesh files: m, cm or mm."
     ),
+    package_path: list[Path] = typer.Option(
+        [],
+        "--package-path",
+        help="Folder holding ROS packages, for package:// URIs, like "
+        "ROS_PACKAGE_PATH (repeatable).",
+    ),
     force: bool = typer.Option(False, "--force", help="Write into a non-empty --out."),
 ) -> None:
     """Write a pip-installable plugin package for a gripper, guessed from its URDF."""
@@ -51,14 +57,18 @@ def new(
             mesh_dirs=list(mesh_dir),
             mesh_units=mesh_units,
             force=force,
+            package_paths=list(package_path),
         )
     d = scaffold.data
+    fingers = ", ".join(
+        f"{f['name']} [{', '.join(map(str, f['joints']))}]" for f in d["fingers"]
+    )
     console.print(
-        f"[green]wrote[/] {out}/ : plugin package {name!r} "
-        f"({len(d['fingers'])} fingers: "
-        + ", ".join(f"{f['name']} [{', '.join(f['joints'])}]" for f in d["fingers"])
-        + f"; base {d['base_link']}, approach {d['approach_axis']}, "
-        f"closing {d['closing_axis']})",
+        f"[green]wrote[/] {escape(str(out))}/ : plugin package {escape(repr(name))} "
+        + escape(
+            f"({len(d['fingers'])} fingers: {fingers}; base {d['base_link']}, "
+            f"approach {d['approach_axis']}, closing {d['closing_axis']})"
+        ),
         highlight=False,
     )
     for w in scaffold.warnings:

@@ -2,9 +2,10 @@
 
 Every guess is made by forward kinematics of the URDF and comes with a note saying
 how it was made; :func:`guess_description` runs the steps in order: the base link
-and the joints that can move (:func:`_read`), the fingers (:func:`_fingers`), the
-open and closed postures (:func:`_postures`), the pads (:func:`_pads`), the axes
-and tool frame (:func:`_axes`) and the sampling settings (:func:`_settings`).
+and the joints that can move (:func:`_read`), the fingers and the wrist or palm
+joints that carry several of them (:func:`_fingers`), the open and closed postures
+(:func:`_postures`), the pads (:func:`_pads`), the axes and tool frame
+(:func:`_axes`) and the sampling settings (:func:`_settings`).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wsgrasp.errors import GripperError
+from wsgrasp.geometry import grid_configurations
 from wsgrasp.gripper._scaffold_urdf import unlimited_continuous
 from wsgrasp.gripper._urdf import Kinematics, load_kinematics, shape_mesh
 
@@ -32,9 +34,24 @@ MAX_GRIPPER_EXTENT = 1.5
 MIN_GRIPPER_EXTENT = 0.01
 #: an axis within this angle (degrees) of a base-frame axis is snapped onto it
 SNAP_DEG = 15.0
-#: a joint that moves the tips less than this fraction of its finger's strongest
-#: closer is a posture joint (ab/adduction): held in place, not opened
+#: a joint that brings its fingertip nearer the other fingers by less than this
+#: fraction of its finger's strongest closer is a posture joint (ab/adduction):
+#: held in place, not opened
 POSTURE_FRACTION = 0.25
+#: ... and so is a joint below this fraction that turns about (or slides along)
+#: another axis than its finger's main closers, when they are several (the joints
+#: sharing an axis that close the finger most together: its flexion joints); a
+#: finger that closes with one joint keeps its others (a thumb's rotation)
+CROSS_POSTURE_FRACTION = 0.5
+#: joint axes whose directions' cosine is above this are parallel
+PARALLEL_COS = 0.9
+#: grid points per joint when sampling where each fingertip can go
+TIP_SAMPLES = 3
+#: steps along a finger's closing path when looking for where it meets the palm
+PATH_STEPS = 33
+#: a finger stopped by the palm before this fraction of its closing path keeps
+#: its limits (the palm's box is too loose to tell)
+MIN_STOP = 0.25
 #: configurations sampled per finger when sizing joint_samples
 CONFIG_BUDGET = 6000
 #: sphere coverage of every finger workspace the scaffolder aims for
@@ -59,12 +76,16 @@ class Scaffold:
         Things the user should look at, naming the link or joint and the fix.
     build_error : str or None
         Why the guessed description does not build into a model, if it does not.
+    limits : dict of str to (float, float)
+        Joint limits to narrow in the URDF the description uses: joints whose
+        fingers would close into the palm, stopped where they meet it.
     """
 
     data: dict[str, Any]
     notes: dict[str, str] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
     build_error: str | None = None
+    limits: dict[str, tuple[float, float]] = field(default_factory=dict)
 
 
 @dataclass
@@ -81,6 +102,7 @@ class _Urdf:
     extent: float  # size (m) of the gripper at ``default``
     notes: dict[str, str] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    wrist: dict[str, float] = field(default_factory=dict)  # held upstream joints
 
     def centroids(self, links: list[str], posture: dict[str, float]) -> Array:
         """Geometry-box centres of ``links`` in the base frame: ``(L, 3)``."""
@@ -91,6 +113,15 @@ class _Urdf:
             T = poses[link]
             pts.append(T[:3, :3] @ (0.5 * (lo + hi)) + T[:3, 3])
         return np.array(pts)
+
+    def tips(self, link: str, values: dict[str, Any]) -> Array:
+        """Geometry-box centre of ``link`` in the base frame for (a batch of)
+        actuated-joint values: ``(..., 3)``."""
+        T = self.kin.chain_poses(self.base, link, values)  # (..., 4, 4)
+        lo, hi = self.boxes[link]
+        return (
+            np.einsum("...ij,j->...i", T[..., :3, :3], 0.5 * (lo + hi)) + T[..., :3, 3]
+        )
 
 
 # ------------------------------------------------------------------------------
@@ -291,6 +322,7 @@ def _fingers(u: _Urdf) -> dict[str, list[str]]:
             f"only one finger found (link {distal[0]!r}); the planner needs fingers "
             "that close against each other or against the palm"
         )
+    _hold_upstream(u, distal, {k: candidates[k] for k in distal}, masters)
     used = {m for link in distal for m in masters[link]}
     for j in unlimited_continuous(u.path):
         if j in used:
@@ -306,53 +338,177 @@ def _fingers(u: _Urdf) -> dict[str, list[str]]:
     return {link: masters[link] for link in distal}
 
 
+def _hold_value(lower: float, upper: float) -> float:
+    """0 when the range holds it, else the middle of the range."""
+    return 0.0 if lower <= 0.0 <= upper else 0.5 * (lower + upper)
+
+
+def _hold_upstream(
+    u: _Urdf,
+    distal: list[str],
+    chains: dict[str, list[Any]],
+    masters: dict[str, list[str]],
+) -> None:
+    """Hold the wrist or palm joints: a joint on the chains of several fingers
+    moves them together, so it closes none of them. Each such joint whose
+    fingers all keep a joint of their own is held at 0 (or the middle of its
+    range) and taken out of every finger; ``masters`` is updated in place."""
+    if len(distal) < 2:
+        return
+    kin = u.kin
+    on: dict[str, list[str]] = {}  # moving joint -> fingers whose chain holds it
+    for link in distal:
+        for j in chains[link]:
+            if j.kind != 0:
+                on.setdefault(j.name, []).append(link)
+    upstream = {j for j, links in on.items() if len(links) > 1}
+    # a master is held when every joint it drives on a finger chain is upstream
+    drives: dict[str, set[str]] = {}
+    for j in on:
+        drives.setdefault(kin.master(j), set()).add(j)
+    held = [m for m, js in drives.items() if js <= upstream]
+    own = {link: [m for m in masters[link] if m not in held] for link in distal}
+    held = [
+        m
+        for m in held
+        if all(
+            own[link]
+            for link in distal
+            if any(j in on and link in on[j] for j in drives[m])
+        )
+    ]
+    if not held:
+        return
+    for m in held:
+        j = kin.joints[m]
+        u.wrist[m] = _hold_value(j.lower, j.upper)
+        u.default[m] = u.wrist[m]
+    for link in distal:
+        masters[link] = [m for m in masters[link] if m not in u.wrist]
+    u.notes["fingers"] += (
+        "; joints upstream of several fingers (a wrist or palm) move them together, "
+        "so they belong to no finger and are held: "
+        + ", ".join(f"{m} at {v:g}" for m, v in u.wrist.items())
+    )
+
+
+def _targets(u: _Urdf, fingers: dict[str, list[str]]) -> dict[str, Array]:
+    """Per finger, where it closes towards: the mean of the other fingertips'
+    sampled positions (each finger's joints over a 3-point grid of their ranges,
+    the rest at ``default``), finger by finger; for a single finger, the centre of
+    the links no joint moves (the palm)."""
+    kin = u.kin
+    centres: dict[str, Array] = {}
+    for link, ms in fingers.items():
+        lower = [kin.joints[m].lower for m in ms]
+        upper = [kin.joints[m].upper for m in ms]
+        q = grid_configurations(lower, upper, TIP_SAMPLES)  # (3**d, d)
+        values: dict[str, Any] = dict(u.default)
+        for i, m in enumerate(ms):
+            values[m] = q[:, i]
+        centres[link] = u.tips(link, values).reshape(-1, 3).mean(axis=0)
+    if len(fingers) > 1:
+        return {
+            link: np.mean([c for k, c in centres.items() if k != link], axis=0)
+            for link in fingers
+        }
+    still = [
+        link
+        for link in u.boxes
+        if not any(j.kind != 0 for j in kin.chain(u.base, link))
+    ]
+    palm = u.centroids(still, u.default).mean(axis=0) if still else np.zeros(3)
+    return {link: palm for link in fingers}
+
+
+def _distance_change(u: _Urdf, link: str, m: str, target: Array) -> float:
+    """How much farther (m) fingertip ``link`` is from ``target`` with joint ``m``
+    at its upper limit than at its lower one, every other joint at ``default``."""
+    j = u.kin.joints[m]
+    values: dict[str, Any] = {**u.default, m: np.array([j.lower, j.upper])}
+    lo, hi = np.linalg.norm(u.tips(link, values) - target, axis=-1)  # (2,)
+    return float(hi - lo)
+
+
+def _main_closers(
+    u: _Urdf, link: str, joints: list[str], effect: dict[str, float]
+) -> list[str]:
+    """The finger's joints about (or along) the axis shared by the joints that
+    together close it most: its flexion joints, not its ab/adduction."""
+    kin = u.kin
+    poses = kin.link_poses(u.base, u.default)
+    axes = {}
+    for j in kin.chain(u.base, link):
+        m = kin.master(j.name) if j.kind != 0 else None
+        if m in joints and m not in axes:
+            T = poses[j.parent] @ j.origin
+            axes[m] = T[:3, :3] @ j.axis
+    groups: list[list[str]] = []
+    for m in joints:
+        for g in groups:
+            if abs(float(axes[m] @ axes[g[0]])) > PARALLEL_COS:
+                g.append(m)
+                break
+        else:
+            groups.append([m])
+    return max(groups, key=lambda g: sum(effect[x] for x in g))
+
+
 def _postures(
-    u: _Urdf, fingers: dict[str, list[str]]
+    u: _Urdf, fingers: dict[str, list[str]], targets: dict[str, Array]
 ) -> tuple[dict[str, float], dict[str, float]]:
     """Pre-grasp and closed postures; joints held in both are dropped from the
     fingers' joints (when a finger keeps another).
 
-    The grasp axis runs from the base origin through the fingertips' centre with
-    every joint at 0 (clipped into its limits). Per joint, starting from there,
-    "closing" is the direction in which the fingertips first move nearer that
-    axis; "closed" is the limit that way, "open" (pre-grasp) the other limit.
+    Per joint, with every other joint at ``default``: the limit at which the
+    fingertips it moves are nearer their targets (:func:`_targets`, where the other
+    fingers are) is ``closed``, the other limit ``pregrasp``. A joint that changes
+    that distance much less than its finger's strongest closer is a posture joint
+    (ab/adduction), held in both.
     """
     kin, default = u.kin, u.default
     distal = list(fingers)
     masters_all = list(dict.fromkeys(m for ms in fingers.values() for m in ms))
-    c0 = u.centroids(distal, default).mean(axis=0)
-    a0 = c0 / max(float(np.linalg.norm(c0)), 1e-12)
-
-    def off_axis(post: dict[str, float]) -> float:
-        d = u.centroids(distal, post) - c0  # (F, 3)
-        d -= np.outer(d @ a0, a0)
-        return float(np.linalg.norm(d, axis=1).sum())
-
-    delta: dict[str, float] = {}  # tip motion towards (-) the axis per 10 % range
-    ends: dict[str, tuple[float, float]] = {}
+    # per joint and finger: distance to the target at the upper limit minus at the
+    # lower limit (m); > 0: the finger closes towards the lower limit
+    change: dict[str, dict[str, float]] = {}
     for m in masters_all:
-        j = kin.joints[m]
-        h = 0.1 * (j.upper - j.lower)
-        qa, qb = max(j.lower, default[m] - h), min(j.upper, default[m] + h)
-        s = [off_axis({**default, m: q}) for q in (qa, qb)]
-        delta[m] = (s[1] - s[0]) / max(qb - qa, 1e-12) * h
-        ends[m] = (j.upper, j.lower) if s[1] > s[0] else (j.lower, j.upper)
-    # a joint is compared with the strongest closer of its own finger
+        change[m] = {
+            link: _distance_change(u, link, m, targets[link])
+            for link in distal
+            if m in fingers[link]
+        }
+    effect = {m: max(abs(v) for v in change[m].values()) for m in masters_all}
+    # a joint is compared with the strongest closer of its own finger(s)
     strongest = {
-        m: max(abs(delta[x]) for ms in fingers.values() if m in ms for x in ms)
+        m: max(effect[x] for ms in fingers.values() if m in ms for x in ms)
         for m in masters_all
+    }
+    mains = {link: _main_closers(u, link, fingers[link], effect) for link in distal}
+    # about another axis than its finger's several main closers, in every finger
+    cross = {
+        m
+        for m in masters_all
+        if all(
+            len(mains[link]) > 1 and m not in mains[link]
+            for link in distal
+            if m in fingers[link]
+        )
     }
     pregrasp: dict[str, float] = {}
     closed: dict[str, float] = {}
     how: list[str] = []
     held: set[str] = set()
     for m in masters_all:
-        small = abs(delta[m]) < max(POSTURE_FRACTION * strongest[m], 2e-4)
+        j = kin.joints[m]
+        small = effect[m] < max(POSTURE_FRACTION * strongest[m], 2e-4) or (
+            m in cross and effect[m] < CROSS_POSTURE_FRACTION * strongest[m]
+        )
         sharing = [ms for ms in fingers.values() if m in ms]
         # shared by several fingers that each close more with a joint of their own:
         # a spread / ab-adduction joint, set once for the grasp, not a closer
         shared = len(sharing) > 1 and all(
-            any(abs(delta[x]) > abs(delta[m]) for x in ms if x != m) for ms in sharing
+            any(effect[x] > effect[m] for x in ms if x != m) for ms in sharing
         )
         if len(distal) > 1 and (small or shared):
             pregrasp[m] = closed[m] = default[m]
@@ -360,23 +516,44 @@ def _postures(
             why = (
                 f"it spreads {len(sharing)} fingers that close with other joints"
                 if shared
-                else "10 % of its range moves the tips to or from the axis by only "
-                f"{abs(delta[m]) * 1000:.1f} mm"
+                else "over its range the fingertip gets nearer the other fingers "
+                f"by only {effect[m] * 1000:.1f} mm"
+                + (
+                    ""
+                    if m not in cross
+                    else ", about another axis than the finger's main closers"
+                )
             )
             how.append(f"{m} held at {default[m]:g} ({why})")
-        else:
-            pregrasp[m], closed[m] = ends[m]
-            how.append(f"{m} opens at {ends[m][0]:g}, closes at {ends[m][1]:g}")
+            continue
+        towards_lower = sum(change[m].values()) > 0
+        ends = (j.upper, j.lower) if towards_lower else (j.lower, j.upper)
+        pregrasp[m], closed[m] = ends
+        how.append(
+            f"{m} opens at {ends[0]:g}, closes at {ends[1]:g} "
+            f"({effect[m] * 1000:.0f} mm nearer)"
+        )
+    for m, v in u.wrist.items():
+        pregrasp[m] = closed[m] = v
     for m in u.actuated:
-        if m not in masters_all:
+        if m not in masters_all and m not in u.wrist:
             pregrasp[m] = closed[m] = default[m]
             how.append(f"{m} moves no fingertip: held at {default[m]:g}")
     u.notes["pregrasp"] = (
-        "per joint, the limit away from which the fingertips first move nearer the "
-        "grasp axis (base origin -> fingertips' centre with all joints at 0; FK of "
-        "the distal links): " + "; ".join(how)
+        "per joint, the limit at which its fingertips are farther from where the "
+        "other fingers reach (the mean of their sampled tip positions; FK of the "
+        "distal links, other joints at 0)"
+        + (
+            "; wrist and palm joints at "
+            + ", ".join(map(str, u.wrist))
+            + " held as in fingers"
+            if u.wrist
+            else ""
+        )
+        + ": "
+        + "; ".join(how)
     )
-    u.notes["closed"] = "per joint, the other limit: towards the grasp axis"
+    u.notes["closed"] = "per joint, the other limit: towards the other fingers"
     dropped = set()
     for link, ms in fingers.items():
         keep = [m for m in ms if m not in held]
@@ -391,29 +568,103 @@ def _postures(
     return pregrasp, closed
 
 
+def _stop_at_palm(
+    u: _Urdf,
+    fingers: dict[str, list[str]],
+    pregrasp: dict[str, float],
+    closed: dict[str, float],
+) -> dict[str, tuple[float, float]]:
+    """Stop each finger where it meets the palm on its way from pregrasp to closed.
+
+    URDF limits often let a finger fold through the palm (placeholder limits such
+    as 0..pi, or a curl past contact); the workspace sampled over them then lies
+    partly inside the body, where no grasp can use it. Along the closing path (all
+    of the finger's joints moving together), the first step at which the
+    fingertip's geometry-box centre is inside the geometry box of a palm link (a
+    link no finger joint moves) ends the path: ``closed`` is set to the step
+    before, in place, and the joint's limit on that side is returned, to be
+    narrowed in the URDF copy.
+
+    Returns
+    -------
+    dict of str to (float, float)
+        Joint -> its narrowed ``(lower, upper)``.
+    """
+    kin = u.kin
+    closers = {m for ms in fingers.values() for m in ms}
+    palm = [
+        link
+        for link in u.boxes
+        if not any(
+            j.kind != 0 and kin.master(j.name) not in u.wrist
+            for j in kin.chain(u.base, link)
+        )
+    ]
+    if not palm or not closers:
+        return {}
+    poses = kin.link_poses(u.base, pregrasp)
+    t = np.linspace(0.0, 1.0, PATH_STEPS)  # (S,)
+    stop: dict[str, float] = {}
+    for link, ms in fingers.items():
+        values: dict[str, Any] = dict(pregrasp)
+        for m in ms:
+            values[m] = pregrasp[m] + t * (closed[m] - pregrasp[m])  # (S,)
+        tip = u.tips(link, values).reshape(-1, 3)  # (S, 3)
+        inside = np.zeros(len(t), dtype=bool)
+        for other in palm:
+            lo, hi = u.boxes[other]
+            T = poses[other]
+            p = (tip - T[:3, 3]) @ T[:3, :3]  # (S, 3), in the palm link's frame
+            inside |= np.all((p >= lo) & (p <= hi), axis=1)
+        if not inside.any() or inside[0]:
+            continue
+        end = float(t[int(np.argmax(inside)) - 1])
+        if end < MIN_STOP:
+            continue
+        for m in ms:
+            stop[m] = min(stop.get(m, 1.0), end)
+    limits: dict[str, tuple[float, float]] = {}
+    how = []
+    for m, end in stop.items():
+        j = kin.joints[m]
+        value = pregrasp[m] + end * (closed[m] - pregrasp[m])
+        closed[m] = value
+        if closed[m] > pregrasp[m]:
+            limits[m] = (j.lower, value)
+        else:
+            limits[m] = (value, j.upper)
+        how.append(f"{m} at {value:g} ({end:.0%} of the way)")
+    if how:
+        u.notes["closed"] += (
+            "; stopped where the fingertip meets the palm (its geometry-box centre "
+            "enters the box of a link no finger joint moves), the joint's limit "
+            "narrowed to it in the copied URDF: " + ", ".join(how)
+        )
+    return limits
+
+
 def _pads(
     u: _Urdf,
     distal: list[str],
     names: list[str],
     pregrasp: dict[str, float],
     closed: dict[str, float],
+    targets: dict[str, Array],
 ) -> list[dict[str, Any]]:
     """One pad per distal link, on the face that leads when the finger starts to
-    close (towards the grasp axis when it does not move), at the fingertip end."""
+    close (towards the other fingers when it does not move), at the fingertip
+    end."""
     mid = {m: 0.9 * pregrasp[m] + 0.1 * closed[m] for m in pregrasp}
     poses_mid = u.kin.link_poses(u.base, mid)
     tips_open = u.centroids(distal, pregrasp)  # (F, 3)
     tips_mid = u.centroids(distal, mid)  # (F, 3)
-    c0 = u.centroids(distal, u.default).mean(axis=0)
-    a0 = c0 / max(float(np.linalg.norm(c0)), 1e-12)
     pads, notes = [], []
     for i, link in enumerate(distal):
         lo, hi = u.boxes[link]
         size, c = hi - lo, 0.5 * (lo + hi)
         d_base = tips_mid[i] - tips_open[i]
         if np.linalg.norm(d_base) < 1e-6:
-            d_base = c0 - tips_mid[i]
-            d_base -= (d_base @ a0) * a0
+            d_base = targets[link] - tips_mid[i]
         R = poses_mid[link][:3, :3]
         d_link = R.T @ d_base
         n = np.linalg.norm(d_link)
@@ -450,13 +701,47 @@ def _pads(
     return pads
 
 
+def _enclosing_centre(points: Array) -> Array:
+    """Centre of the smallest ball holding ``points`` ``(F, 3)``: where a grasp
+    between the pads centres, whatever the number of fingers on each side (two
+    fingers against one do not pull it their way, as the mean does).
+
+    Exact, by trying the balls through every 1 to 4 of the points: the pads are a
+    handful (trimesh's ``minimum_nsphere`` needs 5 or more in general position).
+    """
+    from itertools import combinations
+
+    best, best_r = points.mean(axis=0), np.inf
+    for k in range(1, min(4, len(points)) + 1):
+        for idx in combinations(range(len(points)), k):
+            p = points[list(idx)]  # (k, 3)
+            A = (p[1:] - p[0]).T  # (3, k - 1)
+            if k == 1:
+                c = p[0]
+            else:
+                b = 0.5 * np.sum((p[1:] - p[0]) ** 2, axis=1)  # (k - 1,)
+                lam = np.linalg.lstsq(A.T @ A, b, rcond=None)[0]
+                c = p[0] + A @ lam
+            r = float(np.linalg.norm(points - c, axis=1).max())
+            if r < best_r - 1e-12:
+                best, best_r = c, r
+    return best
+
+
 def _axes(
     u: _Urdf,
     pads: list[dict[str, Any]],
     pregrasp: dict[str, float],
     closed: dict[str, float],
 ) -> tuple[Array, Array, Array]:
-    """Approach axis, closing axis and TCP position from the pads' motion."""
+    """Approach axis, closing axis and TCP position from the pads.
+
+    The approach axis points from the base origin to the centre of the pads
+    (open): the centre of the smallest ball holding them. The closing axis is the
+    main direction across it in which the pads move relative to each other
+    (their closing motions less the motion they share, such as curling towards
+    the palm).
+    """
 
     def pad_points(posture: dict[str, float]) -> Array:
         ps = u.kin.link_poses(u.base, posture)
@@ -467,30 +752,38 @@ def _axes(
         return np.array(out)  # (F, 3)
 
     p_open, p_closed = pad_points(pregrasp), pad_points(closed)
-    mean_open = p_open.mean(axis=0)
-    if np.linalg.norm(mean_open) < 1e-6:
+    centre = _enclosing_centre(p_open)
+    if np.linalg.norm(centre) < 1e-6:
         raise GripperError(
             f"URDF {u.path.name}: the fingertips' centre coincides with the origin "
             f"of base link {u.base!r}, so no approach direction can be read from it",
             hint="pass --base-link with the link the arm's flange holds",
         )
     approach, u.notes["approach_axis"] = _snap(
-        mean_open, "from the base link's origin towards the pads' centre (open)"
+        centre,
+        "from the base link's origin towards the pads' centre (open; the centre of "
+        "the smallest ball holding them)",
     )
-    motion = p_closed - p_open  # (F, 3)
-    motion -= np.outer(motion @ approach, approach)
-    what = "principal direction in which the pads move when closing"
-    if float(np.linalg.norm(motion)) < 1e-6:
-        motion = p_open - mean_open
-        motion -= np.outer(motion @ approach, approach)
+
+    def across(v: Array) -> Array:
+        return v - np.outer(v @ approach, approach)  # (F, 3)
+
+    motion = across(p_closed - p_open)  # (F, 3)
+    relative = motion - motion.mean(axis=0)
+    what = "principal direction in which the pads move towards each other"
+    if float(np.linalg.norm(relative)) < 1e-6:
+        relative = motion
+        what = "principal direction in which the pads move when closing"
+    if float(np.linalg.norm(relative)) < 1e-6:
+        relative = across(p_open - p_open.mean(axis=0))
         what = "principal direction of the pads' positions across the approach axis"
-    if float(np.linalg.norm(motion)) < 1e-9:
+    if float(np.linalg.norm(relative)) < 1e-9:
         helper = np.eye(3)[int(np.argmin(np.abs(approach)))]
         closing = np.cross(approach, helper)
         what = "any axis perpendicular to the approach axis (the pads do not move)"
         u.warnings.append("the pads do not move across the approach axis when closing")
     else:
-        closing = np.linalg.eigh(motion.T @ motion)[1][:, -1]
+        closing = np.linalg.eigh(relative.T @ relative)[1][:, -1]
     closing = closing - (closing @ approach) * approach
     closing, u.notes["closing_axis"] = _snap(closing, what)
     if abs(float(closing @ approach)) > 1e-6:  # the snap broke orthogonality
@@ -499,7 +792,7 @@ def _axes(
     if closing[int(np.argmax(np.abs(closing)))] < 0:
         closing = -closing
     u.notes["tool_frame"] = "midway between the pads' centres open and closed"
-    return approach, closing, 0.5 * (mean_open + p_closed.mean(axis=0))
+    return approach, closing, 0.5 * (p_open.mean(axis=0) + p_closed.mean(axis=0))
 
 
 def _settings(
@@ -564,8 +857,10 @@ def guess_description(
     fingers = _fingers(u)
     distal = list(fingers)
     names = _finger_names(distal)
-    pregrasp, closed = _postures(u, fingers)
-    pads = _pads(u, distal, names, pregrasp, closed)
+    targets = _targets(u, fingers)
+    pregrasp, closed = _postures(u, fingers, targets)
+    limits = _stop_at_palm(u, fingers, pregrasp, closed)
+    pads = _pads(u, distal, names, pregrasp, closed, targets)
     approach, closing, tcp = _axes(u, pads, pregrasp, closed)
     data: dict[str, Any] = {
         "version": 1,
@@ -582,10 +877,11 @@ def guess_description(
         **_settings(u, fingers, pads),
         "ellipsoids": {"count": 5, "exponent": 10.0},
         "cloud_points": 500,
-        "pregrasp": {k: _r(v, 6) for k, v in pregrasp.items()},
-        "closed": {k: _r(v, 6) for k, v in closed.items()},
+        # full precision: a rounded limit may fall outside the joint's range
+        "pregrasp": {k: float(v) for k, v in pregrasp.items()},
+        "closed": {k: float(v) for k, v in closed.items()},
     }
-    return Scaffold(data, u.notes, u.warnings)
+    return Scaffold(data, u.notes, u.kin.warnings + u.warnings, limits=limits)
 
 
 def fit_sphere_count(scaffold: Scaffold, base_dir: Path) -> None:

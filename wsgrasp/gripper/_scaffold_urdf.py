@@ -1,5 +1,7 @@
 """Copying a URDF and its meshes for a scaffolded gripper plugin: mesh references
-resolved and rewritten beside the copy, mesh units checked (and scaled on request).
+resolved (``package://`` URIs included) and rewritten beside the copy, mesh units
+checked (and scaled on request), visual meshes that are missing or unreadable left
+out with a warning (only the collision geometry is needed).
 """
 
 from __future__ import annotations
@@ -8,14 +10,21 @@ import re
 import shutil
 import xml.etree.ElementTree as ET
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from wsgrasp.errors import GripperError
-from wsgrasp.gripper._urdf import resolve_mesh
+from wsgrasp.gripper._urdf import load_mesh, resolve_mesh
 
-__all__ = ["MAX_MESH_EXTENT", "MESH_UNITS", "copy_urdf", "unlimited_continuous"]
+__all__ = [
+    "MAX_MESH_EXTENT",
+    "MESH_UNITS",
+    "copy_urdf",
+    "narrow_limits",
+    "unlimited_continuous",
+]
 
 #: unit name -> metres per unit, for ``--mesh-units``
 MESH_UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
@@ -24,29 +33,43 @@ MAX_MESH_EXTENT = 1.0
 _MESH_TAG = re.compile(r"<mesh\b[^>]*>", re.S)
 _FILENAME = re.compile(r"""filename\s*=\s*(["'])(.*?)\1""", re.S)
 _SCALE = re.compile(r"""scale\s*=\s*(["'])(.*?)\1""", re.S)
+_JOINT = re.compile(r"<joint\b[^>]*?(?<!/)>.*?</joint\s*>", re.S)
+_NAME = re.compile(r"""\bname\s*=\s*(["'])(.*?)\1""", re.S)
+_LIMIT = re.compile(r"<limit\b[^>]*>", re.S)
+_VISUAL = re.compile(r"<visual\b[^>]*?(?<!/)>.*?</visual\s*>", re.S)
 
 
-def _mesh_links(text: str) -> dict[str, list[str]]:
-    """Mesh filename -> links that reference it."""
-    out: dict[str, list[str]] = {}
+def _mesh_uses(text: str) -> dict[str, list[tuple[str, bool]]]:
+    """Mesh filename -> ``(link, shape)`` for each element naming it, where
+    ``shape`` says whether wsgrasp takes the element as the link's shape (a
+    collision element, or a visual one of a link without collision elements)."""
+    out: dict[str, list[tuple[str, bool]]] = {}
     try:
         root = ET.fromstring(text)
     except ET.ParseError:
         return out
     for link in root.iter("link"):
-        for mesh in link.iter("mesh"):
-            name = mesh.get("filename")
-            if name:
-                out.setdefault(name, []).append(link.get("name", "?"))
+        has_collision = link.find("collision") is not None
+        for kind in ("collision", "visual"):
+            shape = kind == "collision" or not has_collision
+            for el in link.findall(kind):
+                for mesh in el.iter("mesh"):
+                    name = mesh.get("filename")
+                    if name:
+                        use = (link.get("name", "?"), shape)
+                        if use not in out.setdefault(name, []):
+                            out[name].append(use)
     return out
 
 
-def _find_mesh(name: str, urdf_dir: Path, mesh_dirs: list[Path]) -> Path | None:
-    found = resolve_mesh(name, urdf_dir)
+def _find_mesh(
+    name: str, urdf_dir: Path, mesh_dirs: list[Path], package_paths: list[Path]
+) -> Path | None:
+    found = resolve_mesh(name, urdf_dir, package_paths)
     for d in mesh_dirs:
         if found is not None:
             break
-        found = resolve_mesh(name, d)
+        found = resolve_mesh(name, d, package_paths)
         if found is None and (d / Path(name).name).is_file():
             found = d / Path(name).name
     return found
@@ -60,6 +83,20 @@ def _scale_of(tag: str) -> NDArray[np.float64]:
     return np.broadcast_to(vals, (3,)).copy()
 
 
+def _drop_visuals(text: str, names: set[str]) -> str:
+    """``<visual>`` elements that name a mesh of ``names`` replaced by a comment."""
+
+    def drop(m: re.Match[str]) -> str:
+        element = m.group(0)
+        for fm in _FILENAME.finditer(element):
+            if fm.group(2) in names:
+                file = fm.group(2).replace("--", "- -")
+                return f"<!-- wsgrasp gripper new: visual mesh {file} left out -->"
+        return element
+
+    return _VISUAL.sub(drop, text)
+
+
 def copy_urdf(
     urdf: Path,
     out_dir: Path,
@@ -67,6 +104,8 @@ def copy_urdf(
     *,
     mesh_dirs: list[Path] | None = None,
     mesh_units: str | None = None,
+    package_paths: list[Path] | None = None,
+    warnings: list[str] | None = None,
 ) -> tuple[Path, list[str]]:
     """Copy a URDF and the meshes it references into ``out_dir``.
 
@@ -74,6 +113,19 @@ def copy_urdf(
     ``mesh_units`` every ``<mesh>`` gets ``scale`` multiplied by that unit in
     metres. Meshes larger than :data:`MAX_MESH_EXTENT` after scaling are taken to
     be in other units and raise (or, with ``mesh_units`` given, warn).
+
+    Only the geometry wsgrasp uses is required: collision elements, and the
+    visual ones of links without collision elements. A visual mesh of a link with
+    collision geometry that is missing or unreadable is left out of the copy
+    (its ``<visual>`` replaced by a comment) and reported in ``warnings``.
+
+    Parameters
+    ----------
+    package_paths
+        Folders holding ROS packages, for ``package://`` URIs (like
+        ``ROS_PACKAGE_PATH``).
+    warnings
+        Appended to: one line per visual mesh left out or looking oversized.
 
     Returns
     -------
@@ -83,10 +135,9 @@ def copy_urdf(
     Raises
     ------
     GripperError
-        The URDF is missing, a mesh is not found, or a mesh looks like millimetres.
+        The URDF is missing, a collision mesh is not found or unreadable, or a
+        mesh looks like millimetres.
     """
-    import trimesh
-
     urdf = Path(urdf)
     if not urdf.is_file():
         raise GripperError(
@@ -95,34 +146,69 @@ def copy_urdf(
         )
     text = urdf.read_text()
     dirs = [Path(d) for d in (mesh_dirs or [])]
-    links = _mesh_links(text)
+    packages = [Path(d) for d in (package_paths or [])]
+    warned = warnings if warnings is not None else []
+    uses = _mesh_uses(text)
     factor = MESH_UNITS[mesh_units] if mesh_units else 1.0
+
+    def links_of(name: str, shape: bool | None = None) -> str:
+        return ", ".join(link for link, s in uses[name] if shape is None or s == shape)
+
+    def is_shape(name: str) -> bool:
+        return any(s for _, s in uses[name])
+
     missing: list[str] = []
-    target: dict[str, str] = {}  # filename in URDF -> meshes/<file>
+    dropped: set[str] = set()
     sources: dict[str, Path] = {}
+    for name in uses:
+        src = _find_mesh(name, urdf.parent, dirs, packages)
+        if src is not None:
+            sources[name] = src
+        elif is_shape(name):
+            missing.append(f"{name!r} (link {links_of(name, True)})")
+        else:
+            dropped.add(name)
+            warned.append(
+                f"visual mesh {name!r} of link {links_of(name)} is not found; it is "
+                "left out of the copied URDF (wsgrasp uses the link's collision "
+                "geometry)"
+            )
+    if missing:
+        looked = [str(urdf.parent)] + [str(d) for d in [*dirs, *packages]]
+        raise GripperError(
+            f"URDF {urdf.name}: mesh file(s) not found: {'; '.join(missing)} "
+            f"(looked beside the URDF, in the ROS packages above it for "
+            f"package:// paths, and in {', '.join(looked)})",
+            hint="pass --mesh-dir DIR for the folder that holds the meshes, or "
+            "--package-path DIR for the folder holding the ROS package, or fix the "
+            "filename in the URDF",
+        )
+    # every mesh read once: unreadable visual meshes are left out too
+    meshes: dict[str, Any] = {}
+    for name, src in list(sources.items()):
+        try:
+            meshes[name] = load_mesh(src, f"link {links_of(name)}")
+        except GripperError as exc:
+            if is_shape(name):
+                raise GripperError(
+                    f"URDF {urdf.name}: {exc.message}", hint=exc.hint
+                ) from None
+            del sources[name]
+            dropped.add(name)
+            warned.append(
+                f"visual mesh {name!r} of link {links_of(name)} cannot be read "
+                f"({exc.message}); it is left out of the copied URDF (wsgrasp uses the "
+                "link's collision geometry)"
+            )
+    target: dict[str, str] = {}  # filename in URDF -> meshes/<file>
     used: set[str] = set()
-    notes: list[str] = []
-    for name in links:
-        src = _find_mesh(name, urdf.parent, dirs)
-        if src is None:
-            missing.append(f"{name!r} (link {', '.join(links[name])})")
-            continue
+    for name, src in sources.items():
         base = src.name
         i = 1
         while base in used:
             base, i = f"{i}_{src.name}", i + 1
         used.add(base)
         target[name] = f"meshes/{base}"
-        sources[name] = src
-    if missing:
-        looked = [str(urdf.parent)] + [str(d) for d in dirs]
-        raise GripperError(
-            f"URDF {urdf.name}: mesh file(s) not found: {'; '.join(missing)} "
-            f"(looked beside the URDF, in its parent folders for package:// paths, "
-            f"and in {', '.join(looked)})",
-            hint="pass --mesh-dir DIR for the folder that holds the meshes (e.g. the "
-            "ROS package's root), or fix the filename in the URDF",
-        )
 
     def rewrite(m: re.Match[str]) -> str:
         tag = m.group(0)
@@ -140,7 +226,8 @@ def copy_urdf(
                 tag = tag.replace("<mesh", f"<mesh {new}", 1)
         return tag
 
-    out_text = _MESH_TAG.sub(rewrite, text)
+    out_text = _MESH_TAG.sub(rewrite, _drop_visuals(text, dropped))
+    notes: list[str] = []
     # size of every mesh as it will be used (URDF scale included)
     for tag in _MESH_TAG.findall(out_text):
         fm = _FILENAME.search(tag)
@@ -150,23 +237,22 @@ def copy_urdf(
         orig = next((k for k, v in target.items() if v == rel), None)
         if orig is None:
             continue
-        try:
-            mesh = trimesh.load(str(sources[orig]), force="mesh")
-        except Exception as exc:  # noqa: BLE001 - unreadable mesh
-            raise GripperError(
-                f"URDF {urdf.name}: mesh {str(sources[orig])!r} (link "
-                f"{', '.join(links[orig])}) cannot be read: {exc}",
-                hint="convert the mesh to STL, OBJ or PLY",
-            ) from None
+        mesh = meshes[orig]
         extent = float(np.max(np.asarray(mesh.extents) * np.abs(_scale_of(tag))))
-        if extent > MAX_MESH_EXTENT:
+        if extent > MAX_MESH_EXTENT and is_shape(orig):
             raise GripperError(
                 f"URDF {urdf.name}: mesh {sources[orig].name!r} of link "
-                f"{', '.join(links[orig])} is {extent:.1f} m across as the URDF scales "
+                f"{links_of(orig)} is {extent:.1f} m across as the URDF scales "
                 "it; its units look like millimetres (URDF lengths are metres)",
                 hint="run `wsgrasp gripper new` again with --mesh-units mm (the copy "
                 'of the URDF gets scale="0.001 0.001 0.001"), or add that scale to '
                 "its <mesh> element",
+            )
+        if extent > MAX_MESH_EXTENT:
+            warned.append(
+                f"visual mesh {sources[orig].name!r} of link {links_of(orig)} is "
+                f"{extent:.1f} m across as the URDF scales it (millimetres?); "
+                "wsgrasp uses the link's collision geometry"
             )
         note = f"{orig} -> {rel} ({extent * 1000:.0f} mm across)"
         if note not in notes:
@@ -195,3 +281,33 @@ def unlimited_continuous(path: Path) -> list[str]:
         if lim is None or lim.get("lower") is None or lim.get("upper") is None:
             out.append(j.get("name", "?"))
     return out
+
+
+def narrow_limits(path: Path, limits: dict[str, tuple[float, float]]) -> None:
+    """Rewrite the ``<limit lower upper>`` of the named joints in the URDF at
+    ``path`` (values at full precision; the rest of the file as it was)."""
+    import html
+
+    if not limits:
+        return
+    text = Path(path).read_text()
+
+    def rewrite(m: re.Match[str]) -> str:
+        element = m.group(0)
+        name = _NAME.search(element)
+        if name is None or html.unescape(name.group(2)) not in limits:
+            return element
+        lower, upper = limits[html.unescape(name.group(2))]
+        tag = _LIMIT.search(element)
+        if tag is None:
+            return element
+        new = tag.group(0)
+        for attr, value in (("lower", lower), ("upper", upper)):
+            pat = re.compile(rf"""\b{attr}\s*=\s*(["']).*?\1""", re.S)
+            if pat.search(new):
+                new = pat.sub(f'{attr}="{float(value)!r}"', new, count=1)
+            else:
+                new = new.replace("<limit", f'<limit {attr}="{float(value)!r}"', 1)
+        return element.replace(tag.group(0), new, 1)
+
+    Path(path).write_text(_JOINT.sub(rewrite, text))

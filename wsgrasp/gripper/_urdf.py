@@ -3,17 +3,22 @@ and mass properties.
 
 yourdfpy parses the file; forward kinematics is ours (batched, in
 :mod:`wsgrasp.geometry`), so no yourdfpy call is made per configuration. Meshes are
-loaded lazily, only when a cloud is sampled, with trimesh. The planner
-(:mod:`wsgrasp.gripper`) and the simulator (:mod:`wsgrasp.sim.gripper`) both read
-their URDF here.
+loaded lazily, only when a cloud is sampled, with trimesh (STL, OBJ, PLY, GLB/GLTF,
+and COLLADA through pycollada). A link's shapes are its collision elements; a link
+without any takes its visual ones. ``package://PKG/...`` URIs resolve as ROS
+resolves them (:func:`package_roots`). The planner (:mod:`wsgrasp.gripper`) and the
+simulator (:mod:`wsgrasp.sim.gripper`) both read their URDF here.
 """
 
 from __future__ import annotations
 
 import contextlib
+import functools
 import io
+import os
+import re
 import xml.etree.ElementTree as ET
-from collections.abc import Collection, Iterable, Mapping
+from collections.abc import Collection, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -103,6 +108,9 @@ class Kinematics:
         Collision elements per link (visual ones where a link has no collision).
     inertials : dict of str to Inertial
         Mass properties of the links whose ``<inertial>`` gives a mass.
+    warnings : list of str
+        Geometry left out while reading (a visual mesh, not found, of a link
+        without collision geometry), naming the link and the file.
     """
 
     robot_name: str
@@ -112,6 +120,7 @@ class Kinematics:
     parent_joint: dict[str, str]
     shapes: dict[str, list[Shape]] = field(default_factory=dict)
     inertials: dict[str, Inertial] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
 
     # -- names -------------------------------------------------------------------
     def check_link(self, link: str, gripper: str, where: str) -> None:
@@ -276,13 +285,26 @@ def _origin(o: Any) -> Array:
     return np.eye(4) if o is None else np.asarray(o, dtype=np.float64).copy()
 
 
-def load_kinematics(path: Path, gripper: str) -> Kinematics:
+def load_kinematics(
+    path: Path, gripper: str, *, package_paths: Sequence[Path] = ()
+) -> Kinematics:
     """Read a URDF with yourdfpy into :class:`Kinematics`.
+
+    Parameters
+    ----------
+    path
+        The URDF file.
+    gripper
+        The gripper's name, for messages.
+    package_paths
+        Folders holding ROS packages, searched for ``package://`` URIs (see
+        :func:`package_roots`).
 
     Raises
     ------
     GripperError
-        The file is missing or does not parse, or a movable joint lacks limits.
+        The file is missing or does not parse, a movable joint lacks limits, or a
+        collision mesh is not found.
     """
     import yourdfpy
 
@@ -392,7 +414,9 @@ def load_kinematics(path: Path, gripper: str) -> Kinematics:
     for j in joints:
         kin.master(j)  # cycles
     for link in robot.links:
-        kin.shapes[link.name] = _shapes(link, path.parent, fail)
+        kin.shapes[link.name] = _shapes(
+            link, path.parent, fail, kin.warnings, package_paths
+        )
         inertial = link.inertial
         if inertial is not None and inertial.mass is not None:
             inertia = (
@@ -406,8 +430,18 @@ def load_kinematics(path: Path, gripper: str) -> Kinematics:
     return kin
 
 
-def _shapes(link: Any, urdf_dir: Path, fail: Any) -> list[Shape]:
-    elements = link.collisions or link.visuals or []
+def _shapes(
+    link: Any,
+    urdf_dir: Path,
+    fail: Any,
+    warnings: list[str],
+    package_paths: Sequence[Path],
+) -> list[Shape]:
+    """A link's collision elements, or its visual ones when it has none. A
+    collision mesh that is not found raises; a visual one is left out, with a
+    warning."""
+    collision = bool(link.collisions)
+    elements = link.collisions if collision else (link.visuals or [])
     out = []
     for el in elements:
         g = el.geometry
@@ -422,12 +456,18 @@ def _shapes(link: Any, urdf_dir: Path, fail: Any) -> list[Shape]:
         elif g.sphere is not None:
             out.append(Shape(link.name, "sphere", T, (float(g.sphere.radius),)))
         elif g.mesh is not None:
-            mesh_path = resolve_mesh(g.mesh.filename, urdf_dir)
-            if mesh_path is None:
+            mesh_path = resolve_mesh(g.mesh.filename, urdf_dir, package_paths)
+            if mesh_path is None and collision:
                 raise fail(
-                    f"link {link.name!r} references mesh {g.mesh.filename!r}, which "
-                    "is not found"
+                    f"link {link.name!r} references collision mesh "
+                    f"{g.mesh.filename!r}, which is not found"
                 )
+            if mesh_path is None:
+                warnings.append(
+                    f"link {link.name!r} has no collision geometry and its visual "
+                    f"mesh {g.mesh.filename!r} is not found: the link has no shape"
+                )
+                continue
             scale = g.mesh.scale
             if scale is None:
                 sc: tuple[float, float, float] = (1.0, 1.0, 1.0)
@@ -438,16 +478,89 @@ def _shapes(link: Any, urdf_dir: Path, fail: Any) -> list[Shape]:
     return out
 
 
-def resolve_mesh(filename: str, urdf_dir: Path) -> Path | None:
-    """Find a mesh file named in a URDF: absolute, relative to the URDF, or a
-    ``package://pkg/rel`` path looked up beside the URDF and its parents."""
-    name = filename
+#: how deep below a package search folder a ``package.xml`` is looked for
+PACKAGE_SEARCH_DEPTH = 4
+_PACKAGE_NAME = re.compile(rb"<name>\s*([^<\s]+)\s*</name>")
+
+
+@functools.lru_cache(maxsize=1024)
+def _package_name(folder: str) -> str | None:
+    """The ``<name>`` in ``folder/package.xml`` (None without one)."""
+    try:
+        text = (Path(folder) / "package.xml").read_bytes()[:65536]
+    except OSError:
+        return None
+    m = _PACKAGE_NAME.search(text)
+    return m.group(1).decode(errors="replace") if m else None
+
+
+@functools.lru_cache(maxsize=256)
+def _packages_below(folder: str, depth: int) -> tuple[tuple[str, str], ...]:
+    """``(name, folder)`` of the ROS packages at or below ``folder``: folders
+    holding a ``package.xml`` (whose subfolders are not searched, as rospack
+    does), at most ``depth`` levels down."""
+    name = _package_name(folder)
+    if name is not None:
+        return ((name, folder),)
+    if depth <= 0:
+        return ()
+    try:
+        children = sorted(p for p in Path(folder).iterdir() if p.is_dir())
+    except OSError:
+        return ()
+    out: list[tuple[str, str]] = []
+    for child in children:
+        if not child.name.startswith("."):
+            out += _packages_below(str(child), depth - 1)
+    return tuple(out)
+
+
+def package_roots(
+    pkg: str, urdf_dir: Path, package_paths: Sequence[Path] = ()
+) -> list[Path]:
+    """The folders a ``package://PKG/...`` URI may point into, most likely first.
+
+    As ROS looks packages up: the URDF's folder or one above it that is the
+    package (named ``PKG``, or holding a ``package.xml`` whose ``<name>`` is
+    ``PKG``) or that holds a folder named ``PKG``; then each folder of
+    ``package_paths`` and of ``$ROS_PACKAGE_PATH`` (folders that contain
+    packages, searched :data:`PACKAGE_SEARCH_DEPTH` levels deep).
+    """
+    out: list[Path] = []
+    here = Path(urdf_dir).absolute()
+    for d in (here, *here.parents):
+        if d.name == pkg or _package_name(str(d)) == pkg:
+            out.append(d)
+        elif (d / pkg).is_dir():
+            out.append(d / pkg)
+    env = os.environ.get("ROS_PACKAGE_PATH", "")
+    for base in [*package_paths, *(Path(p) for p in env.split(os.pathsep) if p)]:
+        base = Path(base).expanduser().absolute()
+        if (base / pkg).is_dir():
+            out.append(base / pkg)
+        out += [
+            Path(f)
+            for name, f in _packages_below(str(base), PACKAGE_SEARCH_DEPTH)
+            if name == pkg
+        ]
+    return list(dict.fromkeys(out))
+
+
+def resolve_mesh(
+    filename: str, urdf_dir: Path, package_paths: Sequence[Path] = ()
+) -> Path | None:
+    """Find a mesh file named in a URDF: absolute, relative to the URDF, a
+    ``file://`` URI, or a ``package://PKG/rel`` URI: ``rel`` in the folders of
+    :func:`package_roots`, else beside the URDF or in its three parent folders."""
+    name = filename.strip()
     if name.startswith("file://"):
         name = name[len("file://") :]
     candidates: list[Path] = []
     if name.startswith("package://"):
         rest = name[len("package://") :]
-        rel = Path(rest.split("/", 1)[1]) if "/" in rest else Path(rest)
+        pkg, _, rel_text = rest.partition("/")
+        rel = Path(rel_text) if rel_text else Path(rest)
+        candidates += [r / rel for r in package_roots(pkg, urdf_dir, package_paths)]
         for d in (urdf_dir, *urdf_dir.parents[:3]):
             candidates += [d / rel, d / rest]
     else:
@@ -462,24 +575,47 @@ def resolve_mesh(filename: str, urdf_dir: Path) -> Path | None:
 def shape_mesh(shape: Shape, *, frame: str = "link") -> Any:
     """The shape as a ``trimesh.Trimesh`` (meshes loaded now, scaled), in its link
     frame, or with ``frame="shape"`` in its own (before ``T_link_shape``)."""
-    import trimesh
-
     if shape.kind in PRIMITIVES:
         mesh = primitive_mesh(shape.kind, shape.size)
     else:
         assert shape.mesh_path is not None
-        try:
-            mesh = trimesh.load(str(shape.mesh_path), force="mesh")
-        except Exception as exc:  # noqa: BLE001 - unreadable mesh file
-            raise GripperError(
-                f"mesh {str(shape.mesh_path)!r} of link {shape.link!r} cannot be "
-                f"read: {exc}",
-                hint="convert the mesh to STL, OBJ or PLY",
-            ) from None
-        mesh = mesh.copy()
+        mesh = load_mesh(shape.mesh_path, f"link {shape.link!r}")
         mesh.apply_transform(np.diag([*shape.mesh_scale, 1.0]))
     if frame == "link":
         mesh.apply_transform(shape.T_link_shape)
     elif frame != "shape":
         raise ValueError(f"frame must be 'link' or 'shape', not {frame!r}")
     return mesh
+
+
+def load_mesh(path: Path, what: str) -> Any:
+    """A mesh file as one ``trimesh.Trimesh``, a copy (a scene's geometry, as
+    GLB/GLTF and COLLADA files hold, concatenated in the file's frame).
+
+    Raises
+    ------
+    GripperError
+        The file cannot be read or holds no triangles; ``what`` names its user.
+    """
+    import trimesh
+
+    try:
+        mesh = trimesh.load(str(path), force="mesh")
+    except ImportError as exc:
+        raise GripperError(
+            f"mesh {str(path)!r} of {what} needs a reader that is not installed "
+            f"({exc})",
+            hint="pip install pycollada for COLLADA (.dae) meshes, or convert the "
+            "mesh to STL, OBJ or PLY",
+        ) from None
+    except Exception as exc:  # noqa: BLE001 - unreadable mesh file
+        raise GripperError(
+            f"mesh {str(path)!r} of {what} cannot be read: {type(exc).__name__}: {exc}",
+            hint="convert the mesh to STL, OBJ or PLY",
+        ) from None
+    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+        raise GripperError(
+            f"mesh {str(path)!r} of {what} holds no triangles",
+            hint="export the part as a triangle mesh (STL, OBJ, PLY, GLB or DAE)",
+        )
+    return mesh.copy()

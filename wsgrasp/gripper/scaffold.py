@@ -20,7 +20,7 @@ from typing import Any
 
 from wsgrasp.errors import GripperError, WsgraspError
 from wsgrasp.gripper._guess import Scaffold, fit_sphere_count, guess_description
-from wsgrasp.gripper._scaffold_urdf import MESH_UNITS, copy_urdf
+from wsgrasp.gripper._scaffold_urdf import MESH_UNITS, copy_urdf, narrow_limits
 
 __all__ = [
     "MESH_UNITS",
@@ -42,13 +42,20 @@ _NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_\-]*$")
 # Writing
 # ------------------------------------------------------------------------------
 def _flow(v: Any) -> str:
-    if isinstance(v, dict):
-        return "{" + ", ".join(f"{k}: {_flow(x)}" for k, x in v.items()) + "}"
-    if isinstance(v, list | tuple):
-        return "[" + ", ".join(_flow(x) for x in v) + "]"
-    if isinstance(v, float):
-        return repr(v)
-    return str(v)
+    """``v`` as one line of YAML (flow style), every scalar written by PyYAML so
+    that it reads back as it is: names such as ``0``, ``1.5``, ``yes``, ``null``
+    or ``a: b`` quoted, floats at full precision."""
+    import yaml
+
+    text = yaml.safe_dump(
+        v,
+        default_flow_style=True,
+        sort_keys=False,
+        allow_unicode=True,
+        width=float("inf"),
+    )
+    # a lone scalar is written as a document: drop its end marker
+    return text.removesuffix("\n").removesuffix("\n...").rstrip("\n")
 
 
 def _comment(text: str, indent: str = "") -> str:
@@ -73,7 +80,7 @@ def render_yaml(scaffold: Scaffold, header: list[str] | None = None) -> str:
         out.append(_comment(line))
     for w in scaffold.warnings:
         out.append(_comment("WARNING: " + w))
-    out.append(f"version: 1\nname: {d['name']}\nurdf: {d['urdf']}\n")
+    out.append(f"version: 1\nname: {_flow(d['name'])}\nurdf: {_flow(d['urdf'])}\n")
     for key in ("base_link", "tool_frame", "approach_axis", "closing_axis"):
         if key in n:
             out.append(_comment(n[key]))
@@ -82,7 +89,7 @@ def render_yaml(scaffold: Scaffold, header: list[str] | None = None) -> str:
     out.append(_comment("pads: " + n.get("pad", "")))
     out.append("fingers:\n")
     for f in d["fingers"]:
-        out.append(f"  - name: {f['name']}\n")
+        out.append(f"  - name: {_flow(f['name'])}\n")
         out.append(f"    joints: {_flow(f['joints'])}\n")
         out.append(f"    pad: {_flow(f['pad'])}\n")
     for key in (
@@ -99,11 +106,19 @@ def render_yaml(scaffold: Scaffold, header: list[str] | None = None) -> str:
     )
     out.append(f"ellipsoids: {_flow(d['ellipsoids'])}\n")
     out.append(f"cloud_points: {d['cloud_points']}\n")
+    import yaml
+
     for key in ("pregrasp", "closed"):
         out.append(_comment(n.get(key, "")))
-        out.append(f"{key}:\n")
-        for j, v in d[key].items():
-            out.append(f"  {j}: {_flow(v)}\n")
+        out.append(
+            yaml.safe_dump(
+                {key: d[key]},
+                default_flow_style=False,
+                sort_keys=False,
+                allow_unicode=True,
+                width=float("inf"),
+            )
+        )
     return "".join(out)
 
 
@@ -257,8 +272,12 @@ def scaffold_plugin(
     mesh_units: str | None = None,
     force: bool = False,
     check: bool = True,
+    package_paths: list[Path] | None = None,
 ) -> tuple[Path, Scaffold]:
     """Write a pip-installable gripper plugin package into ``out_dir``.
+
+    ``mesh_dirs`` are extra folders holding mesh files; ``package_paths`` are
+    folders holding ROS packages, for ``package://`` URIs (as ``ROS_PACKAGE_PATH``).
 
     Returns
     -------
@@ -290,7 +309,14 @@ def scaffold_plugin(
     fresh = not out.exists()
     try:
         return _write_package(
-            name, Path(urdf), out, base_link, mesh_dirs, mesh_units, check
+            name,
+            Path(urdf),
+            out,
+            base_link,
+            mesh_dirs,
+            mesh_units,
+            check,
+            package_paths,
         )
     except BaseException:
         if fresh:  # leave nothing half-written behind
@@ -306,14 +332,24 @@ def _write_package(
     mesh_dirs: list[Path] | None,
     mesh_units: str | None,
     check: bool,
+    package_paths: list[Path] | None = None,
 ) -> tuple[Path, Scaffold]:
     module = module_name(name)
     pkg = out / module
     pkg.mkdir(parents=True, exist_ok=True)
+    mesh_warnings: list[str] = []
     urdf_copy, mesh_notes = copy_urdf(
-        urdf, pkg, name, mesh_dirs=mesh_dirs, mesh_units=mesh_units
+        urdf,
+        pkg,
+        name,
+        mesh_dirs=mesh_dirs,
+        mesh_units=mesh_units,
+        package_paths=package_paths,
+        warnings=mesh_warnings,
     )
     scaffold = guess_description(urdf_copy, name, base_link=base_link)
+    scaffold.warnings[:0] = mesh_warnings
+    narrow_limits(urdf_copy, scaffold.limits)
     fit_sphere_count(scaffold, pkg)
     header = []
     if mesh_notes:
