@@ -395,3 +395,28 @@ def test_eval_reports_the_repairs(
     }
     assert notes["efforts"]["left_knuckle_joint"]["source"] == "default"
     assert "| left_pad_joint | mimic limits |" in md.read_text()
+
+
+def test_flat_mesh_collides_as_a_thin_box(tmp_path: Path):
+    """A collision mesh without volume (MuJoCo refuses its hull) becomes a box of
+    its extent, 1 mm thick, and the repair says so."""
+    import trimesh
+
+    flat = trimesh.Trimesh(
+        vertices=[[0, 0, 0], [0.01, 0, 0], [0, 0.02, 0], [0.01, 0.02, 0]],
+        faces=[[0, 1, 2], [1, 3, 2]],
+    )
+    flat.export(tmp_path / "decal.stl")
+    urdf = claw_urdf().replace(
+        '<link name="tcp"/>',
+        '<link name="tcp"><collision><geometry><mesh filename="decal.stl"/>'
+        "</geometry></collision></link>",
+    )
+    (tmp_path / "claw.urdf").write_text(urdf)
+    g = sim_gripper_from_files(claw_description(), tmp_path)
+    (fix,) = [r for r in g.repairs if r.kind == "geometry"]
+    assert fix.item == "tcp" and "decal.stl is flat" in fix.problem
+    scene = build_scene(_box_object((0.3, 0.3, 0.04)), g)  # compiles
+    m = scene.model
+    (geom,) = np.flatnonzero(m.geom_bodyid == _body_id(scene, "tcp"))
+    np.testing.assert_allclose(m.geom_size[geom], (0.005, 0.01, 0.0005), atol=1e-12)

@@ -1,7 +1,9 @@
 """What the simulator does with the values of a vendor URDF that MuJoCo cannot take,
 or that would make a trial judge the URDF's author instead of the grasp.
 
-Three kinds, each noted as a :class:`Repair` that reaches the run's report:
+Three kinds, each noted as a :class:`Repair` that reaches the run's report (and a
+fourth, a flat collision mesh simulated as a box of its extent, noted by
+:mod:`wsgrasp.sim.gripper`):
 
 Inertials
     A link's ``<inertial>`` is kept when its mass lies within
@@ -82,7 +84,8 @@ class Repair:
     item : str
         The link or joint.
     kind : str
-        ``inertial``, ``effort`` or ``mimic limits``.
+        ``inertial``, ``effort``, ``mimic limits`` or ``geometry`` (a flat mesh
+        simulated as a thin box).
     problem, action : str
         What was wrong; what the simulator used instead.
     """

@@ -33,6 +33,7 @@ from wsgrasp.errors import SimulationError
 from wsgrasp.geometry import JOINT_FIXED, JOINT_PRISMATIC
 from wsgrasp.gripper._urdf import Joint, Kinematics, Shape, load_kinematics, shape_mesh
 from wsgrasp.sim._repairs import (
+    MIN_THICKNESS,
     Repair,
     effort_limit,
     link_mass_properties,
@@ -343,6 +344,18 @@ def _body(
         )
     shapes = kin.shapes.get(link, [])
     solids = [_solid(shape) for shape in shapes]  # each in its shape frame
+    for shape, solid in zip(shapes, solids, strict=True):
+        if shape.kind == "mesh" and solid.__class__.__name__ == "Box":
+            name = shape.mesh_path.name if shape.mesh_path else "?"
+            size = " x ".join(f"{e * 1e3:.3g}" for e in solid.primitive.extents)
+            repairs.append(
+                Repair(
+                    link,
+                    "geometry",
+                    f"mesh {name} is flat (its convex hull has no volume)",
+                    f"a box of its extent, {size} mm",
+                )
+            )
     props, fix = link_mass_properties(
         link,
         kin.inertials.get(link),
@@ -377,7 +390,8 @@ def _body(
 def _solid(shape: Shape) -> Any:
     """The body MuJoCo simulates for a shape, in the shape's frame: a trimesh
     primitive (whose mass properties are exact, as MuJoCo's), or a mesh's
-    (scaled) convex hull."""
+    (scaled) convex hull; a flat mesh's hull, which has no volume, as a box of
+    its extent, at least ``MIN_THICKNESS`` thick."""
     import trimesh
 
     if shape.kind == "box":
@@ -386,12 +400,28 @@ def _solid(shape: Shape) -> Any:
         return trimesh.primitives.Cylinder(radius=shape.size[0], height=shape.size[1])
     if shape.kind == "sphere":
         return trimesh.primitives.Sphere(radius=shape.size[0])
-    return shape_mesh(shape, frame="shape").convex_hull
+    mesh = shape_mesh(shape, frame="shape")
+    try:
+        with np.errstate(invalid="ignore", divide="ignore"):  # a flat hull's
+            hull = mesh.convex_hull  # centre of mass divides by its volume, 0
+            if hull.is_watertight and hull.volume > MIN_THICKNESS**3:
+                return hull
+    except Exception:  # noqa: BLE001 - qhull refuses points on a line or plane
+        pass
+    # flat: MuJoCo cannot make a hull of it either; a box of its extent
+    lo, hi = np.asarray(mesh.bounds, dtype=np.float64)  # (2, 3)
+    T = np.eye(4)
+    T[:3, 3] = (lo + hi) / 2.0
+    return trimesh.primitives.Box(
+        extents=np.maximum(hi - lo, MIN_THICKNESS), transform=T
+    )
 
 
 def _geom(shape: Shape, solid: Any, name: str, p: SimParams, assets: list[str]) -> str:
-    """A shape's ``<geom>``; ``solid`` is its mesh's hull (:func:`_solid`). Its
-    mass is the body's ``<inertial>``, so the geom weighs nothing of its own."""
+    """A shape's ``<geom>``; ``solid`` is its mesh's hull or box (:func:`_solid`).
+    Its mass is the body's ``<inertial>``, so the geom weighs nothing of its own."""
+    import trimesh
+
     common = attrs(
         name=name,
         contype=GRIPPER_CONTYPE,
@@ -411,6 +441,10 @@ def _geom(shape: Shape, solid: Any, name: str, p: SimParams, assets: list[str]) 
         )
     if shape.kind == "sphere":
         return f'<geom type="sphere" size="{fmt(shape.size[0])}" {pose} {common}/>'
+    if isinstance(solid, trimesh.primitives.Box):  # a flat mesh (see _solid)
+        pose = pose_attrs(shape.T_link_shape @ solid.primitive.transform)
+        size = np.asarray(solid.primitive.extents, dtype=np.float64) / 2.0
+        return f'<geom type="box" size="{fmt(size)}" {pose} {common}/>'
     # a mesh: its convex hull (scaled), in the shape's frame
     hull = np.asarray(solid.vertices, dtype=np.float64)  # (n, 3)
     mesh_name = name + "/mesh"
