@@ -1,0 +1,273 @@
+"""`wsgrasp gripper new` and `gripper check` on URDFs as vendors publish them: names
+of any form, limits written with 12 digits, wrist joints above the palm, visual
+meshes that are missing, `package://` URIs, COLLADA meshes; and the seven real
+descriptions of ../shared/grippers, scaffolded and checked with no hand edit."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from vendor_factory import (
+    DEG10,
+    DEG30,
+    JAW_PARTS,
+    hand_urdf,
+    named_jaw_urdf,
+    write_mesh_jaw,
+    write_package_xml,
+)
+
+from wsgrasp.cli import main
+from wsgrasp.errors import GripperError
+from wsgrasp.gripper._urdf import load_kinematics, shape_mesh
+from wsgrasp.gripper.check import check_gripper
+from wsgrasp.gripper.scaffold import (
+    copy_urdf,
+    guess_description,
+    render_yaml,
+    scaffold_plugin,
+)
+from wsgrasp.spec import GripperDescription
+
+#: the development data of ../shared/grippers (not in the repository)
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "grippers"
+#: id -> URDF under SHARED
+VENDOR = {
+    "ability": "ability_hand/ability_hand_right.urdf",
+    "barrett": "barrett_hand/bhand_model.urdf",
+    "dclaw": "dclaw_gripper/dclaw_gripper.urdf",
+    "panda": "panda_gripper/panda_gripper_glb.urdf",
+    "shadow": "shadow_hand/shadow_hand_right.urdf",
+    "robotiq_2f": "robotiq/robotiq_2f_c2_gripper_visualization/urdf/"
+    "robotiq_c2_model.urdf",
+    "robotiq_3f": "robotiq/robotiq_3f_gripper_visualization/cfg/"
+    "robotiq-3f-gripper_articulated.urdf",
+}
+#: scaffolded and checked in a few seconds each; the others are marked slow
+FAST = {"panda", "robotiq_2f"}
+
+
+@pytest.fixture(autouse=True)
+def _cache(tmp_path_factory, monkeypatch):
+    cache = tmp_path_factory.getbasetemp() / "gripper-cache"
+    monkeypatch.setenv("WSGRASP_CACHE_DIR", str(cache))
+    monkeypatch.delenv("ROS_PACKAGE_PATH", raising=False)
+
+
+def _read_back(scaffold) -> GripperDescription:
+    """The scaffold as written to YAML and read back."""
+    return GripperDescription.model_validate(yaml.safe_load(render_yaml(scaffold)))
+
+
+def _no_errors(yaml_path: Path) -> None:
+    report = check_gripper(yaml_path)
+    assert not report.errors, report.format()
+
+
+# ------------------------------------------------------------------------------
+# Names
+# ------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("joints", "links"),
+    [
+        (("0", "1.5"), ("null", "1e3", "yes")),
+        (("yes", "null"), ("palm: base", "left #1", "~")),
+        (("it's", 'say "x"'), ("a,b", "[right]", "{palm}")),
+    ],
+    ids=["numbers", "yaml-words", "punctuation"],
+)
+def test_names_of_any_form_survive_the_yaml(tmp_path, joints, links):
+    """Joint and link names that YAML would read as numbers, booleans, nulls,
+    mappings or comments are quoted, and read back as the same strings."""
+    palm, left, right = links
+    (tmp_path / "jaw.urdf").write_text(named_jaw_urdf(joints, (left, palm, right)))
+    sc = guess_description(tmp_path / "jaw.urdf", "jaw")
+    desc = _read_back(sc)
+    assert desc.base_link == left  # the root link
+    assert {f.pad.link for f in desc.fingers} == {palm, right}
+    assert sorted(j for f in desc.fingers for j in f.joints) == sorted(joints)
+    assert set(desc.pregrasp) == set(joints) and set(desc.closed) == set(joints)
+
+
+def test_hand_with_numbered_joints_scaffolds_and_checks(tmp_path):
+    """A hand whose joints are named 0 ... 5."""
+    names = [str(i) for i in range(6)]
+    (tmp_path / "hand.urdf").write_text(hand_urdf(names=names))
+    yaml_path, sc = scaffold_plugin("hand", tmp_path / "hand.urdf", tmp_path / "out")
+    assert sc.build_error is None
+    desc = GripperDescription.model_validate(yaml.safe_load(yaml_path.read_text()))
+    assert all(isinstance(j, str) for f in desc.fingers for j in f.joints)
+    assert set(desc.pregrasp) == set(names)
+    _no_errors(yaml_path)
+
+
+# ------------------------------------------------------------------------------
+# Limits and postures
+# ------------------------------------------------------------------------------
+def test_limits_with_twelve_digits_stay_inside(tmp_path):
+    """Limits written as 0.523598775598: the guessed postures are the limits
+    themselves, at full precision, so the model builds."""
+    urdf = tmp_path / "hand.urdf"
+    urdf.write_text(hand_urdf(limits=(f"-{DEG30}", DEG10)))
+    kin = load_kinematics(urdf, "hand")
+    sc = guess_description(urdf, "hand")
+    desc = _read_back(sc)
+    for posture in (desc.pregrasp, desc.closed):
+        for joint, value in posture.items():
+            j = kin.joints[joint]
+            assert j.lower <= value <= j.upper, (joint, value, j.lower, j.upper)
+    assert -float(DEG30) in desc.pregrasp.values()
+    yaml_path, sc = scaffold_plugin("hand", urdf, tmp_path / "out")
+    assert sc.build_error is None
+    _no_errors(yaml_path)
+
+
+def test_wrist_joints_are_held_and_each_finger_closes_its_own_way(tmp_path):
+    """Two wrist joints between the root and the palm move every finger: they are
+    held (at 0, or mid-range when 0 is outside it) and in no finger. The lone
+    finger closes towards its lower limits, the other two towards their upper
+    ones; the approach follows the fingers although two are on one side."""
+    urdf = tmp_path / "hand.urdf"
+    wrist = [("WRJ2", "0 1 0", f"-{DEG30}", DEG10), ("WRJ1", "0 0 1", "0.2", "0.6")]
+    urdf.write_text(hand_urdf(wrist=wrist))
+    yaml_path, sc = scaffold_plugin("hand", urdf, tmp_path / "out")
+    d = sc.data
+    assert all("WRJ" not in j for f in d["fingers"] for j in f["joints"])
+    assert d["pregrasp"]["WRJ2"] == d["closed"]["WRJ2"] == 0.0
+    assert d["pregrasp"]["WRJ1"] == d["closed"]["WRJ1"] == pytest.approx(0.4)
+    assert "wrist or palm" in sc.notes["fingers"]
+    joints = {f["pad"]["link"]: f["joints"][0] for f in d["fingers"]}
+    assert d["closed"][joints["finger0_distal"]] == 1.2  # upper
+    assert d["closed"][joints["finger1_distal"]] == 1.2
+    assert d["closed"][joints["finger2_distal"]] == -1.2  # lower
+    assert d["approach_axis"] == [0.0, 0.0, 1.0]
+    # the palm turned 0.4 rad about z by the held wrist joint WRJ1
+    np.testing.assert_allclose(
+        d["closing_axis"], [-np.sin(0.4), np.cos(0.4), 0.0], atol=1e-6
+    )
+    report = check_gripper(yaml_path)
+    assert not report.errors, report.format()
+    assert all(f["pad_closes_mm"] > 10 for f in report.fingers), report.format()
+
+
+# ------------------------------------------------------------------------------
+# Meshes
+# ------------------------------------------------------------------------------
+def test_missing_visual_meshes_are_a_warning(tmp_path):
+    """Visual meshes named .STL that do not exist, an unreadable one, collision
+    meshes present: scaffolded from the collision meshes, each visual mesh left
+    out named with its link; a missing collision mesh stays an error."""
+    src = tmp_path / "src"
+    urdf = write_mesh_jaw(
+        src / "jaw.urdf", src / "meshes", visual=lambda f: f"meshes/visual/{f}"
+    )
+    (src / "meshes" / "visual").mkdir()
+    (src / "meshes" / "visual" / "palm.STL").write_text("not a mesh")
+    yaml_path, sc = scaffold_plugin("jaw", urdf, tmp_path / "out")
+    assert sc.build_error is None
+    left = [w for w in sc.warnings if "meshes/visual/left.STL" in w]
+    assert left and "left_finger" in left[0] and "not found" in left[0]
+    palm = [w for w in sc.warnings if "meshes/visual/palm.STL" in w]
+    assert palm and "link palm" in palm[0] and "cannot be read" in palm[0]
+    copied = yaml_path.with_suffix(".urdf").read_text()
+    assert "visual/" not in copied.replace("visual mesh meshes/visual", "")
+    assert "<visual>" not in copied
+    _no_errors(yaml_path)
+    (src / "meshes" / "right.stl").unlink()
+    with pytest.raises(GripperError) as err:
+        copy_urdf(urdf, tmp_path / "again", "jaw")
+    assert "right.stl" in str(err.value) and "link right_finger" in str(err.value)
+
+
+def test_package_uri_found_through_package_xml(tmp_path):
+    """package://gripper_description/... where the package's folder has another
+    name and its package.xml names it, the URDF four folders down."""
+    pkg = tmp_path / "gripper_description_src"
+    write_package_xml(pkg, "gripper_description")
+    urdf = write_mesh_jaw(
+        pkg / "robots" / "a" / "b" / "c" / "jaw.urdf",
+        pkg / "meshes",
+        uri=lambda f: f"package://gripper_description/meshes/{f}",
+    )
+    kin = load_kinematics(urdf, "jaw")
+    assert kin.shapes["palm"][0].mesh_path == pkg / "meshes" / "palm.stl"
+    copy, notes = copy_urdf(urdf, tmp_path / "out", "jaw")
+    assert len(notes) == 3 and "package://" not in copy.read_text()
+
+
+def test_package_path_option(tmp_path, capsys):
+    """The package lives in a workspace away from the URDF: `--package-path WS`
+    finds it (like ROS_PACKAGE_PATH), and without it the error names the option."""
+    ws = tmp_path / "ws"
+    pkg = ws / "src" / "vendor_grippers" / "description"
+    write_package_xml(pkg, "jaw_description")
+    urdf = write_mesh_jaw(
+        tmp_path / "downloads" / "jaw.urdf",
+        pkg / "meshes",
+        uri=lambda f: f"package://jaw_description/meshes/{f}",
+    )
+    out = tmp_path / "plugin"
+    args = ["gripper", "new", "jaw", "--urdf", str(urdf), "--out", str(out)]
+    assert main(args) == 2
+    assert "--package-path" in capsys.readouterr().err
+    assert main([*args, "--package-path", str(ws)]) == 0
+    out_text = " ".join(capsys.readouterr().out.split())  # unwrapped
+    assert "left [left_joint], right [left_joint]" in out_text
+    assert (out / "wsgrasp_jaw" / "meshes" / "palm.stl").is_file()
+
+
+@pytest.mark.parametrize("ext", ["dae", "glb", "obj"])
+def test_meshes_of_each_format_load(tmp_path, ext):
+    """COLLADA (through pycollada), GLB and OBJ collision meshes load at their
+    size."""
+    urdf = write_mesh_jaw(tmp_path / "jaw.urdf", tmp_path / "meshes", ext=ext)
+    kin = load_kinematics(urdf, "jaw")
+    for link, (_, extents, centre) in JAW_PARTS.items():
+        mesh = shape_mesh(kin.shapes[link][0])
+        np.testing.assert_allclose(mesh.extents, extents, atol=1e-6)
+        np.testing.assert_allclose(mesh.bounds.mean(axis=0), centre, atol=1e-6)
+
+
+def test_collada_gripper_scaffolds_and_checks(tmp_path):
+    urdf = write_mesh_jaw(
+        tmp_path / "src" / "jaw.urdf", tmp_path / "src" / "m", ext="dae"
+    )
+    yaml_path, sc = scaffold_plugin("jaw", urdf, tmp_path / "out")
+    assert sc.build_error is None
+    assert (yaml_path.parent / "meshes" / "palm.dae").is_file()
+    assert sc.data["approach_axis"] == [0.0, 0.0, 1.0]
+    _no_errors(yaml_path)
+
+
+# ------------------------------------------------------------------------------
+# The development descriptions
+# ------------------------------------------------------------------------------
+@pytest.mark.skipif(
+    not SHARED.is_dir(),
+    reason=f"the vendor URDFs of ../shared/grippers are not here ({SHARED}): "
+    "development data, kept out of the repository",
+)
+@pytest.mark.parametrize(
+    "name",
+    [
+        pytest.param(n, marks=() if n in FAST else pytest.mark.slow, id=n)
+        for n in VENDOR
+    ],
+)
+def test_vendor_gripper_scaffolds_and_checks(tmp_path, name):
+    """`gripper new` then `gripper check` with no hand edit: no error."""
+    yaml_path, sc = scaffold_plugin(name, SHARED / VENDOR[name], tmp_path / name)
+    assert sc.build_error is None, sc.build_error
+    report = check_gripper(yaml_path)
+    assert not report.errors, report.format()
+    d = sc.data
+    if name == "shadow":
+        assert all("WRJ" not in j for f in d["fingers"] for j in f["joints"])
+        assert len(d["fingers"]) == 5
+    if name in ("barrett", "dclaw", "panda", "shadow"):
+        assert d["approach_axis"] == [0.0, 0.0, 1.0]
+    if name == "robotiq_3f":
+        assert sum("visual mesh" in w for w in sc.warnings) == 5
