@@ -354,6 +354,14 @@ def _write_package(
     header = []
     if mesh_notes:
         header.append("meshes copied: " + "; ".join(mesh_notes))
+    if scaffold.limits:
+        header.append(
+            "joint limits narrowed in the copied URDF, where a finger would close "
+            "into the palm: "
+            + ", ".join(
+                f"{j} [{lo:g}, {hi:g}]" for j, (lo, hi) in scaffold.limits.items()
+            )
+        )
     yaml_path = pkg / f"{name}.yaml"
     yaml_path.write_text(render_yaml(scaffold, header))
     if check:
