@@ -20,6 +20,7 @@ from pydantic import (
     PositiveFloat,
     PositiveInt,
     ValidationError,
+    ValidationInfo,
     field_validator,
     model_validator,
 )
@@ -135,7 +136,10 @@ class GripperDescription(_Model):
         description="direction across which the fingers close (perpendicular to "
         "approach)"
     )
-    fingers: list[FingerDescription] = Field(min_length=1)
+    fingers: list[FingerDescription] = Field(
+        min_length=2,
+        description="the fingers, at least two that close against each other",
+    )
     joint_samples: int = Field(
         8, ge=2, le=64, description="grid points per joint when sampling workspaces"
     )
@@ -154,6 +158,25 @@ class GripperDescription(_Model):
     closed: dict[str, float] = Field(
         description="joint positions (m or rad) the fingers close towards"
     )
+
+    @field_validator("fingers", mode="before")
+    @classmethod
+    def _two_fingers(cls, fingers: Any, info: ValidationInfo) -> Any:
+        """Refuse fewer than two fingers with what was found and the fix (before
+        the length check, whose message would say neither)."""
+        if isinstance(fingers, list) and len(fingers) < 2:
+            names = [
+                f.get("name") if isinstance(f, dict) else getattr(f, "name", None)
+                for f in fingers
+            ]
+            found = ", ".join(repr(n) for n in names) or "none"
+            raise ValueError(
+                f"gripper {info.data.get('name', '?')!r} describes {len(fingers)} "
+                f"finger{'' if len(fingers) == 1 else 's'} ({found}); a grasp needs "
+                "at least two opposing fingers: list under 'fingers:' each finger "
+                "whose pad closes towards another's (a thumb is a finger)"
+            )
+        return fingers
 
     @model_validator(mode="after")
     def _axes(self) -> GripperDescription:

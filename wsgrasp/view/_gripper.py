@@ -12,13 +12,36 @@ import numpy as np
 from wsgrasp.geometry import superellipsoid_surface
 from wsgrasp.gripper.model import GripperModel
 
-#: finger colours in the paper's order (red, green, blue, grey), then more
-FINGER_COLOURS = ("tab:red", "tab:green", "tab:blue", "tab:gray", "tab:orange")
+#: finger colours in the paper's order (red, green, blue, grey), then more; none
+#: purple (the superellipsoids) nor near black (the cloud)
+FINGER_COLOURS = (
+    "tab:red",
+    "tab:green",
+    "tab:blue",
+    "tab:gray",
+    "tab:orange",
+    "tab:brown",
+    "tab:pink",
+    "tab:olive",
+    "tab:cyan",
+)
 #: (elevation, azimuth) in degrees of the default viewpoints
 VIEWS = ((20.0, -60.0), (0.0, 0.0), (0.0, -90.0), (90.0, -90.0))
 VIEW_NAMES = ("perspective", "from +x", "from -y", "from +z")
 #: points drawn on each sphere's surface (a Fibonacci lattice)
 SPHERE_POINTS = 40
+
+
+def finger_colour(f: int) -> tuple[float, float, float, float]:
+    """Finger ``f``'s colour, RGBA: :data:`FINGER_COLOURS`, then hues a golden
+    ratio of a turn apart (no two fingers alike, whatever their number)."""
+    from matplotlib import colormaps
+    from matplotlib.colors import to_rgba
+
+    if f < len(FINGER_COLOURS):
+        return to_rgba(FINGER_COLOURS[f])
+    hue = (f - len(FINGER_COLOURS)) * 0.6180339887 % 1.0
+    return tuple(colormaps["hsv"](hue))  # type: ignore[return-value]
 
 
 def _sphere_directions(n: int) -> np.ndarray:
@@ -93,7 +116,7 @@ def render_gripper(
                 pts[:, 1],
                 pts[:, 2],
                 s=1.5,
-                c=FINGER_COLOURS[f % len(FINGER_COLOURS)],
+                c=[finger_colour(f)],
                 alpha=0.5,
                 linewidths=0,
                 label=name if k == 0 else None,

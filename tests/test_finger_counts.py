@@ -1,0 +1,271 @@
+"""Grippers with any number of fingers. Synthetic hands of 2, 3, 5 and 6 fingers
+(``hand_factory``) get the loop-by-loop reference's verdicts from every search
+kernel, small and dense, numpy and compiled; five- and six-finger hands plan,
+record and draw end to end; a one-finger description is refused."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hand_factory import hand_yaml, write_hand
+from typer.testing import CliRunner
+from wsgrasp_scorers import CentroidDistanceScorer
+
+from wsgrasp.api import Pipeline
+from wsgrasp.cli import app
+from wsgrasp.errors import SpecError, WsgraspError
+from wsgrasp.gripper import load_gripper
+from wsgrasp.gripper.model import GripperModel
+from wsgrasp.perception.types import Scene, View
+from wsgrasp.planning import _dense_numba, dense
+from wsgrasp.planning._dense_grid import FingerDepth
+from wsgrasp.planning.candidates import candidate_poses, orientation_set
+from wsgrasp.planning.evaluate import CandidateStructure, TableSE, evaluate_candidates
+from wsgrasp.planning.reference import reference_search
+from wsgrasp.planning.search import SearchInput, run_search
+from wsgrasp.record import RunRecorder, compare_results, open_run
+from wsgrasp.spec import Sampling, load_gripper_description, load_spec
+from wsgrasp.view._gripper import finger_colour, render_gripper
+
+FINGERS = (2, 3, 5, 6)
+#: a few candidates and more (more approach directions over the half-sphere,
+#: two depths, an obstacle beside the object)
+SAMPLINGS = {
+    "small": {"mode": "approach_sphere", "directions": 3, "orientations": 2},
+    "dense": {
+        "mode": "approach_sphere",
+        "directions": 6,
+        "orientations": 4,
+        "depths": 2,
+    },
+}
+#: which finger and body kernels run: numpy's or the compiled loops (compiled by
+#: numba where it is installed, else their plain Python functions), as a small
+#: search runs them or as a dense one does (the ball proofs, the depth grid
+#: counting, the holdings built when read)
+KERNELS = ("numpy_small", "numpy_dense", "compiled_small", "compiled_dense")
+
+
+@pytest.fixture(scope="module")
+def hands(
+    tmp_path_factory: pytest.TempPathFactory,
+) -> dict[int, tuple[Path, GripperModel]]:
+    """Each hand's YAML and model, built once into a fresh cache."""
+    root = tmp_path_factory.mktemp("hands")
+    out = {}
+    for n in FINGERS:
+        path = write_hand(root / f"hand{n}", n)
+        out[n] = (path, load_gripper(path, cache_dir=root / "cache"))
+    return out
+
+
+def _cylinder(radius: float, height: float, n: int, seed: int) -> np.ndarray:
+    """Surface points of an upright cylinder standing on z = 0, with its top: (n, 3)."""
+    rng = np.random.default_rng(seed)
+    k = n // 5
+    a = rng.uniform(0.0, 2.0 * np.pi, n - k)
+    side = np.c_[radius * np.cos(a), radius * np.sin(a), rng.uniform(0, height, n - k)]
+    r, b = radius * np.sqrt(rng.uniform(0.0, 1.0, k)), rng.uniform(0.0, 2.0 * np.pi, k)
+    top = np.c_[r * np.cos(b), r * np.sin(b), np.full(k, height)]
+    return np.vstack([side, top])
+
+
+def _force(monkeypatch: pytest.MonkeyPatch, kernel: str) -> None:
+    """Route the structured search through ``kernel`` (see :data:`KERNELS`)."""
+    N = _dense_numba
+    if kernel.startswith("numpy"):
+        monkeypatch.setattr(N, "_AVAILABLE", False)
+    else:
+        count, body = N.load() if N.available() else (N._count_loop, N._body_loop)
+        monkeypatch.setattr(N, "_AVAILABLE", True)
+        monkeypatch.setattr(N, "_compiled_count", count)
+        monkeypatch.setattr(N, "_compiled_body", body)
+        monkeypatch.setattr(dense, "_COMPILED_FROM", 2**62 if "small" in kernel else 0)
+    if kernel.endswith("dense"):
+        monkeypatch.setattr(dense, "_BALLS_FROM", 0)
+        monkeypatch.setattr(dense, "_KEEP_ENTRIES", -1)
+        monkeypatch.setattr(dense, "_DEPTH_FROM", 0)
+
+
+def _held_truth(g: GripperModel, T_world_gripper: np.ndarray, points: np.ndarray):
+    """Every point against every sphere, per candidate: (C, no, nf) bool."""
+    out = np.zeros((len(T_world_gripper), len(points), g.num_fingers), dtype=bool)
+    for c, T in enumerate(T_world_gripper):
+        p = (points - T[:3, 3]) @ T[:3, :3]  # (no, 3) gripper frame
+        d2 = ((p[:, None, :] - g.sphere_centers[None]) ** 2).sum(-1)  # (no, S)
+        inside = d2 < g.sphere_radii**2
+        for f in range(g.num_fingers):
+            out[c, :, f] = inside[:, g.sphere_finger == f].any(axis=1)
+    return out
+
+
+@pytest.mark.parametrize("kernel", KERNELS)
+@pytest.mark.parametrize("sampling", list(SAMPLINGS))
+@pytest.mark.parametrize("n", FINGERS, ids=lambda n: f"{n}fingers")
+def test_search_verdicts_equal_the_reference(
+    hands, monkeypatch: pytest.MonkeyPatch, n: int, sampling: str, kernel: str
+) -> None:
+    """Rejection reasons, contacts, the feasible set, the holdings and the
+    chosen candidate are the loop-by-loop reference's, for every kernel."""
+    g = hands[n][1]
+    obj = _cylinder(0.022, 0.15, 200, seed=n)
+    obs = (
+        _cylinder(0.02, 0.1, 80, seed=n + 1) + [0.075, 0.0, 0.0]
+        if sampling == "dense"
+        else np.zeros((0, 3))
+    )
+    T_world_object = np.eye(4)
+    T_world_object[:3, 3] = obj.mean(axis=0)
+    table = TableSE(
+        np.eye(4), np.array([0, 0, -0.05]), np.array([0.35] * 2 + [0.05]), 10.0
+    )
+    rng = np.random.default_rng(n)
+    samples = rng.uniform([-0.02, -0.02, -0.07], [0.02, 0.02, 0.07], (40, 3))
+    o = orientation_set(
+        Sampling(**SAMPLINGS[sampling]),
+        T_world_object,
+        np.array([0, 0, 1.0]),
+        (-0.03, 0.02),
+    )
+    _, T_wg, _, _ = candidate_poses(
+        T_world_object, samples, o.R_object_gwc, g.T_gripper_gwc, o.depth
+    )
+    ref = reference_search(
+        g, T_world_object, samples, o.R_object_gwc, obj, obs, table, o.depth
+    )
+    assert (ref.reason == 0).any() and (ref.reason == 2).any(), "a scene that decides"
+    _force(monkeypatch, kernel)
+    structure = CandidateStructure(T_world_object, samples, o.R_object_gwc, o.depth)
+    ev = evaluate_candidates(T_wg, g, obj, obs, table, structure=structure)
+    np.testing.assert_array_equal(ev.reason, ref.reason)
+    np.testing.assert_array_equal(ev.contacts, ref.contacts)
+    np.testing.assert_array_equal(ev.feasible, np.flatnonzero(ref.reason == 0))
+    np.testing.assert_array_equal(ev.holding, _held_truth(g, T_wg[ev.feasible], obj))
+    out = run_search(
+        SearchInput(
+            g, T_world_object, np.ptp(obj, axis=0), samples, o, obj, obs, table
+        ),
+        [("centroid_distance", CentroidDistanceScorer(), None, 1.0)],
+    )
+    assert out.best == ref.best
+
+
+@pytest.mark.parametrize("nf", [1, 5, 6, 12])
+def test_depth_grid_counts_any_number_of_fingers(nf: int) -> None:
+    """The depth grid and the count loop give each finger's exact holdings for
+    random overlapping spheres of up to 12 fingers (3**12 combinations of
+    states: the grid renumbers them as it goes)."""
+    rng = np.random.default_rng(nf)
+    s = 8
+    centers = rng.uniform([-0.03, -0.03, 0.0], [0.03, 0.03, 0.04], (nf * s, 3))
+    radii = rng.uniform(0.004, 0.02, nf * s)
+    finger = np.repeat(np.arange(nf), s)
+    depth = FingerDepth(centers, radii, finger, nf)
+    q, n, m = 3, 300, 15
+    Q = rng.normal([0.0, 0.0, 0.02], 0.03, (q, n, 3)).transpose(0, 2, 1).copy()
+    ol = np.sort(rng.integers(0, q, m))
+    u = rng.normal(0.0, 0.005, (m, 3))
+    p = Q[ol].transpose(0, 2, 1) - u[:, None, :]  # (m, n, 3) gripper frame
+    inside = ((p[:, :, None, :] - centers) ** 2).sum(-1) < radii**2  # (m, n, S)
+    held = np.stack([inside[..., finger == f].any(-1) for f in range(nf)], -1)
+    loops = [_dense_numba._count_loop]
+    if _dense_numba.available():
+        loops.append(_dense_numba.load()[0])
+    for loop in loops:
+        out = np.ones((m, n, nf), dtype=bool)
+        counts = _dense_numba.count_by_fingers(depth, Q, ol, u, loop, None, out, None)
+        np.testing.assert_array_equal(counts, held.sum(axis=1))
+        np.testing.assert_array_equal(out, held)
+    proven, unsure = depth.held_points(Q, ol, u)
+    np.testing.assert_array_equal(proven[~unsure], held[~unsure])
+    assert np.all(held[proven])
+    assert np.all(depth.counts(Q, ol, u)[0] <= held.sum(axis=1))
+
+
+def test_one_finger_is_refused(tmp_path: Path) -> None:
+    """A one-finger description fails validation with one message naming the
+    gripper, the finger found and the fix, from the YAML and from a plan."""
+    path = write_hand(tmp_path, 1, name="pointer")
+    for load in (
+        load_gripper_description,
+        lambda p: load_gripper(p, cache_dir=tmp_path),
+    ):
+        with pytest.raises(SpecError) as err:
+            load(path)
+        assert isinstance(err.value, WsgraspError)
+        text = str(err.value)
+        assert "'pointer'" in text and "1 finger ('f0')" in text
+        assert "a grasp needs at least two opposing fingers" in text
+        assert str(path) in text  # the file, with the line of `fingers:`
+    text = hand_yaml(2, "hand1.urdf", "none")
+    head, tail = text.split("fingers:\n")[0], text.split("joint_samples:")[1]
+    empty = f"{head}fingers: []\njoint_samples:{tail}"
+    (tmp_path / "none.yaml").write_text(empty)
+    with pytest.raises(SpecError, match="describes 0 fingers"):
+        load_gripper_description(tmp_path / "none.yaml")
+
+
+def _scene(seed: int = 0) -> Scene:
+    """A 4.4 cm x 15 cm upright cylinder on a 40 cm table, one camera's view."""
+    rng = np.random.default_rng(seed)
+    table = np.c_[rng.uniform(-0.2, 0.2, (3000, 2)), np.zeros(3000)]
+    points = np.vstack([table, _cylinder(0.022, 0.15, 1800, seed)])
+    points += rng.normal(0.0, 0.0005, points.shape)
+    return Scene(
+        views=[View(points=points, T_world_camera=np.eye(4), name="cam")],
+        points=points,
+        dropped_nonfinite=0,
+    )
+
+
+@pytest.mark.parametrize("n", [5, 6], ids=lambda n: f"{n}fingers")
+def test_plan_records_and_draws(hands, tmp_path: Path, n: int) -> None:
+    """A five- or six-finger hand plans a grasp (approach directions over the
+    half-sphere, every built-in scorer) with a contact and joint targets per
+    finger; the run's recording reads back the same result and draws as a PNG,
+    and the hand's own picture gives each finger a colour of its own."""
+    path, g = hands[n]
+    scorers = [
+        "centroid_distance",
+        "contact_balance",
+        "antipodal",
+        "table_clearance",
+        "approach_direction",
+        "joint_margin",
+        "mass_center",
+    ]
+    spec = load_spec(
+        {
+            "gripper": str(path),
+            "segmenter": {"name": "ransac_dbscan"},
+            "sampling": {
+                "mode": "approach_sphere",
+                "points": 27,
+                "grid": [3, 3, 3],
+                "directions": 6,
+                "orientations": 4,
+            },
+            "scorers": [{"name": s, "weight": 1.0} for s in scorers],
+        }
+    )
+    run = tmp_path / "run.mcap"
+    result = Pipeline(spec, gripper=g).plan(_scene(), observers=[RunRecorder(run)])
+    assert result.found, result.hint
+    assert sorted(c.finger for c in result.contacts) == sorted(g.finger_names)
+    assert all(len(c.points) > 0 for c in result.contacts)
+    assert len(result.finger_targets) == n
+    assert set(result.joints_grasp) == {
+        f"f{i}_{j}" for i in range(n) for j in ("base", "tip")
+    }
+    back = open_run(run)
+    assert back.status == "ok" and back.result is not None
+    assert compare_results(result, back.result) == []
+    png = tmp_path / "run.png"
+    res = CliRunner().invoke(app, ["view", str(run), "-o", str(png)])
+    assert res.exit_code == 0, res.stdout
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    picture = render_gripper(g, tmp_path / "hand.png")
+    assert Path(picture).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert len({finger_colour(f) for f in range(max(n, 12))}) == max(n, 12)
