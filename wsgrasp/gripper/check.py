@@ -366,21 +366,42 @@ def _check_kinematics(report: CheckReport, desc: Any, base_dir: Path) -> None:
                 )
             )
         boxes = _link_centres(kin, [f.pad.link for f in desc.fingers])
+
+        def share(k: int, rest: list[int]) -> tuple[float, float, float]:
+            """Finger ``k``'s pad distance (m) to the mean of the pads ``rest``:
+            open, nearest on the way to closed (long fingers may pass each other
+            at the end), and nearest had it stayed open while the others close."""
+            d_open = float(np.linalg.norm(p_open[k] - p_open[rest].mean(axis=0)))
+            d_closed = min(
+                float(np.linalg.norm(p[k] - p[rest].mean(axis=0))) for p in p_path
+            )
+            d_still = min(
+                float(np.linalg.norm(p_open[k] - p[rest].mean(axis=0))) for p in p_path
+            )
+            return d_open, d_closed, min(d_open, d_still)
+
+        n = len(desc.fingers)
+        shares = [share(k, [j for j in range(n) if j != k]) for k in range(n)]
+        # a finger's own closing must bring it nearer than staying open would
+        wrong = {k for k, (o, c, s) in enumerate(shares) if s - min(o, c) < 1e-3}
         for k, f in enumerate(desc.fingers):
-            rest = [j for j in range(len(desc.fingers)) if j != k]
-            d_open = np.linalg.norm(p_open[k] - p_open[rest].mean(axis=0))
-            # nearest along the way: long fingers may pass each other at the end
-            d_closed = min(np.linalg.norm(p[k] - p[rest].mean(axis=0)) for p in p_path)
-            nearer = float(d_open - d_closed)
-            report.fingers[k]["pad_closes_mm"] = round(nearer * 1000, 1)
-            if nearer < 1e-3:
+            d_open, d_closed, d_still = shares[k]
+            report.fingers[k]["pad_closes_mm"] = round((d_open - d_closed) * 1000, 1)
+            rest = [j for j in range(n) if j != k]
+            right = [j for j in rest if j not in wrong]
+            if k in wrong and right:
+                # judged against the fingers that close right: a finger closing the
+                # wrong way is named, not the fingers whose distances it spoils
+                d_open, d_closed, d_still = share(k, right)
+            if d_still - min(d_open, d_closed) < 1e-3:
                 _add(
                     report,
                     "error",
                     "closed",
                     f"finger {f.name}'s pad does not get nearer the other fingers "
                     f"on the way from pregrasp to closed ({d_open * 1000:.0f} -> "
-                    f"{d_closed * 1000:.0f} mm)",
+                    f"{d_closed * 1000:.0f} mm; {d_still * 1000:.0f} mm had it stayed "
+                    "in pregrasp while the others close)",
                     "swap the values of pregrasp and closed for the joints "
                     f"{f.joints}, or fix the joint axes in the URDF",
                 )
