@@ -153,6 +153,26 @@ def test_wrist_joints_are_held_and_each_finger_closes_its_own_way(tmp_path):
     assert all(f["pad_closes_mm"] > 10 for f in report.fingers), report.format()
 
 
+def test_check_names_the_finger_that_closes_the_wrong_way(tmp_path):
+    """One finger's pregrasp and closed swapped: `gripper check` reports that
+    finger, on the field `closed`, and not the fingers whose distances it spoils.
+    (Short fingers' ranges, so that no finger curls past the others.)"""
+    urdf = tmp_path / "hand.urdf"
+    urdf.write_text(hand_urdf(limits=("-0.3", "0.2")))
+    yaml_path, sc = scaffold_plugin("hand", urdf, tmp_path / "out")
+    data = yaml.safe_load(yaml_path.read_text())
+    lone = next(f for f in data["fingers"] if f["pad"]["link"] == "finger2_distal")
+    for j in lone["joints"]:
+        data["pregrasp"][j], data["closed"][j] = data["closed"][j], data["pregrasp"][j]
+    bad = yaml_path.with_name("swapped.yaml")
+    bad.write_text(yaml.safe_dump(data, sort_keys=False))
+    report = check_gripper(bad)
+    errors = [p for p in report.errors if p.field == "closed"]
+    assert len(errors) == 1, report.format()
+    assert errors[0].message.startswith(f"finger {lone['name']}'s pad")
+    assert str(lone["joints"]) in errors[0].fix
+
+
 # ------------------------------------------------------------------------------
 # Meshes
 # ------------------------------------------------------------------------------

@@ -367,33 +367,68 @@ def _check_kinematics(report: CheckReport, desc: Any, base_dir: Path) -> None:
             )
         boxes = _link_centres(kin, [f.pad.link for f in desc.fingers])
 
-        def share(k: int, rest: list[int]) -> tuple[float, float, float]:
-            """Finger ``k``'s pad distance (m) to the mean of the pads ``rest``:
+        n = len(desc.fingers)
+
+        def pad_path(pre_d: dict[str, float], closed_d: dict[str, float]) -> Array:
+            """Pad centres at 9 steps from ``pre_d`` to ``closed_d``: (9, F, 3)."""
+            out = []
+            for t in np.linspace(0.0, 1.0, 9):
+                post = {j: float(v) for j, v in closed_d.items()}
+                for j, v in pre_d.items():
+                    end = closed_d.get(j, v)
+                    post[j] = (1.0 - t) * float(v) + t * float(end)
+                out.append(
+                    [
+                        centre(_pad_frame(kin, base, f.pad.link, post), f)
+                        for f in desc.fingers
+                    ]
+                )
+            return np.array(out)
+
+        def share(k: int, path: Array) -> tuple[float, float, float]:
+            """Finger ``k``'s pad distance (m) to the mean of the other pads:
             open, nearest on the way to closed (long fingers may pass each other
             at the end), and nearest had it stayed open while the others close."""
-            d_open = float(np.linalg.norm(p_open[k] - p_open[rest].mean(axis=0)))
-            d_closed = min(
-                float(np.linalg.norm(p[k] - p[rest].mean(axis=0))) for p in p_path
-            )
-            d_still = min(
-                float(np.linalg.norm(p_open[k] - p[rest].mean(axis=0))) for p in p_path
-            )
-            return d_open, d_closed, min(d_open, d_still)
+            rest = [j for j in range(n) if j != k]
+            others = path[:, rest].mean(axis=1)  # (9, 3)
+            d_open = float(np.linalg.norm(path[0, k] - others[0]))
+            d_closed = float(np.linalg.norm(path[1:, k] - others[1:], axis=1).min())
+            d_still = float(np.linalg.norm(path[0, k] - others, axis=1).min())
+            return d_open, d_closed, d_still
 
-        n = len(desc.fingers)
-        shares = [share(k, [j for j in range(n) if j != k]) for k in range(n)]
-        # a finger's own closing must bring it nearer than staying open would
-        wrong = {k for k, (o, c, s) in enumerate(shares) if s - min(o, c) < 1e-3}
+        def own_share(sh: tuple[float, float, float]) -> float:
+            """How much nearer (m) the finger's own closing brings its pad."""
+            d_open, d_closed, d_still = sh
+            return d_still - min(d_open, d_closed)
+
+        # a finger's own closing must bring its pad nearer the others than staying
+        # open would. The worst offender is blamed, with the fingers sharing its
+        # joints, and judged reversed while the rest are judged again: a finger
+        # closing the wrong way is named, not those whose distances it spoils
+        path = pad_path(pre, closed)
+        shares = [share(k, path) for k in range(n)]
+        blamed: list[int] = []
+        pre_fixed, closed_fixed = dict(pre), dict(closed)
+        while True:
+            owns = {k: own_share(share(k, path)) for k in range(n) if k not in blamed}
+            failing = [k for k, v in owns.items() if v < 1e-3]
+            if not failing:
+                break
+            worst = min(failing, key=lambda k: owns[k])
+            joints = {kin.master(j) for j in desc.fingers[worst].joints}
+            for k, f in enumerate(desc.fingers):
+                if k not in blamed and joints & {kin.master(j) for j in f.joints}:
+                    blamed.append(k)
+            for j in joints:
+                if j in pre_fixed and j in closed_fixed:
+                    pre_fixed[j], closed_fixed[j] = closed_fixed[j], pre_fixed[j]
+            if len(blamed) == n:
+                break
+            path = pad_path(pre_fixed, closed_fixed)
         for k, f in enumerate(desc.fingers):
             d_open, d_closed, d_still = shares[k]
             report.fingers[k]["pad_closes_mm"] = round((d_open - d_closed) * 1000, 1)
-            rest = [j for j in range(n) if j != k]
-            right = [j for j in rest if j not in wrong]
-            if k in wrong and right:
-                # judged against the fingers that close right: a finger closing the
-                # wrong way is named, not the fingers whose distances it spoils
-                d_open, d_closed, d_still = share(k, right)
-            if d_still - min(d_open, d_closed) < 1e-3:
+            if k in blamed:
                 _add(
                     report,
                     "error",
@@ -405,6 +440,7 @@ def _check_kinematics(report: CheckReport, desc: Any, base_dir: Path) -> None:
                     "swap the values of pregrasp and closed for the joints "
                     f"{f.joints}, or fix the joint axes in the URDF",
                 )
+            rest = [j for j in range(n) if j != k]
             normal = _pad_normal(f, boxes.get(f.pad.link))
             if normal is None:
                 report.fingers[k]["pad_facing_deg"] = None
