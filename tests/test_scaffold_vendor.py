@@ -159,12 +159,12 @@ def test_check_names_the_finger_that_closes_the_wrong_way(tmp_path):
     (Short fingers' ranges, so that no finger curls past the others.)"""
     urdf = tmp_path / "hand.urdf"
     urdf.write_text(hand_urdf(limits=("-0.3", "0.2")))
-    yaml_path, sc = scaffold_plugin("hand", urdf, tmp_path / "out")
-    data = yaml.safe_load(yaml_path.read_text())
+    data = guess_description(urdf, "hand").data
+    data["joint_samples"] = 9
     lone = next(f for f in data["fingers"] if f["pad"]["link"] == "finger2_distal")
     for j in lone["joints"]:
         data["pregrasp"][j], data["closed"][j] = data["closed"][j], data["pregrasp"][j]
-    bad = yaml_path.with_name("swapped.yaml")
+    bad = tmp_path / "swapped.yaml"
     bad.write_text(yaml.safe_dump(data, sort_keys=False))
     report = check_gripper(bad)
     errors = [p for p in report.errors if p.field == "closed"]
