@@ -386,31 +386,29 @@ def _check_kinematics(report: CheckReport, desc: Any, base_dir: Path) -> None:
             return np.array(out)
 
         def share(k: int, path: Array) -> tuple[float, float, float]:
-            """Finger ``k``'s pad distance (m) to the mean of the other pads:
-            open, nearest on the way to closed (long fingers may pass each other
-            at the end), and nearest had it stayed open while the others close."""
+            """Finger ``k``'s pad distance (m) to the mean of the other pads open,
+            and nearest on the way to closed (long fingers may pass each other at
+            the end); and how much nearer (m) its own motion brings it, at best
+            along the way, than it would be had it stayed open while the others
+            move."""
             rest = [j for j in range(n) if j != k]
             others = path[:, rest].mean(axis=1)  # (9, 3)
             d_open = float(np.linalg.norm(path[0, k] - others[0]))
-            d_closed = float(np.linalg.norm(path[1:, k] - others[1:], axis=1).min())
-            d_still = float(np.linalg.norm(path[0, k] - others, axis=1).min())
-            return d_open, d_closed, d_still
+            moving = np.linalg.norm(path[1:, k] - others[1:], axis=1)  # (8,)
+            still = np.linalg.norm(path[0, k] - others[1:], axis=1)  # (8,)
+            return d_open, float(moving.min()), float((still - moving).max())
 
-        def own_share(sh: tuple[float, float, float]) -> float:
-            """How much nearer (m) the finger's own closing brings its pad."""
-            d_open, d_closed, d_still = sh
-            return d_still - min(d_open, d_closed)
-
-        # a finger's own closing must bring its pad nearer the others than staying
-        # open would. The worst offender is blamed, with the fingers sharing its
-        # joints, and judged reversed while the rest are judged again: a finger
-        # closing the wrong way is named, not those whose distances it spoils
+        # a finger's own closing must bring its pad nearer the others, somewhere on
+        # the way, than staying open would. The worst offender is blamed, with the
+        # fingers sharing its joints, and judged reversed while the rest are judged
+        # again: a finger closing the wrong way is named, not those whose
+        # distances it spoils
         path = pad_path(pre, closed)
         shares = [share(k, path) for k in range(n)]
         blamed: list[int] = []
         pre_fixed, closed_fixed = dict(pre), dict(closed)
         while True:
-            owns = {k: own_share(share(k, path)) for k in range(n) if k not in blamed}
+            owns = {k: share(k, path)[2] for k in range(n) if k not in blamed}
             failing = [k for k, v in owns.items() if v < 1e-3]
             if not failing:
                 break
@@ -426,7 +424,7 @@ def _check_kinematics(report: CheckReport, desc: Any, base_dir: Path) -> None:
                 break
             path = pad_path(pre_fixed, closed_fixed)
         for k, f in enumerate(desc.fingers):
-            d_open, d_closed, d_still = shares[k]
+            d_open, d_closed, d_own = shares[k]
             report.fingers[k]["pad_closes_mm"] = round((d_open - d_closed) * 1000, 1)
             if k in blamed:
                 _add(
@@ -435,8 +433,9 @@ def _check_kinematics(report: CheckReport, desc: Any, base_dir: Path) -> None:
                     "closed",
                     f"finger {f.name}'s pad does not get nearer the other fingers "
                     f"on the way from pregrasp to closed ({d_open * 1000:.0f} -> "
-                    f"{d_closed * 1000:.0f} mm; {d_still * 1000:.0f} mm had it stayed "
-                    "in pregrasp while the others close)",
+                    f"{d_closed * 1000:.0f} mm; its own motion brings it "
+                    f"{d_own * 1000:.0f} mm nearer, at best, than staying in pregrasp "
+                    "while the others close)",
                     "swap the values of pregrasp and closed for the joints "
                     f"{f.joints}, or fix the joint axes in the URDF",
                 )
