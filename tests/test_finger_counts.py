@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from hand_factory import hand_yaml, write_hand
 from typer.testing import CliRunner
 from wsgrasp_scorers import CentroidDistanceScorer
@@ -26,7 +27,12 @@ from wsgrasp.planning.evaluate import CandidateStructure, TableSE, evaluate_cand
 from wsgrasp.planning.reference import reference_search
 from wsgrasp.planning.search import SearchInput, run_search
 from wsgrasp.record import RunRecorder, compare_results, open_run
-from wsgrasp.spec import Sampling, load_gripper_description, load_spec
+from wsgrasp.spec import (
+    GripperDescription,
+    Sampling,
+    load_gripper_description,
+    load_spec,
+)
 from wsgrasp.view._gripper import finger_colour, render_gripper
 
 FINGERS = (2, 3, 5, 6)
@@ -186,7 +192,8 @@ def test_depth_grid_counts_any_number_of_fingers(nf: int) -> None:
 
 def test_one_finger_is_refused(tmp_path: Path) -> None:
     """A one-finger description fails validation with one message naming the
-    gripper, the finger found and the fix, from the YAML and from a plan."""
+    gripper, the finger found and the fix: from its YAML (with the file and
+    line), as a plan loads it, and built in code."""
     path = write_hand(tmp_path, 1, name="pointer")
     for load in (
         load_gripper_description,
@@ -199,6 +206,9 @@ def test_one_finger_is_refused(tmp_path: Path) -> None:
         assert "'pointer'" in text and "1 finger ('f0')" in text
         assert "a grasp needs at least two opposing fingers" in text
         assert str(path) in text  # the file, with the line of `fingers:`
+    data = yaml.safe_load(path.read_text())
+    with pytest.raises(SpecError, match="'pointer' describes 1 finger"):
+        GripperDescription.model_validate(data)  # built in code, not from a file
     text = hand_yaml(2, "hand1.urdf", "none")
     head, tail = text.split("fingers:\n")[0], text.split("joint_samples:")[1]
     empty = f"{head}fingers: []\njoint_samples:{tail}"

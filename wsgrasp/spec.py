@@ -118,6 +118,10 @@ class EllipsoidSettings(_Model):
         return self
 
 
+class _TooFewFingers(SpecError):
+    """A gripper description with fewer than two fingers."""
+
+
 class GripperDescription(_Model):
     """A gripper: URDF plus what the planner needs to know about it.
 
@@ -162,19 +166,22 @@ class GripperDescription(_Model):
     @field_validator("fingers", mode="before")
     @classmethod
     def _two_fingers(cls, fingers: Any, info: ValidationInfo) -> Any:
-        """Refuse fewer than two fingers with what was found and the fix (before
-        the length check, whose message would say neither)."""
+        """Refuse fewer than two fingers with what was found and the fix, before
+        the length check (whose message would say neither), as an error of its
+        own: pydantic passes it on as it is, so a description built in code
+        (a scaffold, a script) gets it too."""
         if isinstance(fingers, list) and len(fingers) < 2:
             names = [
                 f.get("name") if isinstance(f, dict) else getattr(f, "name", None)
                 for f in fingers
             ]
             found = ", ".join(repr(n) for n in names) or "none"
-            raise ValueError(
+            raise _TooFewFingers(
                 f"gripper {info.data.get('name', '?')!r} describes {len(fingers)} "
                 f"finger{'' if len(fingers) == 1 else 's'} ({found}); a grasp needs "
-                "at least two opposing fingers: list under 'fingers:' each finger "
-                "whose pad closes towards another's (a thumb is a finger)"
+                "at least two opposing fingers",
+                hint="list under 'fingers:' each finger whose pad closes towards "
+                "another's (a thumb is a finger)",
             )
         return fingers
 
@@ -198,13 +205,18 @@ class GripperDescription(_Model):
 def load_gripper_description(path: str | Path) -> tuple[GripperDescription, Path]:
     """Load and validate a gripper YAML; returns it and the YAML's directory."""
     data, lines = load_document(path)
-    desc = validate_document(
-        GripperDescription,
-        data,
-        lines,
-        "gripper description",
-        hint="see schemas/gripper.schema.json for the fields of a gripper YAML",
-    )
+    try:
+        desc = validate_document(
+            GripperDescription,
+            data,
+            lines,
+            "gripper description",
+            hint="see schemas/gripper.schema.json for the fields of a gripper YAML",
+        )
+    except _TooFewFingers as err:  # with the file and line, as the others
+        line = lines.line_of(["fingers"]) if lines is not None else None
+        where = f"{path}:{line}: " if line else f"{path}: "
+        raise SpecError(where + err.message, hint=err.hint) from None
     return desc, Path(path).resolve().parent
 
 
