@@ -11,11 +11,13 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
+from bad_scenes import noisy_box, table_slab
 from test_record_fakes import box_scene, fake_gripper, fake_spec
 
 from wsgrasp.api import Pipeline
@@ -192,6 +194,56 @@ def test_grasps_and_pregrasps_clear_the_table():
     assert not _hits_table(pipeline.gripper, table, result.T_world_pregrasp)
 
 
+@pytest.mark.parametrize(
+    ("seed", "fold"), [(1, 0.0), (2, 0.1)], ids=["edges", "cloth_fold"]
+)
+def test_a_table_alone_with_its_edges_in_view_is_nothing_to_grasp(
+    capsys, tmp_path, seed, fold
+):
+    # no pose: the slab's side faces (or a cloth over its edge) hang below the
+    # table along its border; they were the "object", the table turned upside
+    # down, and allegro_right was sent 8-12 cm under the table top
+    cloud = tmp_path / "table.npy"
+    np.save(cloud, table_slab(np.random.default_rng(seed), fold=fold))
+    for gripper in ("allegro_right", "franka_hand"):
+        code, text = run_cli(
+            capsys, "plan", cloud, "--gripper", gripper, "--no-record", "--json"
+        )
+        assert code == 2, text
+        assert "nothing to grasp" in text and "border" in text
+        assert "T_world_ee" not in text
+
+
+def test_an_object_on_a_table_with_its_edges_in_view_is_found_above_it():
+    rng = np.random.default_rng(3)
+    world = np.concatenate(
+        [table_slab(rng), _box(rng, [0.1, 0.05, 0.06], [0.04, 0.06, 0.12])]
+    )
+    result = Pipeline(fake_spec(), gripper=fake_gripper()).plan(world)
+    assert result.found, result.hint
+    assert result.info["table_normal"][2] > 0.99
+    assert result.T_world_ee[2, 3] > 0.0 and result.T_world_pregrasp[2, 3] > 0.0
+
+
+def test_a_grasp_under_the_table_plane_is_never_returned(monkeypatch):
+    # a search that (wrongly) finds every grasp half a metre under the table,
+    # deeper than the table's superellipsoid reaches
+    real_search = Pipeline.search
+
+    def sunken(self, prepared):
+        out = real_search(self, prepared)
+        out.candidates.T_world_ee[:, 2, 3] -= 0.5
+        out.candidates.T_world_gwc[:, 2, 3] -= 0.5
+        return out
+
+    monkeypatch.setattr(Pipeline, "search", sunken)
+    pipeline = Pipeline(fake_spec(), gripper=fake_gripper())
+    result = pipeline.plan(box_scene())
+    assert not result.found
+    assert result.T_world_ee is None and result.T_world_pregrasp is None
+    assert "under the table" in result.hint
+
+
 # ------------------------------------------------------------------------------
 # 3. specs refuse what cannot work, at load and in `spec check` alike
 # ------------------------------------------------------------------------------
@@ -250,6 +302,64 @@ def test_bad_specs_are_refused_by_spec_check_and_plan_alike(capsys, tmp_path, ca
     first = text_check.strip().splitlines()[0]
     assert fragment in text_check and fragment in text_plan
     assert first.split(":")[0] in text_plan
+
+
+def _gripper_files(tmp_path: Path, missing: str) -> Path:
+    """A spec in ``tmp_path/specs`` naming a gripper YAML beside it in
+    ``grippers/`` (robotiq_2f85_like's, whose URDF names a collision mesh), with
+    ``missing`` (``yaml``, ``urdf`` or ``mesh``) left out."""
+    src = ROOT / "examples/plugins/robotiq_2f85_like/wsgrasp_robotiq_2f85_like"
+    grippers = tmp_path / "specs" / "grippers"
+    (grippers / "meshes").mkdir(parents=True)
+    if missing != "yaml":
+        (grippers / "robotiq_2f85_like.yaml").write_text(
+            (src / "robotiq_2f85_like.yaml").read_text()
+        )
+    if missing != "urdf":
+        (grippers / "robotiq_2f85_like.urdf").write_text(
+            (src / "robotiq_2f85_like.urdf").read_text()
+        )
+    if missing != "mesh":
+        mesh = "meshes/base_housing.stl"
+        (grippers / mesh).write_bytes((src / mesh).read_bytes())
+    data = yaml.safe_load(SPEC.read_text())
+    data["gripper"] = "grippers/robotiq_2f85_like.yaml"
+    spec = tmp_path / "specs" / "spec.yaml"
+    spec.write_text(yaml.safe_dump(data, sort_keys=False))
+    return spec
+
+
+MISSING = {
+    "yaml": ("grippers/robotiq_2f85_like.yaml", "relative to the spec file's folder"),
+    "urdf": (
+        "grippers/robotiq_2f85_like.urdf",
+        "relative to the gripper YAML's folder",
+    ),
+    "mesh": ("grippers/meshes/base_housing.stl", "relative to the URDF's folder"),
+}
+
+
+@pytest.mark.parametrize("missing", list(MISSING))
+def test_a_spec_naming_a_missing_file_is_refused_by_spec_check_and_plan_alike(
+    capsys, tmp_path, monkeypatch, missing
+):
+    spec = _gripper_files(tmp_path, missing)
+    tried, relative = MISSING[missing]
+    where = tmp_path / "elsewhere"
+    where.mkdir()
+    monkeypatch.chdir(where)  # the paths are the spec's, not the current folder's
+    cloud = tmp_path / "scene.npy"
+    np.save(cloud, box_scene(views=1).points)
+    code_check, text_check = run_cli(capsys, "spec", "check", spec)
+    code_plan, text_plan = run_cli(capsys, "plan", cloud, "--spec", spec, "--no-record")
+    assert code_check == code_plan == 2, (text_check, text_plan)
+    message = text_check.strip().splitlines()[0].removeprefix("error: ")
+    assert str(tmp_path / "specs" / tried) in message and relative in message
+    assert message.startswith(f"{spec}:2: gripper: ")
+    assert message in " ".join(text_plan.split()) or message in text_plan
+    assert "current directory" not in text_check + text_plan
+    with pytest.raises(SpecError, match="not found"):
+        load_spec(spec)
 
 
 def test_duplicate_keys_are_refused(tmp_path):
@@ -407,6 +517,67 @@ def test_an_object_wider_than_the_opening_everywhere_is_too_large():
     assert not result.found
     assert "too large" in result.hint and "narrowest" in result.hint
     assert "samples" not in result.hint and "clearance" not in result.hint
+
+
+def test_a_cube_larger_than_a_hand_encloses_is_too_large(capsys, tmp_path):
+    # a 1 m cube on a 3 m table, its points 3 mm noisy: the noise made it look
+    # hollow, and allegro_right "grasped" a top corner
+    cloud = tmp_path / "cube.npy"
+    world = noisy_box(np.random.default_rng(9), (1.0, 1.0, 1.0), table=3.0, step=0.01)
+    np.save(cloud, world)
+    data = {
+        "version": 1,
+        "gripper": "allegro_right",
+        "segmenter": {
+            "name": "ransac_dbscan",
+            "options": {
+                "max_object_extent": 3.0,
+                "max_height": 2.0,
+                "cluster_eps": 0.03,
+            },
+        },
+        "sampling": {"mode": "approach_sphere", "grid": [5, 5, 3], "directions": 4},
+    }
+    spec = tmp_path / "big.yaml"
+    spec.write_text(yaml.safe_dump(data))
+    for gripper in ("allegro_right", "franka_hand"):
+        code, text = run_cli(
+            capsys, "plan", cloud, "--spec", spec, "--gripper", gripper, "--no-record"
+        )
+        assert code == 0, text
+        text = " ".join(text.replace("│", " ").split())
+        assert f"too large for {gripper}" in text, text
+        assert "narrowest" in text and "workspaces span" in text
+
+
+@pytest.mark.parametrize("noise", [0.0, 0.003, 0.01])
+def test_too_large_is_decided_from_the_spheres_for_jaws_and_hands(noise):
+    from wsgrasp.api import _too_large
+    from wsgrasp.gripper import load_gripper
+
+    rng = np.random.default_rng(10)
+    for name in ("franka_hand", "allegro_right"):
+        g = load_gripper(name)
+        side = 1.5 * g.enclosure
+        # its points start one grid step above the table: it is that much lower
+        cube = noisy_box(rng, (side, side, side), table=0.0, noise=noise)
+        why = _too_large(cube, g, noise=noise)
+        assert f"too large for {name}" in why
+        across = float(re.search(r"it is (\d+\.\d+) m across", why).group(1))
+        # the widest noise widens it (28,000 points: some 3 deviations a side)
+        assert abs(across - (side - 0.005)) < 0.002 + 8 * noise, why
+        assert f"span at most {g.enclosure:.3f} m" in why
+        # what the noise makes a convex cloud look is no concavity, but a real
+        # one is: an L as wide, whose arms fit the gripper, is left to the search
+        arm, t = 2.5 * g.enclosure, 0.6 * g.enclosure
+        a = noisy_box(rng, (arm, t, arm), table=0.0, noise=0.0) + [arm / 2, t / 2, 0]
+        b = noisy_box(rng, (t, arm - t, arm), table=0.0, noise=0.0)
+        b += [t / 2, arm / 2, 0]
+        a = a[~((np.abs(a[:, 1] - t) < 1e-9) & (a[:, 0] < t + 1e-9))]  # shared face
+        b = b[np.abs(b[:, 1] - t) > 1e-9]
+        ell = np.concatenate([a, b])
+        ell += rng.normal(0.0, noise, ell.shape)
+        assert _too_large(ell, g, noise=noise) == ""
 
 
 def test_a_hollow_object_wider_than_the_opening_is_left_to_the_search():

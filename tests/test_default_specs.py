@@ -72,7 +72,8 @@ def test_a_gripper_without_specs_gets_the_generic_default(tmp_path):
 def test_the_generic_default_validates_for_every_kind_of_gripper():
     from wsgrasp.spec import load_spec
 
-    for gripper in ("franka_hand", "allegro_right", str(SHIPPED["barrett"])):
+    barrett = SHIPPED["barrett"] / "barrett_bh8_like.yaml"
+    for gripper in ("franka_hand", "allegro_right", str(barrett)):
         data = yaml.safe_load(GENERIC_DEFAULT.read_text())
         spec = load_spec({**data, "gripper": gripper})
         assert spec.sampling.mode == "approach_sphere"

@@ -25,6 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 from wsgrasp._names import gripper_ref
 from wsgrasp.errors import InputError, PluginError, WsgraspError
 from wsgrasp.gripper.model import GripperModel
+from wsgrasp.perception.footprint import Footprint
 from wsgrasp.perception.types import Plane, Scene
 from wsgrasp.planning.candidates import orientation_set
 from wsgrasp.planning.evaluate import FingerSpheres, TableSE
@@ -225,16 +226,27 @@ class Pipeline:
 
         frame = object_frame(object_points, spec.object_frame.method)
         samples_object = sample_box(frame, spec.sampling)
-        too_large = _too_large(object_points, self.gripper)
-        if too_large:
-            # no pose can span the object: no candidates, and the result says so
-            samples_object = samples_object[:0]
         T_world_table = table_frame(segmentation.table, frame.centroid)
+        up = T_world_table[:3, 2]
+        footprint = Footprint.from_points(
+            up, -float(up @ T_world_table[:3, 3]), segmentation.table_points
+        )
         se_center, se_axes, se_exp = table_superellipsoid(spec.table)
         table = TableSE(T_world_table, se_center, se_axes, se_exp)
         orientations = orientation_set(
             spec.sampling, frame.T_world_object, T_world_table[:3, 2], self._reach
         )
+        # (O, 3) the direction each orientation's fingers close along, world
+        closing = orientations.R_object_gwc[:, :, 1] @ frame.T_world_object[:3, :3].T
+        too_large = _too_large(
+            object_points,
+            self.gripper,
+            closing,
+            lambda: _depth_noise(points, segmentation.table, object_points),
+        )
+        if too_large:
+            # no pose can span the object: no candidates, and the result says so
+            samples_object = samples_object[:0]
         lap(
             "object_frame",
             {
@@ -263,6 +275,7 @@ class Pipeline:
             obstacles=obstacles,
             timing_ms=timing,
             too_large=too_large,
+            table_footprint=footprint,
         )
 
     def search(self, prepared: Prepared) -> SearchOutput:
@@ -352,7 +365,9 @@ class Pipeline:
         distance = self.spec.approach.distance
         hint = ""
         if choose is None:
-            best, taken = _with_clear_pregrasp(out, g, inp, self._spheres, distance)
+            best, taken = _with_clear_pregrasp(
+                out, g, inp, self._spheres, distance, prep.table_footprint
+            )
             if best != out.best:
                 out = _choose(out, best, g, inp, self._spheres, self.spec.top_k, taken)
         else:
@@ -361,7 +376,13 @@ class Pipeline:
             index = _taken(out, choose)
             out = _choose(out, index, g, inp, self._spheres, self.spec.top_k)
             T = out.candidates.T_world_ee[index]
-            if _hits_table(g, inp.table, pregrasp_pose(g, T, distance)):
+            if _under_table(g, prep.table_footprint, T, distance):
+                out = _choose(out, None, g, inp, self._spheres, self.spec.top_k)
+                hint = (
+                    f"candidate {index}'s grasp or pre-grasp pose lies under the "
+                    "table; choose another"
+                )
+            elif _hits_table(g, inp.table, pregrasp_pose(g, T, distance)):
                 out = _choose(out, None, g, inp, self._spheres, self.spec.top_k)
                 hint = (
                     f"candidate {index}'s pre-grasp pose, {distance:g} m back along "
@@ -388,7 +409,9 @@ class Pipeline:
             )
             timing["targets"] = (time.perf_counter() - t) * 1e3
             T_world_pregrasp = targets.T_world_pregrasp
-            _guard_table(g, inp.table, T_world_gripper, T_world_pregrasp)
+            _guard_table(
+                g, inp.table, prep.table_footprint, T_world_gripper, T_world_pregrasp
+            )
             joints_pregrasp = targets.joints_pregrasp
             joints_grasp = targets.joints_grasp
             finger_targets = [
@@ -452,6 +475,8 @@ class Prepared:
     timing_ms: dict[str, float]
     #: why no pose can hold the object, when it is wider than the gripper opens
     too_large: str = ""
+    #: the table's outline, under which no grasp or pre-grasp pose may go
+    table_footprint: Footprint | None = None
 
 
 def _accepts(method: Any, name: str) -> bool:
@@ -504,6 +529,23 @@ def _check_table_side(
             "the table plane",
             hint="check that the object is in view and on the table",
         )
+    low = float(np.quantile(heights, _THROUGH_SHARE))
+    if low < -_THROUGH_TABLE:
+        deepest = -float(heights.min())
+        raise InputError(
+            "no object above the table: the object the segmenter chose reaches "
+            f"{deepest:.3f} m below the table plane ({_THROUGH_SHARE:.0%} of its "
+            f"points {-low:.3f} m or more), so it does not stand on it",
+            hint="check that the object is in view and on the table, and the "
+            "segmenter's options (ransac_dbscan: a cluster_eps over twice "
+            "min_height joins what lies under the table to what stands on it)",
+        )
+
+
+#: an object whose lowest ``_THROUGH_SHARE`` of points reach more than
+#: ``_THROUGH_TABLE`` (m) below the table plane does not stand on it
+_THROUGH_SHARE = 0.05
+_THROUGH_TABLE = 0.01
 
 
 def _one_object(
@@ -539,43 +581,98 @@ def _one_object(
     )
 
 
-#: an object narrower than the gripper opening plus this (m; noise on the
+#: an object no wider than the gripper encloses plus this (m; noise on the
 #: measured width) may fit between the fingers
 _WIDTH_SLACK = 0.002
-#: points deeper than this (m) inside the object's convex hull are a concavity
-#: (a mug's inside, the gap under a handle) the fingers may hold a wall of
+#: points deeper than this (m) inside the object's convex hull, beyond what
+#: the surface noise puts there, are a concavity (a mug's inside, the gap under
+#: a handle) the fingers may hold a wall of
 _CONCAVE_DEPTH = 0.01
-#: fraction of points deeper than ``_CONCAVE_DEPTH`` that makes an object hollow
+#: fraction of points deeper than that which makes an object hollow
 _CONCAVE_SHARE = 0.02
+#: the hull of a noisy convex cloud lies up to about 4 noise deviations outside
+#: its surface; a concavity must reach this many deviations deeper as well
+_NOISE_DEVIATIONS = 5.0
+#: the depth noise is measured on the table points within this (m) of its plane
+#: ...
+_NOISE_BAND = 0.03
+#: ... this far (m) or farther from the object's footprint ...
+_NOISE_CLEARANCE = 0.02
+#: ... on at most this many of them (evenly spaced in the cloud)
+_NOISE_POINTS = 4000
 
 
-def _too_large(object_points: Array, g: GripperModel) -> str:
-    """Why no pose can hold the object, or ``""``: a convex object whose narrowest
-    width (over its hull's face normals) exceeds the gripper opening cannot be
-    spanned in any direction. A concave one may still be held by a wall or a
-    handle, so it is left to the search."""
+def _too_large(
+    object_points: Array,
+    g: GripperModel,
+    closing: Array | None = None,
+    noise: float | Callable[[], float] = 0.0,
+) -> str:
+    """Why no pose can hold the object, or ``""``: a convex object wider than the
+    gripper encloses (:attr:`GripperModel.enclosure`) along every direction
+    ``closing`` ``(k, 3)`` that a candidate's fingers close along (every
+    direction, when None) cannot be spanned by any candidate. A hollow one may
+    still be held by a wall or a handle, so it is left to the search; hollow
+    means concave deeper than the depth ``noise`` (m; or a function that
+    measures it, called only for an object that is wide enough to ask) makes a
+    convex cloud look."""
     from scipy.spatial import ConvexHull, QhullError
 
-    if len(object_points) < 4 or g.max_opening <= 0.0:
+    enclosure = g.enclosure
+    if len(object_points) < 4 or enclosure <= 0.0:
         return ""
     try:
         hull = ConvexHull(object_points)
     except QhullError:  # flat or degenerate: the search decides
         return ""
     vertices = object_points[hull.vertices]  # (h, 3)
-    proj = hull.equations[:, :3] @ vertices.T  # (facets, h)
+    if closing is None:
+        directions = hull.equations[:, :3]  # (facets, 3)
+    else:
+        directions = np.unique(np.round(np.asarray(closing, np.float64), 9), axis=0)
+        if not len(directions):
+            return ""
+    proj = directions @ vertices.T  # (k, h)
     width = float((proj.max(axis=1) - proj.min(axis=1)).min())
-    if width <= g.max_opening + _WIDTH_SLACK:
+    if width <= enclosure + _WIDTH_SLACK:
         return ""
     depth = -(object_points @ hull.equations[:, :3].T + hull.equations[:, 3]).max(
         axis=1
     )  # (n,) how far inside the hull
-    if float(np.mean(depth > _CONCAVE_DEPTH)) >= _CONCAVE_SHARE:
+    sigma = noise() if callable(noise) else float(noise)
+    if float(np.mean(depth > _CONCAVE_DEPTH + _NOISE_DEVIATIONS * sigma)) >= (
+        _CONCAVE_SHARE
+    ):
         return ""
+    along = (
+        "in every direction"
+        if closing is None
+        else f"along each of the {len(directions)} directions its fingers close along"
+    )
     return (
         f"object is too large for {g.name}: it is {width:.3f} m across at its "
-        f"narrowest and the fingers open to at most {g.max_opening:.3f} m"
+        f"narrowest {along}, and its fingers' workspaces span at most "
+        f"{enclosure:.3f} m"
     )
+
+
+def _depth_noise(points: Array, table: Plane, object_points: Array) -> float:
+    """The scene's depth noise (m), measured where the truth is known: the
+    robust deviation (1.4826 median absolute deviations) of the heights of the
+    table's points (``points`` ``(n, 3)`` within ``_NOISE_BAND`` of the plane
+    ``table``, ``_NOISE_CLEARANCE`` or farther from the object's footprint);
+    0 with fewer than 30 such points."""
+    step = max(1, len(points) // (4 * _NOISE_POINTS))
+    p = points[::step]  # (m, 3) evenly spaced
+    h = table.signed_distance(p)  # (m,)
+    near = np.abs(h) < _NOISE_BAND
+    outline = Footprint.from_points(
+        table.normal, table.offset, object_points
+    )  # the object's footprint on the table
+    h = h[near][outline.depths(p[near]) < -_NOISE_CLEARANCE][:_NOISE_POINTS]
+    if len(h) < 30:
+        return 0.0
+    return float(1.4826 * np.median(np.abs(h - np.median(h))))
 
 
 def _hits_table(g: GripperModel, table: TableSE, T_world_gripper: Array) -> bool:
@@ -585,26 +682,64 @@ def _hits_table(g: GripperModel, table: TableSE, T_world_gripper: Array) -> bool
     return bool(hit[0])
 
 
+#: a gripper point this far (m) below the table plane, over the table, is under it
+_UNDER_TABLE = 0.01
+
+
+def _under_table(
+    g: GripperModel,
+    footprint: Footprint | None,
+    T_world_gripper: Array,
+    distance: float | None = None,
+) -> bool:
+    """Whether the gripper at ``T_world_gripper`` (and, given the approach
+    ``distance``, at its pre-grasp pose too) reaches under the table: a point of
+    its cloud more than ``_UNDER_TABLE`` below the table plane, inside the
+    table's outline. The table's superellipsoid covers a patch of the table
+    around the object, ``semi_axes[2]`` deep; this covers the whole table, at
+    any depth."""
+    if footprint is None:
+        return False
+    poses = [np.asarray(T_world_gripper, dtype=np.float64)]
+    if distance is not None:
+        poses.append(pregrasp_pose(g, poses[0], distance))
+    for T in poses:
+        p = g.cloud @ T[:3, :3].T + T[:3, 3]  # (ng, 3) world
+        below = footprint.heights(p) < -_UNDER_TABLE
+        if below.any() and (footprint.depths(p[below]) > 0.0).any():
+            return True
+    return False
+
+
 def _with_clear_pregrasp(
     out: SearchOutput,
     g: GripperModel,
     inp: SearchInput,
     spheres: FingerSpheres | None,
     distance: float,
+    footprint: Footprint | None = None,
 ) -> tuple[int | None, tuple[Array, NDArray[np.bool_] | None] | None]:
-    """The best candidate whose pre-grasp pose is clear of the table too: the
-    chosen one, else the first alternative that is (at its pose as it would be
-    taken, backed off from the table), else None; with an alternative, its pose
-    as taken (:func:`_taken_pose`), for :func:`_choose`."""
+    """The best candidate whose pre-grasp pose is clear of the table too, and
+    neither it nor its pre-grasp pose under the table (:func:`_under_table`):
+    the chosen one, else the first alternative that is (at its pose as it would
+    be taken, backed off from the table), else None; with an alternative, its
+    pose as taken (:func:`_taken_pose`), for :func:`_choose`."""
+
+    def clear(T: Array) -> bool:
+        pregrasp = pregrasp_pose(g, T, distance)
+        return not _hits_table(g, inp.table, pregrasp) and not _under_table(
+            g, footprint, T, distance
+        )
+
     if out.best is None:
         return None, None
-    if not _hits_table(
-        g, inp.table, pregrasp_pose(g, out.candidates.T_world_ee[out.best], distance)
-    ):
+    if clear(out.candidates.T_world_ee[out.best]):
         return out.best, None
     for a in out.alternatives:
+        if _under_table(g, footprint, out.candidates.T_world_ee[a.index], distance):
+            continue  # backing off from the table's surface cannot lift it out
         taken = _taken_pose(out, a.index, g, inp, spheres)
-        if not _hits_table(g, inp.table, pregrasp_pose(g, taken[0], distance)):
+        if clear(taken[0]):
             return int(a.index), taken
     return None, None
 
@@ -619,7 +754,15 @@ def _no_grasp(
     """Why a plan has no grasp, in one sentence a user can act on."""
     if prep.too_large:
         return prep.too_large
-    if out.candidates.feasible.any():
+    feasible = np.flatnonzero(out.candidates.feasible)
+    if len(feasible):
+        top = feasible[int(np.argmax(out.candidates.score[feasible]))]
+        T_top = out.candidates.T_world_ee[top]
+        if _under_table(g, prep.table_footprint, T_top, distance):
+            return (
+                "every feasible grasp, or its pre-grasp pose, lies under the table; "
+                "check that the segmentation kept the object above the table"
+            )
         return (
             f"every feasible grasp's pre-grasp pose, {distance:g} m back along its "
             "approach, hits the table; lower approach.distance"
@@ -734,16 +877,25 @@ def _choose(
 
 
 def _guard_table(
-    g: GripperModel, table: TableSE, T_world_gripper: Array, T_world_pregrasp: Array
+    g: GripperModel,
+    table: TableSE,
+    footprint: Footprint | None,
+    T_world_gripper: Array,
+    T_world_pregrasp: Array,
 ) -> None:
     """The last check of every plan: neither the grasp nor the pre-grasp pose
-    enters the table. The search and the pre-grasp choice exclude both, so a
-    violation here is a bug, raised as one."""
+    enters the table or reaches under it. The search and the choice exclude
+    both, so a violation here is a bug, raised as one."""
     for label, T in (("grasp", T_world_gripper), ("pre-grasp", T_world_pregrasp)):
         if _hits_table(g, table, T):
             raise AssertionError(
                 f"the chosen {label} pose enters the table; the search should have "
                 "rejected it"
+            )
+        if _under_table(g, footprint, T):
+            raise AssertionError(
+                f"the chosen {label} pose reaches under the table; the choice should "
+                "have passed it over"
             )
 
 

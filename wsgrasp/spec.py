@@ -503,6 +503,7 @@ def load_spec(
     *,
     registry: Any | None = None,
     check_plugins: bool = True,
+    check_files: bool = True,
 ) -> PipelineSpec:
     """Load and validate a pipeline spec.
 
@@ -515,6 +516,10 @@ def load_spec(
         by default.
     check_plugins
         Resolve the segmenter and scorers and validate their options.
+    check_files
+        With ``check_plugins``: find the files a gripper path leads to (its
+        YAML, the URDF, the URDF's collision meshes), relative paths from the
+        spec file's folder (the current directory for a mapping).
 
     Raises
     ------
@@ -544,7 +549,30 @@ def load_spec(
             _check_plugin(reg, "scorers", ref, ("scorers", i), lines)
         if not is_gripper_path(spec.gripper):
             _check_name(reg, "grippers", spec.gripper, ("gripper",), lines)
+        elif check_files:
+            check_gripper_files(spec.gripper, lines)
     return spec
+
+
+def check_gripper_files(gripper: str, lines: DocumentLines | None) -> None:
+    """Raise ``SpecError`` naming the first file the gripper path ``gripper``
+    (the ``gripper`` of the spec whose ``lines`` these are; relative to the
+    spec file's folder, or to the current directory without a file) leads to
+    that is missing: the path tried and what it is relative to."""
+    from wsgrasp.gripper._files import missing_gripper_file
+
+    if lines is not None and lines.path is not None:
+        base, label = Path(lines.path).absolute().parent, "the spec file's folder"
+    else:
+        base, label = Path.cwd(), "the current directory"
+    missing = missing_gripper_file(gripper, base, label)
+    if missing is not None:
+        raise SpecError(
+            _where(lines, ("gripper",)) + "gripper: " + missing,
+            hint="correct the path, or put the file there; a relative path is read "
+            "from the folder of the file that names it (the spec, the gripper YAML, "
+            "the URDF)",
+        )
 
 
 def _where(lines: DocumentLines | None, loc: tuple[str | int, ...]) -> str:

@@ -215,7 +215,9 @@ def plan_spec(spec_file: Path | None, gripper: str | None) -> Any:
         data, _ = default_spec(gripper)
         source = None
     else:
-        spec = load_spec(spec_file)  # every problem of the file, with its lines
+        # every problem of the file, with its lines, but its gripper's files:
+        # that gripper is replaced
+        spec = load_spec(spec_file, check_files=False)
         data, _ = load_document(spec_file)
         source = spec.source
     replaced = load_spec({**data, "gripper": gripper_ref(gripper, Path.cwd())})

@@ -36,6 +36,7 @@ def spec_problems(path: str | Path) -> list[str]:
         ScorerRef,
         _check_name,
         _check_plugin,
+        check_gripper_files,
     )
 
     data, lines = load_document(path)
@@ -75,9 +76,12 @@ def spec_problems(path: str | Path) -> list[str]:
         except SpecError as exc:
             problems.append(exc.message)
     gripper = data.get("gripper")
-    if isinstance(gripper, str) and not is_gripper_path(gripper):
+    if isinstance(gripper, str):
         try:
-            _check_name(reg, "grippers", gripper, ("gripper",), lines)
+            if is_gripper_path(gripper):
+                check_gripper_files(gripper, lines)
+            else:
+                _check_name(reg, "grippers", gripper, ("gripper",), lines)
         except SpecError as exc:
             problems.append(exc.message)
     unique = list(dict.fromkeys(problems))  # a problem found twice is listed once

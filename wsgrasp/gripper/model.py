@@ -142,6 +142,25 @@ class GripperModel:
         return [int(c) for c in counts]
 
     @property
+    def enclosure(self) -> float:
+        """Widest object (m) the fingers' pads can enclose along the closing
+        axis, for jaws and hands alike: the greatest span between the workspace
+        spheres of two different fingers (of the one finger, for a single
+        finger), sphere surfaces included."""
+        nf = self.num_fingers
+        if nf == 0:
+            return 0.0
+        y = self.sphere_centers @ self.closing_axis  # (S,)
+        hi = np.full(nf, -np.inf)
+        lo = np.full(nf, np.inf)
+        np.maximum.at(hi, self.sphere_finger, y + self.sphere_radii)
+        np.minimum.at(lo, self.sphere_finger, y - self.sphere_radii)
+        span = hi[:, None] - lo[None, :]  # (nf, nf): finger i's far side to j's
+        if nf > 1:
+            np.fill_diagonal(span, -np.inf)
+        return float(max(span.max(), 0.0))
+
+    @property
     def has_configurations(self) -> bool:
         """Whether the model keeps its fingers' joint configurations (format 2)."""
         return len(self.config_pad) > 0

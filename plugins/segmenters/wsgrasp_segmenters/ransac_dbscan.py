@@ -4,9 +4,13 @@ Nothing assumes the input frame has z up. Planes are found largest first (RANSAC
 what the previous planes left); the table is the first plane with at least one
 cluster *standing* on one side of it: within ``contact_distance`` of the plane at
 its lowest, no larger than ``max_object_extent``, with ``min_points`` points or
-more. The normal is turned to the side with more standing points. Walls are passed
-over because the table (a cluster larger than ``max_object_extent``) is the only
-thing touching them; the floor below a table sees only the legs, likewise too long.
+more. The normal is turned to the side with more standing points. Without the
+cameras' poses, a cluster that hangs along the table's border (the table's own
+side faces, a cloth over its edge: within ``_BORDER_BAND`` of the outline of its
+inliers, or outside it) does not decide that side, and is no object on the other
+one. Walls are passed over because the table (a cluster larger than
+``max_object_extent``) is the only thing touching them; the floor below a table
+sees only the legs, likewise too long.
 When looking for what stands on one plane, the points of other wide planes with a
 fair share of its inliers (a table seen from the wall beside it) are left out.
 """
@@ -22,6 +26,7 @@ from scipy.spatial import cKDTree
 
 from wsgrasp.errors import InputError
 from wsgrasp.geometry import plane_basis
+from wsgrasp.perception.footprint import Footprint
 from wsgrasp.perception.process import cluster_labels, fit_plane_ransac
 from wsgrasp.perception.types import Array, Plane, Segmentation
 
@@ -107,6 +112,7 @@ class RansacDbscan:
         while finder.worth_another(_OTHER_PLANE_FRACTION) and finder.next():
             pass
         tried: list[dict[str, Any]] = []
+        outlines: dict[int, Footprint] = {}  # by plane
         k = 0
         while k < len(finder.planes) or finder.next():
             normal, offset, inliers, _ = finder.planes[k]
@@ -122,8 +128,17 @@ class RansacDbscan:
                     and other.size >= _OTHER_PLANE_FRACTION * inliers.size
                 ):
                     exclude[other] = True
+            # without the cameras' poses, the outlines of this plane and of the
+            # wide planes at least as large, along which what hangs is no object
+            borders: list[Footprint] = []
+            if viewpoints is None or not len(viewpoints):
+                for j, (n_j, off_j, other, wide) in enumerate(finder.planes):
+                    if j == k or (wide and other.size >= inliers.size):
+                        if j not in outlines:
+                            outlines[j] = Footprint.from_points(n_j, off_j, p[other])
+                        borders.append(outlines[j])
             found = self._clusters_on(
-                p, normal, offset, o, exclude, viewpoints, p[inliers]
+                p, normal, offset, o, exclude, viewpoints, p[inliers], borders
             )
             tried.append({"inliers": int(inliers.size), **found["why"]})
             if found["clusters"]:
@@ -155,11 +170,22 @@ class RansacDbscan:
             )
             for i, t in enumerate(tried)
         )
+        hint = (
+            "check that the object is in view and on the table; lower "
+            "min_points or min_height, raise max_object_extent for large objects"
+        )
+        if any(t.get(_HANGING) for t in tried):
+            hint = (
+                "what hangs along the table's border (its own edges, a cloth over "
+                "them) is not an object; put the object on the table in view, or "
+                "give the views' poses (T_world_camera) so that the cameras' side "
+                "of the table is up"
+            )
         raise InputError(
-            f"nothing stands on the table: no cluster of at least {o.min_points} "
-            f"points lies on a plane (tried {len(tried)}: {why or 'no clusters'})",
-            hint="check that the object is in view and on the table; lower "
-            "min_points or min_height, raise max_object_extent for large objects",
+            f"nothing to grasp: nothing stands on the table: no cluster of at least "
+            f"{o.min_points} points lies on a plane (tried {len(tried)}: "
+            f"{why or 'no clusters'})",
+            hint=hint,
         )
 
     @staticmethod
@@ -171,11 +197,16 @@ class RansacDbscan:
         exclude: NDArray[np.bool_],
         viewpoints: Array | None = None,
         plane_points: Array | None = None,
+        borders: list[Footprint] | tuple[Footprint, ...] = (),
     ) -> dict[str, Any]:
         """Clusters standing on either side of a plane: the cameras' side when
         ``viewpoints`` are given, else the side with more points. A cluster
         stands on a plane that reaches past its footprint (``plane_points``, the
-        inliers): an object's own face is no table for it."""
+        inliers): an object's own face is no table for it. A cluster that hangs
+        along one of the outlines ``borders`` (this plane's first, then those of
+        wider planes) is no object: along another plane's, wherever it lies;
+        along this plane's, on the side that the other clusters do not put up,
+        and it does not decide that side."""
         h = p @ normal + offset  # (n,) signed heights
         ah = np.abs(h)
         cand = np.flatnonzero((ah > o.min_height) & (ah < o.max_height) & ~exclude)
@@ -209,16 +240,35 @@ class RansacDbscan:
             beyond = _reaches_past(plane_points, normal, p, idx, lab, nlab)
             why["on its own face"] = int((standing & ~beyond).sum())
             standing &= beyond
+        # the clusters that decide which side is up
+        deciding = standing
         if viewpoints is not None and len(viewpoints):
             # the cameras' side is up; what stands on the other is under the table
             camera_side = float(np.median(np.asarray(viewpoints) @ normal + offset))
             below = standing & (np.sign(side) != np.sign(camera_side))
             why["below the table"] = int(below.sum())
             standing &= ~below
+            deciding = standing
+        elif borders and standing.any():
+            # no camera says where up is: what hangs along a border is a table's
+            # own edge (or a cloth over it)
+            hanging = np.zeros(nlab, dtype=bool)
+            for outline in borders[1:]:
+                hanging |= _along_border(outline, p, idx, lab, nlab)
+            hanging &= standing
+            standing &= ~hanging
+            border = standing & _along_border(borders[0], p, idx, lab, nlab)
+            deciding = standing & ~border
+            if deciding.any():
+                up = int(counts[deciding & (side > 0)].sum())
+                down = int(counts[deciding & (side < 0)].sum())
+                border &= np.sign(side) != (1.0 if up >= down else -1.0)
+            standing &= ~border
+            why[_HANGING] = int((hanging | border).sum())
         if not standing.any():
             return empty
-        up = int(counts[standing & (side > 0)].sum())
-        down = int(counts[standing & (side < 0)].sum())
+        up = int(counts[deciding & (side > 0)].sum())
+        down = int(counts[deciding & (side < 0)].sum())
         if down > up:
             normal, offset, h = -normal, -offset, -h
             keep = standing & (side < 0)
@@ -241,6 +291,36 @@ class RansacDbscan:
         clusters = [p[lab_full == c] for c in order]
         clusters.sort(key=lambda c: -c.shape[0])
         return {"clusters": clusters, "why": why, "normal": normal, "offset": offset}
+
+
+#: the reason a cluster that hangs along the table's border is not an object
+_HANGING = "hanging along its border"
+#: a cluster hangs along the table's border when this share of its points ...
+_BORDER_SHARE = 0.9
+#: ... lies this close (m) inside the outline of a table's inliers ...
+_BORDER_BAND = 0.02
+#: ... or at most this far (m) outside it
+_BORDER_OUT = 0.05
+
+
+def _along_border(
+    footprint: Footprint,
+    p: Array,
+    idx: NDArray[np.int64],
+    lab: NDArray[np.int64],
+    nlab: int,
+) -> NDArray[np.bool_]:
+    """Per cluster ``(nlab,)``: whether it lies along a table's border, its
+    points' projections within ``_BORDER_BAND`` inside the outline of the
+    table's inliers or ``_BORDER_OUT`` outside it (``_BORDER_SHARE`` of them). A
+    table's side faces and a cloth over its edge do; an object standing on the
+    table, which the table surrounds, does not."""
+    depth = footprint.depths(p[idx])  # (k,)
+    near = (depth <= _BORDER_BAND) & (depth >= -_BORDER_OUT)
+    share = np.bincount(lab, weights=near, minlength=nlab) / np.maximum(
+        np.bincount(lab, minlength=nlab), 1
+    )
+    return share >= _BORDER_SHARE  # type: ignore[no-any-return]
 
 
 #: a table reaches at least this far (m) past a standing cluster's footprint ...

@@ -1,0 +1,78 @@
+"""The table's outline in its plane: where a cluster hangs along the table's
+border, and where a gripper pose would be under the table."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy.spatial import ConvexHull, QhullError
+
+from wsgrasp.geometry import plane_basis
+from wsgrasp.perception.types import Array
+
+__all__ = ["Footprint"]
+
+
+@dataclass(frozen=True)
+class Footprint:
+    """The convex hull of a table's points, in its plane.
+
+    Attributes
+    ----------
+    normal : (3,) float
+        Unit normal of the plane, towards the table's upper side.
+    offset : float
+        ``normal · p + offset`` is a point's height above the plane.
+    basis : (3, 2) float
+        In-plane axes (:func:`~wsgrasp.geometry.plane_basis`).
+    equations : (f, 3) float
+        The hull's edges ``a · uv + b <= 0`` inside, ``(a, b)`` with ``|a| = 1``;
+        no rows when the points span no area (the plane is then unbounded).
+    """
+
+    normal: Array
+    offset: float
+    basis: Array
+    equations: Array
+
+    @classmethod
+    def from_points(
+        cls, normal: ArrayLike, offset: float, points: ArrayLike
+    ) -> Footprint:
+        """The outline of ``points`` ``(m, 3)`` (the table's inliers) in the plane
+        ``normal · p + offset = 0`` (``normal`` a unit vector)."""
+        n = np.asarray(normal, dtype=np.float64).reshape(3)
+        basis = plane_basis(n)
+        uv = np.asarray(points, dtype=np.float64).reshape(-1, 3) @ basis  # (m, 2)
+        equations = np.zeros((0, 3))
+        if len(uv) >= 3:
+            try:
+                equations = ConvexHull(uv).equations  # (f, 3)
+            except QhullError:  # on a line: no area
+                pass
+        return cls(n, float(offset), basis, equations)
+
+    @property
+    def bounded(self) -> bool:
+        """Whether the outline has an area (else every point lies inside it)."""
+        return len(self.equations) > 0
+
+    def heights(self, points: ArrayLike) -> Array:
+        """Heights ``(k,)`` of ``points`` ``(k, 3)`` above the plane."""
+        p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        return p @ self.normal + self.offset
+
+    def depths(self, points: ArrayLike) -> Array:
+        """How far ``(k,)`` inside the outline the projections of ``points``
+        ``(k, 3)`` lie (m): the distance to the nearest edge inside, negative
+        outside (the distance past the farthest edge line); ``inf`` when the
+        outline is unbounded."""
+        p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        if not self.bounded:
+            return np.full(len(p), np.inf)
+        uv = p @ self.basis  # (k, 2)
+        # (k, f) signed distances to the edge lines, negative inside
+        signed = uv @ self.equations[:, :2].T + self.equations[:, 2]
+        return -signed.max(axis=1)  # type: ignore[no-any-return]
