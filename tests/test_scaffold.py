@@ -91,6 +91,13 @@ def test_scaffolded_package_is_complete_and_its_yaml_validates(tmp_path):
     assert "# the root link of the URDF tree" in text
     assert "`wsgrasp gripper check` on this guess" in text
     GripperDescription.model_validate(yaml.safe_load(text))
+    # the package ships the default spec that plan --gripper and eval use
+    from wsgrasp.default_specs import default_spec
+
+    assert "specs/*.yaml" in pyproject
+    data, source = default_spec(str(yaml_path))
+    assert source == str(pkg / "specs" / "default.yaml")
+    assert data["sampling"]["mode"] == "approach_sphere"
     # a second scaffold into the same folder needs --force
     with pytest.raises(GripperError, match="--force"):
         scaffold_plugin("my-jaw", urdf, out)

@@ -78,6 +78,10 @@ def generic_spec_text(gripper: str) -> str:
     writes into a package as ``specs/default.yaml``)."""
     lines = GENERIC_DEFAULT.read_text().splitlines()
     out = [f"gripper: {gripper}" if ln.startswith("gripper:") else ln for ln in lines]
+    out[0] = (
+        f"# {gripper}'s default spec (`plan --gripper`, `eval`): wsgrasp's generic "
+        "default as `gripper new` wrote it."
+    )
     return "\n".join(out) + "\n"
 
 

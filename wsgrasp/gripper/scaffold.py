@@ -18,6 +18,7 @@ import shutil
 from pathlib import Path
 from typing import Any
 
+from wsgrasp.default_specs import generic_spec_text
 from wsgrasp.errors import GripperError, WsgraspError
 from wsgrasp.gripper._guess import Scaffold, fit_sphere_count, guess_description
 from wsgrasp.gripper._scaffold_urdf import MESH_UNITS, copy_urdf, narrow_limits
@@ -180,7 +181,7 @@ dependencies = ["wsgrasp"]
 packages = ["{module}"]
 
 [tool.setuptools.package-data]
-{module} = ["*.urdf", "*.yaml", "meshes/*"]
+{module} = ["*.urdf", "*.yaml", "meshes/*", "specs/*.yaml"]
 """
 
 _MODULE = '''\
@@ -217,6 +218,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import yaml
+
 from wsgrasp import Pipeline
 from wsgrasp.gripper.check import check_gripper
 from wsgrasp.perception.io import scene_from_arrays
@@ -225,6 +228,7 @@ from wsgrasp.spec import load_spec
 
 HERE = Path(__file__).resolve().parents[1]
 YAML = HERE / "{module}" / "{name}.yaml"
+SPEC = HERE / "{module}" / "specs" / "default.yaml"
 
 
 def test_check_finds_no_errors():
@@ -233,7 +237,9 @@ def test_check_finds_no_errors():
 
 
 def test_plans_a_grasp_on_a_cylinder():
-    pipe = Pipeline(load_spec({{"gripper": str(YAML), "record": {{"enabled": False}}}}))
+    spec = yaml.safe_load(SPEC.read_text())  # the gripper's default spec
+    spec.update(gripper=str(YAML), record={{"enabled": False}})
+    pipe = Pipeline(load_spec(spec))
     radius = min(0.035, max(0.012, 0.2 * pipe.gripper.max_opening))
     scene = synth_scene("cylinder", size=(radius, 0.12), seed=0, width=160, height=120)
     result = pipe.plan(scene_from_arrays(scene.points))
@@ -254,7 +260,10 @@ wsgrasp gripper check {name} -o gripper.png   # trust, but verify the guesses
 pytest tests                          # builds, checks and plans a grasp
 ```
 
-Then use it in a pipeline spec: `gripper: {name}`.
+Then use it in a pipeline spec: `gripper: {name}`. `wsgrasp plan --gripper {name}`
+and `wsgrasp eval --gripper {name}` use `{module}/specs/default.yaml`, wsgrasp's
+generic default spec as written here; change it there to change the gripper's
+default.
 
 The YAML's comments say what `wsgrasp gripper new` guessed and how. Read the check's
 report and its picture; fix the fields it names. To publish: `python -m build` and
@@ -392,4 +401,6 @@ def _write_package(
     (out / "README.md").write_text(
         _README.format(name=name, module=module, urdf=urdf.name)
     )
+    (pkg / "specs").mkdir(exist_ok=True)
+    (pkg / "specs" / "default.yaml").write_text(generic_spec_text(name))
     return yaml_path, scaffold
