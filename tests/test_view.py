@@ -217,3 +217,25 @@ def test_the_browser_check_catches_a_collapsing_sidebar(tmp_path: Path) -> None:
     page.write_text(OLD_LAYOUT)
     problems = check_page(page, 1200, 900)
     assert any(p.startswith("sidebar ") and "px wide" in p for p in problems)
+
+
+def test_a_gripper_given_by_its_yaml_is_drawn_from_its_urdf(tmp_path: Path) -> None:
+    """A gripper the spec names by its YAML (no plugin registers it) is drawn
+    from the URDF beside that YAML, not as its body superellipsoids."""
+    import wsgrasp
+    from wsgrasp.perception.synth import synth_scene
+    from wsgrasp.record import RunRecorder
+    from wsgrasp.spec import load_spec
+    from wsgrasp.view._run import run_layers
+
+    root = Path(__file__).resolve().parents[1]
+    yaml = next(root.glob("examples/plugins/robotiq_2f85_like/wsgrasp_*/*.yaml"))
+    spec = load_spec(
+        {"gripper": str(yaml), "sampling": {"mode": "approach_sphere", "depths": 2}}
+    )
+    path = tmp_path / "run.mcap"
+    scene = synth_scene("box", size=(0.05, 0.05, 0.08), seed=0, width=160, height=120)
+    result = wsgrasp.Pipeline(spec).plan(scene.points, observers=[RunRecorder(path)])
+    assert result.found, result.hint
+    layers = run_layers(open_run(path))
+    assert not any("URDF not found" in n for n in layers.notes), layers.notes

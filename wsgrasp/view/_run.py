@@ -211,7 +211,8 @@ def run_layers(run: Run) -> RunLayers:
         T = np.asarray(cs.T_world_gwc)[ok]  # (k, 4, 4)
         stroke = 0.25 * float(np.ptp(obj, axis=0).max())
         directions = np.stack([T[:, :3, 3] - stroke * T[:, :3, 2], T[:, :3, 3]], 1)
-    shapes = _shapes(model, res, cs, T_ee)
+    ref = (run.spec_data or {}).get("gripper")
+    shapes = _shapes(model, res, cs, T_ee, ref if isinstance(ref, str) else None)
     if shapes.get("source") == "superellipsoids":
         notes.append("gripper drawn as its body superellipsoids (URDF not found)")
     mode = None if res is None else res.info.get("sampling_mode")
@@ -254,7 +255,9 @@ def run_layers(run: Run) -> RunLayers:
     )
 
 
-def _shapes(model: Any, res: Any, cs: Any, T_ee: Array | None) -> dict[str, Any]:
+def _shapes(
+    model: Any, res: Any, cs: Any, T_ee: Array | None, ref: str | None = None
+) -> dict[str, Any]:
     """The gripper's shape at grasp and pre-grasp, at the alternatives, and at a
     few rejected poses of each reason (no grasp), world frame."""
     from wsgrasp.planning.result import REASONS
@@ -263,11 +266,11 @@ def _shapes(model: Any, res: Any, cs: Any, T_ee: Array | None) -> dict[str, Any]
     if model is None or res is None:
         return {}
     out: dict[str, Any] = {}
-    open_shape = gripper_shape(model, res.joints_pregrasp or None)
+    open_shape = gripper_shape(model, res.joints_pregrasp or None, ref)
     out["faces"] = open_shape.faces
     out["source"] = open_shape.source
     if res.found and T_ee is not None:
-        closed = gripper_shape(model, res.joints_grasp or model.closed)
+        closed = gripper_shape(model, res.joints_grasp or model.closed, ref)
         out["grasp"] = posed(closed, T_ee)
         pre = res.T_world_pregrasp if res.T_world_pregrasp is not None else T_ee
         out["pregrasp"] = posed(open_shape, pre)

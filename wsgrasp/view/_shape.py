@@ -42,18 +42,23 @@ class GripperShape:
     source: str
 
 
-def _urdf_kinematics(model: GripperModel) -> tuple[Any, str] | None:
-    """The gripper's URDF kinematics and base link, found through the plugin
-    that registers its name; None where no plugin here registers it."""
+def _urdf_kinematics(
+    model: GripperModel, ref: str | None = None
+) -> tuple[Any, str] | None:
+    """The gripper's URDF kinematics and base link, found through ``ref`` (the
+    run's spec's ``gripper``: a registered name or a gripper YAML) or else the
+    plugin that registers its name; None where neither finds it."""
     from wsgrasp.errors import WsgraspError
     from wsgrasp.gripper import resolve_gripper
     from wsgrasp.gripper._build import urdf_path
     from wsgrasp.gripper._urdf import load_kinematics
 
     try:
-        found = resolve_gripper(model.name)
+        found = resolve_gripper(ref or model.name)
     except WsgraspError:
-        return None
+        if ref is None:
+            return None
+        return _urdf_kinematics(model)
     if isinstance(found, GripperModel):
         return None
     desc, base_dir = found
@@ -82,7 +87,9 @@ def _link_mesh(shape: Any) -> Any:
 
 
 def gripper_shape(
-    model: GripperModel, posture: dict[str, float] | None = None
+    model: GripperModel,
+    posture: dict[str, float] | None = None,
+    ref: str | None = None,
 ) -> GripperShape:
     """The gripper's surface at ``posture`` (actuated joint → position; the
     model's pre-grasp posture by default), in the gripper frame.
@@ -93,12 +100,15 @@ def gripper_shape(
         The gripper model (from a run, or built).
     posture
         Joint positions; joints left out stay at the pre-grasp posture.
+    ref
+        The gripper as the run's spec names it (a registered name or a gripper
+        YAML), where its URDF is looked for first.
 
     Returns
     -------
     GripperShape
     """
-    found = _urdf_kinematics(model)
+    found = _urdf_kinematics(model, ref)
     if found is not None:
         kin, base = found
         masters = {**model.pregrasp, **(posture or {})}
