@@ -255,6 +255,17 @@ MESH_URDF = """<?xml version="1.0"?>
     <origin xyz="0 0 0.02"/><axis xyz="0 1 0"/>
     <limit lower="0" upper="0.03" effort="1" velocity="1"/>
   </joint>
+  <link name="finger2">
+    <collision><origin xyz="0 0 0.05"/><geometry>
+      <mesh filename="meshes/palm.stl" scale="0.5 0.5 1"/>
+    </geometry></collision>
+  </link>
+  <joint name="slide2" type="prismatic">
+    <parent link="base"/><child link="finger2"/>
+    <origin xyz="0 0 0.02"/><axis xyz="0 1 0"/>
+    <limit lower="-0.03" upper="0" effort="1" velocity="1"/>
+    <mimic joint="slide" multiplier="-1"/>
+  </joint>
 </robot>
 """
 
@@ -269,6 +280,9 @@ fingers:
   - name: only
     joints: [slide]
     pad: {link: finger, center: [0, 0, 0.06], size: [0.008, 0.0, 0.008], samples: 5}
+  - name: other
+    joints: [slide]
+    pad: {link: finger2, center: [0, 0, 0.06], size: [0.008, 0.0, 0.008], samples: 5}
 joint_samples: 16
 spheres_per_finger: 4
 workspace_voxel: 0.002
@@ -289,7 +303,7 @@ def test_mesh_geometry_is_loaded_scaled_and_hashed(tmp_path):
     (folder / "mesh_jaw.yaml").write_text(MESH_YAML)
     cache = tmp_path / "cache"
     m = load_gripper(str(folder / "mesh_jaw.yaml"), cache_dir=cache)
-    assert m.cloud.shape == (100, 3) and m.spheres_per_finger == [4]
+    assert m.cloud.shape == (100, 3) and m.spheres_per_finger == [4, 4]
     # base mesh scaled x2 along x: the cloud spans 80 mm in x
     assert_allclose(np.ptp(m.cloud[:, 0]), 0.08, atol=1e-6)
     # the finger (scaled 0.5 in y) at the open posture, 30 mm along y
