@@ -116,8 +116,8 @@ def check(gripper: str) -> dict[str, Any]:
 def plans(gripper: str, scene_set: dict[str, Any]) -> dict[str, Any]:
     """A plan with the gripper's default spec on every scene."""
     import wsgrasp
-    from wsgrasp.errors import WsgraspError
     from wsgrasp.default_specs import default_spec
+    from wsgrasp.errors import WsgraspError
     from wsgrasp.spec import load_spec
 
     data, source = default_spec(gripper)
