@@ -304,7 +304,8 @@ def test_grip_inside_its_friction_cone_does_not_creep(jaw_dir: Path):
         box = SimObject(
             "box", [Part("box", (0.04, 0.06, 0.08), _T((0, 0, 0.04)))], mass
         )
-        p = SimParams(hold_time=3.0, noslip_iterations=noslip)
+        # the lift protocol: friction 0.8, no disturbance, a plain hold
+        p = SimParams.for_protocol("lift", hold_time=3.0, noslip_iterations=noslip)
         scene = build_scene(box, sim_gripper_from_files(jaw_description(), jaw_dir), p)
         T_world_base = _T((0.0, 0.0, 0.08 + 0.10 - 0.02), R_DOWN)
         ex = execute_grasp(scene, _T(), T_world_base, p, joints_grasp={"j_left": 0.01})

@@ -5,7 +5,8 @@ same seed sequence as ``wsgrasp eval``'s trial, :func:`wsgrasp.sim.runner.
 task_seed`, so the same drop and views), seen in three noisy depth views, and
 planned on; every feasible candidate is a row of the ``candidates`` table with
 its score terms, and the ``top_k`` best by score are executed in MuJoCo for a
-label. Each is executed as ``wsgrasp eval`` executes a plan's choice: the plan
+label. Each is executed as ``wsgrasp eval`` executes a plan's choice, under the
+same protocol (``params``; strict by default) and execution error: the plan
 with that candidate taken as the choice (``Pipeline.plan_and_choices``, as
 ``Pipeline.plan(..., choose=)`` gives it, from the plan's own search: its
 table back-off, pre-grasp pose and joint targets), so a label says whether the
@@ -142,6 +143,7 @@ def dataset_job(obj: Any, trial: int) -> dict[str, list[dict[str, Any]]]:
     from wsgrasp.api import Pipeline
     from wsgrasp.errors import WsgraspError
     from wsgrasp.perception.io import scene_from_arrays
+    from wsgrasp.sim.objects import trial_friction, trial_mass
     from wsgrasp.sim.runner import _cached, _object_key, task_seed
     from wsgrasp.sim.scene import build_scene
     from wsgrasp.sim.trial import render_views, settle_object
@@ -160,8 +162,8 @@ def dataset_job(obj: Any, trial: int) -> dict[str, list[dict[str, Any]]]:
         "object": obj.name,
         "trial": trial,
         "seed": seed,
-        "mass": float(obj.mass),
-        "friction": float(obj.friction),
+        "mass": trial_mass(obj, p),
+        "friction": trial_friction(obj, p),
         "T_world_object": _flat(settled.T_world_object),
         "drops": settled.drops,
         "found": False,
@@ -201,7 +203,7 @@ def dataset_job(obj: Any, trial: int) -> dict[str, list[dict[str, Any]]]:
     others_taken = iter(taken_plans)
     for row in labelled:
         taken = result if row["chosen"] else next(others_taken)
-        outcome = _label(row, taken, obj, settled, okey, pay)
+        outcome = _label(row, taken, obj, settled, okey, pay, seed)
         row.update(label=outcome, success=outcome == "success")
     scene_row.update(
         found=bool(result.found),
@@ -262,13 +264,15 @@ def _label(
     settled: Any,
     okey: Any,
     pay: dict[str, Any],
+    seed: list[int],
 ) -> str:
-    """Execute the plan ``taken`` (one candidate as the choice) in MuJoCo; its
-    outcome."""
+    """Execute the plan ``taken`` (one candidate as the choice) in MuJoCo, with
+    the trial's execution error (the one ``wsgrasp eval`` gives the same trial);
+    its outcome."""
     from wsgrasp.sim.gripper import load_sim_gripper
     from wsgrasp.sim.runner import _cached
     from wsgrasp.sim.scene import build_scene
-    from wsgrasp.sim.trial import execute_grasp
+    from wsgrasp.sim.trial import execute_grasp, execution_error
 
     row["label_targets"] = "plan" if taken.joints_grasp else "closed"
     if not taken.found or taken.T_world_ee is None:
@@ -285,6 +289,7 @@ def _label(
         T_world_pregrasp=None if pre is None else np.asarray(pre, np.float64),
         joints_pregrasp=dict(taken.joints_pregrasp),
         joints_grasp=dict(taken.joints_grasp),
+        error=execution_error(seed, p),
     )
     return str(ex.outcome)
 

@@ -22,6 +22,10 @@ def register(app: typer.Typer) -> None:
 _ENGINE_HELP = "local: a process pool on this machine; ray: Ray tasks (extra 'ray')."
 _ADDRESS_HELP = "Ray cluster address (e.g. ray://head:10001); local Ray without it."
 _WORKERS_HELP = "Processes or Ray CPUs (0: one per CPU core)."
+_PROTOCOL_HELP = (
+    "the trials' protocol: strict (execution error, disturbances, slip in the "
+    "grip fails; wsgrasp eval's default) or lift (lift and hold 10 s)."
+)
 
 
 def _manifest(path: Path) -> dict[str, list[str]]:
@@ -138,6 +142,9 @@ def batch(
         1, "--trials", "-n", min=1, help="With --simulate: trials per object."
     ),
     seed: int = typer.Option(0, "--seed", help="With --simulate: the trials' seed."),
+    protocol: str = typer.Option(
+        "strict", "--protocol", help="With --simulate: " + _PROTOCOL_HELP
+    ),
     as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
 ) -> None:
@@ -172,6 +179,7 @@ def batch(
             row_group,
             as_json,
             quiet,
+            protocol,
         )
         return
     entries = batch_specs(specs, grippers)
@@ -230,6 +238,7 @@ def _simulate(
     row_group: int,
     as_json: bool,
     quiet: bool,
+    protocol: str = "strict",
 ) -> None:
     """``batch --simulate``: eval's trials on the engine, rows to OUT/trials."""
     from wsgrasp.batch import make_engine, run_trials
@@ -242,7 +251,7 @@ def _simulate(
             "--simulate needs the grippers to execute: give --gripper NAME",
             param_hint="--gripper",
         )
-    params = SimParams()
+    params = SimParams.for_protocol(protocol)
     for g in grippers:  # fail early: unknown gripper, URDF, no closed posture
         load_sim_gripper(g, params)
     entries = spec_entries(grippers, specs or None, paper=False)
@@ -271,6 +280,7 @@ def _simulate(
         "resumed_tasks": s.resumed,
         "wall_s": round(s.wall_s, 2),
         "trials_per_s": round(s.trials / s.wall_s, 3) if s.wall_s else 0.0,
+        "protocol": params.protocol,
         "engine": eng.name,
         "workers": eng.workers,
         "out": str(out / "trials"),
@@ -328,6 +338,7 @@ def dataset(
         5, "--top-k", "-k", min=0, help="Best candidates of each scene simulated."
     ),
     seed: int = typer.Option(0, "--seed", help="Random seed of drops and cameras."),
+    protocol: str = typer.Option("strict", "--protocol", help=_PROTOCOL_HELP),
     views: bool = typer.Option(
         True,
         "--views/--no-views",
@@ -358,7 +369,7 @@ def dataset(
             param_hint="OBJECTS",
         )
     spec = plan_spec(spec_file, gripper)
-    params = SimParams()
+    params = SimParams.for_protocol(protocol)
     load_sim_gripper(gripper, params)  # fail early: no URDF, no closed posture
     resolved = resolve_objects(
         names, workers=workers, progress=not quiet and not as_json
@@ -378,7 +389,12 @@ def dataset(
             views=views,
             progress=not quiet and not as_json,
         )
-    data = {**summary.to_json(), "engine": eng.name, "workers": eng.workers}
+    data = {
+        **summary.to_json(),
+        "engine": eng.name,
+        "workers": eng.workers,
+        "protocol": params.protocol,
+    }
     data["skipped_objects"] = {k.name: k.reason for k in resolved.skipped}
     if as_json:
         print_json(data)

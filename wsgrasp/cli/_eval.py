@@ -12,6 +12,7 @@ from wsgrasp.cli._common import console, err_console, number, print_json
 
 if TYPE_CHECKING:
     from wsgrasp.sim.objects import ObjectList
+    from wsgrasp.sim.params import SimParams
 
 
 def register(app: typer.Typer) -> None:
@@ -54,17 +55,45 @@ def eval_command(
         help="Also run the authors' follow-up sampling (xyz orientations, the "
         "gripper's specs/followup.yaml; without --spec).",
     ),
+    protocol: str = typer.Option(
+        "strict",
+        "--protocol",
+        help="strict: execution error, six disturbances of the object's weight "
+        "after the lift, slip in the grip fails, friction 0.5; lift: lift 20 cm "
+        "and hold 10 s, friction 0.8 (the earlier protocol).",
+    ),
     mass: float | None = typer.Option(
         None,
         "--mass",
         callback=number(0.0, 100.0, above=True),
-        help="Object mass (kg), overriding the objects' own.",
+        help="Object mass (kg) for every object, overriding the objects' own.",
+    ),
+    density: float | None = typer.Option(
+        None,
+        "--density",
+        callback=number(0.0, 100000.0, above=True),
+        help="Density (kg/m³) of objects without a mass of their own (mesh files "
+        "without masses.json, the random set): mass = density × volume. "
+        "Default 1200.",
     ),
     friction: float | None = typer.Option(
         None,
         "--friction",
         callback=number(0.0, 10.0, above=True),
-        help="Object friction coefficient, overriding defaults.",
+        help="Object friction coefficient, overriding the protocol's.",
+    ),
+    baseline: str | None = typer.Option(
+        None,
+        "--baseline",
+        help="random: beside each plan's choice, execute uniformly random feasible "
+        "candidates of the same plan, finished as the choice is; the report "
+        "gives chosen, random and their paired difference.",
+    ),
+    baseline_n: int = typer.Option(
+        3,
+        "--baseline-n",
+        min=1,
+        help="With --baseline random: random candidates per plan.",
     ),
     drop: str = typer.Option(
         "natural",
@@ -97,12 +126,12 @@ def eval_command(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
 ) -> None:
     """Grasp trials in MuJoCo: drop, look (3 depth views), plan, approach, close,
-    lift 20 cm, hold 10 s; success rate and plan time per object and gripper."""
+    lift 20 cm, then (strict) disturb the object along six directions; success
+    rate and plan time per object and gripper, beside chance with --baseline."""
     from wsgrasp.batch.engine import make_engine
     from wsgrasp.errors import InputError
     from wsgrasp.sim import (
         EvalConfig,
-        SimParams,
         build_report,
         load_sim_gripper,
         report_markdown,
@@ -120,13 +149,16 @@ def eval_command(
             f"--drop {drop!r} is unknown, expected natural or random",
             hint="pass --drop natural",
         )
-    params = SimParams(drop_pose=drop)
+    if baseline not in (None, "random"):
+        raise InputError(
+            f"--baseline {baseline!r} is unknown, expected random",
+            hint="pass --baseline random, or leave it out",
+        )
+    params = sim_params(
+        protocol, drop=drop, mass=mass, density=density, friction=friction
+    )
     resolved = resolve_objects(
-        list(objects),
-        mass=mass,
-        friction=friction,
-        workers=workers,
-        progress=not quiet and not as_json,
+        list(objects), workers=workers, progress=not quiet and not as_json
     )
     objs = resolved.objects
     skipped_note = _skipped_note(resolved)
@@ -150,6 +182,7 @@ def eval_command(
         params=params,
         workers=workers,
         record_dir=record_dir,
+        baseline=baseline_n if baseline == "random" else 0,
     )
     with eng:  # Ray starts (and stops) here
         records, wall = run_eval(config, progress=not quiet and not as_json, engine=eng)
@@ -173,6 +206,8 @@ def eval_command(
             "engine": eng.name,
             "wall_s": round(wall, 1),
             "params": params.to_json(),
+            "object_masses": object_masses(objs, params),
+            "baseline_per_plan": config.baseline,
         },
     )
     text = json.dumps(report, indent=2)
@@ -191,13 +226,55 @@ def eval_command(
         used = ", ".join(f"{label} = {src}" for label, src in sources.items())
         console.print(f"specs of {g}: {used}", highlight=False)
     console.print(
-        f"{report['trials']} trials with spec {primary!r}: success rate "
+        f"{report['trials']} trials with spec {primary!r} under the "
+        f"{params.protocol} protocol: success rate "
         f"{100 * report['success_rate']:.1f} %, median plan time "
-        f"{(report['plan_ms_median'] or 0) / 1e3:.2f} s; wall-clock {wall:.0f} s"
+        f"{(report['plan_ms_median'] or 0) / 1e3:.2f} s; wall-clock {wall:.0f} s",
+        highlight=False,
     )
     for path in (json_out, md_out):
         if path is not None:
             err_console.print(f"wrote {path}")
+
+
+def sim_params(
+    protocol: str,
+    *,
+    drop: str = "natural",
+    mass: float | None = None,
+    density: float | None = None,
+    friction: float | None = None,
+) -> SimParams:
+    """The trials' parameters: the protocol's, with the command line's
+    overrides (those not given keep the protocol's values)."""
+    from wsgrasp.sim.params import SimParams
+
+    over: dict[str, Any] = {"drop_pose": drop}
+    for key, value in (
+        ("object_mass", mass),
+        ("density", density),
+        ("friction", friction),
+    ):
+        if value is not None:
+            over[key] = value
+    return SimParams.for_protocol(protocol, **over)
+
+
+def object_masses(objects: list[Any], params: SimParams) -> dict[str, dict[str, Any]]:
+    """Each object's mass in the trials (kg) and where it came from: ``forced``
+    (``--mass``), ``set`` (its own: a set's table, ``masses.json``) or
+    ``density`` (``params.density`` × the volume of its collision parts)."""
+    from wsgrasp.sim.objects import trial_mass
+
+    def source(o: Any) -> str:
+        if params.object_mass is not None:
+            return "forced"
+        return "set" if o.mass_given else "density"
+
+    return {
+        o.name: {"kg": round(trial_mass(o, params), 6), "from": source(o)}
+        for o in objects
+    }
 
 
 def _spec_sources(entries: list[Any]) -> dict[str, dict[str, str]]:

@@ -116,17 +116,23 @@ class MeshSource:
         As read from the file (its own units).
     scale : (3,) float
         Applied to ``mesh`` before anything else (metres after it).
-    mass, friction : float
+    mass : float
+    friction : float or None
+        None: the trial protocol's.
     origin : str
         Where it came from, for messages (a file path).
+    mass_given : bool
+        ``mass`` is the object's own, not a placeholder (see
+        :class:`~wsgrasp.sim.objects.SimObject`).
     """
 
     name: str
     mesh: Any
     scale: Array = field(default_factory=lambda: np.ones(3))
     mass: float = 0.2
-    friction: float = 0.8
+    friction: float | None = None
     origin: str = ""
+    mass_given: bool = True
 
     def scaled(self) -> Any:
         """A scaled copy of the mesh (metres)."""

@@ -35,6 +35,7 @@ from wsgrasp.sim._meshes import (
     decompose_meshes,
 )
 from wsgrasp.sim._xml import attrs, fmt, pose_attrs
+from wsgrasp.sim.params import SimParams
 from wsgrasp.sim.random_objects import RANDOM_SET, Skipped, random_objects
 
 __all__ = [
@@ -48,6 +49,8 @@ __all__ = [
     "object_from_source",
     "paper13",
     "resolve_objects",
+    "trial_friction",
+    "trial_mass",
 ]
 
 Array = NDArray[np.float64]
@@ -129,18 +132,27 @@ class SimObject:
     name : str
     parts : list of Part
     mass : float
-        kg, spread uniformly over the parts' volume.
-    friction : float
-        Sliding friction of every contact with the object.
+        kg, spread uniformly over the parts' volume. What a trial uses is
+        :func:`trial_mass`: a mass the protocol forces, else this one when
+        ``mass_given``, else the protocol's density times :meth:`volume`.
+    friction : float or None
+        Sliding friction of every contact with the object; None (the default):
+        the trial protocol's (:attr:`SimParams.friction`).
     render_mesh : trimesh.Trimesh or None
         What the cameras see; the union of the parts when None.
+    mass_given : bool
+        ``mass`` is the object's own (a set's table, ``masses.json``, a mass
+        passed in); False where it is a placeholder (a mesh file without a mass,
+        the ``random`` set's URDFs, which give all 1,000 objects 0.1 kg).
     """
 
     name: str
     parts: list[Part]
     mass: float
-    friction: float = 0.8
+    friction: float | None = None
     render_mesh: Any = None
+    mass_given: bool = True
+    _volume: float | None = field(default=None, repr=False, compare=False)
 
     def mesh(self) -> Any:
         """The object's surface as one triangle mesh (object frame)."""
@@ -150,14 +162,25 @@ class SimObject:
             return self.render_mesh
         return trimesh.util.concatenate([p.to_trimesh() for p in self.parts])
 
-    def inertial(self) -> tuple[Array, Array]:
+    def volume(self) -> float:
+        """Volume (m³) of the collision parts, as the inertia counts it
+        (overlaps twice)."""
+        if self._volume is None:
+            import trimesh
+
+            hulls: Any = trimesh.util.concatenate([p.to_trimesh() for p in self.parts])
+            self._volume = float(hulls.volume)
+        return self._volume
+
+    def inertial(self, mass: float | None = None) -> tuple[Array, Array]:
         """Centre of mass ``(3,)`` and inertia ``(3, 3)`` about it, for uniform
-        density over the parts (overlaps counted twice)."""
+        density over the parts (overlaps counted twice), at ``mass`` (kg;
+        default ``self.mass``)."""
         import trimesh
 
         hulls: Any = trimesh.util.concatenate([p.to_trimesh() for p in self.parts])
         volume = float(hulls.volume)
-        hulls.density = self.mass / volume
+        hulls.density = (self.mass if mass is None else mass) / volume
         return (
             np.asarray(hulls.center_mass, dtype=np.float64),
             np.asarray(hulls.moment_inertia, dtype=np.float64),
@@ -166,6 +189,23 @@ class SimObject:
     def size(self) -> Array:
         """Extents ``(3,)`` of the object's axis-aligned box in its frame."""
         return np.asarray(self.mesh().extents, dtype=np.float64)
+
+
+def trial_mass(obj: SimObject, params: SimParams) -> float:
+    """The mass (kg) a trial gives ``obj``: ``params.object_mass`` when it forces
+    one, else the object's own when it has one (``mass_given``), else
+    ``params.density`` times the volume of its collision parts."""
+    if params.object_mass is not None:
+        return float(params.object_mass)
+    if obj.mass_given:
+        return float(obj.mass)
+    return float(params.density * obj.volume())
+
+
+def trial_friction(obj: SimObject, params: SimParams) -> float:
+    """The sliding friction a trial gives ``obj``'s contacts: its own when set,
+    else the protocol's."""
+    return float(params.friction if obj.friction is None else obj.friction)
 
 
 # --------------------------------------------------------------------------------
@@ -377,10 +417,83 @@ OBJECT_SETS: dict[str, Callable[[str], SetItems]] = {
 _SET_NAMES = f"paper13, {RANDOM_SET}, {RANDOM_SET}:000-299"
 
 
+#: file endings read as object meshes
+MESH_SUFFIXES = (".obj", ".stl", ".ply")
+#: the file beside meshes that gives their masses (mesh name without suffix → kg)
+MASSES_FILE = "masses.json"
+
+
+def mesh_masses(folder: Path) -> dict[str, float]:
+    """The masses (kg) that ``folder/masses.json`` gives, by mesh name (the file
+    name without its suffix); empty without the file.
+
+    Raises
+    ------
+    InputError
+        The file is not a JSON object of positive numbers.
+    """
+    import json
+
+    path = folder / MASSES_FILE
+    if not path.is_file():
+        return {}
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise InputError(
+            f"{str(path)!r} cannot be read as JSON: {exc}",
+            hint='write it as {"mesh_name": kilograms, ...}',
+        ) from None
+    bad = (
+        [f"{k}: {v!r}" for k, v in data.items() if not _positive(v)]
+        if isinstance(data, dict)
+        else ["not a JSON object"]
+    )
+    if bad:
+        raise InputError(
+            f"{str(path)!r} must map mesh names to masses in kg above 0; found "
+            + ", ".join(bad[:5]),
+            hint='write it as {"mesh_name": kilograms, ...}',
+        )
+    return {str(k): float(v) for k, v in data.items()}
+
+
+def _positive(v: Any) -> bool:
+    return (
+        isinstance(v, (int, float))
+        and not isinstance(v, bool)
+        and math.isfinite(v)
+        and v > 0
+    )
+
+
+def mesh_folder(folder: Path) -> list[Path]:
+    """The mesh files of an object set folder (OBJ/STL/PLY), by name.
+
+    Raises
+    ------
+    InputError
+        The folder holds no mesh file.
+    """
+    files = sorted(
+        p for p in folder.iterdir() if p.suffix.lower() in MESH_SUFFIXES and p.is_file()
+    )
+    if not files:
+        raise InputError(
+            f"object folder {str(folder)!r} holds no mesh file "
+            f"({', '.join(MESH_SUFFIXES)})",
+            hint="pass a folder of meshes in metres, with masses.json beside them",
+        )
+    return files
+
+
 def mesh_source(
-    path: str | Path, *, mass: float = 0.2, friction: float = 0.8
+    path: str | Path, *, mass: float | None = None, friction: float | None = None
 ) -> MeshSource:
     """A mesh file (OBJ/STL/PLY, metres), checked, as a mesh to decompose.
+
+    Its mass is ``mass``, else what a ``masses.json`` beside it gives for its
+    name, else none (``mass_given`` False: the trial's density times its volume).
 
     Raises
     ------
@@ -393,7 +506,8 @@ def mesh_source(
     if not p.exists():
         raise InputError(
             f"object mesh {str(p)!r} does not exist",
-            hint=f"pass a named set ({_SET_NAMES}) or OBJ/STL/PLY files",
+            hint=f"pass a named set ({_SET_NAMES}), OBJ/STL/PLY files or a "
+            "folder of them",
         )
     try:
         mesh = trimesh.load(p, force="mesh")
@@ -423,12 +537,21 @@ def mesh_source(
             "probably millimetres",
             hint="scale the mesh to metres (divide by 1000)",
         )
-    if mass <= 0 or friction <= 0:
+    if (mass is not None and mass <= 0) or (friction is not None and friction <= 0):
         raise InputError(
             f"--mass {mass} and --friction {friction} must be positive",
             hint="e.g. --mass 0.2 --friction 0.8",
         )
-    return MeshSource(p.stem, mesh, np.ones(3), mass, friction, origin=str(p))
+    given = mesh_masses(p.parent).get(p.stem) if mass is None else mass
+    return MeshSource(
+        p.stem,
+        mesh,
+        np.ones(3),
+        0.0 if given is None else given,
+        friction,
+        origin=str(p),
+        mass_given=given is not None,
+    )
 
 
 def object_from_source(source: MeshSource, decomposition: Decomposition) -> SimObject:
@@ -439,13 +562,21 @@ def object_from_source(source: MeshSource, decomposition: Decomposition) -> SimO
     shift = np.array([-mesh.centroid[0], -mesh.centroid[1], -lo[2]])  # (3,)
     mesh.apply_translation(shift)
     parts = [Part("hull", vertices=h + shift) for h in decomposition.hulls]
-    return SimObject(source.name, parts, source.mass, source.friction, render_mesh=mesh)
+    return SimObject(
+        source.name,
+        parts,
+        source.mass,
+        source.friction,
+        render_mesh=mesh,
+        mass_given=source.mass_given,
+    )
 
 
 def object_from_mesh(
-    path: str | Path, *, mass: float = 0.2, friction: float = 0.8
+    path: str | Path, *, mass: float | None = None, friction: float | None = None
 ) -> SimObject:
-    """An object from a mesh file (OBJ/STL/PLY, metres).
+    """An object from a mesh file (OBJ/STL/PLY, metres); its mass as
+    :func:`mesh_source` finds it.
 
     The mesh must be watertight and enclose a volume; it collides as its coacd
     convex decomposition (:func:`wsgrasp.sim._meshes.convex_decomposition`,
@@ -492,10 +623,14 @@ def resolve_objects(
 
     A name is a set (``paper13``, ``random``) or a set with a selection after a
     colon (``random:000-299``) when its part before the colon names a set and it
-    is not an existing file; else a ``paper13`` object's name; else a mesh file.
-    The meshes of all names are decomposed together (:func:`decompose_meshes`:
-    cached, cache misses in ``workers`` processes, with a progress bar when
-    ``progress``). ``mass`` and ``friction`` override the objects' own values.
+    is not an existing file; else a ``paper13`` object's name; else a folder of
+    meshes (every OBJ/STL/PLY file in it, by name, with the masses of its
+    ``masses.json``); else a mesh file (its mass from a ``masses.json`` beside
+    it). The meshes of all names are decomposed together
+    (:func:`decompose_meshes`: cached, cache misses in ``workers`` processes,
+    with a progress bar when ``progress``). ``mass`` and ``friction`` override
+    the objects' own values; a mesh without a mass weighs what the trial's
+    density gives (:func:`trial_mass`).
 
     Raises
     ------
@@ -520,14 +655,13 @@ def resolve_objects(
             skipped.extend(left_out)
         elif name in PAPER13:
             items.append(PAPER13[name]())
-        else:
-            items.append(
-                mesh_source(
-                    name,
-                    mass=0.2 if mass is None else mass,
-                    friction=0.8 if friction is None else friction,
-                )
+        elif Path(name).is_dir():
+            items.extend(
+                mesh_source(f, mass=mass, friction=friction)
+                for f in mesh_folder(Path(name))
             )
+        else:
+            items.append(mesh_source(name, mass=mass, friction=friction))
     if not items:
         raise InputError(
             f"no objects given{' (all skipped)' if skipped else ''}",
@@ -547,7 +681,7 @@ def resolve_objects(
     out.skipped = skipped
     for o in out.objects:
         if mass is not None:
-            o.mass = mass
+            o.mass, o.mass_given = mass, True
         if friction is not None:
             o.friction = friction
     return out

@@ -6,7 +6,9 @@ pieces. Only the files are used (``pybullet`` itself is never imported); they co
 with ``pip install 'wsgrasp[sim]'``.
 
 Each object is read with the project's URDF reader (yourdfpy): its collision mesh,
-the mesh scale and the inertial mass. The mesh is scaled by the URDF's scale and
+the mesh scale and the inertial mass (0.1 kg for every object: a placeholder, so a
+trial weighs the object by the protocol's density, :func:`wsgrasp.sim.objects.
+trial_mass`). The mesh is scaled by the URDF's scale and
 then by ``RANDOM_SCALE`` (2/3: 6-10 cm across, the size of the objects the paper's
 grippers hold); objects whose largest extent is under ``MIN_EXTENT`` (3 cm) after
 scaling are skipped, as are unreadable meshes (``random_168``'s vertices are NaN).
@@ -162,7 +164,8 @@ def _source(number: int, root: Path) -> MeshSource | Skipped:
     extent = float(np.max(np.ptp(vertices * scale, axis=0)))
     if extent < MIN_EXTENT:
         return Skipped(name, f"under {100 * MIN_EXTENT:.0f} cm")
-    return MeshSource(name, mesh, scale, mass=mass, origin=str(urdf))
+    # the same 0.1 kg for every object of the set: a placeholder, not a mass
+    return MeshSource(name, mesh, scale, mass=mass, origin=str(urdf), mass_given=False)
 
 
 def random_objects(selection: str = "") -> tuple[list[MeshSource], list[Skipped]]:

@@ -4,17 +4,31 @@ Markdown.
 Plan time (ET in the paper) is the planner's own time per plan (``timing_ms
 ["total"]``: preprocessing, segmentation, object frame, search), median over the
 trials; rendering and physics are not included, as in the paper.
+
+With a random baseline (``eval --baseline random``) the report's ``baseline``
+has, per gripper and spec, the plan's choice beside chance on the same scenes:
+the success rate of the choice, that of the random feasible candidates executed
+beside it (each scene's share of them held, averaged over the scenes) and the
+paired difference with a 95 % interval (:func:`paired_difference`).
 """
 
 from __future__ import annotations
 
+import math
 import statistics
 from collections.abc import Sequence
 from typing import Any
 
 from wsgrasp.sim.trial import OUTCOMES
 
-__all__ = ["PAPER_TABLE2", "build_report", "report_markdown", "report_table"]
+__all__ = [
+    "PAPER_TABLE2",
+    "baseline_rows",
+    "build_report",
+    "paired_difference",
+    "report_markdown",
+    "report_table",
+]
 
 #: Sorour et al. (2019), Table II: object → gripper → (plan time s, success rate)
 PAPER_TABLE2: dict[str, dict[str, tuple[float, float]]] = {
@@ -65,8 +79,9 @@ def build_report(
     ``primary`` spec's trials (every gripper); ``results`` has one entry per
     gripper × spec with per-object rows.
     """
+    chosen = [r for r in records if r.get("pick", "plan") == "plan"]
     groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
-    for r in records:
+    for r in chosen:
         groups.setdefault((r["gripper"], r["spec"]), []).append(r)
     results = []
     for (gripper, spec), recs in groups.items():
@@ -83,7 +98,7 @@ def build_report(
         results.append(
             {"gripper": gripper, "spec": spec, **_summary(recs), "objects": rows}
         )
-    main = [r for r in records if r["spec"] == primary] or list(records)
+    main = [r for r in chosen if r["spec"] == primary] or list(chosen)
     out = {
         "version": 1,
         **(meta or {}),
@@ -92,7 +107,75 @@ def build_report(
         "results": results,
         "trial_records": list(records),
     }
+    baseline = baseline_rows(records)
+    if baseline:
+        out["baseline"] = baseline
     return out
+
+
+#: the interval the baseline's difference is given with
+INTERVAL = (
+    "paired normal 95 %: mean of the per-scene differences ± 1.96 × their "
+    "standard deviation / √scenes"
+)
+
+
+def paired_difference(differences: Sequence[float]) -> tuple[float, float, float]:
+    """Mean of per-scene differences and its 95 % interval (paired normal: mean
+    ± 1.96 s / √n, s the sample standard deviation); ``(mean, low, high)``."""
+    n = len(differences)
+    if n == 0:
+        return 0.0, 0.0, 0.0
+    mean = sum(differences) / n
+    sd = statistics.stdev(differences) if n > 1 else 0.0
+    half = 1.96 * sd / math.sqrt(n)
+    return mean, mean - half, mean + half
+
+
+def baseline_rows(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Per gripper and spec with random candidates: the choice against chance.
+
+    A scene is one (object, trial). Its choice scores 1 when it held; its random
+    score is the share of its random candidates that held (0 when it had none:
+    no feasible candidate). ``difference`` is the mean over scenes of the two's
+    difference, with ``ci95`` as :func:`paired_difference` gives it.
+    """
+    randoms: dict[tuple[str, str, str, int], list[bool]] = {}
+    for r in records:
+        if r.get("pick") == "random":
+            key = (r["gripper"], r["spec"], r["object"], r["trial"])
+            randoms.setdefault(key, []).append(r["outcome"] == "success")
+    if not randoms:
+        return []
+    rows = []
+    chosen = [r for r in records if r.get("pick", "plan") == "plan"]
+    pairs = dict.fromkeys((r["gripper"], r["spec"]) for r in chosen)
+    for gripper, spec in pairs:
+        scenes = [r for r in chosen if (r["gripper"], r["spec"]) == (gripper, spec)]
+        held = [float(r["outcome"] == "success") for r in scenes]
+        draws = [
+            randoms.get((gripper, spec, r["object"], r["trial"]), []) for r in scenes
+        ]
+        chance = [sum(d) / len(d) if d else 0.0 for d in draws]
+        diff, low, high = paired_difference(
+            [a - b for a, b in zip(held, chance, strict=True)]
+        )
+        n = len(scenes)
+        rows.append(
+            {
+                "gripper": gripper,
+                "spec": spec,
+                "scenes": n,
+                "random_per_scene": max((len(d) for d in draws), default=0),
+                "random_trials": sum(len(d) for d in draws),
+                "chosen_rate": sum(held) / n if n else 0.0,
+                "random_rate": sum(chance) / n if n else 0.0,
+                "difference": diff,
+                "ci95": [low, high],
+                "interval": INTERVAL,
+            }
+        )
+    return rows
 
 
 # --------------------------------------------------------------------------------
@@ -172,6 +255,25 @@ def _failure_rows(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
     return header, rows
 
 
+def _baseline_table(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
+    """Chosen, random feasible and their paired difference, a row per gripper
+    and spec."""
+    header = ["gripper", "spec", "scenes", "chosen", "random feasible", "difference"]
+    rows = [
+        [
+            b["gripper"],
+            b["spec"],
+            f"{b['scenes']} × {b['random_per_scene']} random",
+            _pct(b["chosen_rate"]),
+            _pct(b["random_rate"]),
+            f"{100 * b['difference']:+.1f} pts "
+            f"[{100 * b['ci95'][0]:+.1f}, {100 * b['ci95'][1]:+.1f}]",
+        ]
+        for b in report["baseline"]
+    ]
+    return header, rows
+
+
 def _repair_counts(report: dict[str, Any]) -> list[str]:
     """Per simulated gripper, one line counting what was not taken from its
     URDF (``sim_grippers`` of the report's metadata)."""
@@ -215,6 +317,36 @@ def _repair_markdown(report: dict[str, Any]) -> list[str]:
     return lines
 
 
+def _protocol_line(params: dict[str, Any]) -> str:
+    """The protocol and its main parameters in one line."""
+    mass = params.get("object_mass")
+    line = (
+        f"{params.get('protocol', 'lift')} (friction {params['friction']:g}, "
+        + (
+            f"mass {mass:g} kg"
+            if mass is not None
+            else f"masses: the set's, else {params.get('density', 0):g} kg/m³"
+        )
+        + f", hold {params['hold_time']:g} s"
+    )
+    if params.get("disturbance_weights"):
+        line += (
+            f", 6 disturbances of {params['disturbance_weights']:g} × weight for "
+            f"{params['disturbance_time']:g} s"
+        )
+    if params.get("execution_offset") or params.get("execution_angle_deg"):
+        line += (
+            f", execution error {1e3 * params['execution_offset']:g} mm and "
+            f"{params['execution_angle_deg']:g}°"
+        )
+    if params.get("slip_distance") or params.get("slip_angle_deg"):
+        line += (
+            f", slip limit {1e3 * params['slip_distance']:g} mm / "
+            f"{params['slip_angle_deg']:g}°"
+        )
+    return line + ")"
+
+
 def report_table(report: dict[str, Any]) -> list[Any]:
     """Rich renderables: the per-object table, the failure classes and a line
     per simulated gripper counting what was repaired in its URDF."""
@@ -229,6 +361,14 @@ def report_table(report: dict[str, Any]) -> list[Any]:
         for i, row in enumerate(rows):
             t.add_row(*row, end_section=i == len(rows) - 2)
         out.append(t)
+    if report.get("baseline"):
+        header, brows = _baseline_table(report)
+        b = Table(title="The plan's choice against random feasible candidates")
+        for i, h in enumerate(header):
+            b.add_column(h, justify="left" if i < 2 else "right")
+        for row in brows:
+            b.add_row(*row)
+        out.append(b)
     fh, frows = _failure_rows(report)
     f = Table(title="Outcomes")
     for i, h in enumerate(fh):
@@ -254,6 +394,16 @@ def report_markdown(report: dict[str, Any]) -> str:
             cells = [f"**{c}**" for c in row] if i == len(rows) - 1 else row
             lines.append("| " + " | ".join(cells) + " |")
         lines.append("")
+    if report.get("baseline"):
+        header, brows = _baseline_table(report)
+        lines += [
+            "**The plan's choice against random feasible candidates of the same plan**",
+            "",
+            "| " + " | ".join(header) + " |",
+            "|" + "|".join(["---", "---"] + ["---:"] * (len(header) - 2)) + "|",
+        ]
+        lines += ["| " + " | ".join(r) + " |" for r in brows]
+        lines += ["", f"Interval: {INTERVAL}.", ""]
     fh, frows = _failure_rows(report)
     lines += [
         "| " + " | ".join(fh) + " |",
@@ -265,6 +415,8 @@ def report_markdown(report: dict[str, Any]) -> str:
         for k in ("objects", "trials_per_object", "seed", "wall_s", "workers")
         if k in report
     ]
+    if "params" in report:
+        meta.append(f"protocol: {_protocol_line(report['params'])}")
     if meta:
         lines += ["", "; ".join(meta)]
     lines += _repair_markdown(report)

@@ -2,8 +2,13 @@
 
 A *task* is one (object, trial index): the object is dropped and rendered once,
 then every gripper × spec plans on the same views and executes its grasp, so the
-grippers and specs are compared on identical scenes. Two specs that plan the same
-pose share one execution (MuJoCo is deterministic). Tasks run in worker processes
+grippers and specs are compared on identical scenes, with the same execution
+error (:func:`wsgrasp.sim.trial.execution_error`, drawn from the task's seed).
+Two specs that plan the same pose share one execution (MuJoCo is deterministic).
+With a baseline (``EvalConfig.baseline``), each plan's choice is executed beside
+``baseline`` uniformly random feasible candidates of the same plan, each
+finished as the choice is (``Pipeline.plan_and_choices``: the plan that takes
+it), so chance is measured on the same scene. Tasks run in worker processes
 (``concurrent.futures.ProcessPoolExecutor``, spawned, one thread each); each worker
 keeps its pipelines, grippers and compiled MuJoCo models between tasks.
 """
@@ -27,7 +32,23 @@ from wsgrasp.sim.params import SimParams
 if TYPE_CHECKING:
     from wsgrasp.batch.engine import Engine
 
-__all__ = ["EvalConfig", "SpecEntry", "Task", "run_eval", "run_task", "task_seed"]
+__all__ = [
+    "BASELINE_DRAWS",
+    "EvalConfig",
+    "SpecEntry",
+    "Task",
+    "random_candidates",
+    "run_eval",
+    "run_task",
+    "task_seed",
+]
+
+#: a random draw whose plan finds no grasp (its pre-grasp pose hits the table, as
+#: the plan's own choice may not) is drawn again, up to this many draws per
+#: candidate wanted
+BASELINE_DRAWS = 4
+#: the entry appended to a task's seed sequence for its random candidates
+BASELINE_STREAM = 2
 
 
 @dataclass(frozen=True)
@@ -51,6 +72,8 @@ class EvalConfig:
     params: SimParams = field(default_factory=SimParams)
     workers: int = 0
     record_dir: Path | None = None
+    #: random feasible candidates executed beside each plan's choice (0: none)
+    baseline: int = 0
 
 
 @dataclass
@@ -61,6 +84,7 @@ class Task:
     specs: list[SpecEntry]
     params: SimParams
     record_dir: str | None = None
+    baseline: int = 0
 
 
 def task_seed(seed: int, object_name: str, trial: int) -> list[int]:
@@ -98,12 +122,13 @@ def _pipeline(entry: SpecEntry) -> Any:
     return _cached(key, lambda: Pipeline(load_spec(entry.spec)))
 
 
-def _object_key(obj: SimObject) -> tuple[str, float, float, int]:
+def _object_key(obj: SimObject) -> tuple[str, float, float | None, int]:
     return (obj.name, obj.mass, obj.friction, len(obj.parts))
 
 
 def run_task(task: Task) -> list[dict[str, Any]]:
-    """One (object, trial) with every spec; returns one record per spec."""
+    """One (object, trial) with every spec; returns one record per spec (and,
+    with a baseline, one per random candidate executed beside it)."""
     from wsgrasp.perception.io import scene_from_arrays
     from wsgrasp.sim.scene import build_scene
     from wsgrasp.sim.trial import render_views, settle_object
@@ -129,6 +154,48 @@ def run_task(task: Task) -> list[dict[str, Any]]:
     return records
 
 
+def random_candidates(result: Any, rng: np.random.Generator, count: int) -> list[int]:
+    """``count`` × :data:`BASELINE_DRAWS` feasible candidates of ``result``
+    (indices into ``result.candidates``), drawn uniformly with replacement, in
+    the order drawn; none when the plan has no feasible candidate."""
+    feasible = np.flatnonzero(result.candidates.reason == 0)  # (F,) indices
+    if count <= 0 or len(feasible) == 0:
+        return []
+    return [int(i) for i in rng.choice(feasible, size=BASELINE_DRAWS * count)]
+
+
+def _plans(
+    task: Task, entry: SpecEntry, scene: Any, observers: list[Any]
+) -> tuple[Any, list[tuple[int, Any]]]:
+    """The plan of ``entry`` and, with a baseline, the plans that take random
+    feasible candidates of it (candidate index, plan), in the order drawn."""
+    pipeline = _pipeline(entry)
+    if task.baseline <= 0:
+        return pipeline.plan(scene, observers=observers), []
+    # the draws depend on the task and the spec only, so every protocol draws
+    # the same candidates of the same plan
+    rng = np.random.default_rng(
+        [
+            *task_seed(task.seed, task.object.name, task.trial),
+            BASELINE_STREAM,
+            zlib.crc32(f"{entry.gripper}|{entry.label}".encode()),
+        ]
+    )
+    drawn: list[int] = []
+
+    def pick(result: Any) -> list[int]:
+        drawn.extend(random_candidates(result, rng, task.baseline))
+        return list(dict.fromkeys(drawn))  # each distinct candidate once
+
+    if observers:  # the recorded plan, then the draws' plans from a second search
+        result = pipeline.plan(scene, observers=observers)
+        taken = pipeline.plan_choices(scene, pick(result))
+    else:
+        result, taken = pipeline.plan_and_choices(scene, pick)
+    by_index = dict(zip(dict.fromkeys(drawn), taken, strict=True))
+    return result, [(i, by_index[i]) for i in drawn]
+
+
 def _run_specs(
     task: Task,
     scene: Any,
@@ -138,22 +205,22 @@ def _run_specs(
     executed: dict[tuple[str, bytes], Any],
     recorders: list[Any],
 ) -> None:
-    """The plans and grasps of one task, one record per spec (see
-    :func:`run_task`)."""
+    """The plans and grasps of one task, one record per spec and per random
+    candidate (see :func:`run_task`)."""
     from wsgrasp.errors import WsgraspError
-    from wsgrasp.sim.gripper import load_sim_gripper
-    from wsgrasp.sim.scene import build_scene
-    from wsgrasp.sim.trial import execute_grasp
+    from wsgrasp.sim.trial import execution_error
 
     p = task.params
     obj = task.object
-    okey = _object_key(obj)
+    error = execution_error(task_seed(task.seed, obj.name, task.trial), p)
     for entry in task.specs:
         rec: dict[str, Any] = {
             "object": obj.name,
             "trial": task.trial,
             "gripper": entry.gripper,
             "spec": entry.label,
+            "pick": "plan",
+            "protocol": p.protocol,
             "drops": settled.drops,
             "scene_s": prep_s,
         }
@@ -168,67 +235,138 @@ def _run_specs(
             recorders.append(observers[-1])
             rec["record"] = str(path)
         try:
-            result = _pipeline(entry).plan(scene, observers=observers)
+            result, draws = _plans(task, entry, scene, observers)
         except WsgraspError as exc:
             rec.update(outcome="no_grasp", found=False, plan_ms=None, hint=str(exc))
             records.append(rec)
+            records.extend(_random_records(task, rec, [], executed, settled, error))
             continue
         rec["plan_ms"] = float(result.timing_ms.get("total", float("nan")))
-        rec["found"] = bool(result.found)
-        if not result.found or result.T_world_ee is None:
-            rec.update(outcome="no_grasp", hint=result.hint)
-            records.append(rec)
-            continue
-        T = np.asarray(result.T_world_ee, dtype=np.float64)
-        # the plan's per-grasp targets; a plan without them approaches from the
-        # standoff and closes towards the gripper YAML's `closed` posture
-        T_pre = result.T_world_pregrasp
-        T_pre = None if T_pre is None else np.asarray(T_pre, dtype=np.float64)
-        joints_pre = dict(result.joints_pregrasp)
-        joints_grasp = dict(result.joints_grasp)
-        rec["approach_from"] = "standoff" if T_pre is None else "plan"
-        rec["finger_targets"] = "plan" if joints_grasp else "closed"
-        # one execution per distinct (pose, pre-grasp pose, joint targets)
-        key = (
-            entry.gripper,
-            b"|".join(
-                [
-                    np.round(T, 9).tobytes(),
-                    b"" if T_pre is None else np.round(T_pre, 9).tobytes(),
-                    _joints_key(joints_pre),
-                    _joints_key(joints_grasp),
-                ]
-            ),
-        )
-        t1 = time.perf_counter()
-        if key not in executed:
-            sim_gripper = _cached(
-                ("gripper", entry.gripper, p),
-                lambda: load_sim_gripper(entry.gripper, p),
-            )
-            world = _cached(
-                ("scene", okey, entry.gripper, p),
-                lambda: build_scene(obj, sim_gripper, p),
-            )
-            executed[key] = execute_grasp(
-                world,
-                settled.T_world_object,
-                T,
-                p,
-                T_world_pregrasp=T_pre,
-                joints_pregrasp=joints_pre,
-                joints_grasp=joints_grasp,
-            )
-        ex = executed[key]
-        rec.update(
-            outcome=ex.outcome,
-            metrics=ex.metrics,
-            exec_s=time.perf_counter() - t1,
-            T_world_ee=T.tolist(),
-        )
-        if joints_grasp:
-            rec["joints_grasp"] = joints_grasp
+        _execute(task, entry, result, rec, executed, settled, error)
         records.append(rec)
+        records.extend(_random_records(task, rec, draws, executed, settled, error))
+
+
+def _random_records(
+    task: Task,
+    chosen: dict[str, Any],
+    draws: list[tuple[int, Any]],
+    executed: dict[tuple[str, bytes], Any],
+    settled: Any,
+    error: Any,
+) -> list[dict[str, Any]]:
+    """The baseline's records beside the plan's record ``chosen``: the first
+    ``task.baseline`` draws whose plans found a grasp, executed as the choice
+    is; draws short of that (no feasible candidate, every pre-grasp pose in the
+    table) are ``no_grasp``."""
+    if task.baseline <= 0:
+        return []
+    entry = next(
+        e
+        for e in task.specs
+        if e.gripper == chosen["gripper"] and e.label == chosen["spec"]
+    )
+    base = {
+        k: chosen[k]
+        for k in ("object", "trial", "gripper", "spec", "protocol", "drops", "scene_s")
+    }
+    found = [
+        (i, plan) for i, plan in draws if plan.found and plan.T_world_ee is not None
+    ]
+    out = []
+    for k in range(task.baseline):
+        rec = {**base, "pick": "random", "draw": k}
+        if k < len(found):
+            index, plan = found[k]
+            rec.update(candidate=index, plan_ms=chosen.get("plan_ms"))
+            _execute(task, entry, plan, rec, executed, settled, error)
+        else:
+            rec.update(
+                outcome="no_grasp",
+                found=False,
+                plan_ms=None,
+                hint="no feasible candidate whose plan finds a grasp was drawn",
+            )
+        out.append(rec)
+    return out
+
+
+def _execute(
+    task: Task,
+    entry: SpecEntry,
+    result: Any,
+    rec: dict[str, Any],
+    executed: dict[tuple[str, bytes], Any],
+    settled: Any,
+    error: Any,
+) -> None:
+    """Execute the plan ``result`` (the choice of a plan, or a plan that takes
+    another candidate: the same path) and fill in ``rec``."""
+    from wsgrasp.sim.gripper import load_sim_gripper
+    from wsgrasp.sim.scene import build_scene
+    from wsgrasp.sim.trial import execute_grasp
+
+    p = task.params
+    obj = task.object
+    okey = _object_key(obj)
+    rec["found"] = bool(result.found)
+    if not result.found or result.T_world_ee is None:
+        rec.update(outcome="no_grasp", hint=result.hint)
+        return
+    T = np.asarray(result.T_world_ee, dtype=np.float64)
+    # the plan's per-grasp targets; a plan without them approaches from the
+    # standoff and closes towards the gripper YAML's `closed` posture
+    T_pre = result.T_world_pregrasp
+    T_pre = None if T_pre is None else np.asarray(T_pre, dtype=np.float64)
+    joints_pre = dict(result.joints_pregrasp)
+    joints_grasp = dict(result.joints_grasp)
+    rec["approach_from"] = "standoff" if T_pre is None else "plan"
+    rec["finger_targets"] = "plan" if joints_grasp else "closed"
+    # one execution per distinct (pose, pre-grasp pose, joint targets)
+    key = (
+        entry.gripper,
+        b"|".join(
+            [
+                np.round(T, 9).tobytes(),
+                b"" if T_pre is None else np.round(T_pre, 9).tobytes(),
+                _joints_key(joints_pre),
+                _joints_key(joints_grasp),
+            ]
+        ),
+    )
+    t1 = time.perf_counter()
+    if key not in executed:
+        sim_gripper = _cached(
+            ("gripper", entry.gripper, p),
+            lambda: load_sim_gripper(entry.gripper, p),
+        )
+        world = _cached(
+            ("scene", okey, entry.gripper, p),
+            lambda: build_scene(obj, sim_gripper, p),
+        )
+        c0 = time.process_time()
+        ex = execute_grasp(
+            world,
+            settled.T_world_object,
+            T,
+            p,
+            T_world_pregrasp=T_pre,
+            joints_pregrasp=joints_pre,
+            joints_grasp=joints_grasp,
+            error=error,
+        )
+        ex.metrics["cpu_s"] = time.process_time() - c0
+        executed[key] = ex
+    ex = executed[key]
+    rec.update(
+        outcome=ex.outcome,
+        metrics=ex.metrics,
+        exec_s=time.perf_counter() - t1,
+        T_world_ee=T.tolist(),
+        execution_error=error.to_json(),
+    )
+    if joints_grasp:
+        rec["joints_grasp"] = joints_grasp
 
 
 def _joints_key(joints: dict[str, float]) -> bytes:
@@ -272,6 +410,7 @@ def run_eval(
             specs=config.specs,
             params=config.params,
             record_dir=str(config.record_dir) if config.record_dir else None,
+            baseline=config.baseline,
         )
         for obj in config.objects
         for t in range(config.trials)
@@ -311,6 +450,8 @@ def _crashed(task: Task) -> list[dict[str, Any]]:
             "trial": task.trial,
             "gripper": e.gripper,
             "spec": e.label,
+            "pick": "plan",
+            "protocol": task.params.protocol,
             "outcome": "sim_crashed",
             "found": None,
             "plan_ms": None,
@@ -337,6 +478,7 @@ class _Tally:
         self.trials = 0
 
     def add(self, records: list[dict[str, Any]]) -> str:
+        records = [r for r in records if r.get("pick", "plan") == "plan"]
         self.trials += len(records)
         self.successes += sum(r.get("outcome") == "success" for r in records)
         last = records[0]["object"] if records else ""

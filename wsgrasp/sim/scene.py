@@ -18,7 +18,13 @@ from numpy.typing import NDArray
 from wsgrasp.sim._mujoco import require_mujoco
 from wsgrasp.sim._xml import attrs
 from wsgrasp.sim.gripper import PREFIX, SimGripper
-from wsgrasp.sim.objects import OBJECT_CONAFFINITY, OBJECT_CONTYPE, SimObject
+from wsgrasp.sim.objects import (
+    OBJECT_CONAFFINITY,
+    OBJECT_CONTYPE,
+    SimObject,
+    trial_friction,
+    trial_mass,
+)
 from wsgrasp.sim.params import SimParams
 
 __all__ = ["SimScene", "build_scene", "scene_xml"]
@@ -30,6 +36,7 @@ def scene_xml(obj: SimObject, gripper: SimGripper | None, p: SimParams) -> str:
     """The MJCF text of the world (see the module docstring)."""
     assets: list[str] = []
     geoms = []
+    mass, friction = trial_mass(obj, p), trial_friction(obj, p)
     for i, part in enumerate(obj.parts):
         shape, pose = part.to_mjcf(f"object/{i}", assets)
         geoms.append(
@@ -41,12 +48,12 @@ def scene_xml(obj: SimObject, gripper: SimGripper | None, p: SimParams) -> str:
                 priority=1,
                 condim=4,
                 solref=(p.contact_timeconst, 1.0),
-                friction=(obj.friction, p.torsional_friction, p.rolling_friction),
+                friction=(friction, p.torsional_friction, p.rolling_friction),
                 density=0,
             )
             + "/>"
         )
-    com, inertia = obj.inertial()
+    com, inertia = obj.inertial(mass)
     full = (
         inertia[0, 0],
         inertia[1, 1],
@@ -55,7 +62,7 @@ def scene_xml(obj: SimObject, gripper: SimGripper | None, p: SimParams) -> str:
         inertia[0, 2],
         inertia[1, 2],
     )
-    inertial = "<inertial " + attrs(pos=com, mass=obj.mass, fullinertia=full) + "/>"
+    inertial = "<inertial " + attrs(pos=com, mass=mass, fullinertia=full) + "/>"
     half = p.table_size / 2.0
     gripper_xml = ""
     equality = ""

@@ -10,23 +10,34 @@
 4. **Approach.** The gripper starts at the plan's pre-grasp pose
    (``T_world_pregrasp``; without one, ``standoff`` back along its approach axis)
    with the fingers in the plan's ``joints_pregrasp`` and is driven in a straight
-   line to the planned pose.
+   line to the planned pose. Under the ``strict`` protocol both poses are off by
+   the trial's execution error (:func:`execution_error`): a rigid motion about
+   the object's centre of mass, as if the camera had put the object there.
 5. **Close.** The position actuators' targets ramp to the plan's ``joints_grasp``
    (the fingers at their contacts, squeezed through them) over ``close_time``,
    then hold ``close_wait`` to build the grip. A plan without joint targets
    closes towards the gripper YAML's ``closed`` posture instead.
-6. **Lift and hold.** The gripper is driven 20 cm up and held there for 10 s.
+6. **Lift and hold.** The gripper is driven 20 cm up and held there
+   (``hold_time``: 10 s under ``lift``, 1 s under ``strict``).
+7. **Disturb** (``strict``). A force of ``disturbance_weights`` times the
+   object's weight pulls at its centre of mass along -x, +x, -y, +y, -z, +z,
+   ``disturbance_time`` each (:data:`DISTURBANCE_DIRECTIONS`), then
+   ``rest_time`` without; the trial stops as soon as the object is lost.
 
-Outcomes: ``success`` (object held off the table at the end),
-``no_grasp`` (the planner found none), ``approach_collision`` (the object was
-pushed more than ``displaced_distance``/``displaced_angle_deg`` or the gripper was
-blocked before closing, and the grasp then failed), ``slipped_lifting`` (not held
-after the lift) and ``dropped_holding`` (held after the lift, lost during the hold).
+Outcomes: ``success`` (object held off the table at the end and, under
+``strict``, within ``slip_distance``/``slip_angle_deg`` of where it sat in the
+grip when the fingers had closed), ``no_grasp`` (the planner found none),
+``approach_collision`` (the object was pushed more than
+``displaced_distance``/``displaced_angle_deg`` or the gripper was blocked before
+closing, and the grasp then failed), ``slipped_lifting`` (not held after the
+lift), ``dropped_holding`` (held after the lift, lost during the hold),
+``dropped_disturbed`` (lost under a disturbance or in the rest after them) and
+``slipped_in_grip`` (held to the end, but moved in the grip past the limits).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -39,10 +50,13 @@ from wsgrasp.sim.params import SimParams
 from wsgrasp.sim.scene import SimScene
 
 __all__ = [
+    "DISTURBANCE_DIRECTIONS",
     "OUTCOMES",
     "Execution",
+    "ExecutionError",
     "Settled",
     "execute_grasp",
+    "execution_error",
     "render_views",
     "settle_object",
 ]
@@ -56,8 +70,84 @@ OUTCOMES = (
     "approach_collision",
     "slipped_lifting",
     "dropped_holding",
+    "dropped_disturbed",
+    "slipped_in_grip",
     "sim_crashed",
 )
+
+#: the strict protocol's disturbance directions (world), in the order applied:
+#: DexGraspBench/BODex's -x, +x, -y, +y, -z, +z
+DISTURBANCE_DIRECTIONS = np.array(
+    [
+        [-1.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, -1.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, -1.0],
+        [0.0, 0.0, 1.0],
+    ]
+)  # (6, 3)
+
+#: the entry appended to a trial's seed sequence for its execution error, so the
+#: error is drawn from a stream of its own (the drop and the views are not moved)
+EXECUTION_STREAM = 1
+
+
+@dataclass(frozen=True)
+class ExecutionError:
+    """Where the executed grasp is, against the planned one: a rigid motion
+    about the object's centre of mass, in world axes.
+
+    Attributes
+    ----------
+    offset : (3,) float
+        Translation (m).
+    rotvec : (3,) float
+        Rotation vector (rad), about the object's centre of mass.
+    """
+
+    offset: Array
+    rotvec: Array
+
+    def transform(self, center: Array) -> Array:
+        """The ``(4, 4)`` world motion, rotating about ``center`` ``(3,)``."""
+        from scipy.spatial.transform import Rotation
+
+        R = Rotation.from_rotvec(np.asarray(self.rotvec, dtype=np.float64)).as_matrix()
+        c = np.asarray(center, dtype=np.float64)
+        E = np.eye(4)
+        E[:3, :3] = R
+        E[:3, 3] = c + np.asarray(self.offset, dtype=np.float64) - R @ c
+        return E
+
+    def to_json(self) -> dict[str, list[float]]:
+        return {
+            "offset": [float(v) for v in self.offset],
+            "rotvec": [float(v) for v in self.rotvec],
+        }
+
+
+def execution_error(
+    seed: Sequence[int] | np.random.Generator, p: SimParams
+) -> ExecutionError:
+    """The execution error of a trial: ``p.execution_offset`` (m) in a uniformly
+    random direction and ``p.execution_angle_deg`` about a uniformly random axis.
+
+    ``seed`` is the trial's seed sequence (:func:`wsgrasp.sim.runner.task_seed`),
+    drawn from with :data:`EXECUTION_STREAM` appended, or a generator to draw
+    from. The same seed gives the same error, whatever the gripper or spec.
+    """
+    rng = (
+        seed
+        if isinstance(seed, np.random.Generator)
+        else np.random.default_rng([*[int(v) for v in seed], EXECUTION_STREAM])
+    )
+    u = rng.normal(size=(2, 3))  # (2, 3) directions: the offset's, the axis
+    u /= np.maximum(np.linalg.norm(u, axis=1, keepdims=True), 1e-12)
+    return ExecutionError(
+        offset=u[0] * p.execution_offset,
+        rotvec=u[1] * np.radians(p.execution_angle_deg),
+    )
 
 
 @dataclass
@@ -184,7 +274,12 @@ class Execution:
         ``contact_after_lift``/``contact_after_hold`` (object touching the
         gripper), ``grip_force`` (N, sum of the normal forces between gripper and
         object once closed), ``joints_closed`` (actuated joint name to position
-        once closed), ``sim_s`` (simulated seconds).
+        once closed), ``sim_s`` (simulated seconds); what MuJoCo was given:
+        ``object_mass`` (kg), ``object_friction``, ``disturbance_force`` (N, 0
+        without disturbances), ``execution_offset`` (m) and
+        ``execution_angle_deg``; ``disturbances_held`` (directions the object
+        stayed held through), ``slip_distance`` (m) and ``slip_angle_deg`` (the
+        object's motion in the grip from the closed grip to the end).
     """
 
     outcome: str
@@ -221,8 +316,9 @@ def execute_grasp(
     T_world_pregrasp: Array | None = None,
     joints_pregrasp: Mapping[str, float] | None = None,
     joints_grasp: Mapping[str, float] | None = None,
+    error: ExecutionError | None = None,
 ) -> Execution:
-    """Run steps 4–6 of the protocol for a planned base pose ``(4, 4)``.
+    """Run steps 4–7 of the protocol for a planned base pose ``(4, 4)``.
 
     Parameters
     ----------
@@ -233,7 +329,7 @@ def execute_grasp(
     T_world_base : (4, 4) float
         The planned pose of the gripper's base link.
     p
-        The trial's parameters.
+        The trial's parameters (its protocol: disturbances, slip limits).
     T_world_pregrasp : (4, 4) float, optional
         Where the approach starts (the plan's pre-grasp pose); the straight line
         from there to ``T_world_base`` is driven at the grasp's orientation.
@@ -242,6 +338,9 @@ def execute_grasp(
         Actuated joint targets to approach in and to close to (the plan's
         per-grasp postures); joints they leave out, or all of them when not
         given, take the gripper YAML's ``pregrasp`` and ``closed`` values.
+    error : ExecutionError, optional
+        Moves the grasp and pre-grasp poses about the object's centre of mass
+        (:func:`execution_error`); none when not given.
     """
     mujoco = require_mujoco()
     g = scene.gripper
@@ -250,6 +349,13 @@ def execute_grasp(
     mujoco.mj_resetData(m, d)
     m.dof_damping[scene.object_dof] = 0.0
     d.qpos[scene.object_qpos] = _pose_to_qpos(T_world_object)
+    obj = scene.object_body
+    if error is not None:  # about the centre of mass: body_ipos, object frame
+        com = T_world_object[:3, :3] @ m.body_ipos[obj] + T_world_object[:3, 3]
+        E = error.transform(com)
+        T_world_base = E @ np.asarray(T_world_base, dtype=np.float64)
+        if T_world_pregrasp is not None:
+            T_world_pregrasp = E @ np.asarray(T_world_pregrasp, dtype=np.float64)
     T_base_root = np.linalg.inv(g.T_root_base)
     T_goal = T_world_base @ T_base_root  # root pose at the grasp
     T_start = T_goal.copy()
@@ -276,10 +382,11 @@ def execute_grasp(
     for jn, v in qpos_pre.items():
         d.qpos[scene.joint_qpos[jn]] = v
     d.ctrl[6:] = ctrl_pre
+    d.xfrc_applied[:] = 0.0
     mujoco.mj_forward(m, d)
-    z0 = float(d.xpos[scene.object_body][2])
-    p0 = d.xpos[scene.object_body].copy()
-    R0 = d.xmat[scene.object_body].reshape(3, 3).copy()
+    z0 = float(d.xpos[obj][2])
+    p0 = d.xpos[obj].copy()
+    R0 = d.xmat[obj].reshape(3, 3).copy()
     dt = p.timestep
 
     def move(start: Array, goal: Array, speed: float) -> None:
@@ -292,13 +399,30 @@ def execute_grasp(
     def wait(seconds: float) -> None:
         mujoco.mj_step(m, d, nstep=max(1, int(round(seconds / dt))))
 
+    def held() -> tuple[bool, bool, float]:
+        """(held off the table, touching the gripper, rise above the start)."""
+        grip, table = _contacts(scene)
+        rise = float(d.xpos[obj][2]) - z0
+        return (
+            grip and not table and rise > p.lifted_fraction * p.lift_height,
+            grip,
+            rise,
+        )
+
+    def in_grip() -> tuple[Array, Array]:
+        """The object's centre of mass ``(3,)`` and orientation ``(3, 3)`` in
+        the gripper's root frame."""
+        R_root = d.xmat[scene.root_body].reshape(3, 3)
+        c = R_root.T @ (d.xipos[obj] - d.xpos[scene.root_body])
+        return c, R_root.T @ d.xmat[obj].reshape(3, 3)
+
     # 4. approach
     move(T_start[:3, 3], T_goal[:3, 3], p.approach_speed)
     wait(0.1)
     root = d.xpos[scene.root_body]
     blocked = float(np.linalg.norm(root - T_goal[:3, 3]))
-    disp = float(np.linalg.norm(d.xpos[scene.object_body] - p0))
-    rot = _angle_deg(R0, d.xmat[scene.object_body].reshape(3, 3))
+    disp = float(np.linalg.norm(d.xpos[obj] - p0))
+    rot = _angle_deg(R0, d.xmat[obj].reshape(3, 3))
     collided = (
         disp > p.displaced_distance
         or rot > p.displaced_angle_deg
@@ -314,25 +438,58 @@ def execute_grasp(
         jn: float(d.qpos[scene.joint_qpos[jn]]) for jn in g.actuated
     }  # where the fingers stopped
     grip_force = _grip_force(scene)
+    c_closed, R_closed = in_grip()
     # 6. lift, then hold
     top = T_goal[:3, 3] + np.array([0.0, 0.0, p.lift_height])
     move(T_goal[:3, 3], top, p.lift_speed)
     wait(0.2)
-    grip, table = _contacts(scene)
-    rise_lift = float(d.xpos[scene.object_body][2]) - z0
-    lifted = grip and not table and rise_lift > p.lifted_fraction * p.lift_height
+    lifted, grip, rise_lift = held()
     wait(p.hold_time)
-    grip2, table2 = _contacts(scene)
-    rise_hold = float(d.xpos[scene.object_body][2]) - z0
-    held = grip2 and not table2 and rise_hold > p.lifted_fraction * p.lift_height
-    if held:
+    held_hold, grip2, rise_hold = held()
+    # 7. disturb: the six directions in turn, stopping once the object is lost
+    weight = float(m.body_mass[obj] * np.linalg.norm(m.opt.gravity))
+    force = p.disturbance_weights * weight
+    survived = 0
+    held_end = held_hold
+    if held_hold and force > 0.0:
+        for direction in DISTURBANCE_DIRECTIONS:
+            d.xfrc_applied[obj, :3] = force * direction
+            wait(p.disturbance_time)
+            held_end = held()[0]
+            if not held_end:
+                break
+            survived += 1
+        d.xfrc_applied[obj, :] = 0.0
+        if held_end:
+            wait(p.rest_time)
+            held_end = held()[0]
+    c_end, R_end = in_grip()
+    slip = float(np.linalg.norm(c_end - c_closed))
+    slip_deg = _angle_deg(R_closed, R_end)
+    still = (p.slip_distance <= 0.0 or slip <= p.slip_distance) and (
+        p.slip_angle_deg <= 0.0 or slip_deg <= p.slip_angle_deg
+    )
+    if held_end and still:
         outcome = "success"
     elif collided:
         outcome = "approach_collision"
     elif not lifted:
         outcome = "slipped_lifting"
-    else:
+    elif not held_hold:
         outcome = "dropped_holding"
+    elif not held_end:
+        outcome = "dropped_disturbed"
+    else:
+        outcome = "slipped_in_grip"
+    object_geoms = np.flatnonzero(m.geom_bodyid == obj)  # (k,) the object's geoms
+    offset, angle = (
+        (0.0, 0.0)
+        if error is None
+        else (
+            float(np.linalg.norm(error.offset)),
+            float(np.degrees(np.linalg.norm(error.rotvec))),
+        )
+    )
     return Execution(
         outcome,
         {
@@ -347,6 +504,14 @@ def execute_grasp(
             "grip_force": grip_force,
             "joints_closed": joints_closed,
             "sim_s": float(d.time),
+            "object_mass": float(m.body_mass[obj]),
+            "object_friction": float(m.geom_friction[object_geoms[0], 0]),
+            "disturbance_force": float(force),
+            "disturbances_held": survived,
+            "slip_distance": slip,
+            "slip_angle_deg": slip_deg,
+            "execution_offset": offset,
+            "execution_angle_deg": angle,
         },
     )
 
