@@ -24,8 +24,12 @@ Contacts
     have the higher ``priority``): sliding friction ``friction`` (the protocol's,
     below; ``--friction`` overrides it), torsional friction ``torsional_friction``
     (m), ``condim`` 4, ``solref`` (``contact_timeconst``, damping ratio 1) and
-    MuJoCo's default ``solimp`` (0.9, 0.95, 1 mm). Gripper geoms do not collide
-    with each other.
+    MuJoCo's default ``solimp`` (0.9, 0.95, 1 mm). Contacts of the object with
+    the table take the table's parameters instead (its ``priority`` is higher
+    still): ``table_friction`` 0.8 whatever the protocol, and the same torsional
+    and rolling friction, ``condim`` and ``solref``, so an object settles on the
+    table in the same pose under every protocol and the same plans are executed.
+    Gripper geoms do not collide with each other.
 
     ``contact_timeconst`` is 5 ms, not MuJoCo's default 20 ms: the objects are
     rigid plastic, and a contact 16 times softer let a pad pressing 40-50 N sink
@@ -197,6 +201,7 @@ class SimParams:
     torsional_friction: float = 0.005
     rolling_friction: float = 0.0001
     contact_timeconst: float = 0.005
+    table_friction: float = 0.8
     #: forced mass of every object (kg); None: the set's, else density x volume
     object_mass: float | None = None
     density: float = 1200.0

@@ -95,7 +95,10 @@ def scene_xml(obj: SimObject, gripper: SimGripper | None, p: SimParams) -> str:
             pos=(0, 0, -0.01),
             contype=OBJECT_CONTYPE,
             conaffinity=OBJECT_CONAFFINITY,
-            friction=(0.5, 0.005, 0.0001),
+            priority=2,
+            condim=4,
+            solref=(p.contact_timeconst, 1.0),
+            friction=(p.table_friction, p.torsional_friction, p.rolling_friction),
         )
     }/>
 <body name="object" pos="0 0 0.2">
