@@ -55,6 +55,29 @@ eval-heldout: $(STAMP)
 		--json-out eval-results/random-heldout.json \
 		--md-out eval-results/random-heldout.md
 
+# the YCB development set (19 scanned household objects with their masses), read
+# from where it lies (never copied here), beside chance: each plan's choice and 3
+# random feasible candidates of the same plan, under the strict protocol
+YCB_DIR ?= ../shared/objects/ycb
+.PHONY: eval-ycb eval-chance
+eval-ycb: $(STAMP)
+	@test -d $(YCB_DIR) || { echo "no YCB set at $(YCB_DIR): pass YCB_DIR=..."; exit 2; }
+	$(BIN)/python -m pip install -q -e '.[sim]'
+	$(BIN)/wsgrasp eval $(EVAL_GRIPPERS) --no-paper --objects $(YCB_DIR) \
+		--trials 2 --seed 0 --baseline random \
+		--json-out eval-results/ycb.json --md-out eval-results/ycb.md
+
+# the choice against chance on random:000-099 under each protocol (README, Grasp
+# success in simulation)
+eval-chance: $(STAMP)
+	$(BIN)/python -m pip install -q -e '.[sim]'
+	for protocol in strict lift; do \
+		$(BIN)/wsgrasp eval $(EVAL_GRIPPERS) --no-paper --objects random:000-099 \
+			--trials 1 --seed 0 --protocol $$protocol --baseline random \
+			--json-out eval-results/chance-$$protocol.json \
+			--md-out eval-results/chance-$$protocol.md || exit 1; \
+	done
+
 # every URDF under GRIPPERS_DIR (the vendor descriptions wsgrasp is developed
 # against) scaffolded with no edit, checked, planned on the bundled scenes and tried
 # on random:000-299 x 1, and every built-in and example gripper: the README's
