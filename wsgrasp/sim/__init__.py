@@ -2,9 +2,11 @@
 
 ``wsgrasp eval`` (extra ``sim``) drops objects on a table, renders three noisy
 depth views, plans a grasp on them, and executes it with the gripper built from
-its URDF and YAML: approach, close, lift 20 cm, hold 10 s. See
-:mod:`wsgrasp.sim.trial` for the protocol, :mod:`wsgrasp.sim.params` for every
-physical parameter, :mod:`wsgrasp.sim.objects` for the ``paper13`` set.
+its URDF and YAML: approach, close, lift 20 cm, then (the ``strict`` protocol,
+the default) pull the object along six directions with the grasp executed off the
+plan by a seeded error, or (``lift``) hold 10 s. See :mod:`wsgrasp.sim.trial` for
+the protocol, :mod:`wsgrasp.sim.params` for every physical parameter and its
+source, :mod:`wsgrasp.sim.objects` for the ``paper13`` set and masses.
 
 MuJoCo is imported only when a trial is set up; without it a ``SimulationError``
 says ``pip install 'wsgrasp[sim]'``.
@@ -23,7 +25,7 @@ from wsgrasp.sim.objects import (
     object_from_mesh,
     paper13,
 )
-from wsgrasp.sim.params import SimParams
+from wsgrasp.sim.params import PROTOCOLS, SimParams
 from wsgrasp.sim.report import (
     PAPER_TABLE2,
     build_report,
@@ -36,8 +38,10 @@ from wsgrasp.sim.specs import spec_entries
 from wsgrasp.sim.trial import (
     OUTCOMES,
     Execution,
+    ExecutionError,
     Settled,
     execute_grasp,
+    execution_error,
     render_views,
     settle_object,
 )
@@ -47,8 +51,10 @@ __all__ = [
     "OUTCOMES",
     "PAPER13",
     "PAPER_TABLE2",
+    "PROTOCOLS",
     "EvalConfig",
     "Execution",
+    "ExecutionError",
     "Part",
     "Settled",
     "SimGripper",
@@ -59,6 +65,7 @@ __all__ = [
     "build_report",
     "build_scene",
     "execute_grasp",
+    "execution_error",
     "load_objects",
     "load_sim_gripper",
     "object_from_mesh",
