@@ -80,12 +80,15 @@ eval-chance: $(STAMP)
 
 # every URDF under GRIPPERS_DIR (the vendor descriptions wsgrasp is developed
 # against) scaffolded with no edit, checked, planned on the bundled scenes and tried
-# on random:000-299 x 1, and every built-in and example gripper: the README's
-# gripper table (benchmarks/eval_grippers.py)
+# on random:000-299 x 1 (the lift protocol; PROTOCOL=strict for eval's default),
+# and every built-in and example gripper: the README's gripper table
+# (benchmarks/eval_grippers.py)
 GRIPPERS_DIR ?= ../shared/grippers
+PROTOCOL ?= lift
 eval-grippers: $(STAMP)
 	$(BIN)/python -m pip install -q -e '.[sim]'
-	$(BIN)/python benchmarks/eval_grippers.py --grippers-dir $(GRIPPERS_DIR)
+	$(BIN)/python benchmarks/eval_grippers.py --grippers-dir $(GRIPPERS_DIR) \
+		--protocol $(PROTOCOL)
 
 # with the compiled dense loops (extra `fast`, numba); the dense entries' `compiled`
 # field says which path ran

@@ -133,7 +133,9 @@ def plans(gripper: str, scene_set: dict[str, Any]) -> dict[str, Any]:
     return {"spec": source, "plans": out}
 
 
-def trials(gripper: str, objects: str, n: int, seed: int, out: Path) -> dict[str, Any]:
+def trials(
+    gripper: str, objects: str, n: int, seed: int, protocol: str, out: Path
+) -> dict[str, Any]:
     """``wsgrasp eval`` with the default spec, in a process of its own."""
     json_out = out / f"eval-{package_name(Path(gripper))}.json"
     cmd = [
@@ -148,6 +150,8 @@ def trials(gripper: str, objects: str, n: int, seed: int, out: Path) -> dict[str
         "--seed",
         str(seed),
         "--no-paper",
+        "--protocol",
+        protocol,
         "-q",
         "--json-out",
         str(json_out),
@@ -277,6 +281,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--objects", default="random:000-299")
     ap.add_argument("--trials", type=int, default=1)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument(
+        "--protocol",
+        default="lift",
+        help="wsgrasp eval's trial protocol (lift: lift and hold; strict: "
+        "execution error, disturbances, slip in the grip)",
+    )
     ap.add_argument("--out", type=Path, default=ROOT / "eval-results" / "grippers")
     ap.add_argument("--readme", type=Path, default=ROOT / "README.md")
     ap.add_argument("--no-readme", action="store_true")
@@ -318,7 +328,14 @@ def main(argv: list[str] | None = None) -> int:
                 row.update(commands(gripper, name, args.out))
                 if not args.no_eval:
                     row.update(
-                        trials(gripper, args.objects, args.trials, args.seed, args.out)
+                        trials(
+                            gripper,
+                            args.objects,
+                            args.trials,
+                            args.seed,
+                            args.protocol,
+                            args.out,
+                        )
                     )
         console.print(
             f"  check: {_cell_check(row)}\n  plans: {_cell_plans(row)}\n"
@@ -333,8 +350,6 @@ def main(argv: list[str] | None = None) -> int:
         text=True,
         cwd=ROOT,
     ).stdout.strip()
-    from wsgrasp.sim import SimParams
-
     report = {
         "version": 1,
         "commit": commit,
@@ -343,7 +358,7 @@ def main(argv: list[str] | None = None) -> int:
         "objects": args.objects,
         "trials": args.trials,
         "seed": args.seed,
-        "protocol": getattr(SimParams(), "protocol", "lift"),
+        "protocol": args.protocol,
         "rows": rows,
     }
     (args.out / "grippers.json").write_text(json.dumps(report, indent=2) + "\n")
