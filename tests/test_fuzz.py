@@ -17,13 +17,20 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
+from bad_scenes import noisy_box, table_slab
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 from test_record_fakes import box_scene, fake_gripper, fake_spec
 
-from wsgrasp.api import Pipeline, _hits_table
-from wsgrasp.errors import GripperError, InputError, RecordingError, WsgraspError
+from wsgrasp.api import Pipeline, _hits_table, _under_table
+from wsgrasp.errors import (
+    GripperError,
+    InputError,
+    RecordingError,
+    SpecError,
+    WsgraspError,
+)
 from wsgrasp.perception.io import load_cloud, scene_from_arrays
 from wsgrasp.spec import load_gripper_description, load_spec
 
@@ -32,6 +39,9 @@ ROOT = Path(__file__).resolve().parents[1]
 #: examples tried per class
 CASES = {
     "cloud_arrays": 200,
+    "tables_alone": 40,
+    "oversized_objects": 15,  # per gripper
+    "missing_files": 60,
     "cloud_files": 600,
     "cloud_file_damage": 300,
     "specs": 500,
@@ -168,8 +178,108 @@ def test_any_array_gets_a_result_or_our_error(pipeline, points):
     if result.found:
         prep = pipeline.prepare(scene_from_arrays(points))
         table = prep.search_input.table
-        assert not _hits_table(pipeline.gripper, table, result.T_world_ee)
-        assert not _hits_table(pipeline.gripper, table, result.T_world_pregrasp)
+        for T in (result.T_world_ee, result.T_world_pregrasp):
+            assert not _hits_table(pipeline.gripper, table, T)
+            assert not _under_table(pipeline.gripper, prep.table_footprint, T)
+
+
+def _turned(points: np.ndarray, tilt: float, yaw: float, shift: float) -> np.ndarray:
+    """``points`` tilted about x, turned about z and shifted: the same scene in
+    a frame that is not the table's."""
+    from scipy.spatial.transform import Rotation
+
+    R = Rotation.from_euler("xz", [tilt, yaw]).as_matrix()
+    return points @ R.T + shift  # type: ignore[no-any-return]
+
+
+@fuzz("tables_alone")
+@given(
+    size=st.tuples(st.floats(0.4, 1.0), st.floats(0.4, 1.0)),
+    thickness=st.floats(0.012, 0.05),
+    step=st.sampled_from([0.004, 0.005, 0.006]),
+    noise=st.floats(0.0, 0.002),
+    sides=st.tuples(*[st.booleans()] * 4),
+    fold=st.one_of(st.just(0.0), st.floats(0.03, 0.2)),
+    frame=st.tuples(st.floats(0.0, 3.1), st.floats(-3.1, 3.1), st.floats(-2.0, 2.0)),
+    seed=st.integers(0, 2**16),
+)
+def test_a_table_alone_with_its_edges_is_nothing_to_grasp(
+    pipeline, size, thickness, step, noise, sides, fold, frame, seed
+):
+    # no pose: a table top with its side faces and a cloth over an edge, in
+    # any frame; nothing stands on it, so there is nothing to grasp
+    rng = np.random.default_rng(seed)
+    world = table_slab(
+        rng,
+        size=size,
+        thickness=thickness,
+        step=step,
+        noise=noise,
+        sides=sides,
+        fold=fold,
+    )
+    with pytest.raises(InputError, match="nothing to grasp|no object above"):
+        pipeline.plan(_turned(world, *frame))
+
+
+#: every built-in gripper and the example plugins' grippers
+OVERSIZED_GRIPPERS = ["franka_hand", "allegro_right"] + sorted(
+    str(p) for p in ROOT.glob("examples/plugins/*/wsgrasp_*/*.yaml")
+)
+
+
+@pytest.fixture(scope="module")
+def big_pipelines() -> dict[str, Pipeline]:
+    """Per gripper, its default spec with a segmenter that keeps objects up to
+    3 m (the default takes larger ones for walls), joins their sparser points,
+    and leaves the table's noise (up to 5 mm) on the table, and a coarser
+    voxel."""
+    from wsgrasp.default_specs import default_spec
+
+    out = {}
+    for gripper in OVERSIZED_GRIPPERS:
+        data, _ = default_spec(gripper)
+        data = {
+            **data,
+            "segmenter": {
+                "name": "ransac_dbscan",
+                "options": {
+                    "max_object_extent": 3.0,
+                    "max_height": 2.0,
+                    "cluster_eps": 0.03,
+                    "min_height": 0.025,
+                },
+            },
+            "preprocess": {"voxel_size": 0.01, "max_object_points": 800},
+        }
+        out[gripper] = Pipeline(load_spec(data))
+    return out
+
+
+@pytest.mark.parametrize(
+    "gripper", OVERSIZED_GRIPPERS, ids=[Path(g).stem for g in OVERSIZED_GRIPPERS]
+)
+@fuzz("oversized_objects")
+@given(
+    scale=st.tuples(*[st.floats(1.3, 3.0)] * 3),
+    noise=st.sampled_from([0.0, 0.001, 0.003, 0.005]),
+    yaw=st.floats(-3.1, 3.1),
+    seed=st.integers(0, 2**16),
+)
+def test_an_object_larger_than_a_gripper_encloses_is_too_large(
+    big_pipelines, gripper, scale, noise, yaw, seed
+):
+    # a box wider than the gripper's fingers' workspaces spread in every
+    # direction, its points noisy: never grasped, and the result says why
+    pipe = big_pipelines[gripper]
+    size = tuple(s * pipe.gripper.enclosure for s in scale)
+    table = 2.0 * float(np.hypot(size[0], size[1])) + 0.2
+    world = noisy_box(
+        np.random.default_rng(seed), size, table=table, step=0.01, noise=noise, yaw=yaw
+    )
+    result = pipe.plan(world)
+    assert not result.found
+    assert f"too large for {pipe.gripper.name}" in result.hint, result.hint
 
 
 SUFFIXES = [".ply", ".pcd", ".npy", ".npz", ".xyz", ".csv", ".txt"]
@@ -250,6 +360,68 @@ def test_any_spec_is_valid_or_refused_with_one_error(data):
     assert sum(s.weight for s in spec.scorers) > 0
     # what loads, plans: the pipeline accepts every option the check accepted
     Pipeline(spec, gripper=fake_gripper())
+
+
+ROBOTIQ = ROOT / "examples/plugins/robotiq_2f85_like/wsgrasp_robotiq_2f85_like"
+#: relative to what each file a spec leads to is read
+RELATIVE_TO = {
+    "yaml": "the spec file's folder",
+    "urdf": "the gripper YAML's folder",
+    "mesh": "the URDF's folder",
+}
+folder_names = st.text("abcxyz_-. 0123456789", min_size=1, max_size=6).filter(
+    lambda t: t.strip(". ") == t and t not in (".", "..")
+)
+
+
+@fuzz("missing_files")
+@given(
+    missing=st.sampled_from(sorted(RELATIVE_TO)),
+    spec_dirs=st.lists(folder_names, max_size=2),
+    gripper_dirs=st.lists(folder_names, min_size=1, max_size=2),
+    urdf_dirs=st.lists(folder_names, max_size=2),
+    absolute=st.booleans(),
+)
+def test_a_spec_naming_a_missing_file_says_which_and_where(
+    tmp_path_factory, missing, spec_dirs, gripper_dirs, urdf_dirs, absolute
+):
+    # the spec names a gripper YAML (by a relative or an absolute path), which
+    # names a URDF (relative), which names a collision mesh (relative); one of
+    # the three files is missing
+    from wsgrasp.cli._spec_check import spec_problems
+
+    root = tmp_path_factory.mktemp("m")
+    spec_dir = root.joinpath(*spec_dirs)
+    gripper_dir = spec_dir.joinpath(*gripper_dirs)
+    urdf_dir = gripper_dir.joinpath(*urdf_dirs)
+    (urdf_dir / "meshes").mkdir(parents=True, exist_ok=True)
+    urdf_rel = Path(*urdf_dirs, "jaw.urdf")
+    desc = yaml.safe_load((ROBOTIQ / "robotiq_2f85_like.yaml").read_text())
+    desc["urdf"] = str(urdf_rel)
+    paths = {
+        "yaml": gripper_dir / "jaw.yaml",
+        "urdf": urdf_dir / "jaw.urdf",
+        "mesh": urdf_dir / "meshes" / "base_housing.stl",
+    }
+    if missing != "yaml":
+        paths["yaml"].write_text(yaml.safe_dump(desc))
+    if missing != "urdf":
+        paths["urdf"].write_text((ROBOTIQ / "robotiq_2f85_like.urdf").read_text())
+    if missing != "mesh":
+        paths["mesh"].write_bytes((ROBOTIQ / "meshes/base_housing.stl").read_bytes())
+    ref = paths["yaml"] if absolute else Path(*gripper_dirs, "jaw.yaml")
+    spec = spec_dir / "spec.yaml"
+    spec.write_text(yaml.safe_dump({**BASE_SPEC, "gripper": str(ref)}, sort_keys=False))
+    problems = spec_problems(spec)
+    assert len(problems) == 1, problems
+    message = problems[0]
+    assert message.startswith(f"{spec}:") and "not found: tried " in message
+    assert str(paths[missing]) in message
+    if missing != "yaml" or not absolute:
+        assert f"relative to {RELATIVE_TO[missing]}" in message
+    with pytest.raises(SpecError) as info:
+        load_spec(spec)
+    assert info.value.message == message
 
 
 BASE_GRIPPER = yaml.safe_load(
