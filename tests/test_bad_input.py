@@ -560,18 +560,19 @@ def test_too_large_is_decided_from_the_spheres_for_jaws_and_hands(noise):
         g = load_gripper(name)
         side = 1.5 * g.enclosure
         # its points start one grid step above the table: it is that much lower
-        cube = noisy_box(rng, (side, side, side), table=0.0, noise=noise)
+        cube = noisy_box(rng, (side,) * 3, table=0.0, step=0.01, noise=noise)
         why = _too_large(cube, g, noise=noise)
         assert f"too large for {name}" in why
         across = float(re.search(r"it is (\d+\.\d+) m across", why).group(1))
-        # the widest noise widens it (28,000 points: some 3 deviations a side)
-        assert abs(across - (side - 0.005)) < 0.002 + 8 * noise, why
+        # the widest noise widens it (some 3 deviations a side)
+        assert abs(across - (side - 0.01)) < 0.002 + 8 * noise, why
         assert f"span at most {g.enclosure:.3f} m" in why
         # what the noise makes a convex cloud look is no concavity, but a real
         # one is: an L as wide, whose arms fit the gripper, is left to the search
         arm, t = 2.5 * g.enclosure, 0.6 * g.enclosure
-        a = noisy_box(rng, (arm, t, arm), table=0.0, noise=0.0) + [arm / 2, t / 2, 0]
-        b = noisy_box(rng, (t, arm - t, arm), table=0.0, noise=0.0)
+        a = noisy_box(rng, (arm, t, arm), table=0.0, step=0.01, noise=0.0)
+        a += [arm / 2, t / 2, 0]
+        b = noisy_box(rng, (t, arm - t, arm), table=0.0, step=0.01, noise=0.0)
         b += [t / 2, arm / 2, 0]
         a = a[~((np.abs(a[:, 1] - t) < 1e-9) & (a[:, 0] < t + 1e-9))]  # shared face
         b = b[np.abs(b[:, 1] - t) > 1e-9]
