@@ -279,15 +279,21 @@ class Pipeline:
         )
 
     def search(self, prepared: Prepared) -> SearchOutput:
-        """The vectorised search on prepared inputs."""
+        """The vectorised search on prepared inputs, with every feasible
+        candidate whose fingers would sweep through the table before reaching
+        the object rejected (``finger_sweeps_table``) where backing it off
+        cannot clear them (:func:`_sweeps_cleared`)."""
         centroid = prepared.search_input.T_world_object[:3, 3]
-        return run_search(
+        out = run_search(
             prepared.search_input,
             self._scorers,
             top_k=self.spec.top_k,
             spheres=self._spheres,
             normals_fn=lambda p: _normals(p, centroid),
             normals_of=lambda p, rows: _normals(p, centroid, rows),
+        )
+        return _sweeps_cleared(
+            out, self.gripper, prepared.search_input, self._spheres, self.spec.top_k
         )
 
     def _plan(
@@ -768,6 +774,19 @@ def _no_grasp(
             "approach, hits the table; lower approach.distance"
         )
     inp = prep.search_input
+    swept = hist.get("finger_sweeps_table", 0)
+    if swept:
+        # the last check: every candidate the search found feasible failed it
+        from wsgrasp.planning.closing import BACK_OFF_STEPS
+
+        return (
+            f"at every pose that holds the object ({swept} of {sum(hist.values())} "
+            "poses) the fingers would sweep through the table before reaching it, "
+            f"even backed off {BACK_OFF_STEPS[-1] * 100:g} cm along the approach; "
+            "the object is too low for these fingers to close round it from "
+            "there: sample more approach directions from the side, or more "
+            "points along the object"
+        )
     heights = prep.table_plane.signed_distance(inp.object_points)
     return no_grasp_hint(hist, inp.extents, g, float(heights.max()))
 
@@ -803,22 +822,147 @@ def _taken_pose(
     spheres: FingerSpheres | None,
 ) -> tuple[Array, NDArray[np.bool_] | None]:
     """Candidate ``index``'s pose as a plan takes it, with what its fingers hold
-    there: backed off along its approach where its fingers' closing paths would
-    pass below the table, as the search does for its best (whose pose the
-    candidate set already holds as moved; None for its holdings then)."""
+    there: backed off along its approach where its fingers would sweep through
+    the table before reaching the object (:func:`_sweeps_cleared` kept only the
+    candidates for which that backed-off pose passes every check), as the
+    search's best (whose pose the candidate set already holds as moved; None
+    for its holdings then)."""
+    from wsgrasp.planning.closing import sweep_back_offs
     from wsgrasp.planning.evaluate import evaluate_candidates
-    from wsgrasp.planning.search import _back_off
 
     T = out.candidates.T_world_ee[index]
     if index == out.best:
         return T, None
-    backed = _back_off(g, T, inp, spheres)
-    if backed is not None:
-        return backed
+    d = float(
+        sweep_back_offs(g, T[None], inp.table.T_world_table, inp.object_points)[0]
+    )
+    if d > 0.0:
+        T = pregrasp_pose(g, T, d)
     ev = evaluate_candidates(
         T[None], g, inp.object_points, inp.obstacle_points, inp.table, spheres
     )
     return T, ev.holding[0]
+
+
+def _sweeps_cleared(
+    out: SearchOutput,
+    g: GripperModel,
+    inp: SearchInput,
+    spheres: FingerSpheres | None,
+    top_k: int,
+) -> SearchOutput:
+    """``out`` with the fingers' closing sweeps kept out of the table.
+
+    Every feasible candidate, at its pose as generated, gets the least back-off
+    along its approach that keeps its fingers' sweeps above the table until
+    they reach the object (:func:`~wsgrasp.planning.closing.sweep_back_offs`);
+    one that no back-off clears, or whose backed-off pose fails a check of the
+    search (its fingers no longer hold the object, say), is rejected as
+    ``finger_sweeps_table``. The best of the rest is the choice, at its pose
+    backed off (the candidate set holds it so, as the search holds its own
+    best); the others stay as generated and are backed off when taken
+    (:func:`_taken_pose`). Without rejections and with the search's own
+    choice at the same pose, ``out`` is returned as it is.
+    """
+    from dataclasses import replace
+
+    from wsgrasp.planning.candidates import candidate_poses
+    from wsgrasp.planning.closing import sweep_back_offs
+    from wsgrasp.planning.evaluate import evaluate_candidates
+    from wsgrasp.planning.result import REASONS, Alternative
+    from wsgrasp.planning.search import _contacts
+
+    t0 = time.perf_counter()
+    cands = out.candidates
+    feasible = np.flatnonzero(cands.reason == 0)  # (F,)
+    if not len(feasible):
+        return out
+    T = cands.T_world_ee[feasible].copy()  # (F, 4, 4)
+    best = out.best
+    if best is not None:
+        # the search moved its best back by its own rule: the pose as generated
+        o = inp.orientations
+        s, k = int(cands.sample[best]), int(cands.orientation[best])  # type: ignore[index]
+        _, T_gen, _, _ = candidate_poses(
+            inp.T_world_object,
+            inp.samples_object[s : s + 1],
+            o.R_object_gwc[k : k + 1],
+            g.T_gripper_gwc,
+            None if o.depth is None else o.depth[k : k + 1],
+        )
+        T[np.searchsorted(feasible, best)] = T_gen[0]
+    d = sweep_back_offs(g, T, inp.table.T_world_table, inp.object_points)  # (F,)
+    rejected = np.isnan(d)
+    moved = np.flatnonzero(d > 0.0)
+    T_moved = T[moved].copy()  # (m, 4, 4)
+    T_moved[:, :3, 3] -= d[moved, None] * (T[moved, :3, :3] @ g.approach_axis)
+    if len(moved):
+        ev = evaluate_candidates(
+            T_moved, g, inp.object_points, inp.obstacle_points, inp.table, spheres
+        )
+        rejected[moved[ev.reason != 0]] = True
+    T_taken = T.copy()
+    T_taken[moved] = T_moved
+    reason = cands.reason.copy()
+    score = cands.score.copy()
+    terms = {k: v.copy() for k, v in cands.terms.items()}
+    code = REASONS.index("finger_sweeps_table")
+    reason[feasible[rejected]] = code
+    score[feasible[rejected]] = np.nan
+    for v in terms.values():
+        v[feasible[rejected]] = np.nan
+    kept = feasible[~rejected]
+    order = kept[np.argsort(-score[kept], kind="stable")]  # best first
+    new_best = int(order[0]) if len(order) else None
+    timing = {**out.timing_ms, "sweeps": (time.perf_counter() - t0) * 1e3}
+    if new_best == best and not rejected.any():
+        assert best is not None
+        i = int(np.searchsorted(feasible, best))
+        if np.array_equal(T_taken[i], cands.T_world_ee[best]):
+            return replace(out, timing_ms=timing)
+    T_ee = cands.T_world_ee.copy()
+    T_gwc = cands.T_world_gwc.copy()
+    if best is not None:  # back to its pose as generated
+        T_ee[best] = T[np.searchsorted(feasible, best)]
+        T_gwc[best] = T_ee[best] @ g.T_gripper_gwc
+    contacts = []
+    score_terms: dict[str, float] = {}
+    alternatives = []
+    if new_best is not None:
+        T_best = T_taken[np.searchsorted(feasible, new_best)]
+        T_ee[new_best] = T_best
+        T_gwc[new_best] = T_best @ g.T_gripper_gwc
+        ev = evaluate_candidates(
+            T_best[None], g, inp.object_points, inp.obstacle_points, inp.table, spheres
+        )
+        contacts = _contacts(g, T_best, inp.object_points, ev.holding[0])
+        score_terms = {k: float(v[new_best]) for k, v in terms.items()}
+        alternatives = [
+            Alternative(
+                index=int(j),
+                T_world_ee=T_ee[j],
+                score=float(score[j]),
+                terms={k: float(v[j]) for k, v in terms.items()},
+            )
+            for j in order[1 : top_k + 1]
+        ]
+    candidates = replace(
+        cands,
+        T_world_ee=T_ee,
+        T_world_gwc=T_gwc,
+        reason=reason,
+        score=score,
+        terms=terms,
+    )
+    return replace(
+        out,
+        candidates=candidates,
+        best=new_best,
+        alternatives=alternatives,
+        contacts=contacts,
+        score_terms=score_terms,
+        timing_ms=timing,
+    )
 
 
 def _choose(

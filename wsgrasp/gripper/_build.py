@@ -26,6 +26,7 @@ from wsgrasp.gripper._body import (
     sample_body,
     thin_cloud,
 )
+from wsgrasp.gripper._sweep import finger_sweeps
 from wsgrasp.gripper._urdf import Kinematics, load_kinematics
 from wsgrasp.gripper._workspace import SphereFill, Workspace, fill_spheres
 from wsgrasp.gripper._workspace import sample_workspace as _sample_workspace
@@ -36,7 +37,7 @@ Array = NDArray[np.float64]
 Progress = Callable[[str], None]
 
 #: bumped whenever the builder's output changes for the same inputs (cache key)
-BUILDER_VERSION = 2
+BUILDER_VERSION = 3
 
 
 def _noop(_: str) -> None:
@@ -180,6 +181,8 @@ def build_model(
     max_opening = float(max(span.max(), 0.0))
 
     config_pad, config_finger, ptr, index = _sphere_configurations(workspaces, fills)
+    # float32 values, as the model file keeps them (see _sphere_configurations)
+    sweep = finger_sweeps(kin, desc, workspaces).astype(np.float32).astype(np.float64)
     inside = points_in_superellipsoids(cloud, se_centers, se_axes, se.exponent)
     fingers_stats: list[dict[str, Any]] = []
     for finger, ws, fill in zip(desc.fingers, workspaces, fills, strict=True):
@@ -236,6 +239,7 @@ def build_model(
         config_finger=config_finger,
         sphere_config_ptr=ptr,
         sphere_config_index=index,
+        finger_sweep=sweep,
     )
 
 

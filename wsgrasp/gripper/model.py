@@ -15,9 +15,10 @@ from wsgrasp.errors import GripperError
 
 __all__ = ["GripperModel", "MODEL_FORMAT_VERSION"]
 
-MODEL_FORMAT_VERSION = 2
-#: formats :meth:`GripperModel.from_bytes` still reads (1: no finger configurations)
-_READABLE_FORMATS = (1, 2)
+MODEL_FORMAT_VERSION = 3
+#: formats :meth:`GripperModel.from_bytes` still reads (1: no finger
+#: configurations; 2: no finger sweeps)
+_READABLE_FORMATS = (1, 2, 3)
 
 _ARRAYS = (
     "cloud",
@@ -38,6 +39,8 @@ _CONFIG_ARRAYS = (
     "sphere_config_ptr",
     "sphere_config_index",
 )
+#: arrays of the fingers' closing sweeps (format 3); empty before
+_SWEEP_ARRAYS = ("finger_sweep",)
 
 
 @dataclass
@@ -96,6 +99,11 @@ class GripperModel:
         ``sphere_config_index[sphere_config_ptr[s]:sphere_config_ptr[s + 1]]``
         (indices into ``config_pad``): the joint configurations that put the
         fingertip in that sphere.
+    finger_sweep : (nf, K, P, 3) float
+        Per finger, ``P`` points on the collision geometry of the links its
+        joints move, at ``K`` postures evenly spaced (in joint space) from the
+        pre-grasp posture to the closed one: the volume the finger sweeps as it
+        closes (``(0, 0, 0, 3)`` in a model built before format 3).
     """
 
     name: str
@@ -129,6 +137,9 @@ class GripperModel:
     )
     sphere_config_index: NDArray[np.int64] = field(
         default_factory=lambda: np.zeros(0, dtype=np.int64)
+    )
+    finger_sweep: NDArray[np.float64] = field(
+        default_factory=lambda: np.zeros((0, 0, 0, 3))
     )
 
     # -- derived -----------------------------------------------------------------
@@ -164,6 +175,11 @@ class GripperModel:
     def has_configurations(self) -> bool:
         """Whether the model keeps its fingers' joint configurations (format 2)."""
         return len(self.config_pad) > 0
+
+    @property
+    def has_sweeps(self) -> bool:
+        """Whether the model keeps its fingers' closing sweeps (format 3)."""
+        return self.finger_sweep.size > 0
 
     @property
     def config_offsets(self) -> NDArray[np.int64]:
@@ -229,11 +245,15 @@ class GripperModel:
             "joint_samples": self.joint_samples,
         }
         buf = io.BytesIO()
-        arrays = {k: np.asarray(getattr(self, k)) for k in _ARRAYS + _CONFIG_ARRAYS}
+        arrays = {
+            k: np.asarray(getattr(self, k))
+            for k in _ARRAYS + _CONFIG_ARRAYS + _SWEEP_ARRAYS
+        }
         # the configuration tables are most of an Allegro model: pad centres as
         # float32 (exact to well under a micrometre) and the sorted per-sphere
         # lists as differences shrink it from 3.1 MB to 0.95 MB compressed
         arrays["config_pad"] = arrays["config_pad"].astype(np.float32)
+        arrays["finger_sweep"] = arrays["finger_sweep"].astype(np.float32)
         arrays["sphere_config_index"] = np.diff(
             arrays["sphere_config_index"], prepend=0
         ).astype(np.int32)
@@ -248,7 +268,9 @@ class GripperModel:
             with np.load(io.BytesIO(data), allow_pickle=False) as z:
                 meta = json.loads(z["meta"].tobytes().decode())
                 arrays = {k: z[k] for k in _ARRAYS}
-                arrays.update({k: z[k] for k in _CONFIG_ARRAYS if k in z.files})
+                arrays.update(
+                    {k: z[k] for k in _CONFIG_ARRAYS + _SWEEP_ARRAYS if k in z.files}
+                )
         except Exception as exc:  # noqa: BLE001 - any decoding failure
             raise GripperError(
                 f"gripper model data is not readable: {exc}",
@@ -269,6 +291,8 @@ class GripperModel:
                 arrays["sphere_config_index"], dtype=np.int64
             )
             arrays["config_pad"] = arrays["config_pad"].astype(np.float64)
+        if "finger_sweep" in arrays:
+            arrays["finger_sweep"] = arrays["finger_sweep"].astype(np.float64)
         return cls(
             name=meta["name"],
             finger_names=list(meta["finger_names"]),

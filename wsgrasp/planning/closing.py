@@ -2,35 +2,46 @@
 the table.
 
 A hand whose fingers curl (the Allegro hand's sweep 9.6 cm along the approach
-axis as they close) drives its fingertips into the table when it grasps a low
-object from above at the depth the search chose: in the physics trials nearly
-every Allegro grasp that slipped had fingertips pressed on the table, stopped
-there before they reached round the object. This module follows each finger's
-pad centre along its closing path, the straight line in joint space from the
-pre-grasp posture to the closed one (what a position-controlled hand closing to
-``closed`` does), and backs the chosen grasp off along its approach axis until
-no pad centre's path passes below the table surface: the fingertips then brush
-the table instead of digging into it.
+axis as they close) or swing down (the D'Claw's fingertips sweep 18 cm) drives
+them into the table when it grasps a low object from above at the depth the
+search chose: stopped on the table, they never reach round the object. Each
+finger closes along the straight line in joint space from the pre-grasp posture
+to the closed one (what a position-controlled hand closing to ``closed`` does);
+the gripper model keeps points on the collision geometry of every link the
+finger's joints move at postures along that line (``GripperModel.finger_sweep``).
 
-Measured (``wsgrasp eval``, random objects 000-099, 1 trial, seed 0): Allegro
-hand, approach-sphere sampling 46 % held without the back-off, 70 % with it (65 %
-with a fixed 1.5 cm, 4 % with a fixed 4 cm: the depth matters to the centimetre);
-paper sampling 36 % -> 53 %. For a parallel jaw or the Barrett hand, whose pads
-do not sink while closing, the table test already keeps them up and nothing
-changes.
+:func:`sweep_back_offs` follows those points for every candidate at once: a
+finger's sweep counts up to the posture at which it reaches the object (a point
+of the object cloud within the points' spacing), and must stay above the table
+until then. A candidate whose sweep dips below the table first is backed off
+along its approach axis by the least step (5 mm, at most 3 cm) that clears it,
+or else rejected (``finger_sweeps_table``, see ``wsgrasp.api``).
 
-Only models that keep their fingers' joint configurations (format 2) have the
-paths.
+:func:`table_back_off` is the older rule for one pose: the pad centres' whole
+paths kept above the table (what the search applies to its best before the
+finishing step re-judges every feasible candidate by the sweeps); it is the rule
+for models built before the sweeps were kept (format 2), whose sweeps are their
+pad centres.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from wsgrasp.gripper.model import GripperModel
+from wsgrasp.planning.dense import hull_vertices
 
-__all__ = ["closing_paths", "table_back_off"]
+__all__ = [
+    "SWEEP_SLACK",
+    "closing_paths",
+    "finger_sweep",
+    "prepare_sweeps",
+    "sweep_back_offs",
+    "table_back_off",
+]
 
 Array = NDArray[np.float64]
 
@@ -113,3 +124,228 @@ def table_back_off(
     T_back = T.copy()
     T_back[:3, 3] -= d * a
     return d, T_back
+
+
+#: a sweep point this far (m) below the table plane is in the table (the
+#: plane's own noise)
+SWEEP_SLACK = 0.002
+#: voxel (m) of each finger's reach grid (:func:`_reach_grids`)
+_REACH_VOXEL = 0.004
+#: a finger reaches an object point within this share of its sweep points'
+#: spacing (the median distance to the nearest other point) ...
+_REACH_SHARE = 0.6
+#: ... or within this (m), whichever is larger (pad centres alone: 5 mm)
+_REACH_MIN = 0.003
+_REACH_PAD = 0.005
+#: candidates whose object points are put into the gripper frame at once
+_CHUNK = 256
+
+
+def finger_sweep(g: GripperModel) -> Array:
+    """The fingers' closing sweeps: ``GripperModel.finger_sweep``, or for a model
+    without them (format 2) the pad centres' closing paths.
+
+    Returns
+    -------
+    (nf, K, P, 3) float
+        Gripper frame; ``(nf, K, 1, 3)`` from pad centres; ``(0, K, 1, 3)`` for a
+        model without finger configurations either.
+    """
+    if g.has_sweeps:
+        return g.finger_sweep
+    return closing_paths(g)[:, :, None, :]
+
+
+def prepare_sweeps(g: GripperModel) -> None:
+    """Build what :func:`sweep_back_offs` looks up for ``g`` (kept on the
+    model), so that the first plan does not pay for it."""
+    if g.num_fingers and (g.has_sweeps or g.has_configurations):
+        _sweep_index(g)
+
+
+@dataclass(frozen=True)
+class _SweepIndex:
+    """What :func:`sweep_back_offs` looks up, built once per model.
+
+    Attributes
+    ----------
+    hull : (nf, K, H, 3) float
+        Per finger and posture, the corners of the sweep points' convex hull
+        (a finger's lowest point is one of them), padded by repeating one.
+    origin : (nf, 3) float
+        Centre of voxel ``(0, 0, 0)`` of each finger's reach grid.
+    reach : list of (X, Y, Z) uint8
+        Per finger, the first posture (step) at which the finger reaches each
+        voxel; ``K`` where it never does.
+    """
+
+    hull: Array
+    origin: Array
+    reach: list[NDArray[np.uint8]]
+
+
+def _sweep_index(g: GripperModel) -> _SweepIndex:
+    cached = g.__dict__.get("_sweep_index")
+    if cached is not None:
+        return cached  # type: ignore[no-any-return]
+    sweep = finger_sweep(g)  # (nf, K, P, 3)
+    nf, K = sweep.shape[:2]
+    hulls = [[hull_vertices(sweep[f, k]) for k in range(K)] for f in range(nf)]
+    H = max((len(h) for row in hulls for h in row), default=1)
+    hull = np.zeros((nf, K, H, 3))
+    for f, row in enumerate(hulls):
+        for k, h in enumerate(row):
+            hull[f, k] = np.resize(h, (H, 3))  # padded with its own corners
+    origin = np.zeros((nf, 3))
+    reach: list[NDArray[np.uint8]] = []
+    for f in range(nf):
+        origin[f], grid = _reach_grid(sweep[f])
+        reach.append(grid)
+    index = _SweepIndex(hull, origin, reach)
+    g.__dict__["_sweep_index"] = index
+    return index
+
+
+def _reach_grid(points: Array) -> tuple[Array, NDArray[np.uint8]]:
+    """One finger's reach grid from its sweep ``points`` ``(K, P, 3)``: each
+    voxel holds the first step at which a sweep point lies within the reach
+    radius of its centre (``K`` where none does). Returns the grid's origin
+    (the centre of voxel ``(0, 0, 0)``) and the grid."""
+    from scipy.spatial import cKDTree
+
+    K, P = points.shape[:2]
+    if P > 1:
+        d, _ = cKDTree(points[0]).query(points[0], k=2)  # (P, 2)
+        spacing = float(np.median(d[:, 1]))
+        radius = max(_REACH_MIN, _REACH_SHARE * spacing)
+    else:
+        radius = _REACH_PAD
+    v = _REACH_VOXEL
+    r = int(np.ceil(radius / v))
+    flat = points.reshape(-1, 3)  # (K P, 3)
+    origin = flat.min(axis=0) - (r + 1) * v
+    idx = np.rint((flat - origin) / v).astype(np.int64)  # (K P, 3)
+    shape = idx.max(axis=0) + r + 2  # (3,)
+    g = np.arange(-r, r + 1)
+    off = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
+    off = off[np.linalg.norm(off * v, axis=1) <= radius + 0.5 * v]  # (m, 3) a ball
+    step = np.repeat(np.arange(K, dtype=np.uint8), P)  # (K P,)
+    grid = np.full(tuple(int(x) for x in shape), K, dtype=np.uint8)
+    cells = (idx[:, None, :] + off[None, :, :]).reshape(-1, 3)  # (K P m, 3)
+    np.minimum.at(grid, tuple(cells.T), np.repeat(step, len(off)))
+    return origin, grid
+
+
+def sweep_back_offs(
+    g: GripperModel,
+    T_world_gripper: Array,
+    T_world_table: Array,
+    object_points: Array,
+) -> Array:
+    """The least back-off along each candidate's approach axis that keeps its
+    fingers' sweeps out of the table until they reach the object.
+
+    A finger's sweep (:func:`finger_sweep`) is followed posture by posture from
+    the pre-grasp one: it fails at the first posture with a point more than
+    :data:`SWEEP_SLACK` below the table plane, unless an earlier posture
+    already reached an object point (a finger stopped by the object goes no
+    further). A candidate is clear when no finger fails; backing it off
+    ``d`` along its approach lifts the sweeps and moves the object deeper into
+    them, so each step of ``BACK_OFF_STEPS`` is tried in turn.
+
+    Parameters
+    ----------
+    g : GripperModel
+    T_world_gripper : (C, 4, 4) float
+    T_world_table : (4, 4) float
+        Table frame: origin on the surface, z its normal towards the object.
+    object_points : (n, 3) float
+        World frame.
+
+    Returns
+    -------
+    (C,) float
+        The back-off (m; 0 where the sweeps are clear as they are), NaN where
+        no step up to ``BACK_OFF_STEPS[-1]`` clears them. All zeros for a model
+        without finger configurations.
+    """
+    T = np.asarray(T_world_gripper, dtype=np.float64).reshape(-1, 4, 4)
+    C = len(T)
+    out = np.full(C, np.nan)
+    if g.num_fingers == 0 or not (g.has_sweeps or g.has_configurations):
+        out[:] = 0.0
+        return out
+    index = _sweep_index(g)
+    nf, K = index.hull.shape[:2]
+    n = np.asarray(T_world_table, dtype=np.float64)[:3, 2]
+    o = np.asarray(T_world_table, dtype=np.float64)[:3, 3]
+    # candidates share their rotations (samples x orientations): each once
+    rotations, of = np.unique(T[:, :3, :3].reshape(C, 9), axis=0, return_inverse=True)
+    R = rotations.reshape(-1, 3, 3)  # (U, 3, 3)
+    of = of.reshape(-1)  # (C,) index into R
+    u = np.einsum("uij,i->uj", R, n)  # (U, 3) table normal, gripper frame
+    hull = index.hull.reshape(-1, 3)  # (nf K H, 3)
+    low = (hull @ u.T).reshape(nf, K, -1, len(R)).min(axis=2)  # (nf, K, U)
+    low = low[:, :, of] + (T[:, :3, 3] - o) @ n  # (nf, K, C) lowest height
+    a_n = u[of] @ g.approach_axis  # (C,) how the approach moves along the normal
+    pts = np.asarray(object_points, dtype=np.float64).reshape(-1, 3)
+    # object points rotated into each rotation's gripper axes, in reach-grid
+    # voxels (float32: a voxel is millimetres, a metre ten million times that)
+    p_rot = (np.matmul(pts[None], R) / _REACH_VOXEL).astype(np.float32)  # (U, n, 3)
+    t_g = np.einsum("cji,cj->ci", R[of], T[:, :3, 3])  # (C, 3) R^T t
+    todo = np.arange(C)  # candidates not yet settled
+    for d in BACK_OFF_STEPS:
+        below = (low[:, :, todo] - d * a_n[todo]) < -SWEEP_SLACK  # (nf, K, t)
+        hits = below.any(axis=1)  # (nf, t)
+        first = np.where(hits, below.argmax(axis=1), K)  # (nf, t) step
+        clear = ~hits.any(axis=0)  # (t,)
+        crossing = np.flatnonzero(~clear)
+        for lo in range(0, len(crossing), _CHUNK):
+            x = crossing[lo : lo + _CHUNK]
+            c = todo[x]
+            # the gripper origins, backed off, in the candidates' own axes
+            shift = (t_g[c] - d * g.approach_axis) / _REACH_VOXEL  # (x, 3)
+            limit = first[:, x]  # (nf, x) the step each finger enters the table
+            clear[x] = _reached_first(index, p_rot, of[c], shift, limit)
+        out[todo[clear]] = d
+        todo = todo[~clear]
+        if not len(todo):
+            break
+    return out
+
+
+def _reached_first(
+    index: _SweepIndex,
+    p_rot: NDArray[np.float32],
+    rotation: NDArray[np.int64],
+    shift: Array,
+    limit: NDArray[np.int64],
+) -> NDArray[np.bool_]:
+    """Whether every finger reaches an object point before the step ``limit``
+    ``(nf, x)`` at which it enters the table (``K``: it never does), for
+    candidates whose object points in the gripper frame are
+    ``p_rot[rotation] - shift`` (reach-grid voxels; ``p_rot`` ``(U, n, 3)``,
+    ``rotation`` ``(x,)``, ``shift`` ``(x, 3)``): ``(x,)``. Fingers are
+    looked up one after another, each only for the candidates no finger has
+    failed yet."""
+    nf, K = index.hull.shape[:2]
+    alive = ~(limit == 0).any(axis=0)  # (x,) entering the table at once fails
+    if p_rot.shape[1] == 0:
+        return alive & (limit == K).all(axis=0)
+    for f in range(nf):  # fingers, each with its own grid
+        rows = np.flatnonzero(alive & (limit[f] < K))
+        if not len(rows):
+            continue
+        grid = index.reach[f]
+        top = np.array(grid.shape, dtype=np.int32) - 1
+        offset = (shift[rows] + index.origin[f] / _REACH_VOXEL).astype(np.float32)
+        q = p_rot[rotation[rows]] - offset[:, None, :]  # (r, n, 3) voxels
+        idx = np.rint(q, out=q).astype(np.int32)
+        # the grid's border voxels never hold a step: clipped points fall there
+        np.minimum(idx, top, out=idx)
+        np.maximum(idx, 0, out=idx)
+        flat = (idx[..., 0] * grid.shape[1] + idx[..., 1]) * grid.shape[2]
+        flat += idx[..., 2]
+        reached = grid.reshape(-1)[flat].min(axis=1)  # (r,) first step
+        alive[rows] = reached < limit[f, rows]
+    return alive

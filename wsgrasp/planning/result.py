@@ -11,13 +11,17 @@ from numpy.typing import NDArray
 __all__ = ["REASONS", "CandidateSet", "Contact", "Alternative", "PlanResult"]
 
 #: Rejection reasons, by code. Code 0 is a feasible candidate. A candidate gets the
-#: first reason that applies, in this order (the order of Algorithm 1's checks).
+#: first reason that applies, in this order (the order of Algorithm 1's checks,
+#: then the fingers' closing sweeps: ``finger_sweeps_table``, a candidate whose
+#: fingers would pass through the table before reaching the object however far
+#: it is backed off, up to 3 cm, along its approach).
 REASONS: tuple[str, ...] = (
     "feasible",
     "table_collision",
     "object_collision",
     "obstacle_collision",
     "finger_without_contact",
+    "finger_sweeps_table",
 )
 
 

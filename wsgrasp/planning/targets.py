@@ -330,13 +330,17 @@ def pad_positions(g: GripperModel, finger: int, q: Array) -> Array:
 
 def prepare(g: GripperModel) -> None:
     """Build the per-finger lookups the joint targets use (pad KD-trees,
-    interpolators and the spheres' configuration bits), so that the first plan
-    does not pay for them."""
+    interpolators and the spheres' configuration bits) and those that keep the
+    fingers' closing sweeps off the table (``wsgrasp.planning.closing``), so
+    that the first plan does not pay for them."""
+    from wsgrasp.planning.closing import prepare_sweeps
+
     if g.has_configurations:
         for f in range(g.num_fingers):
             config_tree(g, f)
             _interpolator(g, f)
         sphere_config_bits(g)
+    prepare_sweeps(g)
 
 
 def _interpolator(g: GripperModel, finger: int) -> _PadInterpolator:

@@ -35,6 +35,7 @@ REASON_RGBA: dict[str, tuple[float, float, float, float]] = {
     "object_collision": (0.90, 0.15, 0.15, 0.8),
     "obstacle_collision": (0.60, 0.20, 0.75, 0.8),
     "finger_without_contact": (0.55, 0.60, 0.70, 0.8),
+    "finger_sweeps_table": (0.54, 0.54, 0.0, 0.8),
 }
 _OTHER_RGBA = (0.3, 0.3, 0.3, 0.8)
 

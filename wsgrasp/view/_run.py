@@ -31,6 +31,7 @@ REASON_COLOURS: dict[str, str] = {
     "object_collision": "#d62728",
     "obstacle_collision": "#9467bd",
     "finger_without_contact": "#e6a100",
+    "finger_sweeps_table": "#8a8a00",
 }
 #: colours of everything else that is drawn
 COLOURS: dict[str, str] = {
