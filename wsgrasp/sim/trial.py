@@ -279,7 +279,9 @@ class Execution:
         without disturbances), ``execution_offset`` (m) and
         ``execution_angle_deg``; ``disturbances_held`` (directions the object
         stayed held through), ``slip_distance`` (m) and ``slip_angle_deg`` (the
-        object's motion in the grip from the closed grip to the end).
+        object's motion in the grip from the closed grip to the end),
+        ``slip_distance_hold`` and ``slip_angle_deg_hold`` (the same, to the end
+        of the hold: what the lift moved).
     """
 
     outcome: str
@@ -446,6 +448,7 @@ def execute_grasp(
     lifted, grip, rise_lift = held()
     wait(p.hold_time)
     held_hold, grip2, rise_hold = held()
+    c_hold, R_hold = in_grip()  # where the lift and the hold left it
     # 7. disturb: the six directions in turn, stopping once the object is lost
     weight = float(m.body_mass[obj] * np.linalg.norm(m.opt.gravity))
     force = p.disturbance_weights * weight
@@ -510,6 +513,8 @@ def execute_grasp(
             "disturbances_held": survived,
             "slip_distance": slip,
             "slip_angle_deg": slip_deg,
+            "slip_distance_hold": float(np.linalg.norm(c_hold - c_closed)),
+            "slip_angle_deg_hold": _angle_deg(R_closed, R_hold),
             "execution_offset": offset,
             "execution_angle_deg": angle,
         },
