@@ -14,6 +14,7 @@ from vendor_factory import (
     DEG10,
     DEG30,
     JAW_PARTS,
+    forearm_hand_urdf,
     hand_urdf,
     named_jaw_urdf,
     write_mesh_jaw,
@@ -173,6 +174,59 @@ def test_check_names_the_finger_that_closes_the_wrong_way(tmp_path):
     assert str(lone["joints"]) in errors[0].fix
 
 
+def test_thumb_is_held_where_it_closes_against_the_fingers(tmp_path):
+    """A thumb whose flexion curls it in the plane of the palm at 0 of its turn
+    joint (the Shadow hand's THJ4, THJ5): the turn joint moves its straight tip
+    by nothing, so it is held, but where it holds the thumb decides whether the
+    thumb closes beside the fingers or against them. It is held turned towards
+    them, in pregrasp and closed alike, and the thumb still closes by flexing."""
+    urdf = tmp_path / "hand.urdf"
+    urdf.write_text(forearm_hand_urdf())
+    sc = guess_description(urdf, "hand")
+    d = sc.data
+    thumb = next(f for f in d["fingers"] if f["pad"]["link"] == "th_distal")
+    assert thumb["joints"] == ["THJ2", "THJ1"]
+    assert d["pregrasp"]["THJ_TURN"] == d["closed"]["THJ_TURN"]
+    assert 0.5 < d["pregrasp"]["THJ_TURN"] < 1.2  # turned, half-way or so
+    assert "opposition" in sc.notes["pregrasp"]
+    assert "THJ_TURN at" in sc.notes["pregrasp"]
+    for j in ("THJ2", "THJ1"):
+        assert (d["pregrasp"][j], d["closed"][j]) == (-0.3, 1.2)
+    # a turn joint that cannot turn the thumb far enough keeps its hold value
+    urdf.write_text(forearm_hand_urdf(thumb_turn=("0", "0.1")))
+    d = guess_description(urdf, "hand").data
+    assert d["pregrasp"]["THJ_TURN"] == d["closed"]["THJ_TURN"] == 0.0
+
+
+def test_hand_on_a_forearm_approaches_palm_first_and_finds_grasps(tmp_path):
+    """The root of the URDF is a forearm, and the palm faces sideways from it:
+    the approach axis is the palm's normal (not along the forearm, where the
+    fingertips' centre lies), the thin, one-plane finger workspaces get spheres
+    enough for `gripper check`, and the package's default spec finds a grasp
+    on a 5 cm cube, as it does for hands without a forearm."""
+    from wsgrasp.api import Pipeline
+    from wsgrasp.default_specs import default_spec
+    from wsgrasp.perception.synth import synth_scene
+    from wsgrasp.spec import PipelineSpec
+
+    urdf = tmp_path / "hand.urdf"
+    urdf.write_text(forearm_hand_urdf())
+    yaml_path, sc = scaffold_plugin("hand", urdf, tmp_path / "out")
+    assert sc.build_error is None, sc.build_error
+    assert sc.data["approach_axis"] == [0.0, 1.0, 0.0]
+    assert "palm link 'palm'" in sc.notes["approach_axis"]
+    report = check_gripper(yaml_path)
+    assert not report.errors, report.format()
+    assert not [p for p in report.warnings if p.field == "spheres_per_finger"], (
+        report.format()
+    )
+    spec, _ = default_spec(str(yaml_path))
+    pipeline = Pipeline(PipelineSpec.model_validate(spec))
+    cube = synth_scene("box", size=(0.05, 0.05, 0.05), seed=3)
+    result = pipeline.plan(cube.points)
+    assert result.found, result.hint
+
+
 # ------------------------------------------------------------------------------
 # Meshes
 # ------------------------------------------------------------------------------
@@ -287,7 +341,9 @@ def test_vendor_gripper_scaffolds_and_checks(tmp_path, name):
     if name == "shadow":
         assert all("WRJ" not in j for f in d["fingers"] for j in f["joints"])
         assert len(d["fingers"]) == 5
-    if name in ("barrett", "dclaw", "panda", "shadow"):
+    if name in ("barrett", "dclaw", "panda"):
         assert d["approach_axis"] == [0.0, 0.0, 1.0]
+    if name in ("ability", "shadow"):  # palm first: the palms face +x
+        assert d["approach_axis"] == [1.0, 0.0, 0.0]
     if name == "robotiq_3f":
         assert sum("visual mesh" in w for w in sc.warnings) == 5

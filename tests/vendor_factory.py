@@ -13,6 +13,10 @@ from xml.sax.saxutils import quoteattr
 #: axis and limits of the jaws' slides
 _SLIDE = ("0 1 0", "0", "0.04")
 _SLIDE_R = ("0 -1 0", "0", "0.04")
+#: axis and limits of the forearm hand's wrist, finger and thumb flexion joints
+_WRIST = ("0 1 0", "-0.5", "0.2")
+_CURL = ("-1 0 0", "0", "1.4")
+_THUMB = ("0 -1 0", "-0.3", "1.2")
 #: the Shadow hand's way of writing 30 and 10 degrees
 DEG30 = "0.523598775598"
 DEG10 = "0.174532925199"
@@ -36,12 +40,14 @@ def _joint(
     axis: str,
     lower: str,
     upper: str,
+    rpy: Sequence[float] = (0, 0, 0),
 ) -> str:
     o = " ".join(f"{v:g}" for v in xyz)
+    r = " ".join(f"{v:g}" for v in rpy)
     return (
         f"<joint name={quoteattr(name)} type={quoteattr(kind)}>"
         f"<parent link={quoteattr(parent)}/><child link={quoteattr(child)}/>"
-        f'<origin xyz="{o}" rpy="0 0 0"/><axis xyz="{axis}"/>'
+        f'<origin xyz="{o}" rpy="{r}"/><axis xyz="{axis}"/>'
         f'<limit lower="{lower}" upper="{upper}" effort="10" velocity="1"/></joint>'
     )
 
@@ -126,6 +132,61 @@ def hand_urdf(
 
 def _neg(value: str) -> str:
     return value[1:] if value.startswith("-") else "-" + value
+
+
+def forearm_hand_urdf(*, thumb_turn: tuple[str, str] = ("0", "1.5708")) -> str:
+    """A four-finger hand on a forearm, laid out as the Shadow hand is, in boxes.
+
+    The root link is a 20 cm ``forearm`` along +z; a wrist joint ``WRJ1`` (about
+    y) carries the ``palm`` above it, a slab 2 cm thick along y. Three fingers of
+    two joints (``F0J2``, ``F0J1``, ...) stand on the palm's top leaning 0.8 rad
+    forwards and curl towards +y: the palm faces sideways from the forearm. The
+    thumb ``th`` rises from the palm's +x side, 0.9 rad from the vertical; at
+    ``THJ_TURN`` 0 its two flexion joints (``THJ2``, ``THJ1``) curl it in the
+    plane of the palm, beside the fingers; ``THJ_TURN`` (about the thumb's own
+    length, ``thumb_turn`` its limits) turns that plane towards the front of
+    the palm, where the fingers close.
+    """
+    turn_lower, turn_upper = thumb_turn
+    parts = [
+        f'<link name="forearm">{_box((0.06, 0.06, 0.2), (0, 0, 0.1))}</link>',
+        _joint("WRJ1", "revolute", "forearm", "palm", (0, 0, 0.21), *_WRIST),
+        f'<link name="palm">{_box((0.08, 0.02, 0.09), (0, 0, 0.045))}</link>',
+        '<link name="th_base"/>',
+        f'<link name="th_proximal">{_box((0.05, 0.018, 0.018), (0.025, 0, 0))}</link>',
+        f'<link name="th_distal">{_box((0.04, 0.018, 0.018), (0.02, 0, 0))}</link>',
+        _joint(
+            "THJ_TURN",
+            "revolute",
+            "palm",
+            "th_base",
+            (0.045, 0, 0.05),
+            "-1 0 0",
+            turn_lower,
+            turn_upper,
+            rpy=(0, -0.9, 0),
+        ),
+        _joint("THJ2", "revolute", "th_base", "th_proximal", (0, 0, 0), *_THUMB),
+        _joint("THJ1", "revolute", "th_proximal", "th_distal", (0.05, 0, 0), *_THUMB),
+    ]
+    for i, x in enumerate((-0.025, 0.0, 0.025)):
+        prox, dist = f"f{i}_proximal", f"f{i}_distal"
+        parts += [
+            f'<link name="{prox}">{_box((0.016, 0.016, 0.05), (0, 0, 0.025))}</link>',
+            f'<link name="{dist}">{_box((0.016, 0.016, 0.04), (0, 0, 0.02))}</link>',
+            _joint(
+                f"F{i}J2",
+                "revolute",
+                "palm",
+                prox,
+                (x, 0, 0.09),
+                *_CURL,
+                rpy=(-0.8, 0, 0),
+            ),
+            _joint(f"F{i}J1", "revolute", prox, dist, (0, 0, 0.05), *_CURL),
+        ]
+    body = "\n  ".join(parts)
+    return f'<?xml version="1.0"?>\n<robot name="forearm_hand">\n  {body}\n</robot>\n'
 
 
 def write_box_mesh(

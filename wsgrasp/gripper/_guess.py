@@ -52,12 +52,24 @@ PATH_STEPS = 33
 #: a finger stopped by the palm before this fraction of its closing path keeps
 #: its limits (the palm's box is too loose to tell)
 MIN_STOP = 0.25
+#: values tried per held joint when choosing where it holds its finger
+HOLD_SAMPLES = 5
+#: configurations per closing joint when measuring how near a finger gets
+HOLD_CLOSE_SAMPLES = 5
+#: (held values x closing configurations) per finger at most, for that measure
+HOLD_BUDGET = 200_000
+#: among held postures whose finger gets this fraction of the best gain near,
+#: the one moving the held joints least is taken
+HOLD_TIE = 0.1
 #: configurations sampled per finger when sizing joint_samples
 CONFIG_BUDGET = 6000
 #: sphere coverage of every finger workspace the scaffolder aims for
 TARGET_COVERAGE = 0.45
-#: ... with at most this many spheres per finger
-MAX_SPHERES = 40
+#: ... with at most this many spheres per finger (a thin, slab-like workspace,
+#: a finger curling in one plane, needs many: each covers a disc of it)
+MAX_SPHERES = 160
+#: the voxel (m) is never halved below this
+MIN_VOXEL = 0.0005
 #: pad depth into the distal link (m), at most
 PAD_DEPTH = 0.004
 
@@ -568,6 +580,155 @@ def _postures(
     return pregrasp, closed
 
 
+def _joint_axes(u: _Urdf, link: str) -> dict[str, Array]:
+    """Base-frame axis of each actuated joint (its master) on the chain to
+    ``link``, at ``default``."""
+    kin = u.kin
+    poses = kin.link_poses(u.base, u.default)
+    axes: dict[str, Array] = {}
+    for j in kin.chain(u.base, link):
+        if j.kind == 0:
+            continue
+        m = kin.master(j.name)
+        if m not in axes:
+            axes[m] = (poses[j.parent] @ j.origin)[:3, :3] @ j.axis
+    return axes
+
+
+def _nearest_approach(
+    u: _Urdf,
+    link: str,
+    target: Array,
+    held: dict[str, Array],
+    closers: dict[str, tuple[float, float]],
+) -> Array:
+    """How near (m) fingertip ``link`` gets to ``target`` while closing, for each
+    of a batch of held-joint values: the smallest distance over a grid of its
+    closing joints between their pregrasp and closed values.
+
+    Parameters
+    ----------
+    held : dict of str to (V,) float
+        Held joint -> its value in each of ``V`` postures.
+    closers : dict of str to (float, float)
+        Closing joint -> (pregrasp, closed).
+
+    Returns
+    -------
+    (V,) float
+    """
+    n = len(next(iter(held.values())))
+    samples = HOLD_CLOSE_SAMPLES
+    while samples > 2 and n * samples ** len(closers) > HOLD_BUDGET:
+        samples -= 1
+    q = grid_configurations(
+        [a for a, _ in closers.values()], [b for _, b in closers.values()], samples
+    )  # (K, c)
+    values: dict[str, Any] = dict(u.default)
+    for m, v in held.items():
+        values[m] = np.repeat(v, len(q))  # (V K,) postures outer
+    for i, m in enumerate(closers):
+        values[m] = np.tile(q[:, i], n)  # (V K,)
+    tips = u.tips(link, values).reshape(n, len(q), 3)  # (V, K, 3)
+    return np.linalg.norm(tips - target, axis=-1).min(axis=1)  # (V,)
+
+
+def _hold_postures(
+    u: _Urdf,
+    joints: dict[str, list[str]],
+    fingers: dict[str, list[str]],
+    targets: dict[str, Array],
+    pregrasp: dict[str, float],
+    closed: dict[str, float],
+) -> None:
+    """Hold each finger's posture joints where the finger, closing, gets nearest
+    the other fingers: a thumb's opposition.
+
+    A held joint of one finger alone (not a wrist, not a spread joint shared by
+    fingers) that turns about (or slides along) another axis than every joint
+    closing that finger decides where the finger's closing goes: a thumb held
+    in the plane of the palm curls beside the fingers, never against them. Over
+    a grid of such joints' values (their limits, quarter points and hold
+    value), the finger's nearest approach to its target while its closing
+    joints sweep from pregrasp to closed (:func:`_nearest_approach`) is
+    measured; when the best brings it nearer than the hold value by at least
+    ``POSTURE_FRACTION`` of the finger's strongest closer's effect, the
+    finger's held joints take the values that gain nearly the most
+    (``HOLD_TIE``) while moving least. Its closing joints keep the ends
+    :func:`_postures` gave them (a thumb still closes by flexing). ``pregrasp``,
+    ``closed`` and ``u.default`` are updated in place.
+
+    Parameters
+    ----------
+    joints
+        Distal link -> every actuated joint of the finger, held ones included.
+    fingers
+        Distal link -> its closing joints (held ones dropped).
+    """
+    kin = u.kin
+    owners: dict[str, int] = {}
+    for ms in joints.values():
+        for m in ms:
+            owners[m] = owners.get(m, 0) + 1
+    how = []
+    for link, ms in joints.items():
+        closers = [m for m in fingers[link] if pregrasp[m] != closed[m]]
+        if not closers:
+            continue
+        axes = _joint_axes(u, link)
+        own = [
+            m
+            for m in ms
+            if m not in closers
+            and m not in u.wrist
+            and owners[m] == 1
+            and pregrasp[m] == closed[m]
+            and all(abs(float(axes[m] @ axes[c])) <= PARALLEL_COS for c in closers)
+        ]
+        if not own:
+            continue
+        target = targets[link]
+        # every closer's effect, as _postures measures it: the finger's yardstick
+        strongest = max(abs(_distance_change(u, link, c, target)) for c in closers)
+        grids = []
+        for m in own:
+            j = kin.joints[m]
+            grid = np.linspace(j.lower, j.upper, HOLD_SAMPLES)
+            grids.append(np.unique(np.append(grid, u.default[m])))
+        mesh = np.meshgrid(*grids, indexing="ij")
+        held = {m: g.reshape(-1) for m, g in zip(own, mesh, strict=True)}  # (V,)
+        ends = {c: (pregrasp[c], closed[c]) for c in closers}
+        near = _nearest_approach(u, link, target, held, ends)  # (V,)
+        now = np.all(
+            [held[m] == u.default[m] for m in own], axis=0
+        )  # (V,) the hold values
+        start = float(near[now][0])
+        gain = start - float(near.min())
+        if gain < max(POSTURE_FRACTION * strongest, 2e-4):
+            continue
+        span = np.array([kin.joints[m].upper - kin.joints[m].lower for m in own])
+        moved = sum(
+            np.abs(held[m] - u.default[m]) / max(s, 1e-12)
+            for m, s in zip(own, span, strict=True)
+        )  # (V,) how far each posture moves the held joints, in ranges
+        good = near <= near.min() + HOLD_TIE * gain
+        pick = int(np.argmin(np.where(good, moved, np.inf)))
+        for m in own:
+            value = float(held[m][pick])
+            pregrasp[m] = closed[m] = u.default[m] = value
+        how.append(
+            ", ".join(f"{m} at {u.default[m]:g}" for m in own)
+            + f" (closing, the fingertip gets within {near[pick] * 1000:.0f} mm "
+            f"of where the other fingers reach, {start * 1000:.0f} mm before)"
+        )
+    if how:
+        u.notes["pregrasp"] += (
+            "; a finger's held joints about another axis than its closing joints "
+            "(a thumb's opposition) are held where the finger, closing, gets "
+            "nearest where the others reach: " + "; ".join(how)
+        )
+
+
 def _stop_at_palm(
     u: _Urdf,
     fingers: dict[str, list[str]],
@@ -728,6 +889,51 @@ def _enclosing_centre(points: Array) -> Array:
     return best
 
 
+def _palm_link(u: _Urdf, distal: list[str]) -> str | None:
+    """The palm: the last link on every finger's chain from the base that no
+    finger joint moves (where the fingers branch), or its nearest ancestor with
+    geometry; None when neither it nor any link above it has geometry."""
+    chains = [[u.base] + [j.child for j in u.kin.chain(u.base, d)] for d in distal]
+    palm = u.base
+    for links in zip(*chains, strict=False):
+        if len(set(links)) > 1 or links[0] == u.base:
+            if len(set(links)) > 1:
+                break
+            continue
+        joint = u.kin.joints[u.kin.parent_joint[links[0]]]
+        if joint.kind != 0 and u.kin.master(joint.name) not in u.wrist:
+            break
+        palm = links[0]
+    while palm not in u.boxes:
+        if palm == u.base:
+            return None
+        palm = u.kin.joints[u.kin.parent_joint[palm]].parent
+    return palm
+
+
+def _palm_face(
+    u: _Urdf, distal: list[str], pregrasp: dict[str, float], pads: Array
+) -> tuple[Array, str, str] | None:
+    """The outward normal (base frame) of the face of the palm's geometry box
+    through which the box's centre sees the centre of ``pads`` ``(F, 3)``, with
+    the face's name and the palm link; None without a palm with geometry, or
+    when that centre lies inside the palm's box."""
+    palm = _palm_link(u, distal)
+    if palm is None:
+        return None
+    lo, hi = u.boxes[palm]
+    T = u.kin.link_poses(u.base, pregrasp)[palm]
+    centre = _enclosing_centre(pads)
+    p = T[:3, :3].T @ (centre - T[:3, 3]) - 0.5 * (lo + hi)  # (3,) palm frame
+    ratio = np.abs(p) / np.maximum(0.5 * (hi - lo), 1e-9)  # (3,) 1 on the box
+    k = int(np.argmax(ratio))
+    if ratio[k] <= 1.0:
+        return None
+    sign = float(np.sign(p[k]))
+    name = f"{'+' if sign > 0 else '-'}{'xyz'[k]}"
+    return sign * T[:3, k], name, palm
+
+
 def _axes(
     u: _Urdf,
     pads: list[dict[str, Any]],
@@ -736,11 +942,18 @@ def _axes(
 ) -> tuple[Array, Array, Array]:
     """Approach axis, closing axis and TCP position from the pads.
 
-    The approach axis points from the base origin to the centre of the pads
-    (open): the centre of the smallest ball holding them. The closing axis is the
-    main direction across it in which the pads move relative to each other
-    (their closing motions less the motion they share, such as curling towards
-    the palm).
+    The approach axis is the side of the palm that grasps: the outward normal of
+    the face of the palm's geometry box (:func:`_palm_link`) through which its
+    centre sees the pads half-closed (each joint midway between pregrasp and
+    closed; their centre is that of the smallest ball holding them, so that two
+    fingers against one do not pull it their way). A jaw's fingers hold an
+    object beyond the palm's end, so it approaches along them; a hand's fingers
+    curl in front of the palm, so it approaches palm first, whatever the
+    forearm or wrist above it. Without a palm with geometry, or with that
+    centre inside the palm's box, the axis points from the base origin to the
+    pads' centre (open). The closing axis is the main direction across it in
+    which the pads move relative to each other (their closing motions less the
+    motion they share, such as curling towards the palm).
     """
 
     def pad_points(posture: dict[str, float]) -> Array:
@@ -752,18 +965,31 @@ def _axes(
         return np.array(out)  # (F, 3)
 
     p_open, p_closed = pad_points(pregrasp), pad_points(closed)
-    centre = _enclosing_centre(p_open)
-    if np.linalg.norm(centre) < 1e-6:
-        raise GripperError(
-            f"URDF {u.path.name}: the fingertips' centre coincides with the origin "
-            f"of base link {u.base!r}, so no approach direction can be read from it",
-            hint="pass --base-link with the link the arm's flange holds",
+    mid = {m: 0.5 * (pregrasp[m] + closed[m]) for m in pregrasp}
+    face = _palm_face(u, [p["link"] for p in pads], pregrasp, pad_points(mid))
+    if face is not None:
+        approach, u.notes["approach_axis"] = _snap(
+            face[0],
+            f"the side of the palm that grasps: the outward normal of the "
+            f"{face[1]} face of palm link {face[2]!r}'s geometry box, the one its "
+            "centre sees the pads' centre through (half-closed; the centre of the "
+            "smallest ball holding them)",
         )
-    approach, u.notes["approach_axis"] = _snap(
-        centre,
-        "from the base link's origin towards the pads' centre (open; the centre of "
-        "the smallest ball holding them)",
-    )
+    else:
+        centre = _enclosing_centre(p_open)
+        if np.linalg.norm(centre) < 1e-6:
+            raise GripperError(
+                f"URDF {u.path.name}: the fingertips' centre coincides with the "
+                f"origin of base link {u.base!r}, so no approach direction can be "
+                "read from it",
+                hint="pass --base-link with the link the arm's flange holds",
+            )
+        approach, u.notes["approach_axis"] = _snap(
+            centre,
+            "from the base link's origin towards the pads' centre (open; the centre "
+            "of the smallest ball holding them), as no palm link with geometry "
+            "faces them",
+        )
 
     def across(v: Array) -> Array:
         return v - np.outer(v @ approach, approach)  # (F, 3)
@@ -858,7 +1084,9 @@ def guess_description(
     distal = list(fingers)
     names = _finger_names(distal)
     targets = _targets(u, fingers)
+    joints = {link: list(ms) for link, ms in fingers.items()}
     pregrasp, closed = _postures(u, fingers, targets)
+    _hold_postures(u, joints, fingers, targets, pregrasp, closed)
     limits = _stop_at_palm(u, fingers, pregrasp, closed)
     pads = _pads(u, distal, names, pregrasp, closed, targets)
     approach, closing, tcp = _axes(u, pads, pregrasp, closed)
@@ -887,7 +1115,8 @@ def guess_description(
 def fit_sphere_count(scaffold: Scaffold, base_dir: Path) -> None:
     """Size ``spheres_per_finger`` (and the voxel) to the sampled workspaces: halve
     the voxel while a workspace is too thin for spheres, lower the count to what
-    fits, raise it (up to :data:`MAX_SPHERES`) until the spheres cover
+    fits, raise it (up to :data:`MAX_SPHERES`, and to no more than the thinnest
+    workspace has sphere centres) until the spheres cover
     :data:`TARGET_COVERAGE` of every workspace; note what was changed."""
     from wsgrasp.gripper._workspace import fill_spheres, sample_workspace
     from wsgrasp.spec import GripperDescription
@@ -909,7 +1138,7 @@ def fit_sphere_count(scaffold: Scaffold, base_dir: Path) -> None:
         fewest = min(counts)
         if fewest >= 3:
             break
-        data["workspace_voxel"] = max(0.0005, data["workspace_voxel"] / 2)
+        data["workspace_voxel"] = max(MIN_VOXEL, data["workspace_voxel"] / 2)
         data["min_sphere_radius"] = data["workspace_voxel"]
         note["workspace_voxel"] += (
             f"; halved to {data['workspace_voxel'] * 1000:.2f} mm (a workspace was "
@@ -925,16 +1154,20 @@ def fit_sphere_count(scaffold: Scaffold, base_dir: Path) -> None:
             f"holds {fewest} sphere centres)"
         )
         return
+    # doubled up to the most that fit (a sphere per centre of the thinnest
+    # workspace at most), so a thin workspace (a finger curling in one plane:
+    # each sphere covers a disc of it) gets the many it needs
+    most = min(MAX_SPHERES, fewest)
     while True:
         cover = min(
             fill_spheres(ws, n, desc.min_sphere_radius, desc.name).covered_fraction
             for ws in spaces
         )
-        if cover >= TARGET_COVERAGE or 2 * n > min(MAX_SPHERES, fewest // 3):
+        if cover >= TARGET_COVERAGE or n >= most:
             break
-        n *= 2
+        n = min(2 * n, most)
     if n != data["spheres_per_finger"]:
         data["spheres_per_finger"] = n
         note["spheres_per_finger"] += (
-            f"; doubled to {n} so the spheres cover {cover:.0%} of every workspace"
+            f"; raised to {n} so the spheres cover {cover:.0%} of every workspace"
         )
