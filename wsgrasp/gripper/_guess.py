@@ -65,11 +65,8 @@ HOLD_TIE = 0.1
 CONFIG_BUDGET = 6000
 #: sphere coverage of every finger workspace the scaffolder aims for
 TARGET_COVERAGE = 0.45
-#: ... with at most this many spheres per finger (a thin, slab-like workspace,
-#: a finger curling in one plane, needs many: each covers a disc of it)
-MAX_SPHERES = 160
-#: the voxel (m) is never halved below this
-MIN_VOXEL = 0.0005
+#: ... with at most this many spheres per finger
+MAX_SPHERES = 40
 #: pad depth into the distal link (m), at most
 PAD_DEPTH = 0.004
 
@@ -1115,8 +1112,7 @@ def guess_description(
 def fit_sphere_count(scaffold: Scaffold, base_dir: Path) -> None:
     """Size ``spheres_per_finger`` (and the voxel) to the sampled workspaces: halve
     the voxel while a workspace is too thin for spheres, lower the count to what
-    fits, raise it (up to :data:`MAX_SPHERES`, and to no more than the thinnest
-    workspace has sphere centres) until the spheres cover
+    fits, raise it (up to :data:`MAX_SPHERES`) until the spheres cover
     :data:`TARGET_COVERAGE` of every workspace; note what was changed."""
     from wsgrasp.gripper._workspace import fill_spheres, sample_workspace
     from wsgrasp.spec import GripperDescription
@@ -1138,7 +1134,7 @@ def fit_sphere_count(scaffold: Scaffold, base_dir: Path) -> None:
         fewest = min(counts)
         if fewest >= 3:
             break
-        data["workspace_voxel"] = max(MIN_VOXEL, data["workspace_voxel"] / 2)
+        data["workspace_voxel"] = max(0.0005, data["workspace_voxel"] / 2)
         data["min_sphere_radius"] = data["workspace_voxel"]
         note["workspace_voxel"] += (
             f"; halved to {data['workspace_voxel'] * 1000:.2f} mm (a workspace was "
@@ -1154,20 +1150,16 @@ def fit_sphere_count(scaffold: Scaffold, base_dir: Path) -> None:
             f"holds {fewest} sphere centres)"
         )
         return
-    # doubled up to the most that fit (a sphere per centre of the thinnest
-    # workspace at most), so a thin workspace (a finger curling in one plane:
-    # each sphere covers a disc of it) gets the many it needs
-    most = min(MAX_SPHERES, fewest)
     while True:
         cover = min(
             fill_spheres(ws, n, desc.min_sphere_radius, desc.name).covered_fraction
             for ws in spaces
         )
-        if cover >= TARGET_COVERAGE or n >= most:
+        if cover >= TARGET_COVERAGE or 2 * n > min(MAX_SPHERES, fewest // 3):
             break
-        n = min(2 * n, most)
+        n *= 2
     if n != data["spheres_per_finger"]:
         data["spheres_per_finger"] = n
         note["spheres_per_finger"] += (
-            f"; raised to {n} so the spheres cover {cover:.0%} of every workspace"
+            f"; doubled to {n} so the spheres cover {cover:.0%} of every workspace"
         )
