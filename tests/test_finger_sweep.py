@@ -21,6 +21,7 @@ from wsgrasp.gripper.model import GripperModel
 from wsgrasp.planning.candidates import candidate_poses
 from wsgrasp.planning.closing import (
     BACK_OFF_STEPS,
+    GRAZE_SLACK,
     SWEEP_SLACK,
     closing_paths,
     finger_sweep,
@@ -40,25 +41,42 @@ SWEPT = REASONS.index("finger_sweeps_table")
 NEAR = 0.015
 
 
-def _finger(i: int, side: float) -> str:
+def _box_link(name: str, length: float) -> str:
+    return (
+        f'<link name="{name}"><collision><origin xyz="{length / 2} 0 0" rpy="0 0 0"/>'
+        f'<geometry><box size="{length} 0.02 0.012"/></geometry></collision></link>'
+    )
+
+
+def _finger(i: int, side: float, knuckle: bool) -> str:
     yaw = 0.0 if side > 0 else np.pi  # the -x finger: the +x one turned about z
-    return f"""<link name="f{i}"><collision>
-    <origin xyz="{LENGTH / 2} 0 0" rpy="0 0 0"/>
-    <geometry><box size="{LENGTH} 0.02 0.012"/></geometry></collision></link>
-  <joint name="j{i}" type="revolute">
+    hinge = f"""<joint name="j{i}" type="revolute">
     <parent link="palm"/><child link="f{i}"/>
     <origin xyz="{side * HINGE_X} 0 {HINGE_Z}" rpy="0 0 {yaw:.12f}"/>
     <axis xyz="0 -1 0"/>
     <limit lower="0" upper="2.6" effort="5" velocity="1"/>
   </joint>"""
+    if not knuckle:
+        return f"{_box_link(f'f{i}', LENGTH)}\n  {hinge}"
+    # the same finger in two links, the outer one on a joint of its own at the pad
+    return f"""{_box_link(f"f{i}", PAD_AT)}
+  {hinge}
+  {_box_link(f"t{i}", LENGTH - PAD_AT)}
+  <joint name="k{i}" type="revolute">
+    <parent link="f{i}"/><child link="t{i}"/>
+    <origin xyz="{PAD_AT} 0 0" rpy="0 0 0"/><axis xyz="0 -1 0"/>
+    <limit lower="0" upper="0.5" effort="5" velocity="1"/>
+  </joint>"""
 
 
-def write_claw(folder: Path) -> Path:
+def write_claw(folder: Path, knuckles: bool = False) -> Path:
     """Write the claw's URDF and gripper YAML into ``folder``; the YAML's path.
 
     Approach +z; at joint angle 0 a finger points outwards along x, at pi/2
     along the approach, at 2.6 inwards and back up; the pad is the inner face
-    of its link ``PAD_AT`` from the hinge."""
+    of the finger ``PAD_AT`` from the hinge. With ``knuckles`` each finger is
+    two links, the outer one on a second joint at the pad (held straight while
+    the finger closes): the same sweeps, from fingers that two joints drive."""
     folder.mkdir(parents=True, exist_ok=True)
     palm = (
         '<collision><origin xyz="0 0 0.01" rpy="0 0 0"/>'
@@ -67,13 +85,21 @@ def write_claw(folder: Path) -> Path:
     (folder / "claw.urdf").write_text(
         '<?xml version="1.0"?>\n<robot name="claw">\n'
         f'  <link name="palm">{palm}</link>\n'
-        f"  {_finger(0, 1.0)}\n  {_finger(1, -1.0)}\n"
+        f"  {_finger(0, 1.0, knuckles)}\n  {_finger(1, -1.0, knuckles)}\n"
         "</robot>\n"
     )
+    if knuckles:
+        pads = [(f"t{i}", 0.0) for i in range(2)]
+        joints = [f"[j{i}, k{i}]" for i in range(2)]
+        posture = "j0: {a}, j1: {a}, k0: 0.0, k1: 0.0"
+    else:
+        pads = [(f"f{i}", PAD_AT) for i in range(2)]
+        joints = [f"[j{i}]" for i in range(2)]
+        posture = "j0: {a}, j1: {a}"
     fingers = "".join(
-        f"  - name: f{i}\n    joints: [j{i}]\n    pad: {{link: f{i}, center: "
-        f"[{PAD_AT}, 0.0, 0.006], size: [0.02, 0.016, 0.0], samples: 5}}\n"
-        for i in range(2)
+        f"  - name: f{i}\n    joints: {joints[i]}\n    pad: {{link: {link}, center: "
+        f"[{x}, 0.0, 0.006], size: [0.02, 0.016, 0.0], samples: 5}}\n"
+        for i, (link, x) in enumerate(pads)
     )
     path = folder / "claw.yaml"
     path.write_text(
@@ -83,7 +109,7 @@ def write_claw(folder: Path) -> Path:
         "fingers:\n" + fingers + "joint_samples: 24\nspheres_per_finger: 10\n"
         "workspace_voxel: 0.003\nmin_sphere_radius: 0.003\n"
         "ellipsoids: {count: 3, exponent: 10.0}\ncloud_points: 300\n"
-        "pregrasp: {j0: 0.2, j1: 0.2}\nclosed: {j0: 2.6, j1: 2.6}\n"
+        f"pregrasp: {{{posture.format(a=0.2)}}}\nclosed: {{{posture.format(a=2.6)}}}\n"
     )
     return path
 
@@ -120,6 +146,12 @@ def _slab(top: float, half: float) -> np.ndarray:
         for s in (-1.0, 1.0)
     ]
     return np.concatenate([top_face, *sides])
+
+
+def _column(top: float) -> np.ndarray:
+    """A block 2 cm wide along x, ``top`` tall, under the palm's middle: the
+    fingers reach it only as they swing back inwards, after their lowest point."""
+    return _slab(top, 0.01)
 
 
 def _enters_before_reaching(
@@ -180,7 +212,8 @@ def test_a_model_without_sweeps_uses_its_pad_centres(claw):
     assert finger_sweep(old).shape == (2, closing_paths(old).shape[1], 1, 3)
     # its pads stay above the table where the claw's tips do not
     T = _top_down(0.09)
-    assert np.isfinite(sweep_back_offs(old, T[None], TABLE, np.zeros((0, 3)))).all()
+    assert sweep_back_offs(old, T[None], TABLE, _column(0.06))[0] == 0.0
+    assert sweep_back_offs(claw, T[None], TABLE, _column(0.06))[0] > 0.0
 
 
 # ------------------------------------------------------------------------------
@@ -189,7 +222,7 @@ def test_a_model_without_sweeps_uses_its_pad_centres(claw):
 def test_sweeps_that_clear_the_table_are_untouched(claw):
     T = _top_down(0.15)
     assert _lowest(claw, T) > 0.0
-    assert sweep_back_offs(claw, T[None], TABLE, _slab(0.02, 0.1))[0] == 0.0
+    assert sweep_back_offs(claw, T[None], TABLE, _column(0.12))[0] == 0.0
 
 
 def test_tips_beyond_the_pads_back_off_where_the_pads_alone_would_not(claw):
@@ -197,7 +230,7 @@ def test_tips_beyond_the_pads_back_off_where_the_pads_alone_would_not(claw):
     # the pads' paths stay above the table, the tips' do not
     assert table_back_off(claw, T, TABLE) is None
     assert _lowest(claw, T) < -SWEEP_SLACK
-    d = sweep_back_offs(claw, T[None], TABLE, np.zeros((0, 3)))[0]
+    d = sweep_back_offs(claw, T[None], TABLE, _column(0.06))[0]
     assert d in BACK_OFF_STEPS and d > 0.0
     back = T.copy()
     back[2, 3] += d  # backed off along the approach: up
@@ -207,10 +240,32 @@ def test_tips_beyond_the_pads_back_off_where_the_pads_alone_would_not(claw):
     assert _lowest(claw, less) < -SWEEP_SLACK
 
 
+def test_fingers_that_several_joints_drive_may_graze_the_table(tmp_path):
+    # the same claw with a second joint in each finger: where the table pushes
+    # on a tip its joints give way and it slides, so a graze needs no back-off
+    knuckled = load_gripper(
+        write_claw(tmp_path, knuckles=True), cache_dir=tmp_path / "cache"
+    )
+    assert [len(j) for j in knuckled.finger_joints] == [2, 2]
+    column = _column(0.05)
+    T = _top_down(0.09)
+    assert -GRAZE_SLACK < _lowest(knuckled, T) < -SWEEP_SLACK
+    assert sweep_back_offs(knuckled, T[None], TABLE, column)[0] == 0.0
+    # deeper than a graze: backed off until it is one
+    T = _top_down(0.07)
+    d = sweep_back_offs(knuckled, T[None], TABLE, column)[0]
+    assert d > 0.0
+    back = T.copy()
+    back[2, 3] += d
+    assert _lowest(knuckled, back) >= -GRAZE_SLACK
+    back[2, 3] -= 0.005
+    assert _lowest(knuckled, back) < -GRAZE_SLACK
+
+
 def test_sweeps_that_no_back_off_clears_are_rejected(claw):
     T = _top_down(0.06)
     assert _lowest(claw, T) + BACK_OFF_STEPS[-1] < -SWEEP_SLACK
-    assert np.isnan(sweep_back_offs(claw, T[None], TABLE, np.zeros((0, 3)))[0])
+    assert np.isnan(sweep_back_offs(claw, T[None], TABLE, _column(0.04))[0])
 
 
 def test_a_finger_the_object_stops_first_may_sweep_on_below(claw):
@@ -236,9 +291,9 @@ def test_many_poses_at_once_as_one_at_a_time(claw):
         T[i, :3, :3] = (
             np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ T[i, :3, :3]
         )
-    slab = _slab(0.015, 0.02)
-    together = sweep_back_offs(claw, T, TABLE, slab)
-    alone = [sweep_back_offs(claw, t[None], TABLE, slab)[0] for t in T]
+    column = _column(0.13)
+    together = sweep_back_offs(claw, T, TABLE, column)
+    alone = [sweep_back_offs(claw, t[None], TABLE, column)[0] for t in T]
     np.testing.assert_array_equal(together, alone)
     # the lowest poses cannot be cleared, the highest need no back-off, and
     # some between are backed off
