@@ -198,6 +198,21 @@ def test_thumb_is_held_where_it_closes_against_the_fingers(tmp_path):
     assert d["pregrasp"]["THJ_TURN"] == d["closed"]["THJ_TURN"] == 0.0
 
 
+def test_fingers_side_by_side_keep_their_spread():
+    """The built-in Allegro hand's URDF: its index and ring fingers' spread joints
+    would bring them nearer the others turned inwards, but the fingers flex
+    about parallel axes, side by side, and keep their spread at 0; the thumb,
+    flexing about its own axis, is turned to oppose them (as the hand-written
+    YAML turns it: joint_12.0 at its 1.396 limit)."""
+    from wsgrasp.plugins import get_registry
+
+    yaml_path = Path(get_registry().get("grippers", "allegro_right").obj)
+    d = guess_description(yaml_path.with_suffix(".urdf"), "allegro").data
+    for spread in ("joint_0.0", "joint_4.0", "joint_8.0"):
+        assert d["pregrasp"][spread] == d["closed"][spread] == 0.0
+    assert d["pregrasp"]["joint_12.0"] == d["closed"]["joint_12.0"] == 1.396
+
+
 def test_hand_on_a_forearm_approaches_palm_first_and_finds_grasps(tmp_path):
     """The root of the URDF is a forearm, and the palm faces sideways from it:
     the approach axis is the palm's normal (not along the forearm, where the

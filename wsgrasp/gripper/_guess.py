@@ -638,22 +638,26 @@ def _hold_postures(
     pregrasp: dict[str, float],
     closed: dict[str, float],
 ) -> None:
-    """Hold each finger's posture joints where the finger, closing, gets nearest
-    the other fingers: a thumb's opposition.
+    """Hold a thumb's posture joints where it, closing, gets nearest the other
+    fingers: its opposition.
 
-    A held joint of one finger alone (not a wrist, not a spread joint shared by
-    fingers) that turns about (or slides along) another axis than every joint
-    closing that finger decides where the finger's closing goes: a thumb held
-    in the plane of the palm curls beside the fingers, never against them. Over
-    a grid of such joints' values (their limits, quarter points and hold
-    value), the finger's nearest approach to its target while its closing
-    joints sweep from pregrasp to closed (:func:`_nearest_approach`) is
-    measured; when the best brings it nearer than the hold value by at least
-    ``POSTURE_FRACTION`` of the finger's strongest closer's effect, the
-    finger's held joints take the values that gain nearly the most
-    (``HOLD_TIE``) while moving least. Its closing joints keep the ends
-    :func:`_postures` gave them (a thumb still closes by flexing). ``pregrasp``,
-    ``closed`` and ``u.default`` are updated in place.
+    A thumb here is a finger whose flexion (its closing joints about the axis
+    that closes it most, :func:`_main_closers`) turns about (or slides along)
+    an axis no other finger's flexion shares: fingers side by side, which flex
+    about parallel axes, keep their held joints where they are (spreading them
+    towards each other would make them collide). A held joint
+    of a thumb alone (not a wrist, not a joint shared by fingers) that turns
+    about another axis than every joint closing it decides where its closing
+    goes: a thumb held in the plane of the palm curls beside the fingers, never
+    against them. Over a grid of such joints' values (their limits, quarter
+    points and hold value), the thumb's nearest approach to its target while
+    its closing joints sweep from pregrasp to closed
+    (:func:`_nearest_approach`) is measured; when the best brings it nearer
+    than the hold value by at least ``POSTURE_FRACTION`` of its strongest
+    closer's effect, the held joints take the values that gain nearly the
+    most (``HOLD_TIE``) while moving least. Its closing joints keep the ends
+    :func:`_postures` gave them (a thumb still closes by flexing).
+    ``pregrasp``, ``closed`` and ``u.default`` are updated in place.
 
     Parameters
     ----------
@@ -667,12 +671,39 @@ def _hold_postures(
     for ms in joints.values():
         for m in ms:
             owners[m] = owners.get(m, 0) + 1
+    closing = {
+        link: [m for m in fingers[link] if pregrasp[m] != closed[m]] for link in joints
+    }
+    all_axes = {link: _joint_axes(u, link) for link in joints}
+    # each finger's flexion: its closing joints about the axis that closes it most
+    flexion = {
+        link: _main_closers(
+            u,
+            link,
+            closing[link],
+            {
+                c: abs(_distance_change(u, link, c, targets[link]))
+                for c in closing[link]
+            },
+        )
+        for link in joints
+        if closing[link]
+    }
+
+    def side_by_side(a: str, b: str) -> bool:
+        """Whether fingers ``a`` and ``b`` flex about parallel axes."""
+        return any(
+            abs(float(all_axes[a][x] @ all_axes[b][y])) > PARALLEL_COS
+            for x in flexion.get(a, [])
+            for y in flexion.get(b, [])
+        )
+
     how = []
     for link, ms in joints.items():
-        closers = [m for m in fingers[link] if pregrasp[m] != closed[m]]
-        if not closers:
+        closers = closing[link]
+        if not closers or any(side_by_side(link, o) for o in joints if o != link):
             continue
-        axes = _joint_axes(u, link)
+        axes = all_axes[link]
         own = [
             m
             for m in ms
@@ -720,9 +751,10 @@ def _hold_postures(
         )
     if how:
         u.notes["pregrasp"] += (
-            "; a finger's held joints about another axis than its closing joints "
-            "(a thumb's opposition) are held where the finger, closing, gets "
-            "nearest where the others reach: " + "; ".join(how)
+            "; a thumb's held joints (a finger flexing about an axis no other "
+            "finger's flexion shares; held about another axis than its closing "
+            "joints: its opposition) are held where it, closing, gets nearest "
+            "where the others reach: " + "; ".join(how)
         )
 
 
