@@ -883,7 +883,7 @@ def _sweeps_cleared(
         # the search moved its best back by its own rule: the pose as generated
         o = inp.orientations
         s, k = int(cands.sample[best]), int(cands.orientation[best])  # type: ignore[index]
-        _, T_gen, _, _ = candidate_poses(
+        gwc_gen, T_gen, _, _ = candidate_poses(
             inp.T_world_object,
             inp.samples_object[s : s + 1],
             o.R_object_gwc[k : k + 1],
@@ -914,24 +914,26 @@ def _sweeps_cleared(
     kept = feasible[~rejected]
     order = kept[np.argsort(-score[kept], kind="stable")]  # best first
     new_best = int(order[0]) if len(order) else None
-    timing = {**out.timing_ms, "sweeps": (time.perf_counter() - t0) * 1e3}
     if new_best == best and not rejected.any():
         assert best is not None
         i = int(np.searchsorted(feasible, best))
         if np.array_equal(T_taken[i], cands.T_world_ee[best]):
-            return replace(out, timing_ms=timing)
+            ms = (time.perf_counter() - t0) * 1e3
+            return replace(out, timing_ms={**out.timing_ms, "sweeps": ms})
     T_ee = cands.T_world_ee.copy()
     T_gwc = cands.T_world_gwc.copy()
     if best is not None:  # back to its pose as generated
-        T_ee[best] = T[np.searchsorted(feasible, best)]
-        T_gwc[best] = T_ee[best] @ g.T_gripper_gwc
+        T_ee[best] = T_gen[0]
+        T_gwc[best] = gwc_gen[0]
     contacts = []
     score_terms: dict[str, float] = {}
     alternatives = []
     if new_best is not None:
-        T_best = T_taken[np.searchsorted(feasible, new_best)]
-        T_ee[new_best] = T_best
-        T_gwc[new_best] = T_best @ g.T_gripper_gwc
+        i = int(np.searchsorted(feasible, new_best))
+        T_best = T_taken[i]
+        if d[i] > 0.0:  # moved back, as the search moves its own best
+            T_ee[new_best] = T_best
+            T_gwc[new_best] = T_best @ g.T_gripper_gwc
         ev = evaluate_candidates(
             T_best[None], g, inp.object_points, inp.obstacle_points, inp.table, spheres
         )
@@ -961,7 +963,7 @@ def _sweeps_cleared(
         alternatives=alternatives,
         contacts=contacts,
         score_terms=score_terms,
-        timing_ms=timing,
+        timing_ms={**out.timing_ms, "sweeps": (time.perf_counter() - t0) * 1e3},
     )
 
 
