@@ -20,7 +20,11 @@ import wsgrasp.sim.random_objects as random_objects  # noqa: E402
 from wsgrasp.errors import InputError, SimulationError  # noqa: E402
 from wsgrasp.sim import SimParams, build_scene, settle_object  # noqa: E402
 from wsgrasp.sim._meshes import convex_decomposition, decompose_meshes  # noqa: E402
-from wsgrasp.sim.objects import object_from_mesh, resolve_objects  # noqa: E402
+from wsgrasp.sim.objects import (  # noqa: E402
+    object_from_mesh,
+    resolve_objects,
+    trial_mass,
+)
 from wsgrasp.sim.random_objects import MIN_EXTENT, parse_selection  # noqa: E402
 
 HAS_PYBULLET_DATA = importlib.util.find_spec("pybullet_data") is not None
@@ -254,7 +258,11 @@ def test_random_object_builds_into_a_scene_and_rests_on_the_table(cache: Path):
     p = SimParams()
     scene = build_scene(obj, None, p)
     assert scene.model.ngeom == 1 + len(obj.parts)
-    assert scene.model.body_mass[scene.object_body] == pytest.approx(0.1)
+    # the random set gives no masses of its own: density x volume of its parts
+    assert not obj.mass_given
+    mass = scene.model.body_mass[scene.object_body]
+    assert mass == pytest.approx(p.density * obj.volume(), rel=1e-6)
+    assert mass == pytest.approx(trial_mass(obj, p), rel=1e-6)
     settled = settle_object(scene, obj, np.random.default_rng(0), p)
     verts = np.asarray(obj.mesh().vertices)
     lowest = (verts @ settled.T_world_object[:3, :3].T)[:, 2].min()
