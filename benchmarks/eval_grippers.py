@@ -228,12 +228,17 @@ def _cell_commands(row: dict[str, Any]) -> str:
 
 
 def _cell_check(row: dict[str, Any]) -> str:
+    """Errors in full; warnings counted, with the fields they name."""
     if "errors" not in row:
         return "–"
     e, w = row["errors"], row["warnings"]
     if not e and not w:
         return "no problems"
-    return "; ".join([f"error: {x}" for x in e] + [f"warning: {x}" for x in w])
+    fields = sorted({m.rsplit("[", 1)[-1].rstrip("]") for m in w if "[" in m})
+    parts = [f"error: {x}" for x in e]
+    if w:
+        parts.append(f"{len(w)} warning(s) ({', '.join(fields)})")
+    return "; ".join(parts)
 
 
 def markdown(report: dict[str, Any]) -> str:
@@ -292,7 +297,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-readme", action="store_true")
     ap.add_argument("--no-eval", action="store_true", help="skip the trials")
     ap.add_argument("--only", action="append", help="only these gripper names")
+    ap.add_argument(
+        "--render", type=Path, help="only write the table of this grippers.json"
+    )
     args = ap.parse_args(argv)
+    if args.render is not None:
+        table = markdown(json.loads(args.render.read_text()))
+        if not args.no_readme:
+            replace_table(args.readme, table)
+        print(table, end="")
+        return 0
 
     from rich.console import Console
 
@@ -311,6 +325,12 @@ def main(argv: list[str] | None = None) -> int:
     entries += [(n, "built-in", ref) for n, ref in BUILT_IN.items()]
     if args.only:
         entries = [e for e in entries if e[0] in args.only]
+    commit = subprocess.run(
+        ["git", "rev-parse", "--short", "HEAD"],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    ).stdout.strip()
     scene_set = scenes()
     rows = []
     for name, source, ref in entries:
