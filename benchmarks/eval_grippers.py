@@ -364,12 +364,6 @@ def main(argv: list[str] | None = None) -> int:
             highlight=False,
         )
         rows.append(row)
-    commit = subprocess.run(
-        ["git", "rev-parse", "--short", "HEAD"],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-    ).stdout.strip()
     report = {
         "version": 1,
         "commit": commit,
