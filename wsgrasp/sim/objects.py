@@ -543,11 +543,13 @@ def mesh_source(
             hint="e.g. --mass 0.2 --friction 0.8",
         )
     given = mesh_masses(p.parent).get(p.stem) if mass is None else mass
+    # without a mass of its own: the default density's, until a trial's replaces it
+    placeholder = SimParams().density * float(mesh.volume)
     return MeshSource(
         p.stem,
         mesh,
         np.ones(3),
-        0.0 if given is None else given,
+        placeholder if given is None else given,
         friction,
         origin=str(p),
         mass_given=given is not None,
