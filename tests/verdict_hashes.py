@@ -1,0 +1,154 @@
+"""Hashes of what the search decides on the bundled scenes: every candidate's
+verdict, contacts and score, and the plan's choice (its index, pose and contacts),
+for each gripper's default spec and the bench's dense sampling.
+
+``tests/test_verdict_hashes.py`` holds the search to the hashes stored in
+``tests/data/verdict_hashes.json``; after a change that is meant to change a
+verdict, write them again::
+
+    .venv/bin/python tests/verdict_hashes.py --write
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+STORED = ROOT / "tests" / "data" / "verdict_hashes.json"
+SCENES = ROOT / "examples" / "scenes"
+BARRETT = (
+    ROOT
+    / "examples/plugins/barrett_bh8_like/wsgrasp_barrett_bh8_like/barrett_bh8_like.yaml"
+)
+ROBOTIQ = (
+    ROOT / "examples/plugins/robotiq_2f85_like/wsgrasp_robotiq_2f85_like/"
+    "robotiq_2f85_like.yaml"
+)
+GRIPPERS = {
+    "franka_hand": "franka_hand",
+    "allegro_right": "allegro_right",
+    "barrett_bh8_like": str(BARRETT),
+    "robotiq_2f85_like": str(ROBOTIQ),
+}
+SCENE_FILES = {
+    "bottle_lying": SCENES / "bottle_lying.npz",
+    "box_camera_frame": SCENES / "box_camera_frame.npz",
+    "box_upright": SCENES / "box_upright.npz",
+    "mug": SCENES / "mug.npz",
+    "cone_views": SCENES / "cone_views" / "scene.yaml",
+}
+#: the dense cases: ``wsgrasp bench``'s sampling on its scene
+DENSE = {
+    "franka_hand_dense": ("franka_hand", "box_upright"),
+    "allegro_right_dense": ("allegro_right", "box_upright"),
+}
+
+
+def _digest(*arrays: Any) -> str:
+    h = hashlib.sha256()
+    for a in arrays:
+        a = np.ascontiguousarray(np.asarray(a))
+        h.update(str((a.dtype.str, a.shape)).encode())
+        h.update(a.tobytes())
+    return h.hexdigest()[:16]
+
+
+def _pipeline(gripper: str, sampling: dict[str, Any] | None = None) -> Any:
+    from wsgrasp.api import Pipeline
+    from wsgrasp.default_specs import default_spec
+    from wsgrasp.spec import PipelineSpec
+
+    data, _ = default_spec(gripper)
+    spec = PipelineSpec.model_validate(data)
+    if sampling is not None:
+        spec.sampling = spec.sampling.model_validate(
+            {**spec.sampling.model_dump(), **sampling}
+        )
+    return Pipeline(spec)
+
+
+def result_hashes(result: Any) -> dict[str, str]:
+    """Per part of a plan's result, a short hash: the candidates' verdicts,
+    contacts and scores, and the choice."""
+    c = result.candidates
+    terms = [c.terms[k] for k in sorted(c.terms)]
+    contacts = [(np.asarray(x.points), np.asarray(x.spheres)) for x in result.contacts]
+    return {
+        "reason": _digest(c.reason),
+        "contacts": _digest(c.contacts),
+        "score": _digest(c.score, *terms),
+        "choice": _digest(
+            np.asarray(-1 if result.best_index is None else result.best_index),
+            np.zeros(0) if result.T_world_ee is None else result.T_world_ee,
+            *(a for pair in contacts for a in pair),
+        ),
+    }
+
+
+def case_names() -> list[str]:
+    return [f"{g}/{s}" for g in GRIPPERS for s in SCENE_FILES] + list(DENSE)
+
+
+def compute(names: list[str] | None = None) -> dict[str, dict[str, str]]:
+    """The hashes of the cases ``names`` (all by default)."""
+    from wsgrasp.api import as_scene
+    from wsgrasp.bench import DENSE as DENSE_SAMPLING
+
+    out: dict[str, dict[str, str]] = {}
+    pipes: dict[str, Any] = {}
+    for name in names or case_names():
+        if name in DENSE:
+            gripper, scene_name = DENSE[name]
+            pipe = _pipeline(gripper, DENSE_SAMPLING[gripper])
+        else:
+            gripper, scene_name = name.split("/")
+            if gripper not in pipes:
+                pipes[gripper] = _pipeline(GRIPPERS[gripper])
+            pipe = pipes[gripper]
+        scene = as_scene(SCENE_FILES[scene_name])
+        out[name] = result_hashes(pipe.plan(scene))
+    return out
+
+
+def stored() -> dict[str, dict[str, str]]:
+    return json.loads(STORED.read_text())["cases"]  # type: ignore[no-any-return]
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--write", action="store_true", help="store the hashes")
+    ap.add_argument("cases", nargs="*", help="case names (default: all)")
+    args = ap.parse_args(argv)
+    got = compute(args.cases or None)
+    if args.write:
+        import subprocess
+
+        commit = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+        ).stdout.strip()
+        STORED.parent.mkdir(parents=True, exist_ok=True)
+        data = {"commit": commit, "cases": got}
+        STORED.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
+        print(f"wrote {len(got)} cases to {STORED}")
+        return 0
+    want = stored()
+    bad = [n for n in got if got[n] != want.get(n)]
+    for n in bad:
+        print(f"{n}: {got[n]} != {want.get(n)}")
+    print(f"{len(got) - len(bad)} of {len(got)} cases as stored")
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    sys.path.insert(0, str(ROOT))
+    raise SystemExit(main())
