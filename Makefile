@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 export MPLBACKEND := Agg
 
-.PHONY: demo test lint bench bench-peers eval eval-random eval-heldout eval-grippers schema clean sysdeps
+.PHONY: demo test lint docs bench bench-peers eval eval-random eval-heldout eval-grippers schema clean sysdeps
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -27,8 +27,17 @@ lint: $(STAMP)
 	$(BIN)/ruff check wsgrasp plugins tests benchmarks
 	$(BIN)/mypy
 
-test: $(STAMP) lint
+# the documentation site (mkdocs.yml, docs/): strict, so a broken link or a
+# reference page that no longer builds from the code fails; offline
+docs: $(STAMP)
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet
+
+test: $(STAMP) lint docs
 	$(BIN)/python -m pytest -q -m "not slow"
+
+# the commit a run starts from, written with its result under docs/results/
+COMMIT := $(shell git rev-parse --short HEAD 2>/dev/null)
+PUBLISH = $(BIN)/python benchmarks/publish_result.py --commit "$(COMMIT)"
 
 BARRETT := examples/plugins/barrett_bh8_like/wsgrasp_barrett_bh8_like/barrett_bh8_like.yaml
 EVAL_GRIPPERS := --gripper franka_hand --gripper allegro_right --gripper $(BARRETT)
@@ -39,6 +48,7 @@ eval: $(STAMP)
 	$(BIN)/wsgrasp eval $(EVAL_GRIPPERS) --objects paper13 --followup \
 		--trials 10 --seed 0 --json-out eval-results/paper13.json \
 		--md-out eval-results/paper13.md
+	$(PUBLISH) --command "make eval" eval-results/paper13.json docs/results/eval/paper13.json
 
 # pybullet_data's random objects, development range (000-299; 300-999 is held out)
 eval-random: $(STAMP)
@@ -46,6 +56,8 @@ eval-random: $(STAMP)
 	$(BIN)/wsgrasp eval $(EVAL_GRIPPERS) --followup \
 		--objects random:000-299 --trials 3 --seed 0 \
 		--json-out eval-results/random-dev.json --md-out eval-results/random-dev.md
+	$(PUBLISH) --command "make eval-random" eval-results/random-dev.json \
+		docs/results/eval/random-dev.json
 
 # the held-out range, once, with the defaults chosen on the development range
 eval-heldout: $(STAMP)
@@ -54,6 +66,8 @@ eval-heldout: $(STAMP)
 		--objects random:300-999 --trials 1 --seed 1 \
 		--json-out eval-results/random-heldout.json \
 		--md-out eval-results/random-heldout.md
+	$(PUBLISH) --command "make eval-heldout" eval-results/random-heldout.json \
+		docs/results/eval/random-heldout.json
 
 # the YCB development set (19 scanned household objects with their masses), read
 # from where it lies (never copied here), beside chance: each plan's choice and 3
@@ -66,9 +80,10 @@ eval-ycb: $(STAMP)
 	$(BIN)/wsgrasp eval $(EVAL_GRIPPERS) --no-paper --objects $(YCB_DIR) \
 		--trials 2 --seed 0 --baseline random \
 		--json-out eval-results/ycb.json --md-out eval-results/ycb.md
+	$(PUBLISH) --command "make eval-ycb" eval-results/ycb.json docs/results/eval/ycb.json
 
-# the choice against chance on random:000-099 under each protocol (README, Grasp
-# success in simulation)
+# the choice against chance on random:000-099 under each protocol (docs: Results,
+# Grasp success)
 eval-chance: $(STAMP)
 	$(BIN)/python -m pip install -q -e '.[sim]'
 	for protocol in strict lift; do \
@@ -76,13 +91,15 @@ eval-chance: $(STAMP)
 			--trials 1 --seed 0 --protocol $$protocol --baseline random \
 			--json-out eval-results/chance-$$protocol.json \
 			--md-out eval-results/chance-$$protocol.md || exit 1; \
+		$(PUBLISH) --command "make eval-chance" eval-results/chance-$$protocol.json \
+			docs/results/eval/chance-$$protocol.json || exit 1; \
 	done
 
 # every URDF under GRIPPERS_DIR (the vendor descriptions wsgrasp is developed
 # against) scaffolded with no edit, checked, planned on the bundled scenes and tried
 # on random:000-299 x 1 (the lift protocol; PROTOCOL=strict for eval's default),
-# and every built-in and example gripper: the README's gripper table
-# (benchmarks/eval_grippers.py)
+# and every built-in and example gripper: docs/results/grippers.json, the docs'
+# gripper table (benchmarks/eval_grippers.py)
 GRIPPERS_DIR ?= ../shared/grippers
 PROTOCOL ?= lift
 eval-grippers: $(STAMP)
@@ -91,10 +108,12 @@ eval-grippers: $(STAMP)
 		--protocol $(PROTOCOL)
 
 # with the compiled dense loops (extra `fast`, numba); the dense entries' `compiled`
-# field says which path ran
+# field says which path ran. Writes docs/results/bench.json (the docs' Speed page)
 bench: $(STAMP)
 	$(BIN)/python -m pip install -q -e '.[fast]'
-	$(BIN)/wsgrasp bench
+	@mkdir -p bench-results
+	$(BIN)/wsgrasp bench --json > bench-results/bench.json
+	$(PUBLISH) --command "make bench" bench-results/bench.json docs/results/bench.json
 
 # wsgrasp's plan beside GPG's candidate generation (benchmarks/peers.py); not in
 # `make test`. GPG's binding (grasp-pose-generator, an sdist) builds with CMake
@@ -126,4 +145,4 @@ schema: $(STAMP)
 	$(BIN)/wsgrasp schema
 
 clean:
-	rm -rf $(VENV) demo runs eval-results .pytest_cache .mypy_cache .ruff_cache
+	rm -rf $(VENV) demo runs eval-results site .pytest_cache .mypy_cache .ruff_cache

@@ -17,11 +17,13 @@ their meshes works the same way):
 The built-in grippers and the example plugins run steps 2-4 with their own
 YAMLs. Each gripper's trials run in a ``wsgrasp eval`` process of their own, so
 a crash costs only that row. Writes ``grippers.json`` (every figure) and
-``grippers.md`` (the table) under ``--out``; ``--readme FILE`` replaces the
-table between the ``<!-- gripper-table -->`` markers in that file.
+``grippers.md`` (the table) under ``--out``, and the same ``grippers.json`` to
+``--results`` (``docs/results/grippers.json``), which the documentation renders
+(its Results: grippers page, with a chart). ``--render FILE`` prints the table of
+a ``grippers.json``.
 
     python benchmarks/eval_grippers.py                  # what `make eval-grippers` runs
-    python benchmarks/eval_grippers.py --objects random:000-019 --no-readme
+    python benchmarks/eval_grippers.py --objects random:000-019 --no-results
 """
 
 from __future__ import annotations
@@ -52,7 +54,6 @@ BUILT_IN = {
 }
 #: the synthetic shapes every default spec must grasp: size (m), scene seed
 SHAPES = {"box 6x5x11": ((0.06, 0.05, 0.11), 2), "cube 5": ((0.05, 0.05, 0.05), 3)}
-MARK = "<!-- gripper-table -->"
 
 
 def package_name(urdf: Path) -> str:
@@ -267,17 +268,6 @@ def markdown(report: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def replace_table(readme: Path, table: str) -> None:
-    """Put ``table`` between the two markers in ``readme``."""
-    text = readme.read_text()
-    parts = text.split(MARK)
-    if len(parts) != 3:
-        raise SystemExit(
-            f"{readme}: expected two {MARK} markers, found {len(parts) - 1}"
-        )
-    readme.write_text(parts[0] + MARK + "\n" + table + MARK + parts[2])
-
-
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument(
@@ -293,19 +283,21 @@ def main(argv: list[str] | None = None) -> int:
         "execution error, disturbances, slip in the grip)",
     )
     ap.add_argument("--out", type=Path, default=ROOT / "eval-results" / "grippers")
-    ap.add_argument("--readme", type=Path, default=ROOT / "README.md")
-    ap.add_argument("--no-readme", action="store_true")
+    ap.add_argument(
+        "--results",
+        type=Path,
+        default=ROOT / "docs" / "results" / "grippers.json",
+        help="also write grippers.json here, where the documentation renders it",
+    )
+    ap.add_argument("--no-results", action="store_true")
     ap.add_argument("--no-eval", action="store_true", help="skip the trials")
     ap.add_argument("--only", action="append", help="only these gripper names")
     ap.add_argument(
-        "--render", type=Path, help="only write the table of this grippers.json"
+        "--render", type=Path, help="only print the table of this grippers.json"
     )
     args = ap.parse_args(argv)
     if args.render is not None:
-        table = markdown(json.loads(args.render.read_text()))
-        if not args.no_readme:
-            replace_table(args.readme, table)
-        print(table, end="")
+        print(markdown(json.loads(args.render.read_text())), end="")
         return 0
 
     from rich.console import Console
@@ -375,12 +367,14 @@ def main(argv: list[str] | None = None) -> int:
         "protocol": args.protocol,
         "rows": rows,
     }
-    (args.out / "grippers.json").write_text(json.dumps(report, indent=2) + "\n")
-    table = markdown(report)
-    (args.out / "grippers.md").write_text(table)
-    if not args.no_readme:
-        replace_table(args.readme, table)
+    text = json.dumps(report, indent=2) + "\n"
+    (args.out / "grippers.json").write_text(text)
+    (args.out / "grippers.md").write_text(markdown(report))
     console.print(f"wrote {args.out / 'grippers.json'} and grippers.md")
+    if not args.no_results:
+        args.results.parent.mkdir(parents=True, exist_ok=True)
+        args.results.write_text(text)
+        console.print(f"wrote {args.results}")
     return 0
 
 

@@ -1,0 +1,222 @@
+"""The documentation: the README's tour, and the site's strict build.
+
+The site is built once (``mkdocs build --strict``, as ``make docs`` does) into a
+temporary folder; a broken internal link or anchor, or a render marker that no
+longer renders, fails the build. The reference pages are generated from the code
+at build time; these tests check the built pages against the code, so a spec
+field, a plugin option, a command or a recording channel that the docs leave out
+fails here.
+"""
+
+from __future__ import annotations
+
+import html
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+pytest.importorskip("mkdocs")
+pytest.importorskip("mkdocstrings")
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs"
+LINK = re.compile(r"\]\(([^)\s]+)\)")
+
+
+def _mkdocs(config: Path, site: Path) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, "NO_MKDOCS_2_WARNING": "1", "MPLBACKEND": "Agg"}
+    return subprocess.run(
+        [sys.executable, "-m", "mkdocs", "build", "--strict", "-f", str(config)]
+        + ["-d", str(site)],
+        capture_output=True,
+        text=True,
+        cwd=config.parent,
+        env=env,
+        timeout=600,
+    )
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("site")
+    res = _mkdocs(ROOT / "mkdocs.yml", out)
+    assert res.returncode == 0, res.stdout + res.stderr
+    return out
+
+
+def _text(site: Path, page: str) -> str:
+    """A built page's article as plain text."""
+    raw = (site / page / "index.html").read_text()
+    body = raw[raw.find("<article") : raw.find("</article>")]
+    return html.unescape(re.sub(r"<[^>]+>", " ", body))
+
+
+# --------------------------------------------------------------------------------
+# the README
+# --------------------------------------------------------------------------------
+
+
+def test_readme_starts_with_the_two_commands_and_stays_a_tour() -> None:
+    lines = (ROOT / "README.md").read_text().splitlines()
+    first_block = lines[lines.index("```sh") + 1 : lines.index("```")]
+    assert lines[0].startswith("# wsgrasp")
+    assert first_block == ["make demo", "make test"]
+    assert len(lines) <= 250
+
+
+def test_readme_links_resolve() -> None:
+    text = (ROOT / "README.md").read_text()
+    targets = [t for t in LINK.findall(text) if "://" not in t]
+    assert targets, "the README links into the site"
+    for target in targets:
+        path = target.split("#", 1)[0]
+        if path:
+            assert (ROOT / path).exists(), f"README links to {target}: not found"
+
+
+# --------------------------------------------------------------------------------
+# the site
+# --------------------------------------------------------------------------------
+
+
+def test_every_page_is_in_the_nav() -> None:
+    config = yaml.safe_load((ROOT / "mkdocs.yml").read_text().replace("!!python", ""))
+
+    def pages(node: object) -> list[str]:
+        if isinstance(node, str):
+            return [node]
+        if isinstance(node, dict):
+            return [p for v in node.values() for p in pages(v)]
+        if isinstance(node, list):
+            return [p for v in node for p in pages(v)]
+        return []
+
+    in_nav = set(pages(config["nav"]))
+    on_disk = {
+        str(p.relative_to(DOCS)) for p in DOCS.rglob("*.md") if "hooks" not in p.parts
+    }
+    assert on_disk == in_nav
+
+
+def test_render_markers_are_known() -> None:
+    sys.path.insert(0, str(DOCS / "hooks"))
+    try:
+        import render  # type: ignore[import-not-found]
+    finally:
+        sys.path.remove(str(DOCS / "hooks"))
+    for page in DOCS.rglob("*.md"):
+        for name in render.MARKER.findall(page.read_text()):
+            assert name in render.RENDERERS, f"{page}: unknown marker {name}"
+
+
+def test_strict_build_fails_on_a_broken_link(tmp_path: Path) -> None:
+    """The validation settings of mkdocs.yml turn a broken link into a failure."""
+    validation = yaml.safe_load(
+        "\n".join(
+            line
+            for line in (ROOT / "mkdocs.yml").read_text().splitlines()
+            if not line.startswith("  - docs/hooks")
+        )
+    )["validation"]
+    (tmp_path / "docs").mkdir()
+    (tmp_path / "docs" / "index.md").write_text(
+        "# Home\n\n[a page that is not there](missing.md) [an anchor](#nowhere)\n"
+    )
+    config = {
+        "site_name": "t",
+        "docs_dir": "docs",
+        "validation": validation,
+    }
+    (tmp_path / "mkdocs.yml").write_text(yaml.safe_dump(config))
+    res = _mkdocs(tmp_path / "mkdocs.yml", tmp_path / "site")
+    assert res.returncode != 0
+    assert "missing.md" in res.stdout + res.stderr
+
+
+def test_site_builds_with_the_generated_pages(site: Path) -> None:
+    for page in (
+        "reference/spec",
+        "reference/plugins",
+        "reference/cli",
+        "reference/api",
+        "reference/recording",
+        "results/grippers",
+        "results/speed",
+        "results/success",
+    ):
+        assert (site / page / "index.html").is_file(), page
+    assert "<!-- render:" not in (site / "reference/spec/index.html").read_text()
+
+
+def _fields(model: type) -> set[str]:
+    from pydantic import BaseModel
+
+    names = set(model.model_fields)  # type: ignore[attr-defined]
+    for f in model.model_fields.values():  # type: ignore[attr-defined]
+        stack = [f.annotation]
+        while stack:
+            a = stack.pop()
+            if isinstance(a, type) and issubclass(a, BaseModel):
+                names |= _fields(a)
+            stack += list(getattr(a, "__args__", ()))
+    return names
+
+
+def test_spec_reference_lists_every_field(site: Path) -> None:
+    from wsgrasp.spec import GripperDescription, PipelineSpec
+
+    for page, model in (
+        ("reference/spec", PipelineSpec),
+        ("reference/gripper-yaml", GripperDescription),
+    ):
+        words = set(_text(site, page).split())
+        missing = sorted(_fields(model) - words)
+        assert not missing, f"{page} leaves out {missing}"
+
+
+def test_plugin_reference_lists_every_builtin_and_option(site: Path) -> None:
+    from wsgrasp.plugins import get_registry
+
+    words = set(_text(site, "reference/plugins").split())
+    reg = get_registry()
+    for kind in ("grippers", "segmenters", "scorers"):
+        for name in reg.names(kind):
+            r = reg.get(kind, name)
+            if r.plugin.distribution != "wsgrasp":
+                continue
+            assert name in words, f"{kind} {name}"
+            options = getattr(r.obj, "Options", None)
+            for key in getattr(options, "model_fields", {}):
+                assert key in words, f"{kind} {name} option {key}"
+
+
+def test_cli_reference_has_every_command(site: Path) -> None:
+    import typer
+
+    from wsgrasp.cli import app
+
+    text = _text(site, "reference/cli")
+
+    def walk(path: list[str], cmd: object) -> None:
+        assert f"Usage: {' '.join(['wsgrasp', *path])} " in text, path
+        if hasattr(cmd, "list_commands"):
+            ctx = cmd.context_class(cmd)  # type: ignore[attr-defined]
+            for name in cmd.list_commands(ctx):
+                sub = cmd.get_command(ctx, name)  # type: ignore[attr-defined]
+                if sub is not None and not sub.hidden:
+                    walk([*path, name], sub)
+
+    walk([], typer.main.get_command(app))
+
+
+def test_recording_reference_has_every_full_fidelity_topic(site: Path) -> None:
+    from wsgrasp.record._codec import TOPICS
+
+    text = _text(site, "reference/recording")
+    for topic in TOPICS.values():
+        assert topic in text, topic
