@@ -1,9 +1,9 @@
-"""How the structured (dense) evaluation grows with the number of candidates.
+"""How the evaluation of a dense candidate set grows with the number of candidates.
 
-The README's dense scaling table: per gripper, the bench's dense orientations times
-the smallest cubic grid of box samples reaching each count, evaluation medians (the
-unstructured path alternating up to ``--old-up-to`` candidates), cost per candidate
-and peak memory (``wsgrasp.bench.dense_scaling``). Run from the repository root::
+Per gripper, the bench's dense orientations times the smallest cubic grid of box
+samples reaching each count: evaluation medians, cost per candidate, peak memory
+and whether the compiled loops ran (``wsgrasp.bench.dense_scaling``). Run from the
+repository root::
 
     .venv/bin/python benchmarks/dense_scaling.py
     .venv/bin/python benchmarks/dense_scaling.py --counts 10000 100000 1000000 --json
@@ -16,7 +16,6 @@ import json
 
 from wsgrasp.api import Pipeline, as_scene
 from wsgrasp.bench import DENSE, dense_scaling, project_root
-from wsgrasp.planning import _dense_numba
 from wsgrasp.spec import load_spec
 
 
@@ -26,7 +25,6 @@ def main() -> None:
     ap.add_argument(
         "--counts", nargs="+", type=int, default=[10_000, 100_000, 1_000_000]
     )
-    ap.add_argument("--old-up-to", type=int, default=160_000)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--json", action="store_true", help="print JSON rows")
     args = ap.parse_args()
@@ -41,38 +39,18 @@ def main() -> None:
         )
         pipe = Pipeline(spec)
         rows += dense_scaling(
-            pipe,
-            pipe.prepare(scene),
-            tuple(args.counts),
-            old_up_to=args.old_up_to,
-            repeat=args.repeat,
+            pipe, pipe.prepare(scene), tuple(args.counts), repeat=args.repeat
         )
-    for r in rows:
-        r["compiled"] = _dense_numba.available()
     if args.json:
         print(json.dumps(rows, indent=1))
         return
-    print(
-        "| gripper | candidates | old (per candidate) | structured (per candidate) "
-        "| ratio | peak (structured) |"
-    )
-    print("|---|---:|---:|---:|---:|---:|")
+    print("| gripper | candidates | evaluation (per candidate) | peak | compiled |")
+    print("|---|---:|---:|---:|:---:|")
     for r in rows:
-        old = (
-            f"{r['evaluate_ms']:.0f} ms ({r['us_per_candidate']:.1f} µs)"
-            if r["evaluate_ms"] == r["evaluate_ms"]
-            else "not run"
-        )
-        ratio = (
-            f"{r['evaluate_ms'] / r['evaluate_structured_ms']:.1f}×"
-            if r["evaluate_ms"] == r["evaluate_ms"]
-            else ""
-        )
         print(
-            f"| {r['gripper']} | {r['candidates']:,} | {old} | "
-            f"{r['evaluate_structured_ms']:.0f} ms "
-            f"({r['structured_us_per_candidate']:.2f} µs) | {ratio} | "
-            f"{r['peak_mb']:.0f} MB |"
+            f"| {r['gripper']} | {r['candidates']:,} | {r['evaluate_ms']:.0f} ms "
+            f"({r['us_per_candidate']:.2f} µs) | {r['peak_mb']:.0f} MB | "
+            f"{'yes' if r['compiled'] else 'no'} |"
         )
 
 

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 import yaml
 from hand_factory import hand_yaml, write_hand
+from search_kernels import KERNELS, force, loops
 from typer.testing import CliRunner
 from wsgrasp_scorers import CentroidDistanceScorer
 
@@ -20,8 +21,8 @@ from wsgrasp.errors import SpecError, WsgraspError
 from wsgrasp.gripper import load_gripper
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.perception.types import Scene, View
-from wsgrasp.planning import _dense_numba, dense
-from wsgrasp.planning._dense_grid import FingerDepth
+from wsgrasp.planning import _compiled
+from wsgrasp.planning._grids import FingerDepth
 from wsgrasp.planning.candidates import candidate_poses, orientation_set
 from wsgrasp.planning.evaluate import CandidateStructure, TableSE, evaluate_candidates
 from wsgrasp.planning.reference import reference_search
@@ -47,11 +48,6 @@ SAMPLINGS = {
         "depths": 2,
     },
 }
-#: which finger and body kernels run: numpy's or the compiled loops (compiled by
-#: numba where it is installed, else their plain Python functions), as a small
-#: search runs them or as a dense one does (the ball proofs, the depth grid
-#: counting, the holdings built when read)
-KERNELS = ("numpy_small", "numpy_dense", "compiled_small", "compiled_dense")
 
 
 @pytest.fixture(scope="module")
@@ -76,23 +72,6 @@ def _cylinder(radius: float, height: float, n: int, seed: int) -> np.ndarray:
     r, b = radius * np.sqrt(rng.uniform(0.0, 1.0, k)), rng.uniform(0.0, 2.0 * np.pi, k)
     top = np.c_[r * np.cos(b), r * np.sin(b), np.full(k, height)]
     return np.vstack([side, top])
-
-
-def _force(monkeypatch: pytest.MonkeyPatch, kernel: str) -> None:
-    """Route the structured search through ``kernel`` (see :data:`KERNELS`)."""
-    N = _dense_numba
-    if kernel.startswith("numpy"):
-        monkeypatch.setattr(N, "_AVAILABLE", False)
-    else:
-        count, body = N.load() if N.available() else (N._count_loop, N._body_loop)
-        monkeypatch.setattr(N, "_AVAILABLE", True)
-        monkeypatch.setattr(N, "_compiled_count", count)
-        monkeypatch.setattr(N, "_compiled_body", body)
-        monkeypatch.setattr(dense, "_COMPILED_FROM", 2**62 if "small" in kernel else 0)
-    if kernel.endswith("dense"):
-        monkeypatch.setattr(dense, "_BALLS_FROM", 0)
-        monkeypatch.setattr(dense, "_KEEP_ENTRIES", -1)
-        monkeypatch.setattr(dense, "_DEPTH_FROM", 0)
 
 
 def _held_truth(g: GripperModel, T_world_gripper: np.ndarray, points: np.ndarray):
@@ -142,7 +121,7 @@ def test_search_verdicts_equal_the_reference(
         g, T_world_object, samples, o.R_object_gwc, obj, obs, table, o.depth
     )
     assert (ref.reason == 0).any() and (ref.reason == 2).any(), "a scene that decides"
-    _force(monkeypatch, kernel)
+    force(monkeypatch, kernel)
     structure = CandidateStructure(T_world_object, samples, o.R_object_gwc, o.depth)
     ev = evaluate_candidates(T_wg, g, obj, obs, table, structure=structure)
     np.testing.assert_array_equal(ev.reason, ref.reason)
@@ -176,18 +155,11 @@ def test_depth_grid_counts_any_number_of_fingers(nf: int) -> None:
     p = Q[ol].transpose(0, 2, 1) - u[:, None, :]  # (m, n, 3) gripper frame
     inside = ((p[:, :, None, :] - centers) ** 2).sum(-1) < radii**2  # (m, n, S)
     held = np.stack([inside[..., finger == f].any(-1) for f in range(nf)], -1)
-    loops = [_dense_numba._count_loop]
-    if _dense_numba.available():
-        loops.append(_dense_numba.load()[0])
-    for loop in loops:
+    for loop, _ in loops():
         out = np.ones((m, n, nf), dtype=bool)
-        counts = _dense_numba.count_by_fingers(depth, Q, ol, u, loop, None, out, None)
+        counts = _compiled.count_by_fingers(depth, Q, ol, u, loop, None, out, None)
         np.testing.assert_array_equal(counts, held.sum(axis=1))
         np.testing.assert_array_equal(out, held)
-    proven, unsure = depth.held_points(Q, ol, u)
-    np.testing.assert_array_equal(proven[~unsure], held[~unsure])
-    assert np.all(held[proven])
-    assert np.all(depth.counts(Q, ol, u)[0] <= held.sum(axis=1))
 
 
 def test_one_finger_is_refused(tmp_path: Path) -> None:

@@ -10,8 +10,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from wsgrasp.planning import _holdings
-from wsgrasp.planning._holdings import HoldingField, Holdings
+from wsgrasp.planning import holdings as _holdings
+from wsgrasp.planning.holdings import HoldingField, Holdings
 
 
 def _lazy(holding: np.ndarray, calls: list[int]) -> Holdings:

@@ -176,7 +176,7 @@ def test_contact_quantities_from_held_points_match_the_mask(seed):
     """Counts, centroids and normals per finger equal those of the float mask's
     products (to rounding), and every built-in scorer gives the same values
     from holdings built on demand as from the mask, without building it."""
-    from wsgrasp.planning._holdings import Holdings
+    from wsgrasp.planning.holdings import Holdings
 
     rng = np.random.default_rng(seed)
     F, no, nf = 30, 50, 2

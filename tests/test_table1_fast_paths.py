@@ -13,7 +13,7 @@ from conftest import make_jaw_gripper
 from wsgrasp.geometry import coordinates_in_superellipsoids
 from wsgrasp.perception import frame
 from wsgrasp.perception.frame import estimate_normals
-from wsgrasp.planning.dense import _inside_narrowing
+from wsgrasp.planning.body import _inside_narrowing
 from wsgrasp.planning.scoring import CandidateBatch
 
 ROOT = Path(__file__).resolve().parent.parent

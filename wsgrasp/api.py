@@ -682,10 +682,11 @@ def _depth_noise(points: Array, table: Plane, object_points: Array) -> float:
 
 
 def _hits_table(g: GripperModel, table: TableSE, T_world_gripper: Array) -> bool:
-    from wsgrasp.planning.evaluate import table_collisions
+    from wsgrasp.planning.poses import StructuredPoses
+    from wsgrasp.planning.table import table_verdicts
 
-    hit, _ = table_collisions(np.asarray(T_world_gripper)[None], g.cloud, table)
-    return bool(hit[0])
+    poses = StructuredPoses.of_transforms(np.asarray(T_world_gripper)[None])
+    return bool(table_verdicts(poses, g, table).hit[0])
 
 
 #: a gripper point this far (m) below the table plane, over the table, is under it

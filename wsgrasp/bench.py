@@ -20,7 +20,7 @@ import numpy as np
 
 from wsgrasp.api import Pipeline, as_scene
 from wsgrasp.perception.frame import sample_box
-from wsgrasp.planning import _dense_numba
+from wsgrasp.planning import _compiled
 from wsgrasp.planning.candidates import candidate_poses, orientation_set
 from wsgrasp.planning.evaluate import (
     CandidateStructure,
@@ -44,8 +44,8 @@ class BenchCase:
     label: str = ""
     #: fields of the spec's ``sampling`` to override (the paper's Table I setting)
     sampling: dict[str, Any] | None = None
-    #: a dense case: the search and the evaluation only (old and structured paths
-    #: alternating), with peak memory; no whole plan, no loop-by-loop reference
+    #: a dense case: the search and the evaluation only, alternating, with peak
+    #: memory; no whole plan, no loop-by-loop reference
     dense: bool = False
 
 
@@ -206,9 +206,9 @@ def _peak_mb(fn: Callable[[], Any]) -> float:
         tracemalloc.stop()
 
 
-def _evaluators(inp: Any) -> tuple[Callable[[], Any], Callable[[], Any]]:
-    """The evaluation of every candidate of ``inp`` without and with the
-    candidates' structure (same verdicts)."""
+def _evaluator(inp: Any) -> Callable[[], Any]:
+    """The evaluation of every candidate of ``inp`` (the search's verdicts,
+    without scoring and choice)."""
     g, o = inp.gripper, inp.orientations
     _, T_world_gripper, _, _ = candidate_poses(
         inp.T_world_object, inp.samples_object, o.R_object_gwc, g.T_gripper_gwc, o.depth
@@ -218,14 +218,7 @@ def _evaluators(inp: Any) -> tuple[Callable[[], Any], Callable[[], Any]]:
         inp.T_world_object, inp.samples_object, o.R_object_gwc, o.depth
     )
     args = (T_world_gripper, g, inp.object_points, inp.obstacle_points, inp.table)
-
-    def old() -> Any:
-        return evaluate_candidates(*args, spheres)
-
-    def new() -> Any:
-        return evaluate_candidates(*args, spheres, structure=structure)
-
-    return old, new
+    return lambda: evaluate_candidates(*args, spheres, structure=structure)
 
 
 def _side_by_side(
@@ -247,33 +240,29 @@ def _side_by_side(
 def _dense_row(
     pipe: Pipeline, prep: Any, label: str, say: Callable[[str], None]
 ) -> dict[str, float]:
-    """A dense case: the search as wired (``pipe.search``), and the evaluation
-    alone without and with the structure, alternating; peak memory of each."""
+    """A dense case: the search as wired (``pipe.search``) and the evaluation
+    alone, alternating; peak memory of each."""
     inp = prep.search_input
     C = inp.num_candidates
-    old, new = _evaluators(inp)
-    say(f"{label}: {C} candidates, structured evaluation")
-    new()  # warm-up (caches, page faults)
+    evaluate = _evaluator(inp)
+    say(f"{label}: {C} candidates, evaluation")
+    evaluate()  # warm-up (caches, page faults, the compiled loops' loading)
     pipe.search(prep)  # the same for the search (its own sphere index's grids)
-    say(f"{label}: search, evaluation old and structured, alternating")
-    times: dict[str, list[float]] = {}
+    say(f"{label}: search and evaluation, alternating")
     search = lambda: pipe.search(prep)  # noqa: E731
-    _side_by_side({"search": search, "old": old, "new": new}, 1, times)
-    ms = _side_by_side({"search": search, "new": new}, 4, times)  # medians of 5
+    ms = _side_by_side({"search": search, "evaluate": evaluate}, 5)
     return {
         "candidates": float(C),
         "samples": float(len(inp.samples_object)),
         "orientations": float(len(inp.orientations)),
         "object_points": float(len(inp.object_points)),
         "search_ms": ms["search"],
-        "evaluate_ms": ms["old"],
-        "evaluate_structured_ms": ms["new"],
-        "evaluate_speedup": ms["old"] / ms["new"],
-        "structured_us_per_candidate": ms["new"] * 1e3 / max(C, 1),
+        "evaluate_ms": ms["evaluate"],
+        "us_per_candidate": ms["evaluate"] * 1e3 / max(C, 1),
         "peak_mb": _peak_mb(lambda: pipe.search(prep)),
-        "evaluate_structured_peak_mb": _peak_mb(new),
-        # 1 where numba is installed (extra `fast`): the compiled loops ran
-        "compiled": float(_dense_numba.available()),
+        "evaluate_peak_mb": _peak_mb(evaluate),
+        # 1 where the compiled loops ran (numba, unless WSGRASP_NUMBA=0)
+        "compiled": float(_compiled.loaded()),
     }
 
 
@@ -281,13 +270,11 @@ def dense_scaling(
     pipe: Pipeline,
     prep: Any,
     counts: tuple[int, ...] = (10_000, 100_000, 1_000_000),
-    old_up_to: int = 160_000,
     repeat: int = 3,
 ) -> list[dict[str, Any]]:
-    """Evaluation time and cost per candidate against the number of candidates:
-    the structured path up to ``counts[-1]``, the old one (alternating with it)
-    up to ``old_up_to``. The candidates are the case's orientations times the
-    smallest cubic grid of samples in the object's box that reaches each count."""
+    """Evaluation time and cost per candidate against the number of candidates.
+    The candidates are the case's orientations times the smallest cubic grid of
+    samples in the object's box that reaches each count."""
     from wsgrasp.perception.frame import object_frame
 
     inp = prep.search_input
@@ -299,20 +286,18 @@ def dense_scaling(
             update={"grid": (per_axis, per_axis, per_axis)}
         )
         case = replace(inp, samples_object=sample_box(frame, sampling))
-        old, new = _evaluators(case)
-        new()
-        fns = {"new": new, "old": old} if case.num_candidates <= old_up_to else {}
-        ms = _side_by_side(fns or {"new": new}, repeat)
+        evaluate = _evaluator(case)
+        evaluate()
+        ms = _side_by_side({"evaluate": evaluate}, repeat)
         C = case.num_candidates
         rows.append(
             {
                 "gripper": pipe.gripper.name,
                 "candidates": C,
-                "evaluate_structured_ms": ms["new"],
-                "structured_us_per_candidate": ms["new"] * 1e3 / C,
-                "evaluate_ms": ms.get("old", float("nan")),
-                "us_per_candidate": ms.get("old", float("nan")) * 1e3 / C,
-                "peak_mb": _peak_mb(new),
+                "evaluate_ms": ms["evaluate"],
+                "us_per_candidate": ms["evaluate"] * 1e3 / C,
+                "peak_mb": _peak_mb(evaluate),
+                "compiled": _compiled.loaded(),
             }
         )
     return rows

@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wsgrasp.gripper.model import GripperModel
-from wsgrasp.planning.dense import hull_vertices
+from wsgrasp.planning.poses import hull_vertices
 
 __all__ = [
     "GRAZE_SLACK",

@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wsgrasp.gripper.model import GripperModel
-from wsgrasp.planning.evaluate import TableSE
+from wsgrasp.planning.poses import TableSE
 
 __all__ = ["ReferenceResult", "reference_search", "paper_orientation"]
 

@@ -14,7 +14,7 @@ from pydantic import BaseModel
 from wsgrasp.errors import PluginError
 from wsgrasp.geometry import invert_transforms, transform_points
 from wsgrasp.gripper.model import GripperModel
-from wsgrasp.planning._holdings import HoldingField, Holdings
+from wsgrasp.planning.holdings import HoldingField, Holdings
 
 __all__ = ["CandidateBatch", "Scorer", "combine_scores"]
 
@@ -32,7 +32,7 @@ class CandidateBatch:
     theta : (F,) float
     holding : (F, no, nf) bool
         Which object points each finger's spheres hold. May be given as a
-        :class:`~wsgrasp.planning._holdings.Holdings`, whose mask is built only
+        :class:`~wsgrasp.planning.holdings.Holdings`, whose mask is built only
         if something reads ``holding``; counts, centroids and normals are
         computed from the held points without it.
     object_points : (no, 3) float
@@ -79,7 +79,7 @@ class CandidateBatch:
 
     @property
     def holdings(self) -> Holdings:
-        """``holding`` as :class:`~wsgrasp.planning._holdings.Holdings` (counts,
+        """``holding`` as :class:`~wsgrasp.planning.holdings.Holdings` (counts,
         blocks of rows, sums over the held points), without building the mask."""
         field_ = type(self).__dict__["holding"]
         return field_.holdings_of(self)  # type: ignore[no-any-return]

@@ -1,4 +1,5 @@
-"""The feasible candidates' holdings, held densely or computed in blocks on demand.
+"""Stage 4, the holdings: which object points each finger holds, for the feasible
+candidates, held densely or computed in blocks on demand.
 
 Evaluation decides feasibility from per-finger counts; scorers need per finger the
 sums of the held points (and of their normals); the chosen grasp needs its own
@@ -19,7 +20,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["Holdings", "HoldingField", "count_held"]
+from wsgrasp.planning.fingers import FingerVerdicts, count_held
+
+__all__ = ["Holdings", "HoldingField", "feasible_holdings"]
 
 Array = NDArray[np.float64]
 
@@ -27,14 +30,6 @@ Array = NDArray[np.float64]
 _BLOCK_ENTRIES = 4_000_000
 #: up to this many entries, a block's sums are one matrix product
 _SMALL_BLOCK = 65_536
-
-
-def count_held(hold: NDArray[np.bool_]) -> NDArray[np.int64]:
-    """Points held per candidate and finger, ``(n, no, nf)`` -> ``(n, nf)``."""
-    # a float32 product of ones: exact (counts below 2**24), several times faster
-    # than numpy's count_nonzero over the middle axis
-    ones = np.ones(hold.shape[1], dtype=np.float32)
-    return np.matmul(ones, hold.astype(np.float32)).astype(np.int64)  # (n, nf)
 
 
 class Holdings:
@@ -146,6 +141,17 @@ class Holdings:
                     key, weights=v[j, k], minlength=n * nf
                 ).reshape(n, nf)
         return out
+
+
+def feasible_holdings(fingers: FingerVerdicts, feasible: NDArray[np.int64]) -> Holdings:
+    """The holdings of the candidates at positions ``feasible`` (F,) of what the
+    finger test found: the kept ones, or computed by its kernel when read."""
+    p = np.asarray(feasible, dtype=np.int64)
+    counts = fingers.counts[p]
+    if fingers.held is not None:
+        return Holdings(counts, fingers.num_points, dense=fingers.held[p])
+    rows = fingers.rows
+    return Holdings(counts, fingers.num_points, rows=lambda i: rows(p[i]))
 
 
 class HoldingField:

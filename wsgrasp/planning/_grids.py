@@ -1,15 +1,5 @@
-"""Grids that prove verdicts of the dense search before any point is tested.
+"""The grids the compiled body and finger loops read (``_compiled``).
 
-Two conservative tests, both exact where they decide and silent where they cannot:
-
-``ObjectDistance``
-    The distance from each voxel centre of a grid to the nearest object point
-    (exact, from a KD-tree, for the voxels that ``scipy.ndimage``'s Euclidean
-    distance transform of the occupancy puts near the object), queried at ball
-    centres: the nearest point lies at most the query's distance to its voxel's
-    centre farther, so a ball inscribed in a body superellipsoid that provably
-    holds an object point proves the body hits the object. Distances are
-    rotation-invariant, so one grid in the world frame serves every orientation.
 ``FingerDepth``
     Per finger, ``D(y) = max_k (r_k - |y - c_k|)`` at the nodes of a grid in the
     gripper frame (the depth of ``y`` inside the finger's union of spheres, exact
@@ -17,11 +7,12 @@ Two conservative tests, both exact where they decide and silent where they canno
     ``t`` of a node is held where ``D > t`` (strictly inside the sphere that
     gives ``D``) and not held where ``D < -t`` (outside every sphere). At the
     nodes it leaves unsure, a short list of the finger's spheres that can hold a
-    point nearest the node decides (``FingerDepth.sphere_lists``).
-
-Both keep ``MARGIN`` (m) on the safe side of every bound, far above rounding in
-the coordinates and in the float32 grids, so a verdict decided here is the one the
-exact test gives.
+    point nearest the node decides (``FingerDepth.sphere_lists``). Its bounds
+    keep ``MARGIN`` (m) on the safe side, far above rounding in the coordinates
+    and in the float32 grid, so a verdict decided there is the exact test's.
+``NearestPoint``
+    Per voxel around the object, an object point near it: where the body loop
+    looks first (a hint; the verdict is the exact test's).
 """
 
 from __future__ import annotations
@@ -35,196 +26,13 @@ from scipy.spatial import cKDTree
 
 from wsgrasp.planning.spheres import FingerSpheres
 
-__all__ = [
-    "ObjectDistance",
-    "NearestPoint",
-    "FingerDepth",
-    "inscribed_balls",
-    "finger_depth",
-]
+__all__ = ["NearestPoint", "FingerDepth", "finger_depth"]
 
 Array = NDArray[np.float64]
 
 #: bounds decide a verdict only this far (m) from it
 MARGIN = 1e-6
 _SQRT3 = float(np.sqrt(3.0))
-
-
-def inscribed_balls(
-    centers: Array, semi_axes: Array, exponent: float, fill: float = 0.8
-) -> tuple[Array, Array, NDArray[np.int64]]:
-    """Balls inside each superellipsoid, strung along its longest axis.
-
-    A ball of radius ``rho`` at offset ``t`` along axis ``k`` from the centre lies
-    in the box ``|x_i| <= rho`` (``i != k``), ``|x_k| <= |t| + rho``, on which eq.
-    (1) is largest at the far corner (it grows with each ``|x_i|``); the balls kept
-    have that corner's value below ``1 - 1e-6``.
-
-    Parameters
-    ----------
-    centers, semi_axes : (e, 3) float
-    exponent : float
-    fill : float
-        Ball radius as a fraction of the smallest semi-axis (less where the
-        other axes' terms would leave too little room).
-
-    Returns
-    -------
-    ball_centers : (b, 3) float
-        Gripper frame.
-    radii : (b,) float
-    body : (b,) int
-        The superellipsoid each ball lies in.
-    """
-    out_c, out_r, out_e = [], [], []
-    powers = np.array([exponent, exponent, 2.0])
-    for e, (c, a) in enumerate(zip(centers, semi_axes, strict=True)):
-        rho = fill * float(a.min())
-        k = int(np.argmax(a))
-        rest = [i for i in range(3) if i != k]
-        used = sum((rho / a[i]) ** powers[i] for i in rest)
-        # smaller where even a centred ball's box corner is outside (low
-        # exponents: an ellipsoid's inscribed cube is smaller than its axes)
-        while used + (rho / a[k]) ** powers[k] > 0.9:
-            rho *= 0.8
-            used = sum((rho / a[i]) ** powers[i] for i in rest)
-        room = 1.0 - 1e-6 - used
-        if room <= 0:
-            continue
-        t = a[k] * room ** (1.0 / powers[k]) - rho  # farthest offset along k
-        if t < 0:
-            continue
-        n = int(np.ceil(2.0 * t / rho)) + 1  # a radius apart
-        offsets = np.linspace(-t, t, n) if n > 1 else np.zeros(1)
-        ball = np.tile(c, (len(offsets), 1))
-        ball[:, k] += offsets
-        out_c.append(ball)
-        out_r.append(np.full(len(offsets), rho))
-        out_e.append(np.full(len(offsets), e, dtype=np.int64))
-    if not out_c:
-        return np.zeros((0, 3)), np.zeros(0), np.zeros(0, dtype=np.int64)
-    return np.concatenate(out_c), np.concatenate(out_r), np.concatenate(out_e)
-
-
-class ObjectDistance:
-    """Upper bounds on the distance from a query point to the nearest object point.
-
-    Parameters
-    ----------
-    points : (n, 3) float
-    radii : (b,) float
-        The radii of the balls :meth:`hits` tests, in the order it tests them;
-        queries farther than the largest outside the points' box are never
-        proven.
-    cell : float
-        Voxel size (m).
-    """
-
-    def __init__(self, points: Array, radii: Array, cell: float = 0.004) -> None:
-        p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-        self.radii = np.asarray(radii, dtype=np.float64)
-        reach = float(self.radii.max()) if len(self.radii) else 0.0
-        self.cell = h = float(cell)
-        self.empty = len(p) == 0 or reach <= 0
-        if self.empty:
-            return
-        self.origin = p.min(axis=0) - reach - h
-        shape = np.ceil((p.max(axis=0) + reach + h - self.origin) / h).astype(np.int64)
-        self.shape = np.maximum(shape, 1)
-        occupied = np.zeros(tuple(self.shape), dtype=bool)
-        ijk = np.floor((p - self.origin) / h).astype(np.int64)
-        occupied[ijk[:, 0], ijk[:, 1], ijk[:, 2]] = True
-        # distance from each voxel centre to the nearest occupied voxel's centre;
-        # the nearest point is within h√3/2 of that, so only voxels closer than
-        # reach + h√3/2 can prove anything, and get their exact distance to the
-        # nearest point (a KD-tree query); the others never prove
-        dist = np.asarray(ndimage.distance_transform_edt(~occupied, sampling=h))
-        near = np.flatnonzero(dist.ravel() < reach + 0.5 * h * _SQRT3)
-        ijk_near = np.stack(np.unravel_index(near, tuple(self.shape)), axis=1)
-        centres = self.origin + (ijk_near + 0.5) * h  # (v, 3)
-        d, _ = cKDTree(p).query(centres, distance_upper_bound=reach + h)
-        self.upper = np.full(int(np.prod(self.shape)), np.inf, dtype=np.float32)
-        # float32 moves a distance by far less than MARGIN
-        self.upper[near] = np.asarray(d, dtype=np.float32)
-        # the border voxels prove nothing (a query beyond the grid is read there)
-        border = np.ones(tuple(self.shape), dtype=bool)
-        border[1:-1, 1:-1, 1:-1] = False
-        self.upper[border.ravel()] = np.inf
-        self.strides = np.array([shape[1] * shape[2], shape[2], 1], dtype=np.int64)
-
-    def within(self, x: Array, radius: float) -> NDArray[np.bool_]:
-        """Whether some object point provably lies strictly within ``radius`` of
-        each query ``x`` (k, 3): (k,) bool; False where not proven."""
-        return self.within_coordinates(x[:, 0], x[:, 1], x[:, 2], radius)
-
-    def within_coordinates(
-        self, x: Array, y: Array, z: Array, radius: float
-    ) -> NDArray[np.bool_]:
-        """:meth:`within` for queries given as three coordinate arrays (k,)."""
-        if self.empty:
-            return np.zeros(len(x), dtype=bool)
-        inv = 1.0 / self.cell
-        flat = np.zeros(len(x))  # flat voxel index, exact in floats below 2**53
-        d2 = np.zeros(len(x))  # squared distance to the voxel's centre, in cells
-        for k, c in enumerate((x, y, z)):
-            t = (c - self.origin[k]) * inv
-            g = np.floor(t)
-            f = t - g - 0.5
-            d2 += f * f
-            # beyond the grid: read at its border, whose voxels prove nothing
-            np.clip(g, 0.0, float(self.shape[k] - 1), out=g)
-            g *= float(self.strides[k])
-            flat += g
-        # the nearest point lies at most the query's distance to its voxel's
-        # centre farther from the query than from the centre
-        to_centre = np.sqrt(d2) * self.cell
-        upper = np.take(self.upper, flat.astype(np.int64))
-        return upper + to_centre < radius - MARGIN  # type: ignore[no-any-return]
-
-    def hits(
-        self,
-        A: Array,
-        Bb: Array,
-        s: NDArray[np.int64],
-        o: NDArray[np.int64],
-        body: NDArray[np.int64],
-        min_yield: float = 0.02,
-    ) -> NDArray[np.bool_]:
-        """Candidates ``(s, o)`` (k,) with some ball ``b`` around ``A[s] + Bb[o,
-        b]`` provably holding an object point.
-
-        The balls in turn, each on the candidates not yet proven; once a ball
-        proves fewer than ``min_yield`` of those it was given, the other balls
-        of its ``body`` are skipped (they only cost time; what they would have
-        proven, the exact tests decide).
-
-        Parameters
-        ----------
-        A : (ns, 3) float
-        Bb : (O, b, 3) float
-            Ball centres less the sample's part, world frame.
-        s, o : (k,) int
-        body : (b,) int
-        """
-        hit = np.zeros(len(s), dtype=bool)
-        rest = np.arange(len(s))
-        spent: set[int] = set()
-        for b, radius in enumerate(self.radii):
-            if rest.size == 0:
-                break
-            if int(body[b]) in spent:
-                continue
-            sr, orr = s[rest], o[rest]
-            # the ball centres A[s] + Bb[o, b], (r,) per coordinate
-            x, y, z = (
-                np.take(A[:, k], sr) + np.take(Bb[:, b, k], orr) for k in range(3)
-            )
-            got = self.within_coordinates(x, y, z, float(radius))
-            if np.count_nonzero(got) < min_yield * len(rest):
-                spent.add(int(body[b]))
-            hit[rest[got]] = True
-            rest = rest[~got]
-        return hit
 
 
 class NearestPoint:
@@ -403,66 +211,6 @@ class FingerDepth:
                 16 * (f % 4)
             )
         self._packed = packed
-        self._packed_words = [np.ascontiguousarray(packed[:, w]) for w in range(words)]
-
-    def held_points(
-        self, Q: Array, ol: NDArray[np.int64], u: Array
-    ) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
-        """Which object points each finger provably holds, and which it may.
-
-        Parameters
-        ----------
-        Q : (q, 3, n) float
-            Object points per orientation in the gripper axes, untranslated.
-        ol : (m,) int
-            Each candidate's row of ``Q``, nondecreasing.
-        u : (m, 3) float
-            Each candidate's translation: its points are ``Q[ol] - u``.
-
-        Returns
-        -------
-        held : (m, n, nf) bool
-            Strictly inside one of the finger's spheres.
-        unsure : (m, n) bool
-            Some finger neither proven to hold the point nor proven not to.
-        """
-        code = self.codes_at(Q, ol, u)  # (m, n)
-        return self._held[code], self._unsure[code]
-
-    def counts(
-        self, Q: Array, ol: NDArray[np.int64], u: Array
-    ) -> tuple[NDArray[np.int64], NDArray[np.integer], NDArray[np.int32]]:
-        """Per candidate and finger, the points it provably holds, each point's
-        code (for :attr:`unsure_fingers`) and nearest node (for
-        :meth:`sphere_lists`).
-
-        Parameters as :meth:`held_points`.
-
-        Returns
-        -------
-        counts : (m, nf) int
-        code : (m, n) int
-            Each point's row of :attr:`states` (the dtype of :attr:`codes`).
-        flat : (m, n) int32
-            Each point's nearest node.
-        """
-        flat = self.nodes_at(Q, ol, u)  # (m, n)
-        code = np.take(self.codes, flat)  # faster than self.codes[flat]
-        m, n = code.shape
-        nf = self.num_fingers
-        if n < 2**16:
-            # four fingers' held bits in 16-bit lanes of a word: one sum per
-            # row and word counts four fingers at once (a row's count stays
-            # below 2**16)
-            blocks = []
-            for w, word in enumerate(self._packed_words):
-                total = np.take(word, code).sum(axis=1, dtype=np.uint64)  # (m,)
-                shift = (16 * np.arange(min(4, nf - 4 * w))).astype(np.uint64)
-                blocks.append((total[:, None] >> shift[None, :]) & np.uint64(0xFFFF))
-            lanes = blocks[0] if len(blocks) == 1 else np.concatenate(blocks, axis=1)
-            return lanes.astype(np.int64), code, flat  # (m, nf)
-        held = np.count_nonzero(self._held[code], axis=1).astype(np.int64)
-        return held, code, flat
 
     @property
     def packed_held(self) -> NDArray[np.int64]:
@@ -484,47 +232,6 @@ class FingerDepth:
     def unsure_codes(self) -> NDArray[np.bool_]:
         """Per code, whether it leaves some finger undecided: (K,) bool."""
         return self._unsure
-
-    def codes_at(
-        self, Q: Array, ol: NDArray[np.int64], u: Array
-    ) -> NDArray[np.integer]:
-        """The code of each point's nearest node, (m, n) int of :attr:`codes`'
-        dtype (parameters as :meth:`held_points`)."""
-        return self.codes[self.nodes_at(Q, ol, u)]  # type: ignore[no-any-return]
-
-    def nodes_at(self, Q: Array, ol: NDArray[np.int64], u: Array) -> NDArray[np.int32]:
-        """Each point's nearest node (flat index), (m, n) int32 (parameters as
-        :meth:`held_points`)."""
-        h = self.cell
-        m, n = len(ol), Q.shape[2]
-        # node coordinates in cells, offset half a cell so that truncation of a
-        # non-negative value rounds to the nearest node; float32 errors stay
-        # below 1e-7 m, inside MARGIN
-        Qn = ((Q - self.origin[None, :, None]) * (1.0 / h) + 0.5).astype(np.float32)
-        un = (u * (1.0 / h)).astype(np.float32)  # (m, 3)
-        top = (self.shape - 1).astype(np.float32)
-        strides = self.strides.astype(np.int32)
-        flat = np.empty((m, n), dtype=np.int32)
-        t = np.empty((m, n), dtype=np.float32)
-        cut = np.flatnonzero(np.diff(ol)) + 1
-        if len(cut) > m // 32:  # small groups: one gather beats a loop over them
-            groups = [(np.s_[:], ol)]
-        else:
-            groups = [
-                (np.s_[a:b], ol[a])
-                for a, b in zip(np.r_[0, cut], np.r_[cut, m], strict=True)
-            ]
-        for sl, r in groups:
-            for k in range(3):
-                # beyond the grid a point is clipped onto its border nodes, all
-                # farther than `reach` from every sphere (neither held nor unsure)
-                np.subtract(Qn[r, k], un[sl, k, None], out=t[sl])  # (g, n)
-                np.clip(t[sl], 0.0, top[k], out=t[sl])
-                if k == 0:
-                    np.multiply(t[sl].astype(np.int32), strides[0], out=flat[sl])
-                else:
-                    flat[sl] += t[sl].astype(np.int32) * strides[k]
-        return flat
 
     def sphere_lists(
         self,

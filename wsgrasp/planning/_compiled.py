@@ -1,25 +1,21 @@
-"""The dense search's body and finger tests as compiled loops (optional: numba).
+"""The body and finger tests as compiled loops (numba), behind
+``wsgrasp.planning.body`` and ``wsgrasp.planning.fingers``.
 
 ``_body_loop``: per candidate, whether some object point lies inside a body
 superellipsoid, with the arithmetic of ``coordinates_in_superellipsoids``.
 ``_count_loop``: per candidate and object point, the depth grid's verdict at the
-nearest node (``_dense_grid.FingerDepth``) and, for a finger it leaves unsure,
-the spheres listed at that node, with the arithmetic of
+nearest node (``_grids.FingerDepth``) and, for a finger it leaves unsure, the
+spheres listed at that node, with the arithmetic of
 ``FingerSpheres.holding_coordinates``; it counts the points each finger holds
-and, when asked, writes the holdings. The numpy path's answers, without its
-temporary arrays. One thread: on a machine shared with other work, numba's
-thread pools cost more than they gave (measured on 2 cores under load: the
-dense entries 20-40 % slower with 2 threads than with 1). numba is an optional
-dependency (``pip install 'wsgrasp[fast]'``); without it :func:`available` is
-False and the dense search keeps its numpy path. The loops are plain Python
-functions that numba compiles, so tests hold their logic to the numpy path with
-or without numba.
+and, when asked, writes the holdings. One thread: on a machine shared with other
+work, numba's thread pools cost more than they gave (measured on 2 cores under
+load: the dense entries 20-40 % slower with 2 threads than with 1). The loops are
+plain Python functions that numba compiles, so tests hold their logic to the
+reference with or without numba.
 
-numba is imported and the loops loaded from its on-disk cache only when a search
-first asks for them (:func:`load`): importing numba took 0.27-0.48 s here and
-its first call of any compiled function, cached or not, another 0.3-0.4 s
-(measured on this project's 2-core machine, numba 0.68.1), which a process that
-imports wsgrasp to plan one small scene would otherwise pay for nothing."""
+numba is imported, and the loops loaded from its on-disk cache, only when a
+search first asks for them (:func:`load`; when, ``wsgrasp.planning.kernels``
+decides)."""
 
 from __future__ import annotations
 
@@ -32,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wsgrasp.geometry._superellipsoid import _power as superellipsoid_power
-from wsgrasp.planning._dense_grid import FingerDepth, NearestPoint
+from wsgrasp.planning._grids import FingerDepth, NearestPoint
 
 __all__ = [
     "count_by_fingers",
@@ -90,16 +86,13 @@ def _count_loop(
     order, sphere ids ending at -1) decide, with the arithmetic of
     ``FingerSpheres.holding_coordinates``.
 
-    Per candidate, three loops: the nearest nodes of its points, from the
-    points in node units (once per row of ``Q``; ``ol`` nondecreasing reuses
-    them) less the translation in node units, which rounds differently from
-    ``(Q - u - origin) / cell`` by about 1e-14 of a node, far inside the grid's
-    margin; their codes, noting the unsure points without a branch; then the
-    unsure points' listed spheres, each list read to its end. On one
-    2,500-candidate chunk of the Allegro's dense search (800 points): 60-95 ms
-    with the earlier holding loop (the sphere grid per point), 19-22 ms with a
-    single loop over the points and the lists read to their first holding
-    sphere, 12-16 ms so."""
+    Per candidate, three loops: the nearest nodes of its points (from the
+    points in node units, once per row of ``Q``, less the translation in node
+    units: about 1e-14 of a node from ``(Q - u - origin) / cell``, far inside
+    the grid's margin); their codes, noting the unsure points without a
+    branch; then the unsure points' listed spheres, each list read to its end
+    (on a 2,500-candidate chunk of the Allegro's dense search, 12-16 ms; the
+    sphere grid per point took 60-95 ms)."""
     m = ol.shape[0]
     n = Q.shape[2]
     nf = counts.shape[1]
@@ -315,7 +308,7 @@ def _body_loop(
 
     Before the scan, per body near the candidate, the point ``h_point`` names
     at the voxel of the body's centre (world frame: ``R[ol[i]] (c + u[i])``;
-    ``_dense_grid.NearestPoint``, empty for none) is tried: most candidates in
+    ``_grids.NearestPoint``, empty for none) is tried: most candidates in
     collision hold it in a body. Without the grid, every ``n // _SPREAD``-th
     point is tried instead. Only the order of the tests changes, not their
     answer."""
@@ -478,7 +471,7 @@ def body_hits(
     """Whether some object point lies inside some body superellipsoid, per
     candidate (``Q``, ``ol``, ``u`` as in :func:`count_by_fingers`): (m,) bool.
 
-    With ``hints`` (the object points' :class:`~wsgrasp.planning._dense_grid.
+    With ``hints`` (the object points' :class:`~wsgrasp.planning._grids.
     NearestPoint` grid) and ``R`` (q, 3, 3), the rotations whose axes ``Q`` is
     in, the point near each body's centre is tried first; the answers are the
     same."""
@@ -524,8 +517,8 @@ def load() -> tuple[Callable[..., None], Callable[..., None]]:
             return _compiled_count, _compiled_body
         if not _AVAILABLE:
             raise RuntimeError(
-                "numba is not installed (or WSGRASP_NUMBA=0): "
-                "pip install 'wsgrasp[fast]'"
+                "numba cannot be imported (or WSGRASP_NUMBA=0 turns it off): "
+                "pip install numba, or unset WSGRASP_NUMBA"
             )
         import numba
 

@@ -1,0 +1,218 @@
+"""Stage 2, the body: which candidates put an object point, or a point of another
+object, inside a body superellipsoid of the gripper (Algorithm 1, lines 10-17).
+
+Per orientation with the samples as translations (``wsgrasp.planning.poses``): a
+candidate's object points are ``Q[o] - u[c]`` in the gripper frame. Where the
+object's box in the gripper axes (``Q[o]``'s extremes less ``u``) is apart from a
+body superellipsoid's box, no point is inside it; apart from all of them, the body
+is clear. The rest get the exact test (eq. (1) with the arithmetic of
+``coordinates_in_superellipsoids``), by one of two kernels
+(``wsgrasp.planning.kernels`` picks): the compiled loop, which stops at the first
+point inside, or numpy's: a subset of ``_COARSE`` points first (a hit by a subset
+is a hit), then per superellipsoid only the points in its slab along its thinnest
+axis.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from wsgrasp.geometry import coordinates_in_superellipsoids
+from wsgrasp.geometry._superellipsoid import _power
+from wsgrasp.gripper.model import GripperModel
+from wsgrasp.planning import _compiled
+from wsgrasp.planning._grids import NearestPoint
+from wsgrasp.planning.kernels import Kernels
+from wsgrasp.planning.poses import (
+    Slabs,
+    StructuredPoses,
+    grouped,
+    in_axes,
+    orientation_spans,
+    separated,
+)
+
+__all__ = ["body_verdicts"]
+
+Array = NDArray[np.float64]
+
+#: object points in numpy's first, coarse pass
+_COARSE = 24
+#: at most this many transformed points per numpy chunk (bounds memory)
+_CHUNK_POINTS = 2_000_000
+
+
+def body_verdicts(
+    poses: StructuredPoses,
+    index: NDArray[np.int64],
+    gripper: GripperModel,
+    object_points: Array,
+    obstacle_points: Array,
+    kernels: Kernels,
+) -> NDArray[np.int64]:
+    """The object and obstacle tests of the candidates ``index`` (k,) of
+    ``poses`` (those clear of the table).
+
+    Returns
+    -------
+    (k,) int
+        2 where an object point is inside a body superellipsoid, else 3 where a
+        point of ``obstacle_points`` is, else 0.
+    """
+    g = gripper
+    P = np.asarray(object_points, dtype=np.float64).reshape(-1, 3)
+    X = np.asarray(obstacle_points, dtype=np.float64).reshape(-1, 3)
+    no = len(P)
+    se = (g.se_centers, g.se_semi_axes, g.se_exponent)
+    se_lo, se_hi = g.se_centers - g.se_semi_axes, g.se_centers + g.se_semi_axes
+    index = np.asarray(index, dtype=np.int64)
+    s_all, o_all = np.divmod(index, len(poses.R))
+    hints = NearestPoint(P) if kernels.compiled and kernels.dense else None
+    order = grouped(o_all)  # candidates grouped by orientation
+    k_all = len(index)
+    reason = np.zeros(k_all, dtype=np.int64)
+    if kernels.compiled:  # few calls: larger chunks, bounded by their points
+        spans = orientation_spans(o_all[order], max(no, len(X), 1))
+    else:
+        step = max(1, _CHUNK_POINTS // max(no, len(X), 1))
+        spans = [(a, min(a + step, k_all)) for a in range(0, k_all, step)]
+    for a, b in spans:
+        at = order[a:b]  # positions in index, orientation-sorted
+        R, Q, ol, u = poses.chunk(P, s_all[at], o_all[at])
+        if kernels.compiled:  # the loop skips the bodies apart itself
+            hit = _compiled.body_hits(Q, ol, u, *se, R=R, hints=hints)
+        else:
+            hit = _numpy_hits(Q, ol, u, se, se_lo, se_hi)
+        reason[at[hit]] = 2
+        alive = np.flatnonzero(~hit)
+        if len(X) and alive.size:
+            QX = in_axes(X, R)  # (q, 3, nx)
+            xclear = _box_clear(
+                QX.min(axis=2)[ol[alive]],
+                QX.max(axis=2)[ol[alive]],
+                u[alive],
+                se_lo,
+                se_hi,
+            )
+            t = alive[~xclear]
+            if t.size:
+                x, y, z = (QX[ol[t], i] - u[t, i, None] for i in range(3))
+                obs = coordinates_in_superellipsoids(x, y, z, *se).any(axis=1)
+                reason[at[t[obs]]] = 3
+    return reason
+
+
+def _box_clear(
+    Q_lo: Array, Q_hi: Array, u: Array, box_lo: Array, box_hi: Array
+) -> NDArray[np.bool_]:
+    """Candidates whose points' box (gripper axes: ``[Q_lo - u, Q_hi - u]``,
+    (m, 3)) is apart from every box ``[box_lo, box_hi]`` (e, 3): (m,) bool."""
+    lo = (Q_lo - u)[:, None, :]  # (m, 1, 3)
+    hi = (Q_hi - u)[:, None, :]
+    return np.all(separated(lo, hi, box_lo[None], box_hi[None]), axis=1)
+
+
+def _numpy_hits(
+    Q: Array,
+    ol: NDArray[np.int64],
+    u: Array,
+    se: tuple[Array, Array, float],
+    se_lo: Array,
+    se_hi: Array,
+) -> NDArray[np.bool_]:
+    """numpy's object test of a chunk (``Q``, ``ol``, ``u`` as
+    ``StructuredPoses.chunk`` gives them): (m,) bool."""
+    no = Q.shape[2]
+    Q_lo, Q_hi = Q.min(axis=2)[ol], Q.max(axis=2)[ol]  # (m, 3)
+    clear = _box_clear(Q_lo, Q_hi, u, se_lo, se_hi)  # (m,)
+    hit = np.zeros(len(ol), dtype=bool)
+    todo = np.flatnonzero(~clear)
+    if todo.size:
+        # a subset first: a hit by some points is a hit by the cloud
+        Qs = Q[:, :, :: max(1, no // _COARSE)]
+        x, y, z = (Qs[ol[todo], i] - u[todo, i, None] for i in range(3))
+        hit[todo] = coordinates_in_superellipsoids(x, y, z, *se).any(axis=1)
+        todo = todo[~hit[todo]]
+    if todo.size > 2 * len(Q):
+        hit[todo] = _slab_hits(Slabs(Q), ol, u, todo, *se)
+    elif todo.size:  # few per orientation: every point beats sorting them
+        x, y, z = (Q[ol[todo], i] - u[todo, i, None] for i in range(3))
+        hit[todo] = coordinates_in_superellipsoids(x, y, z, *se).any(axis=1)
+    return hit
+
+
+def _slab_hits(
+    slabs: Slabs,
+    ol: NDArray[np.int64],
+    u: Array,
+    cand: NDArray[np.int64],
+    centers: Array,
+    semi_axes: Array,
+    exponent: float,
+) -> NDArray[np.bool_]:
+    """Whether some point lies inside some superellipsoid, for candidates
+    ``cand``: per superellipsoid, only the candidates not yet hit and only the
+    points in its slab along its thinnest axis, narrowed by the box along the
+    other two before eq. (1) (:func:`_inside_narrowing`): (n,) bool."""
+    n = slabs.n
+    Qf = np.ascontiguousarray(slabs.Q).reshape(-1)  # (q * 3 * n,)
+    uT = np.ascontiguousarray(u.T)  # (3, m) a row per axis
+    hit = np.zeros(len(cand), dtype=bool)
+    lo_all, hi_all = centers - semi_axes, centers + semi_axes
+    for e in np.argsort(-np.prod(semi_axes, axis=1)):  # largest first
+        k = int(np.argmin(semi_axes[e]))
+        todo = np.flatnonzero(~hit)
+        if todo.size == 0:
+            break
+        c0 = cand[todo]
+        pair, j, r = slabs.pairs(
+            ol[c0], u[c0, k], k, float(lo_all[e, k]), float(hi_all[e, k])
+        )
+        if len(pair) == 0:
+            continue
+        c = c0[pair]
+        base = r * (3 * n) + j  # (p,) Q[r, 0, j], flat
+        others = [i for i in np.argsort(semi_axes[e], kind="stable") if i != k]
+        inside = _inside_narrowing(
+            lambda i, at: Qf[base[at] + i * n] - uT[i, c[at]],
+            len(base),
+            centers[e],
+            semi_axes[e],
+            exponent,
+            (int(others[0]), int(others[1]), k),  # the slab's axis holds them all
+        )
+        hit[todo[pair[inside]]] = True
+    return hit
+
+
+def _inside_narrowing(
+    coordinate: Callable[[int, NDArray[np.int64]], Array],
+    count: int,
+    center: Array,
+    semi_axes: Array,
+    exponent: float,
+    axes: tuple[int, int, int],
+) -> NDArray[np.int64]:
+    """Which of ``count`` points lie strictly inside the superellipsoid
+    ``center``, ``semi_axes`` (3,): their indices. ``coordinate(i, at)`` gives the
+    points ``at``'s coordinates along axis ``i``. The box test one axis at a time
+    in the order ``axes``, keeping only the points inside so far, then eq. (1)
+    for the points in the box: per point the arithmetic of
+    ``coordinates_in_superellipsoids``."""
+    at = np.arange(count)
+    d: dict[int, Array] = {}  # per axis done: |coordinate - centre| of the points at
+    for i in axes:
+        di = np.abs(coordinate(i, at) - center[i])  # (a,)
+        keep = np.flatnonzero(di < semi_axes[i])
+        at = at[keep]
+        d = {a: x[keep] for a, x in d.items()}
+        d[i] = di[keep]
+    value = (
+        _power(d[0] / semi_axes[0], exponent)
+        + _power(d[1] / semi_axes[1], exponent)
+        + (d[2] / semi_axes[2]) ** 2
+    )
+    return at[value < 1.0]

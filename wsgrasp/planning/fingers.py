@@ -1,0 +1,237 @@
+"""Stage 3, the fingers: how many object points each finger's workspace spheres
+hold, per candidate (Algorithm 1, lines 18-22: a candidate needs at least one per
+finger).
+
+Per orientation with the samples as translations (``wsgrasp.planning.poses``), a
+finger whose box of spheres is apart from the object's box holds none. The rest
+get the exact test (a point strictly inside a sphere, with the arithmetic of
+``FingerSpheres.holding_coordinates``), by one of two kernels
+(``wsgrasp.planning.kernels`` picks): the compiled loop (``_compiled``), which
+reads each point's verdict from the depth grid (``_grids.FingerDepth``) and tests
+the points it leaves unsure against the few spheres listed at their node; or
+numpy's, which tests only the points in the slab of the fingers' sphere box along
+its thinnest axis against the sphere grid of ``FingerSpheres`` (every point,
+where the slab holds most of them). Any number of fingers: arrays are per finger
+with the count as a dimension.
+
+The holdings themselves (which points each finger holds) come from the same
+kernel: computed with the counts and kept where they are few (up to
+``_KEEP_ENTRIES`` bools), else computed for the candidates something asks about
+(``wsgrasp.planning.holdings``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from wsgrasp.gripper.model import GripperModel
+from wsgrasp.planning import _compiled
+from wsgrasp.planning._grids import FingerDepth, finger_depth
+from wsgrasp.planning.kernels import Kernels
+from wsgrasp.planning.poses import Slabs, StructuredPoses, grouped, separated
+from wsgrasp.planning.spheres import FingerSpheres
+
+__all__ = ["FingerVerdicts", "finger_verdicts", "count_held"]
+
+Array = NDArray[np.float64]
+
+#: at most this many candidates' points (per chunk) in numpy's temporaries
+_CHUNK_POINTS = 2_000_000
+#: at most this many (candidate, point) pairs through the sphere grid at once
+_CHUNK_PAIRS = 100_000
+#: up to this many (candidate, point, finger) entries, the finger test keeps the
+#: holdings it computes; beyond, it counts, and computes holdings when asked
+_KEEP_ENTRIES = 24_000_000
+
+
+def count_held(hold: NDArray[np.bool_]) -> NDArray[np.int64]:
+    """Points held per candidate and finger, ``(n, no, nf)`` -> ``(n, nf)``."""
+    # a float32 product of ones: exact (counts below 2**24), several times faster
+    # than numpy's count_nonzero over the middle axis
+    ones = np.ones(hold.shape[1], dtype=np.float32)
+    return np.matmul(ones, hold.astype(np.float32)).astype(np.int64)  # (n, nf)
+
+
+@dataclass
+class FingerVerdicts:
+    """What the finger test found for candidates ``index`` (k,).
+
+    Attributes
+    ----------
+    counts : (k, nf) int
+        Object points held per candidate and finger.
+    held : (k, no, nf) bool or None
+        The holdings, where they were few enough to keep.
+    rows : callable
+        ``rows(i)``: the holdings of the candidates at positions ``i`` (m,) of
+        ``index``, (m, no, nf) bool, from the same kernel.
+    num_points : int
+    """
+
+    counts: NDArray[np.int64]
+    held: NDArray[np.bool_] | None
+    rows: Callable[[NDArray[np.int64]], NDArray[np.bool_]]
+    num_points: int
+
+
+def finger_verdicts(
+    poses: StructuredPoses,
+    index: NDArray[np.int64],
+    gripper: GripperModel,
+    spheres: FingerSpheres,
+    object_points: Array,
+    kernels: Kernels,
+) -> FingerVerdicts:
+    """The finger test of the candidates ``index`` (k,) of ``poses`` (those
+    clear of the table and of every body)."""
+    g = gripper
+    nf = int(g.num_fingers)
+    P = np.asarray(object_points, dtype=np.float64).reshape(-1, 3)
+    depth = finger_depth(spheres, g.sphere_centers, g.sphere_radii, g.sphere_finger, nf)
+    fingers = _Fingers(poses, P, spheres, depth, kernels)
+    s, o = np.divmod(np.asarray(index, dtype=np.int64), len(poses.R))
+    held: NDArray[np.bool_] | None = None
+    if len(s) * len(P) * nf <= _KEEP_ENTRIES:
+        held, counts = fingers.holding_and_counts(s, o)
+    else:
+        counts = fingers.counts(s, o)
+
+    def rows(i: NDArray[np.int64]) -> NDArray[np.bool_]:
+        return fingers.holding_and_counts(s[i], o[i])[0]
+
+    return FingerVerdicts(counts, held, rows, len(P))
+
+
+class _Fingers:
+    """The finger test of structured candidates ``(s, o)`` by one kernel: the
+    compiled loop, when ``kernels.compiled`` (loaded when this is built, so that
+    holdings asked for later come from the same kernel), else numpy's."""
+
+    def __init__(
+        self,
+        poses: StructuredPoses,
+        P: Array,
+        spheres: FingerSpheres,
+        depth: FingerDepth,
+        kernels: Kernels,
+    ) -> None:
+        self.poses, self.P, self.sp, self.depth = poses, P, spheres, depth
+        # each finger's box of spheres, gripper frame: (nf, 3) each
+        self.f_lo, self.f_hi = depth.box_lo, depth.box_hi
+        self.step = max(1, _CHUNK_POINTS // max(len(P), 1))
+        # (the compiled loop sums 16-bit lanes: fewer than 2**16 points)
+        few = len(P) < 2**16
+        self.loop = _compiled.load()[0] if kernels.compiled and few else None
+        # the compiled loop reads the points in space order in a dense search
+        # (``wsgrasp.planning.kernels``); it writes each holding to the point's
+        # own column (``perm``)
+        ordering = self.loop is not None and kernels.dense
+        self.perm = _space_order(P) if ordering else np.arange(len(P))
+        self.P_loop = P[self.perm] if ordering else P
+        self.nf = len(self.f_lo)
+
+    def _groups(
+        self, s: NDArray[np.int64], o: NDArray[np.int64], P: Array
+    ) -> Iterator[tuple[NDArray[np.int64], Array, NDArray[np.int64], Array, Any]]:
+        """Chunks of candidates grouped by orientation, as ``(rows, Q, ol, u,
+        need)``: positions ``rows`` (m,) into ``s``, the chunk's arrays as
+        ``StructuredPoses.chunk`` gives them for the points ``P``, and ``need``:
+        the chunk's candidates with some finger's sphere box meeting the
+        object's box."""
+        order = grouped(o)  # rows grouped by orientation
+        for a in range(0, len(s), self.step):
+            rows = order[a : a + self.step]
+            _, Q, ol, u = self.poses.chunk(P, s[rows], o[rows])
+            lo = (Q.min(axis=2)[ol] - u)[:, None, :]  # (m, 1, 3)
+            hi = (Q.max(axis=2)[ol] - u)[:, None, :]
+            apart = separated(lo, hi, self.f_lo[None], self.f_hi[None])  # (m, nf)
+            need = np.flatnonzero(~apart.all(axis=1))
+            if need.size:
+                yield rows, Q, ol, u, need
+
+    def counts(self, s: NDArray[np.int64], o: NDArray[np.int64]) -> NDArray[np.int64]:
+        """Points held per candidate and finger: (k, nf) int."""
+        out = np.zeros((len(s), self.nf), dtype=np.int64)
+        if self.loop is not None:
+            for rows, Q, ol, u, need in self._groups(s, o, self.P_loop):
+                out[rows[need]] = _compiled.count_by_fingers(
+                    self.depth, Q, ol[need], u[need], loop=self.loop
+                )
+            return out
+        for rows, Q, ol, u, need in self._groups(s, o, self.P):
+            out[rows[need]] = count_held(self._numpy_held(Q, ol, u, need))
+        return out
+
+    def holding_and_counts(
+        self, s: NDArray[np.int64], o: NDArray[np.int64]
+    ) -> tuple[NDArray[np.bool_], NDArray[np.int64]]:
+        """Which object points each finger holds, (k, no, nf) bool, and how
+        many, (k, nf) int."""
+        out = np.zeros((len(s), len(self.P), self.nf), dtype=bool)
+        if self.loop is not None:
+            counts = np.zeros((len(s), self.nf), dtype=np.int64)
+            for rows, Q, ol, u, need in self._groups(s, o, self.P_loop):
+                dest = rows[need]
+                counts[dest] = _compiled.count_by_fingers(
+                    self.depth, Q, ol[need], u[need], self.loop, self.perm, out, dest
+                )
+            return out, counts
+        for rows, Q, ol, u, need in self._groups(s, o, self.P):
+            out[rows[need]] = self._numpy_held(Q, ol, u, need)
+        return out, count_held(out)
+
+    def _numpy_held(
+        self, Q: Array, ol: NDArray[np.int64], u: Array, cand: NDArray[np.int64]
+    ) -> NDArray[np.bool_]:
+        """numpy's holdings of candidates ``cand`` of a chunk: only the points in
+        the slab of the fingers' sphere box along its thinnest gripper axis (the
+        others are outside every sphere), or every point where the slab holds
+        most of them: (n, no, nf) bool."""
+        lo, hi = self.f_lo.min(axis=0), self.f_hi.max(axis=0)  # the fingers' box
+        k = int(np.argmin(hi - lo))
+        n = Q.shape[2]
+        if len(cand) <= 2 * len(Q):  # few per orientation: sorting costs more
+            pair = None
+        else:
+            slabs = Slabs(Q)
+            pair, j, r = slabs.pairs(
+                ol[cand], u[cand, k], k, float(lo[k]), float(hi[k])
+            )
+        if pair is None or len(pair) > 0.5 * len(cand) * n:
+            held = np.empty((len(cand), n, self.nf), dtype=bool)
+            step = max(1, _CHUNK_PAIRS // max(n, 1))
+            for a in range(0, len(cand), step):
+                cb = cand[a : a + step]
+                rb = ol[cb]
+                held[a : a + step] = self.sp.holding_coordinates(
+                    *(Q[rb, i] - u[cb, i, None] for i in range(3))
+                )
+            return held
+        held = np.zeros((len(cand), n, self.nf), dtype=bool)
+        c = cand[pair]
+        Qf = np.ascontiguousarray(Q).reshape(-1)  # (q * 3 * n,)
+        uT = np.ascontiguousarray(u.T)  # (3, m) a row per axis
+        for a in range(0, len(pair), _CHUNK_PAIRS):  # bounds the sphere lists
+            b = slice(a, a + _CHUNK_PAIRS)
+            base = r[b] * (3 * n) + j[b]  # Q[r, 0, j], flat
+            held[pair[b], j[b]] = self.sp.holding_coordinates(
+                Qf[base] - uT[0, c[b]],
+                Qf[base + n] - uT[1, c[b]],
+                Qf[base + 2 * n] - uT[2, c[b]],
+            )  # (pairs, nf)
+        return held
+
+
+def _space_order(P: Array, cell: float = 0.01) -> NDArray[np.int64]:
+    """An order of the points ``P`` (n, 3) that keeps near points near: by
+    ``cell`` voxel, rows of voxels along z (the lexicographic order of the
+    voxel indices): (n,) int."""
+    if len(P) == 0:
+        return np.zeros(0, dtype=np.int64)
+    g = np.floor((P - P.min(axis=0)) / cell).astype(np.int64)  # (n, 3) voxels
+    return np.lexsort((g[:, 2], g[:, 1], g[:, 0]))
