@@ -107,10 +107,9 @@ eval-grippers: $(STAMP)
 	$(BIN)/python benchmarks/eval_grippers.py --grippers-dir $(GRIPPERS_DIR) \
 		--protocol $(PROTOCOL)
 
-# with the compiled dense loops (extra `fast`, numba); the dense entries' `compiled`
-# field says which path ran. Writes docs/results/bench.json (the docs' Speed page)
+# a default install (numba included); the dense entries' `compiled` field says
+# which kernels ran. Writes docs/results/bench.json (the docs' Speed page)
 bench: $(STAMP)
-	$(BIN)/python -m pip install -q -e '.[fast]'
 	@mkdir -p bench-results
 	$(BIN)/wsgrasp bench --json > bench-results/bench.json
 	$(PUBLISH) --command "make bench" bench-results/bench.json docs/results/bench.json

@@ -677,3 +677,29 @@ def test_importing_wsgrasp_leaves_numba_unimported(tmp_path):
     )
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == ["True", "False"]
+
+
+def test_a_single_plan_does_not_import_numba(tmp_path):
+    """A process that plans one scene, as ``wsgrasp plan`` does, runs numpy's
+    kernels and never imports numba (its import alone costs more than the
+    plan): a ``numba`` that fails on import stands in for it."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    (tmp_path / "numba.py").write_text("raise RuntimeError('numba imported')\n")
+    code = (
+        "import sys; from wsgrasp.api import plan; "
+        f"r = plan({str(root / 'examples/scenes/box_upright.npz')!r}, "
+        f"{str(root / 'examples/specs/allegro.yaml')!r}); "
+        "print(r.found, 'numba' in sys.modules)"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "WSGRASP_NUMBA"}
+    env["PYTHONPATH"] = str(tmp_path)
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split()[-2:] == ["True", "False"]
