@@ -220,3 +220,28 @@ def test_recording_reference_has_every_full_fidelity_topic(site: Path) -> None:
     text = _text(site, "reference/recording")
     for topic in TOPICS.values():
         assert topic in text, topic
+
+
+SPEC_FILES = sorted(
+    [
+        *ROOT.glob("examples/specs/*.yaml"),
+        *ROOT.glob("plugins/grippers/wsgrasp_grippers/*/specs/*.yaml"),
+        *ROOT.glob("examples/plugins/*/wsgrasp_*/specs/*.yaml"),
+        ROOT / "wsgrasp/data/default_spec.yaml",
+    ]
+)
+
+
+@pytest.mark.parametrize(
+    "path", SPEC_FILES, ids=[str(p.relative_to(ROOT)) for p in SPEC_FILES]
+)
+def test_spec_file_comment_is_one_line_linking_to_its_rationale(path: Path) -> None:
+    from markdown.extensions.toc import slugify
+
+    comments = [ln for ln in path.read_text().splitlines() if ln.startswith("#")]
+    assert len(comments) == 1, f"{path}: {len(comments)} comment lines"
+    m = re.search(r"(docs/\S+\.md)#(\S+)", comments[0])
+    assert m, f"{path}: the comment links to no section of the docs"
+    page = (ROOT / m.group(1)).read_text()
+    headings = {slugify(h, "-") for h in re.findall(r"^#+ (.+)$", page, flags=re.M)}
+    assert m.group(2) in headings, f"{path}: no section #{m.group(2)}"

@@ -39,7 +39,8 @@ __all__ = ["DatasetSummary", "dataset_schemas", "run_dataset"]
 
 
 def dataset_schemas() -> dict[str, Any]:
-    """The ``candidates`` and ``scenes`` tables' schemas (see the README)."""
+    """The ``candidates`` and ``scenes`` tables' schemas
+    (docs/reference/parquet.md)."""
     pa = require_pyarrow()
     pose = pa.list_(pa.float64(), 16)  # (4, 4) row-major
     floats = pa.map_(pa.string(), pa.float64())

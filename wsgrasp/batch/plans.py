@@ -5,7 +5,7 @@ are views of one scene): a cloud file, a scene YAML, or a folder of them. The
 specs and their gripper models are built once in this process and shared with
 the workers (:func:`wsgrasp.batch.engine.shared`); each worker builds one
 ``Pipeline`` per spec and keeps it. The rows (schema: :data:`PLAN_SCHEMA`, and
-the README's "Batch planning and datasets") are written by this process as
+docs/reference/parquet.md) are written by this process as
 results arrive (:class:`~wsgrasp.batch.sink.PartSink`), so ``--resume`` after a
 crash plans only what is missing.
 """
@@ -85,7 +85,7 @@ class BatchSummary:
 
 
 def plan_schema() -> Any:
-    """The ``plans`` table's ``pyarrow.Schema`` (documented in the README)."""
+    """The ``plans`` table's ``pyarrow.Schema`` (docs/reference/parquet.md)."""
     pa = require_pyarrow()
     pose = pa.list_(pa.float64(), 16)  # (4, 4) row-major
     floats = pa.map_(pa.string(), pa.float64())

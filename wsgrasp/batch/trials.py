@@ -24,7 +24,7 @@ __all__ = ["TrialSummary", "run_trials", "trial_schema"]
 
 
 def trial_schema() -> Any:
-    """The ``trials`` table's ``pyarrow.Schema`` (see the README)."""
+    """The ``trials`` table's ``pyarrow.Schema`` (docs/reference/parquet.md)."""
     pa = require_pyarrow()
     return pa.schema(
         [
