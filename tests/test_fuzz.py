@@ -3,8 +3,8 @@ descriptions, URDFs and recordings. Whatever comes in, wsgrasp answers with a
 result or with its own error (``WsgraspError``): never another exception, never a
 grasp under the table, never a silently accepted non-finite number.
 
-The example counts are the ``CASES`` table below (the README's "What bad input
-gets" table gives them); the whole module runs in about a minute.
+The example counts are the ``CASES`` table below (the "What bad input gets" table
+of docs/reference/errors.md gives them); the whole module runs in about a minute.
 """
 
 from __future__ import annotations

@@ -540,12 +540,32 @@ def render_results_bench() -> str:
         )
     )
     if dense:
-        keys = sorted({k for _, r in dense for k in r})
-        out.append("Dense entries (the search and the evaluation only):\n")
+        out.append(
+            "Dense entries (the search and the evaluation alone, alternating):\n"
+        )
         out.append(
             _table(
-                ["entry", *keys],
-                [[f"`{n}`", *(_fmt(r.get(k), k) for k in keys)] for n, r in dense],
+                [
+                    "entry",
+                    "candidates",
+                    "search",
+                    "evaluation",
+                    "per candidate",
+                    "peak (search)",
+                    "compiled loops",
+                ],
+                [
+                    [
+                        f"`{n}`",
+                        f"{int(r.get('candidates', 0)):,}",
+                        _ms(r.get("search_ms")),
+                        _ms(r.get("evaluate_ms")),
+                        _us(r.get("us_per_candidate")),
+                        _mb(r.get("peak_mb")),
+                        "yes" if r.get("compiled") else "no",
+                    ]
+                    for n, r in dense
+                ],
             )
         )
     scaling = report.get("scaling") or []
@@ -568,14 +588,12 @@ def render_results_bench() -> str:
     return "\n".join(out)
 
 
-def _fmt(v: Any, key: str) -> str:
-    if v is None:
-        return "–"
-    if key.endswith("_ms"):
-        return _ms(v)
-    if isinstance(v, float):
-        return f"{v:,.3g}" if abs(v) < 1000 else f"{v:,.0f}"
-    return str(v)
+def _us(v: Any) -> str:
+    return "–" if v is None else f"{float(v):.2f} µs"
+
+
+def _mb(v: Any) -> str:
+    return "–" if v is None else f"{float(v):.0f} MB"
 
 
 def _short(gripper: str) -> str:

@@ -19,8 +19,8 @@ Decompositions are cached as ``.npz`` under ``$WSGRASP_CACHE_DIR/meshes`` (else
 the coacd parameters and the coacd version. :func:`decompose_meshes` decomposes many
 meshes in worker processes with a progress bar.
 
-Times and part counts, measured on 2 cores on pybullet_data's random objects: see
-the README's "Objects: pybullet_data random objects".
+The decomposition's parameters and what they are for: docs/explanation/simulation.md,
+"Objects: pybullet_data random objects".
 """
 
 from __future__ import annotations
