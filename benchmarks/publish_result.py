@@ -65,6 +65,8 @@ def publish(
         "machine": machine(),
         "date": date or time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
         "command": command,
+        # how busy the machine was as the run ended (1, 5 and 15 minutes)
+        "load_average": [round(x, 2) for x in os.getloadavg()],
     }
     out.update({k: v for k, v in report.items() if k not in BULKY and k not in out})
     return out

@@ -382,7 +382,9 @@ def _provenance(report: dict[str, Any], what: str) -> str:
     commit = report.get("commit") or "not recorded"
     machine = report.get("machine") or "not recorded"
     date = report.get("date") or "not recorded"
-    return f"From {what} at commit `{commit}` on {machine} ({date})."
+    load = report.get("load_average")
+    busy = f", load average {load[0]:.1f} as it ended" if load else ""
+    return f"From {what} at commit `{commit}` on {machine} ({date}{busy})."
 
 
 def _eval_grippers_markdown(report: dict[str, Any]) -> str:
@@ -493,6 +495,8 @@ def _ms(x: Any) -> str:
     x = float(x)
     if x >= 1000:
         return f"{x / 1000:.2f} s"
+    if x >= 100:
+        return f"{x:.0f} ms"
     if x >= 10:
         return f"{x:.1f} ms"
     return f"{x:.2f} ms"
