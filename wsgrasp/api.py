@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -208,6 +208,7 @@ class Pipeline:
         object_points, obstacles = _one_object(
             segmentation, object_points, obstacles, spec
         )
+        names, segments = _instances(segmentation, object_points, obstacles)
         # farthest-point thinning keeps the object's shape
         object_points = thin(
             object_points, spec.preprocess.max_object_points, spec.seed
@@ -221,6 +222,7 @@ class Pipeline:
                 "table_points": segmentation.table_points,
                 "object_points": object_points,
                 "obstacles": obstacles,
+                **({"obstacle_names": names, "segments": segments} if names else {}),
             },
         )
 
@@ -276,6 +278,8 @@ class Pipeline:
             timing_ms=timing,
             too_large=too_large,
             table_footprint=footprint,
+            obstacle_names=names,
+            segments=segments,
         )
 
     def search(self, prepared: Prepared) -> SearchOutput:
@@ -292,8 +296,11 @@ class Pipeline:
             normals_fn=lambda p: _normals(p, centroid),
             normals_of=lambda p, rows: _normals(p, centroid, rows),
         )
-        return _sweeps_cleared(
+        out = _sweeps_cleared(
             out, self.gripper, prepared.search_input, self._spheres, self.spec.top_k
+        )
+        return _clear_of_neighbours(
+            out, prepared, self.gripper, self._spheres, self.spec.top_k
         )
 
     def _plan(
@@ -433,6 +440,8 @@ class Pipeline:
             ]
         elif not hint:  # a chosen candidate's hint says why already
             hint = _no_grasp(prep, out, hist, g, distance)
+            if prep.blocked_by:
+                hint += "; " + _blockers(prep.blocked_by)
         timing["total"] = shared_ms + (time.perf_counter() - t_start) * 1e3
         return PlanResult(
             found=found,
@@ -462,6 +471,8 @@ class Pipeline:
                 "sampling_mode": inp.orientations.mode,
                 "orientations": len(inp.orientations),
                 "table_normal": inp.table.T_world_table[:3, 2].tolist(),
+                **({"segments": prep.segments} if prep.segments else {}),
+                **({"blocked_by": prep.blocked_by} if prep.obstacle_names else {}),
             },
             T_world_pregrasp=T_world_pregrasp,
             joints_pregrasp=joints_pregrasp,
@@ -483,6 +494,113 @@ class Prepared:
     too_large: str = ""
     #: the table's outline, under which no grasp or pre-grasp pose may go
     table_footprint: Footprint | None = None
+    #: a name for each of ``obstacles`` (``object <id>``, ``unsegmented points``)
+    obstacle_names: list[str] = field(default_factory=list)
+    #: the scene's instances (:func:`wsgrasp.perception.pile.segments`)
+    segments: list[dict[str, Any]] = field(default_factory=list)
+    #: per neighbour's name, the candidates it blocked: ``{"body": n, "closing":
+    #: m}`` (set by the search)
+    blocked_by: dict[str, dict[str, int]] = field(default_factory=dict)
+
+
+def _instances(
+    segmentation: Any, object_points: Array, obstacles: list[Array]
+) -> tuple[list[str], list[dict[str, Any]]]:
+    """The obstacles' names and the instances' summaries, where the scene has
+    several instances or unsegmented points (empty lists for one object
+    alone)."""
+    from wsgrasp.perception.pile import obstacle_names, segments
+
+    if not obstacles:
+        return [], []
+    ids = [k for k, c in enumerate(segmentation.clusters) if c is object_points]
+    return obstacle_names(segmentation, obstacles), segments(
+        segmentation, ids[0] if ids else None
+    )
+
+
+def _clear_of_neighbours(
+    out: SearchOutput,
+    prep: Prepared,
+    g: GripperModel,
+    spheres: FingerSpheres | None,
+    top_k: int,
+) -> SearchOutput:
+    """``out`` with every feasible candidate that has a neighbour's points
+    inside a finger's workspace spheres (in its closing path) rejected as
+    ``obstacle_collision``, the best of the rest chosen; ``prep.blocked_by``
+    counts, per neighbour, the candidates its points rejected in the body
+    superellipsoids (the search's own obstacle test) and in the closing paths."""
+    from dataclasses import replace
+
+    from wsgrasp.neighbours import blocked_by_body, blocked_in_closing
+    from wsgrasp.planning.result import REASONS, Alternative
+
+    if not prep.obstacles:
+        return out
+    t0 = time.perf_counter()
+    names = prep.obstacle_names
+    code = REASONS.index("obstacle_collision")
+    cands = out.candidates
+    tally = {n: {"body": 0, "closing": 0} for n in names}
+    body = blocked_by_body(g, cands.T_world_ee[cands.reason == code], prep.obstacles)
+    for k, n in zip(*np.unique(body[body >= 0], return_counts=True), strict=True):
+        tally[names[k]]["body"] += int(n)
+    feasible = np.flatnonzero(cands.reason == 0)
+    closing = blocked_in_closing(g, cands.T_world_ee[feasible], prep.obstacles)
+    blocked = feasible[closing >= 0]
+    for k, n in zip(*np.unique(closing[closing >= 0], return_counts=True), strict=True):
+        tally[names[k]]["closing"] += int(n)
+    prep.blocked_by = {n: v for n, v in tally.items() if v["body"] or v["closing"]}
+    if len(blocked):
+        reason = cands.reason.copy()
+        score = cands.score.copy()
+        terms = {k: v.copy() for k, v in cands.terms.items()}
+        reason[blocked] = code
+        score[blocked] = np.nan
+        for v in terms.values():
+            v[blocked] = np.nan
+        c = replace(cands, reason=reason, score=score, terms=terms)
+        out = replace(out, candidates=c)
+        kept = np.flatnonzero(reason == 0)
+        order = kept[np.argsort(-score[kept], kind="stable")]  # best first
+        if out.best is not None and reason[out.best] == 0:
+            # the same choice; the alternatives ranked after it, none blocked
+            rank = int(np.flatnonzero(order == out.best)[0])
+            alternatives = [
+                Alternative(
+                    index=int(j),
+                    T_world_ee=c.T_world_ee[j],
+                    score=float(score[j]),
+                    terms={k: float(v[j]) for k, v in terms.items()},
+                )
+                for j in order[rank + 1 : rank + 1 + top_k]
+            ]
+            out = replace(out, alternatives=alternatives)
+        elif len(order):
+            out = _choose(
+                replace(out, best=None),
+                int(order[0]),
+                g,
+                prep.search_input,
+                spheres,
+                top_k,
+            )
+        else:
+            out = _choose(out, None, g, prep.search_input, spheres, top_k)
+    ms = (time.perf_counter() - t0) * 1e3
+    return replace(out, timing_ms={**out.timing_ms, "neighbours": ms})
+
+
+def _blockers(blocked_by: dict[str, dict[str, int]]) -> str:
+    """The neighbours that blocked candidates, most first, in one clause."""
+    rows = sorted(blocked_by.items(), key=lambda kv: -sum(kv[1].values()))
+    parts = [
+        f"{name} ({v['body']} by the gripper's body, {v['closing']} in the "
+        "fingers' closing paths)"
+        for name, v in rows
+    ]
+    return "candidates blocked by neighbours: " + ", ".join(parts)
 
 
 def _accepts(method: Any, name: str) -> bool:

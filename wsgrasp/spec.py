@@ -239,11 +239,16 @@ class ScorerRef(PluginRef):
 class TargetRule(_Model):
     """Which cluster is the object when the segmenter finds several."""
 
-    rule: Literal["largest", "nearest", "inside_box", "only"] = Field(
+    rule: Literal[
+        "largest", "nearest", "inside_box", "only", "highest", "most_isolated", "id"
+    ] = Field(
         "largest",
-        description="largest cluster, nearest to `point`, the one inside `box`, or "
-        "`only` (several clusters are an error)",
+        description="largest cluster, nearest to `point`, the one inside `box`, "
+        "`only` (several clusters are an error); for piles: `highest` (top "
+        "highest above the table), `most_isolated` (farthest from the others) or "
+        "`id` (an instance id from a plan's result.info['segments'], same scene)",
     )
+    id: int | None = Field(None, ge=0, description="for rule id: the instance id")
     point: Vec3 | None = Field(None, description="for rule nearest, world frame (m)")
     box_min: Vec3 | None = Field(None, description="for rule inside_box (m)")
     box_max: Vec3 | None = Field(None, description="for rule inside_box (m)")
@@ -257,6 +262,8 @@ class TargetRule(_Model):
             raise ValueError("target.rule 'nearest' needs target.point")
         if self.rule == "inside_box" and (self.box_min is None or self.box_max is None):
             raise ValueError("target.rule 'inside_box' needs box_min and box_max")
+        if self.rule == "id" and self.id is None:
+            raise ValueError("target.rule 'id' needs target.id")
         return self
 
 

@@ -9,6 +9,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from wsgrasp.errors import InputError
+from wsgrasp.perception.pile import PILE_RULES, pile_target
 from wsgrasp.perception.types import Array, Segmentation
 
 __all__ = [
@@ -200,14 +201,17 @@ def select_target(segmentation: Segmentation, rule: Any) -> tuple[Array, list[Ar
         A segmenter's result; ``clusters`` must not be empty.
     rule
         ``TargetRule``: ``largest``, ``nearest`` (to ``point``), ``inside_box``
-        (cluster centroid within ``box_min``..``box_max``; the largest such) or
-        ``only`` (several clusters are an error).
+        (cluster centroid within ``box_min``..``box_max``; the largest such),
+        ``only`` (several clusters are an error), or a pile's ``highest``,
+        ``most_isolated`` or ``id`` (:func:`wsgrasp.perception.pile.pile_target`).
 
     Returns
     -------
     object_points : (n, 3) float
     obstacles : list of (m_i, 3) float
-        The other clusters (empty when ``rule.obstacles`` is false).
+        The other clusters, then the points above the table in no cluster
+        (``segmentation.info["unsegmented"]``, where the segmenter gives them);
+        empty when ``rule.obstacles`` is false.
     """
     clusters = list(segmentation.clusters)
     if not clusters:
@@ -233,6 +237,8 @@ def select_target(segmentation: Segmentation, rule: Any) -> tuple[Array, list[Ar
         q = np.asarray(rule.point, dtype=np.float64)
         dists = np.array([np.sqrt(((c - q) ** 2).sum(axis=1).min()) for c in clusters])
         k = int(np.argmin(dists))
+    elif name in PILE_RULES:
+        k = pile_target(segmentation, rule)
     elif name == "inside_box":
         lo = np.asarray(rule.box_min, dtype=np.float64)
         hi = np.asarray(rule.box_max, dtype=np.float64)
@@ -249,9 +255,12 @@ def select_target(segmentation: Segmentation, rule: Any) -> tuple[Array, list[Ar
         k = int(np.argmax(np.where(inside, sizes, -1)))
     else:
         raise InputError(
-            f"unknown target rule {name!r}, expected largest, nearest, inside_box "
-            "or only",
+            f"unknown target rule {name!r}, expected largest, nearest, inside_box, "
+            "only, highest, most_isolated or id",
             hint="set target.rule in the spec",
         )
     obstacles = [c for i, c in enumerate(clusters) if i != k]
+    stray = segmentation.info.get("unsegmented")
+    if stray is not None and len(stray):
+        obstacles.append(stray)
     return clusters[k], (obstacles if getattr(rule, "obstacles", True) else [])

@@ -1,0 +1,184 @@
+"""Targets in a pile: the rules that pick one instance, the others as obstacles
+that the gripper's body and the fingers' closing paths must keep clear of, and
+the neighbour named where it blocked candidates."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from clutter_scenes import pile
+from pydantic import ValidationError
+
+import wsgrasp
+from wsgrasp.errors import InputError
+from wsgrasp.neighbours import blocked_by_body, blocked_in_closing
+from wsgrasp.perception.process import select_target
+from wsgrasp.perception.types import Plane, Segmentation
+from wsgrasp.spec import TargetRule, load_spec
+
+TABLE = Plane(normal=np.array([0.0, 0.0, 1.0]), offset=0.0)
+
+
+def _blob(center, n=50, seed=0):
+    rng = np.random.default_rng(seed)
+    return np.asarray(center) + rng.uniform(-0.01, 0.01, (n, 3))
+
+
+def _segmentation(unsegmented=None):
+    clusters = [
+        _blob([0.0, 0.0, 0.05], 300),  # largest
+        _blob([0.02, 0.0, 0.15], 100),  # on top of it
+        _blob([0.30, 0.0, 0.03], 80),  # far from the others
+    ]
+    info = {} if unsegmented is None else {"unsegmented": unsegmented}
+    return Segmentation(TABLE, np.zeros((0, 3)), clusters, info)
+
+
+@pytest.mark.parametrize(
+    ("rule", "expected"),
+    [
+        ({"rule": "largest"}, 0),
+        ({"rule": "highest"}, 1),
+        ({"rule": "most_isolated"}, 2),
+        ({"rule": "id", "id": 1}, 1),
+        ({"rule": "nearest", "point": [0.3, 0.0, 0.0]}, 2),
+    ],
+    ids=["largest", "highest", "most_isolated", "id", "nearest"],
+)
+def test_a_pile_rule_picks_its_instance_and_the_rest_are_obstacles(rule, expected):
+    seg = _segmentation()
+    target, obstacles = select_target(seg, TargetRule(**rule))
+    assert target is seg.clusters[expected]
+    assert len(obstacles) == 2
+    assert all(o is not target for o in obstacles)
+
+
+def test_unsegmented_points_are_obstacles_and_count_against_isolation():
+    # stray points beside the far instance make the top one the most isolated
+    stray = _blob([0.30, 0.03, 0.03], 10, seed=1)
+    seg = _segmentation(unsegmented=stray)
+    target, obstacles = select_target(seg, TargetRule(rule="most_isolated"))
+    assert target is not seg.clusters[2]
+    assert any(o is stray for o in obstacles)
+
+
+def test_an_id_no_instance_has_is_refused_with_the_ids_there_are():
+    with pytest.raises(InputError, match=r"target id 7 names no instance.*0 to 2"):
+        select_target(_segmentation(), TargetRule(rule="id", id=7))
+
+
+def test_rule_id_needs_an_id():
+    with pytest.raises(ValidationError, match="needs target.id"):
+        TargetRule(rule="id")
+
+
+@pytest.fixture(scope="module")
+def franka():
+    from wsgrasp.gripper import load_gripper
+
+    return load_gripper("franka_hand")
+
+
+def test_a_neighbour_in_the_closing_path_is_found_and_one_beside_it_is_not(franka):
+    g = franka
+    T = np.eye(4)
+    # a point inside finger 0's first workspace sphere, and one far away
+    inside = g.sphere_centers[0]
+    far = g.sphere_centers[0] + np.array([0.0, 0.0, 0.5])
+    assert blocked_in_closing(g, T[None], [far[None], inside[None]]).tolist() == [1]
+    assert blocked_in_closing(g, T[None], [far[None]]).tolist() == [-1]
+    # moved with the pose: the same point, the gripper shifted 0.2 m away
+    T_away = np.eye(4)
+    T_away[0, 3] = 0.2
+    assert blocked_in_closing(g, T_away[None], [inside[None]]).tolist() == [-1]
+    # inside a body superellipsoid, at its centre
+    body = g.se_centers[0]
+    assert blocked_by_body(g, np.stack([T, T_away]), [body[None]]).tolist() == [0, -1]
+
+
+def _franka(rule, **target):
+    spec = load_spec("examples/specs/franka_followup.yaml")
+    spec = spec.model_copy(
+        update={
+            "segmenter": spec.segmenter.model_copy(
+                update={"name": "clutter", "options": {}}
+            ),
+            "target": TargetRule(rule=rule, **target),
+        }
+    )
+    return wsgrasp.Pipeline(spec)
+
+
+def test_walls_on_both_sides_block_by_name_and_the_grasp_closes_between_them():
+    # a box between two walls 1.5 cm away along x: the fingers must close along y
+    items = [
+        ("box", (0.03, 0.05, 0.12), (0.0, 0.0, 0.0), 0.0),
+        ("box", (0.01, 0.12, 0.12), (0.035, 0.0, 0.0), 0.0),
+        ("box", (0.01, 0.12, 0.12), (-0.035, 0.0, 0.0), 0.0),
+    ]
+    pipeline = _franka("nearest", point=(0.0, 0.0, 0.12))
+    result = pipeline.plan(pile(items).scene)
+    assert result.found
+    segments = result.info["segments"]
+    target = next(s for s in segments if s["target"])
+    assert abs(target["centroid"][0]) < 0.005
+    walls = {f"object {s['id']}" for s in segments if not s["target"]}
+    assert set(result.info["blocked_by"]) == walls
+    closing = result.T_world_ee[:3, :3] @ pipeline.gripper.closing_axis
+    assert abs(closing[1]) > 0.9
+
+
+def test_no_grasp_between_walls_names_them_in_the_hint():
+    items = [
+        ("box", (0.03, 0.05, 0.12), (0.0, 0.0, 0.0), 0.0),
+        ("box", (0.01, 0.12, 0.12), (0.035, 0.0, 0.0), 0.0),
+        ("box", (0.01, 0.12, 0.12), (-0.035, 0.0, 0.0), 0.0),
+    ]
+    spec = load_spec("examples/specs/franka.yaml")  # side grasps only
+    spec = spec.model_copy(
+        update={
+            "segmenter": spec.segmenter.model_copy(update={"name": "clutter"}),
+            "target": TargetRule(rule="nearest", point=(0.0, 0.0, 0.12)),
+        }
+    )
+    result = wsgrasp.Pipeline(spec).plan(pile(items).scene)
+    assert not result.found
+    assert "candidates blocked by neighbours: object" in result.hint
+    assert "by the gripper's body" in result.hint
+
+
+def test_an_unconfident_split_keeps_the_refusal_and_its_hint():
+    items = [
+        ("cylinder", (0.03, 0.10), (0.0, 0.0, 0.0), 0.0),
+        ("cylinder", (0.03, 0.10), (0.06, 0.0, 0.0), 0.0),
+    ]
+    spec = load_spec("examples/specs/franka.yaml")
+    spec = spec.model_copy(
+        update={
+            "segmenter": spec.segmenter.model_copy(
+                update={
+                    "name": "clutter",
+                    "options": {"min_instance_points": 5000, "max_waist_splits": 0},
+                }
+            )
+        }
+    )
+    with pytest.raises(InputError, match="two objects that touch") as info:
+        wsgrasp.Pipeline(spec).plan(pile(items).scene)
+    assert "target: {rule: nearest, point: [" in str(info.value)
+
+
+def test_a_plan_lists_the_instances_and_an_id_from_it_names_the_same_object():
+    items = [
+        ("box", (0.10, 0.10, 0.05), (0.0, 0.0, 0.0), 0.0),
+        ("box", (0.05, 0.05, 0.06), (0.0, 0.0, 0.05), 20.0),
+        ("cylinder", (0.03, 0.10), (0.2, 0.0, 0.0), 0.0),
+    ]
+    scene = pile(items).scene
+    first = _franka("highest").plan(scene)
+    top = next(s for s in first.info["segments"] if s["target"])
+    assert top["top"] == pytest.approx(0.11, abs=0.01)  # the stacked box
+    other = next(s for s in first.info["segments"] if not s["target"])
+    again = _franka("id", id=other["id"]).plan(scene)
+    chosen = next(s for s in again.info["segments"] if s["target"])
+    assert chosen["centroid"] == other["centroid"]

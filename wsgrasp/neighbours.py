@@ -1,0 +1,111 @@
+"""Which neighbour blocks a candidate: the obstacle whose points lie inside the
+gripper's body superellipsoids, or inside a finger's workspace spheres (the
+space each finger sweeps as it closes; a neighbour there stops the finger or is
+squeezed along with the target).
+
+Each test takes candidate poses ``(C, 4, 4)`` and obstacle clouds (one per
+neighbour) and answers, per candidate, the index of the neighbour with the most
+points inside, or -1. Only obstacle points within reach of a candidate are
+tested: a KD-tree over the obstacles gives, per candidate, the points within the
+bounding sphere of the region (body or workspace spheres) around its pose.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import cKDTree
+
+from wsgrasp.geometry import coordinates_in_superellipsoids
+from wsgrasp.gripper.model import GripperModel
+
+__all__ = ["blocked_by_body", "blocked_in_closing"]
+
+Array = NDArray[np.float64]
+
+#: point-sphere pairs tested at once (memory bound: pairs x spheres floats)
+_CHUNK = 200_000
+
+
+def blocked_in_closing(
+    g: GripperModel, T_world_gripper: Array, obstacles: list[Array]
+) -> NDArray[np.int64]:
+    """Per candidate ``(C,)``: the index into ``obstacles`` of the neighbour with
+    the most points strictly inside a finger's workspace spheres at pose
+    ``T_world_gripper`` ``(C, 4, 4)``, or -1 where none has any."""
+    centers = np.asarray(g.sphere_centers, dtype=np.float64)  # (S, 3)
+    radii = np.asarray(g.sphere_radii, dtype=np.float64)  # (S,)
+    if not len(centers):
+        return np.full(len(T_world_gripper), -1, dtype=np.int64)
+    mid = centers.mean(axis=0)
+    reach = float((np.linalg.norm(centers - mid, axis=1) + radii).max())
+
+    def inside(p: Array) -> NDArray[np.bool_]:
+        out = np.zeros(len(p), dtype=bool)
+        r2 = radii * radii
+        for s in range(0, len(p), max(1, _CHUNK // len(centers))):
+            q = p[s : s + max(1, _CHUNK // len(centers))]  # (m, 3)
+            d2 = ((q[:, None, :] - centers[None, :, :]) ** 2).sum(axis=2)  # (m, S)
+            out[s : s + len(q)] = (d2 < r2).any(axis=1)
+        return out
+
+    return _blocked(T_world_gripper, obstacles, mid, reach, inside)
+
+
+def blocked_by_body(
+    g: GripperModel, T_world_gripper: Array, obstacles: list[Array]
+) -> NDArray[np.int64]:
+    """Per candidate ``(C,)``: the index into ``obstacles`` of the neighbour with
+    the most points strictly inside the gripper's body superellipsoids at pose
+    ``T_world_gripper`` ``(C, 4, 4)``, or -1 where none has any."""
+    c = np.asarray(g.se_centers, dtype=np.float64)  # (ne, 3)
+    ax = np.asarray(g.se_semi_axes, dtype=np.float64)  # (ne, 3)
+    if not len(c):
+        return np.full(len(T_world_gripper), -1, dtype=np.int64)
+    mid = c.mean(axis=0)
+    reach = float((np.linalg.norm(c - mid, axis=1) + np.linalg.norm(ax, axis=1)).max())
+
+    def inside(p: Array) -> NDArray[np.bool_]:
+        return coordinates_in_superellipsoids(  # type: ignore[no-any-return]
+            p[:, 0], p[:, 1], p[:, 2], c, ax, g.se_exponent
+        )
+
+    return _blocked(T_world_gripper, obstacles, mid, reach, inside)
+
+
+def _blocked(
+    T_world_gripper: Array,
+    obstacles: list[Array],
+    mid_gripper: Array,
+    reach: float,
+    inside: Callable[[Array], NDArray[np.bool_]],
+) -> NDArray[np.int64]:
+    """The neighbour with the most points for which ``inside`` (gripper-frame
+    points ``(m, 3)`` -> ``(m,)`` bool) holds, per pose; only the points within
+    ``reach`` of ``mid_gripper`` (gripper frame) are tested."""
+    T = np.asarray(T_world_gripper, dtype=np.float64).reshape(-1, 4, 4)
+    C = len(T)
+    none = np.full(C, -1, dtype=np.int64)
+    clouds = [np.asarray(o, dtype=np.float64).reshape(-1, 3) for o in obstacles]
+    if not C or not clouds or not sum(len(o) for o in clouds):
+        return none
+    points = np.concatenate(clouds)  # (K, 3)
+    owner = np.concatenate([np.full(len(o), i) for i, o in enumerate(clouds)])
+    centres = T[:, :3, :3] @ mid_gripper + T[:, :3, 3]  # (C, 3) world
+    near = cKDTree(points).query_ball_point(centres, reach, return_sorted=False)
+    counts = np.fromiter((len(n) for n in near), dtype=np.int64, count=C)
+    if not counts.sum():
+        return none
+    cand = np.repeat(np.arange(C), counts)  # (P,) candidate of each pair
+    idx = np.concatenate([np.asarray(n, dtype=np.int64) for n in near if len(n)])
+    # (P, 3) each pair's point in its candidate's gripper frame: R^T (p - t)
+    d = points[idx] - T[cand, :3, 3]
+    p_g = np.einsum("pji,pj->pi", T[cand, :3, :3], d)
+    hit = inside(p_g)
+    if not hit.any():
+        return none
+    tally = np.zeros((C, len(clouds)), dtype=np.int64)
+    np.add.at(tally, (cand[hit], owner[idx[hit]]), 1)
+    return np.where(tally.max(axis=1) > 0, tally.argmax(axis=1), -1)  # type: ignore[no-any-return]

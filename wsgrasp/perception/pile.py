@@ -1,0 +1,116 @@
+"""Target rules for piles, and the instances of a scene as a plan reports them.
+
+An instance's id is its index in the segmenter's ``clusters`` (largest first).
+The same scene planned with the same spec gives the same instances in the same
+order, so an id read from one plan's ``result.info["segments"]`` names the same
+object in the next plan of that scene (``target: {rule: id, id: 2}``).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from wsgrasp.errors import InputError
+from wsgrasp.perception.types import Array, Plane, Segmentation
+
+__all__ = ["PILE_RULES", "UNSEGMENTED", "obstacle_names", "pile_target", "segments"]
+
+#: the target rules this module decides
+PILE_RULES = ("highest", "most_isolated", "id")
+#: what the points above the table that no instance holds are called
+UNSEGMENTED = "unsegmented points"
+
+
+def pile_target(segmentation: Segmentation, rule: Any) -> int:
+    """The index of the target instance among ``segmentation.clusters`` by one of
+    :data:`PILE_RULES`:
+
+    - ``highest``: the instance whose top stands highest above the table (the one
+      on top of a pile, which nothing rests on);
+    - ``most_isolated``: the instance farthest from every other instance and
+      from the unsegmented points (nearest point to nearest point);
+    - ``id``: instance ``rule.id``.
+    """
+    clusters = segmentation.clusters
+    name = rule.rule
+    if name == "highest":
+        tops = [float(segmentation.table.signed_distance(c).max()) for c in clusters]
+        return int(np.argmax(tops))
+    if name == "most_isolated":
+        return int(np.argmax(_clearances(clusters, unsegmented(segmentation))))
+    if name == "id":
+        k = int(rule.id)
+        if not 0 <= k < len(clusters):
+            raise InputError(
+                f"target id {k} names no instance: this scene has {len(clusters)} "
+                f"(ids 0 to {len(clusters) - 1})",
+                hint="take an id from result.info['segments'] of a plan of this "
+                "scene with this spec, or use rule highest",
+            )
+        return k
+    raise ValueError(f"{name!r} is not a pile rule")  # the spec allows no other
+
+
+def unsegmented(segmentation: Segmentation) -> Array:
+    """The points above the table that the segmenter put in no instance,
+    ``(k, 3)`` (none for a segmenter that does not report them)."""
+    u = segmentation.info.get("unsegmented")
+    if u is None:
+        return np.zeros((0, 3))
+    return np.asarray(u, dtype=np.float64).reshape(-1, 3)
+
+
+def _clearances(clusters: list[Array], stray: Array) -> Array:
+    """Per cluster ``(k,)``: the distance (m) from it to the nearest point of any
+    other cluster or of ``stray``; ``inf`` for a cluster alone."""
+    out = np.full(len(clusters), np.inf)
+    for k, c in enumerate(clusters):
+        others = [o for i, o in enumerate(clusters) if i != k]
+        if len(stray):
+            others.append(stray)
+        if not others:
+            continue
+        d, _ = cKDTree(np.concatenate(others)).query(c)
+        out[k] = float(d.min())
+    return out
+
+
+def segments(segmentation: Segmentation, target: int | None) -> list[dict[str, Any]]:
+    """Each instance as a plan reports it: ``id``, ``points``, ``centroid``
+    (m, world), ``top`` (height of its highest point above the table, m),
+    ``clearance`` (m to the nearest other instance or unsegmented point) and
+    whether it is the ``target``."""
+    clusters = segmentation.clusters
+    clear = _clearances(clusters, unsegmented(segmentation))
+    table: Plane = segmentation.table
+    return [
+        {
+            "id": k,
+            "points": int(len(c)),
+            "centroid": [round(float(x), 5) for x in c.mean(axis=0)],
+            "top": round(float(table.signed_distance(c).max()), 5),
+            "clearance": None if np.isinf(clear[k]) else round(float(clear[k]), 5),
+            "target": k == target,
+        }
+        for k, c in enumerate(clusters)
+    ]
+
+
+def obstacle_names(segmentation: Segmentation, obstacles: list[Array]) -> list[str]:
+    """A name for each obstacle cloud: ``object <id>`` for an instance of
+    ``segmentation``, :data:`UNSEGMENTED` for the points in none, ``neighbour
+    <i>`` for a cloud the pipeline made (a part of a cluster it split)."""
+    ids = {id(c): k for k, c in enumerate(segmentation.clusters)}
+    stray = segmentation.info.get("unsegmented")
+    names = []
+    for i, o in enumerate(obstacles):
+        if id(o) in ids:
+            names.append(f"object {ids[id(o)]}")
+        elif stray is not None and o is stray:
+            names.append(UNSEGMENTED)
+        else:
+            names.append(f"neighbour {i}")
+    return names
