@@ -489,6 +489,54 @@ def chart_grippers() -> bytes | None:
     return data
 
 
+def chart_eval(path: Path) -> bytes:
+    """Bars: success of each gripper and spec of one eval summary, with chance's
+    beside the choice where the run had a random baseline."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    plt.rcParams["svg.hashsalt"] = "wsgrasp"
+    r = json.loads(path.read_text())
+    res = r.get("results", [])
+    chance = {
+        (b["gripper"], b.get("spec")): b["random_rate"]
+        for b in r.get("baseline") or []
+        if isinstance(b, dict) and "random_rate" in b
+    }
+    labels = [f"{_short(x['gripper'])} · {x['spec']}" for x in res][::-1]
+    rates = [100 * x["success_rate"] for x in res][::-1]
+    fig, ax = plt.subplots(figsize=(8, 0.4 * len(res) + 1.4))
+    ax.barh(labels, rates, color="#2e7d32", label="chosen grasp")
+    if chance:
+        ch = [100 * chance.get((x["gripper"], x["spec"]), 0) for x in res][::-1]
+        ax.scatter(
+            ch,
+            labels,
+            color="#c62828",
+            marker="|",
+            s=300,
+            zorder=3,
+            label="random feasible candidate",
+        )
+    for y, v in enumerate(rates):
+        ax.text(1, y, f"{v:.0f} %", va="center", color="white", fontsize=8)
+    ax.set_xlim(0, 100)
+    protocol = r.get("params", {}).get("protocol", "?")
+    ax.set_xlabel(
+        f"% of trials ({r.get('objects')}, protocol {protocol}, "
+        f"commit {r.get('commit', '?')})"
+    )
+    ax.legend(
+        loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=2, fontsize=8, frameon=False
+    )
+    fig.tight_layout()
+    data = _svg(fig)
+    plt.close(fig)
+    return data
+
+
 def _ms(x: Any) -> str:
     if x is None or (isinstance(x, float) and x != x):
         return "–"
@@ -623,6 +671,7 @@ def render_results_eval() -> str:
         r = json.loads(path.read_text())
         params = r.get("params", {})
         out.append(f"### `{path.stem}`\n")
+        out.append(f"![success in {path.stem}](eval-{path.stem}.svg)\n")
         out.append(
             _provenance(r, f"`{r.get('command', 'wsgrasp eval')}`")
             + f" Protocol `{params.get('protocol', 'not recorded')}`, objects "
@@ -758,6 +807,9 @@ def on_files(files: Any, config: Any) -> Any:
         data = make()
         if data is not None:
             files.append(File.generated(config, uri, content=data))
+    for path in _eval_files():
+        uri = f"results/eval-{path.stem}.svg"
+        files.append(File.generated(config, uri, content=chart_eval(path)))
     return files
 
 
