@@ -124,6 +124,25 @@ def eval_command(
         None, "--record-dir", help="Record every plan to MCAP files in this folder."
     ),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+    scene: str = typer.Option(
+        "single",
+        "--scene",
+        help="single: one object per trial; pile or packed: clutter removal "
+        "(objects dropped together, or upright side by side; pick until clear).",
+    ),
+    objects_per_scene: int = typer.Option(
+        5, "--objects-per-scene", min=1, max=20, help="With --scene pile/packed."
+    ),
+    scenes: int = typer.Option(
+        10, "--scenes", min=1, help="With --scene pile/packed: scenes per gripper."
+    ),
+    max_steps: int | None = typer.Option(
+        None,
+        "--max-steps",
+        min=1,
+        help="With --scene pile/packed: attempts per scene (default twice the "
+        "objects).",
+    ),
 ) -> None:
     """Grasp trials in MuJoCo: drop, look (3 depth views), plan, approach, close,
     lift 20 cm, then (strict) disturb the object along six directions; success
@@ -157,6 +176,25 @@ def eval_command(
     params = sim_params(
         protocol, drop=drop, mass=mass, density=density, friction=friction
     )
+    if scene != "single":
+        from wsgrasp.cli._clutter import clutter_eval
+
+        clutter_eval(
+            scene=scene,
+            grippers=list(grippers),
+            objects=list(objects),
+            objects_per_scene=objects_per_scene,
+            scenes=scenes,
+            max_steps=max_steps,
+            seed=seed,
+            specs=list(specs),
+            params=params,
+            record_dir=record_dir,
+            as_json=as_json,
+            json_out=json_out,
+            quiet=quiet,
+        )
+        return
     resolved = resolve_objects(
         list(objects), workers=workers, progress=not quiet and not as_json
     )

@@ -1,0 +1,182 @@
+"""``wsgrasp eval --scene pile|packed``: the clutter-removal benchmark
+(:mod:`wsgrasp.sim.clutter`)."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+from wsgrasp.cli._common import console, err_console, print_json
+
+__all__ = ["clutter_eval", "clutter_spec"]
+
+
+def clutter_spec(gripper: str, spec_file: str | None = None) -> dict[str, Any]:
+    """The spec data a clutter run plans with: ``spec_file``'s as it is (its
+    gripper replaced), or the gripper's default spec with the ``clutter``
+    segmenter (the default segmenter's options kept when it was
+    ``ransac_dbscan``, whose options ``clutter`` extends) and the ``highest``
+    target rule."""
+    from wsgrasp._loading import load_document
+    from wsgrasp._names import gripper_ref
+    from wsgrasp.default_specs import spec_for
+    from wsgrasp.sim.specs import spec_arg
+    from wsgrasp.spec import load_spec
+
+    if spec_file is not None:
+        _, path = spec_arg(spec_file)
+        data, _ = load_document(path)
+        data = dict(data)
+    else:
+        data, _ = spec_for("default", gripper)
+        seg = dict(data.get("segmenter") or {})
+        options = seg.get("options") if seg.get("name") == "ransac_dbscan" else None
+        data["segmenter"] = {"name": "clutter", "options": dict(options or {})}
+        data["target"] = {"rule": "highest"}
+    data["gripper"] = gripper_ref(gripper, Path.cwd())
+    data["record"] = {**(data.get("record") or {}), "enabled": False}
+    load_spec(data)  # a bad spec fails before any scene is built
+    return data
+
+
+def clutter_eval(
+    *,
+    scene: str,
+    grippers: list[str],
+    objects: list[str],
+    objects_per_scene: int,
+    scenes: int,
+    max_steps: int | None,
+    seed: int,
+    specs: list[str],
+    params: Any,
+    record_dir: Path | None,
+    as_json: bool,
+    json_out: Path | None,
+    quiet: bool,
+) -> dict[str, Any]:
+    """Run ``scenes`` clutter scenes of ``objects_per_scene`` objects drawn from
+    ``objects`` for each gripper (the same objects and seeds for every
+    gripper), print the table (or the JSON) and write the report."""
+    import numpy as np
+
+    from wsgrasp.api import Pipeline
+    from wsgrasp.errors import InputError
+    from wsgrasp.sim import load_sim_gripper
+    from wsgrasp.sim.clutter import CLUTTER_SCENES, clutter_summary, run_clutter_scene
+    from wsgrasp.sim.objects import resolve_objects
+    from wsgrasp.spec import load_spec
+
+    if scene not in CLUTTER_SCENES:
+        raise InputError(
+            f"--scene {scene!r} is unknown, expected single, "
+            + ", ".join(CLUTTER_SCENES),
+            hint="pass --scene pile, --scene packed, or leave it out",
+        )
+    if len(specs) > 1:
+        raise InputError(
+            f"a clutter run takes one --spec, got {len(specs)}",
+            hint="run once per spec",
+        )
+    resolved = resolve_objects(list(objects), progress=not quiet and not as_json)
+    pool = resolved.objects
+    if len(pool) < objects_per_scene:
+        raise InputError(
+            f"--objects-per-scene {objects_per_scene} needs at least that many "
+            f"objects, --objects gave {len(pool)}",
+            hint="give a larger object range, e.g. --objects random:000-299",
+        )
+    rng = np.random.default_rng(seed)
+    draws = [
+        [int(i) for i in rng.choice(len(pool), objects_per_scene, replace=False)]
+        for _ in range(scenes)
+    ]
+    report: dict[str, Any] = {
+        "kind": "clutter",
+        "scene": scene,
+        "objects": ", ".join(objects),
+        "objects_per_scene": objects_per_scene,
+        "scenes": scenes,
+        "max_steps": max_steps,
+        "seed": seed,
+        "params": params.to_json(),
+        "grippers": {},
+    }
+    t_all = time.perf_counter()
+    for g in grippers:
+        data = clutter_spec(g, specs[0] if specs else None)
+        pipeline = Pipeline(load_spec(data))
+        sim_gripper = load_sim_gripper(g, params)
+        results = []
+        for i, draw in enumerate(draws):
+            folder = None
+            if record_dir is not None:
+                folder = record_dir / g.replace("/", "_") / f"{scene}-{i:03d}"
+            r = run_clutter_scene(
+                [pool[k] for k in draw],
+                scene,
+                pipeline,
+                sim_gripper,
+                params,
+                seed + i,
+                max_steps=max_steps,
+                record_dir=folder,
+            )
+            results.append(r)
+            if not quiet and not as_json:
+                err_console.print(
+                    f"{g} {scene} {i + 1}/{scenes}: {r['successes']}/{r['attempts']} "
+                    f"grasps, {r['removed']}/{len(r['objects'])} removed ({r['end']})",
+                    highlight=False,
+                )
+        report["grippers"][g] = {
+            "spec": {k: v for k, v in data.items() if k != "record"},
+            "summary": clutter_summary(results),
+            "scenes": results,
+        }
+    report["wall_s"] = round(time.perf_counter() - t_all, 1)
+    if json_out is not None:
+        json_out.parent.mkdir(parents=True, exist_ok=True)
+        json_out.write_text(json.dumps(report, indent=1) + "\n")
+    if as_json:
+        print_json(report)
+    else:
+        _print_table(report)
+        if json_out is not None:
+            err_console.print(f"wrote {json_out}")
+    return report
+
+
+def _print_table(report: dict[str, Any]) -> None:
+    from rich.table import Table
+
+    table = Table(
+        title=f"clutter removal: {report['scene']}, {report['objects_per_scene']} "
+        f"objects per scene, {report['scenes']} scenes ({report['objects']}; "
+        f"{report['params']['protocol']} protocol)"
+    )
+    for col in (
+        "gripper",
+        "attempts",
+        "grasp success",
+        "declutter",
+        "plan ms (median / max)",
+        "failures",
+    ):
+        table.add_column(col)
+    for g, r in report["grippers"].items():
+        s = r["summary"]
+        gs, dr = s["grasp_success_rate"], s["declutter_rate"]
+        table.add_row(
+            g,
+            str(s["attempts"]),
+            "-" if gs is None else f"{100 * gs:.1f} % ({s['successes']})",
+            "-" if dr is None else f"{100 * dr:.1f} % ({s['removed']}/{s['objects']})",
+            "-"
+            if s["plan_ms_median"] is None
+            else f"{s['plan_ms_median']:.0f} / {s['plan_ms_max']:.0f}",
+            ", ".join(f"{k} {v}" for k, v in sorted(s["failure_kinds"].items())),
+        )
+    console.print(table)

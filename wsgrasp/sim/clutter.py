@@ -1,0 +1,672 @@
+"""Clutter removal: pick objects out of a pile until the table is clear.
+
+The protocol of VGN (Breyer et al., 2020) and its successors, in this
+package's simulator:
+
+1. **Scene.** ``pile``: ``n`` objects dropped together, at random orientations
+   and stacked a little apart in height, over a disc of radius
+   :data:`PILE_RADIUS` at the table's centre, then left to settle. ``packed``:
+   ``n`` objects stood upright (as modelled, random yaw) side by side in a
+   grid, :data:`PACKED_GAP` apart, then left to settle. An object that falls off
+   the table is not counted.
+2. **Step.** The cameras (``params.views`` noisy depth views, the camera model
+   of ``scene synth``) see what is left; the pipeline plans a grasp; the grasp
+   is executed under the trial protocol (``params``: strict or lift; the
+   execution error included) on the object the plan's target lies on, with the
+   others in the world; every object lifted off its place (its centre of mass
+   risen by ``lifted_fraction`` of ``lift_height``) is removed; the rest settle.
+3. **End.** The table is clear, two steps failed in a row, or ``max_steps``.
+
+Grasp success rate = successful grasps / attempts (a plan that finds no grasp
+is an attempt that failed); declutter rate = objects removed / objects. Each
+failure gets a kind: ``no_grasp``, ``wrong_split`` (the target's points lie on
+two objects), ``neighbour_collision`` (the approach was flagged or another
+object was pushed more than ``displaced_distance``), ``slip`` (dropped,
+slipped, not lifted) and ``two_lifted`` (more objects than the target came up).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from wsgrasp.sim._mujoco import require_mujoco
+from wsgrasp.sim._xml import attrs
+from wsgrasp.sim.objects import (
+    OBJECT_CONAFFINITY,
+    OBJECT_CONTYPE,
+    SimObject,
+    trial_friction,
+    trial_mass,
+)
+from wsgrasp.sim.params import SimParams
+
+__all__ = [
+    "CLUTTER_SCENES",
+    "ClutterWorld",
+    "Step",
+    "clutter_summary",
+    "place_objects",
+    "render_world",
+    "run_clutter_scene",
+]
+
+Array = NDArray[np.float64]
+SceneKind = Literal["pile", "packed"]
+#: the scene kinds of the benchmark
+CLUTTER_SCENES: tuple[str, ...] = ("pile", "packed")
+#: radius (m) of the disc a pile is dropped over
+PILE_RADIUS = 0.06
+#: gap (m) between the bounding boxes of packed objects
+PACKED_GAP = 0.003
+#: where removed objects are parked (m, world), one slot apart along y
+_PARK = np.array([5.0, 0.0, 1.0])
+#: share of the target's points that must lie on a second object for a wrong split
+_WRONG_SPLIT_SHARE = 0.2
+
+
+# --------------------------------------------------------------------------------
+# the world
+# --------------------------------------------------------------------------------
+def clutter_xml(objects: list[SimObject], gripper: Any, p: SimParams) -> str:
+    """The MJCF text of a table with ``objects`` (bodies ``object<k>``, each on
+    a free joint) and, when given, the gripper on the trial's 6-DoF drive."""
+    from wsgrasp.sim.scene import _drive_actuators, _drive_xml
+
+    assets: list[str] = []
+    bodies = []
+    for k, obj in enumerate(objects):
+        mass, friction = trial_mass(obj, p), trial_friction(obj, p)
+        geoms = []
+        for i, part in enumerate(obj.parts):
+            shape, pose = part.to_mjcf(f"object{k}/{i}", assets)
+            geoms.append(
+                f"<geom {shape} {pose} "
+                + attrs(
+                    name=f"object{k}/{i}",
+                    contype=OBJECT_CONTYPE,
+                    conaffinity=OBJECT_CONAFFINITY,
+                    priority=1,
+                    condim=4,
+                    solref=(p.contact_timeconst, 1.0),
+                    friction=(friction, p.torsional_friction, p.rolling_friction),
+                    density=0,
+                )
+                + "/>"
+            )
+        com, inertia = obj.inertial(mass)
+        # MuJoCo's fullinertia order: xx, yy, zz, xy, xz, yz
+        full = [
+            inertia[i, j] for i, j in ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+        ]
+        park = _PARK + [0.0, 0.3 * k, 0.0]
+        bodies.append(
+            f'<body name="object{k}" pos="{park[0]} {park[1]} {park[2]}">'
+            f'<freejoint name="object{k}"/>'
+            + "<inertial "
+            + attrs(pos=com, mass=mass, fullinertia=full)
+            + "/>"
+            + "".join(geoms)
+            + "</body>"
+        )
+    half = p.table_size / 2.0
+    gripper_xml = equality = actuator = ""
+    if gripper is not None:
+        assets.append(gripper.asset_xml)
+        gripper_xml = _drive_xml(gripper, p)
+        equality = gripper.equality_xml
+        actuator = _drive_actuators(p) + "\n" + gripper.actuator_xml
+    option = attrs(
+        timestep=p.timestep,
+        integrator="implicitfast",
+        cone="elliptic",
+        impratio=p.impratio,
+        noslip_iterations=p.noslip_iterations,
+    )
+    table = attrs(
+        name="table",
+        type="box",
+        size=(half, half, 0.01),
+        pos=(0, 0, -0.01),
+        contype=OBJECT_CONTYPE,
+        conaffinity=OBJECT_CONAFFINITY,
+        priority=2,
+        condim=4,
+        solref=(p.contact_timeconst, 1.0),
+        friction=(p.table_friction, p.torsional_friction, p.rolling_friction),
+    )
+    nl = "\n"
+    return f"""<mujoco model="wsgrasp_clutter">
+<compiler angle="radian" boundmass="1e-4" boundinertia="1e-9"/>
+<option {option}/>
+<asset>
+{nl.join(a for a in assets if a)}
+</asset>
+<worldbody>
+<geom {table}/>
+{nl.join(bodies)}
+{gripper_xml}
+</worldbody>
+<equality>
+{equality}
+</equality>
+<actuator>
+{actuator}
+</actuator>
+</mujoco>
+"""
+
+
+@dataclass
+class ClutterWorld:
+    """A compiled clutter world: its objects' bodies, joints, and whether each is
+    still on the table (``present``)."""
+
+    model: Any
+    data: Any
+    objects: list[SimObject]
+    bodies: list[int]
+    qpos: list[slice]
+    dof: list[slice]
+    present: NDArray[np.bool_]
+    gripper: Any = None
+
+    @classmethod
+    def build(
+        cls, objects: list[SimObject], p: SimParams, gripper: Any = None
+    ) -> ClutterWorld:
+        mujoco = require_mujoco()
+        model = mujoco.MjModel.from_xml_string(clutter_xml(objects, gripper, p))
+        data = mujoco.MjData(model)
+        bodies, qpos, dof = [], [], []
+        for k in range(len(objects)):
+            bodies.append(
+                mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, f"object{k}")
+            )
+            j = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, f"object{k}")
+            qa, da = int(model.jnt_qposadr[j]), int(model.jnt_dofadr[j])
+            qpos.append(slice(qa, qa + 7))
+            dof.append(slice(da, da + 6))
+        world = cls(
+            model, data, objects, bodies, qpos, dof, np.zeros(len(objects), bool)
+        )
+        world.gripper = gripper
+        return world
+
+    def poses(self) -> list[Array]:
+        """Each object's pose ``(4, 4)`` now."""
+        from wsgrasp.sim.trial import _qpos_to_pose
+
+        return [_qpos_to_pose(self.data.qpos[q].copy()) for q in self.qpos]
+
+    def set_poses(self, poses: list[Array], present: NDArray[np.bool_]) -> None:
+        """Put the present objects at ``poses``, the others in their parking
+        slots (floating, out of everything's way), everything at rest; the
+        poses become the model's reset state too (``qpos0``)."""
+        mujoco = require_mujoco()
+        from wsgrasp.sim.trial import _pose_to_qpos
+
+        m, d = self.model, self.data
+        mujoco.mj_resetData(m, d)
+        self.present = np.asarray(present, dtype=bool).copy()
+        for k, (T, q) in enumerate(zip(poses, self.qpos, strict=True)):
+            if self.present[k]:
+                qk = _pose_to_qpos(T)
+                m.body_gravcomp[self.bodies[k]] = 0.0
+            else:
+                qk = np.array([*(_PARK + [0.0, 0.3 * k, 0.0]), 1.0, 0.0, 0.0, 0.0])
+                m.body_gravcomp[self.bodies[k]] = 1.0
+            m.qpos0[q] = qk
+            d.qpos[q] = qk
+        mujoco.mj_forward(m, d)
+
+    def settle(self, p: SimParams, limit: float | None = None) -> float:
+        """Step until every present object is still (after at least 0.3 s) or
+        ``limit`` (default ``settle_time``) simulated seconds; returns them."""
+        mujoco = require_mujoco()
+        m, d = self.model, self.data
+        steps = max(1, int(round(0.05 / p.timestep)))
+        end = p.settle_time if limit is None else limit
+        dofs = [self.dof[k] for k in np.flatnonzero(self.present)]
+        t = 0.0
+        while t < end:
+            mujoco.mj_step(m, d, nstep=steps)
+            t += steps * p.timestep
+            if t > 0.3 and all(
+                np.linalg.norm(d.qvel[s][:3]) < 2e-3
+                and np.linalg.norm(d.qvel[s][3:]) < 2e-2
+                for s in dofs
+            ):
+                break
+        return t
+
+    def on_table(self, p: SimParams) -> NDArray[np.bool_]:
+        """Present objects whose centre of mass is over the table and above it."""
+        limit = p.table_size / 2.0 - 0.01
+        com = self.data.xipos[self.bodies]  # (n, 3)
+        over = (np.abs(com[:, :2]) < limit).all(axis=1) & (com[:, 2] > 0.0)
+        return self.present & over  # type: ignore[no-any-return]
+
+
+def _drop_pose(obj: SimObject, rng: np.random.Generator, upright: bool) -> Array:
+    """A random orientation (upright: as modelled, random yaw), the object's
+    lowest point at z = 0 and its box centred on the origin in x, y."""
+    from scipy.spatial.transform import Rotation
+
+    if upright:
+        R = Rotation.from_rotvec([0.0, 0.0, rng.uniform(0, 2 * np.pi)]).as_matrix()
+    else:
+        R = Rotation.random(random_state=rng).as_matrix()
+    v = np.asarray(obj.mesh().vertices, dtype=np.float64) @ R.T  # (n, 3)
+    T = np.eye(4)
+    T[:3, :3] = R
+    T[:3, 3] = -0.5 * (v.min(axis=0) + v.max(axis=0))
+    T[2, 3] = -float(v[:, 2].min())
+    return T
+
+
+def place_objects(
+    world: ClutterWorld, kind: str, rng: np.random.Generator, p: SimParams
+) -> None:
+    """Set up a ``pile`` or ``packed`` scene in ``world`` (no gripper) and let it
+    settle; objects that leave the table are absent afterwards."""
+    n = len(world.objects)
+    poses = []
+    if kind == "pile":
+        z = 0.005
+        for obj in world.objects:
+            T = _drop_pose(obj, rng, upright=False)
+            r, a = PILE_RADIUS * np.sqrt(rng.uniform()), rng.uniform(0, 2 * np.pi)
+            T[:3, 3] += [r * np.cos(a), r * np.sin(a), z]
+            height = float(np.max(obj.size()))
+            z += height + 0.005
+            poses.append(T)
+    elif kind == "packed":
+        upright = [_drop_pose(o, rng, upright=True) for o in world.objects]
+        # footprints (x, y extents of each posed object's box)
+        sizes = []
+        for obj, T in zip(world.objects, upright, strict=True):
+            v = np.asarray(obj.mesh().vertices) @ T[:3, :3].T
+            sizes.append(v.max(axis=0)[:2] - v.min(axis=0)[:2])
+        cols = int(np.ceil(np.sqrt(n)))
+        rows = int(np.ceil(n / cols))
+        w = max(s[0] for s in sizes) + PACKED_GAP
+        h = max(s[1] for s in sizes) + PACKED_GAP
+        for k, T in enumerate(upright):
+            r, c = divmod(k, cols)
+            T[0, 3] += (c - (cols - 1) / 2.0) * w
+            T[1, 3] += (r - (rows - 1) / 2.0) * h
+            poses.append(T)
+    else:
+        from wsgrasp.errors import InputError
+
+        raise InputError(
+            f"clutter scene {kind!r} is unknown, expected one of "
+            f"{', '.join(CLUTTER_SCENES)}",
+            hint="pass --scene pile or --scene packed",
+        )
+    world.set_poses(poses, np.ones(n, dtype=bool))
+    world.settle(p, limit=3.0 * p.settle_time)
+    world.present = world.on_table(p)
+
+
+# --------------------------------------------------------------------------------
+# one scene
+# --------------------------------------------------------------------------------
+@dataclass
+class _Capture:
+    """A plan observer that keeps the target's points (for judging the split)."""
+
+    object_points: Array | None = None
+    segments: int = 0
+
+    def on_start(self, spec: Any, gripper: Any, scene: Any) -> None:
+        self.object_points = None
+
+    def on_stage(self, stage: str, data: dict[str, Any]) -> None:
+        if stage == "segmentation":
+            self.object_points = np.asarray(data["object_points"])
+            self.segments = 1 + len(data.get("obstacles") or [])
+
+    def on_result(self, result: Any) -> None:
+        pass
+
+    def on_error(self, error: BaseException) -> None:
+        pass
+
+
+@dataclass
+class Step:
+    """One attempt of a clutter scene (see the module docstring)."""
+
+    step: int
+    objects_left: int
+    found: bool
+    target: str | None = None
+    outcome: str = "no_grasp"
+    success: bool = False
+    kind: str | None = None
+    lifted: list[str] = field(default_factory=list)
+    plan_ms: float = 0.0
+    segments: int = 0
+    hint: str = ""
+    #: plans made (the target's, then other instances' where it had no grasp)
+    tries: int = 0
+    records: list[str] = field(default_factory=list)
+    error: str | None = None
+
+
+def render_world(
+    world: ClutterWorld, rng: np.random.Generator, p: SimParams
+) -> tuple[Any, list[int], list[tuple[Any, Array]]]:
+    """The cameras' ``Scene`` of the present objects, their indices and their
+    meshes at their poses."""
+    from wsgrasp.geometry import transform_points
+    from wsgrasp.perception.synth import default_cameras, render_scene
+    from wsgrasp.perception.types import Scene
+
+    present = [int(k) for k in np.flatnonzero(world.present)]
+    poses = world.poses()
+    meshes = [(world.objects[k].mesh(), poses[k]) for k in present]
+    cams = default_cameras(p.views, target=(0.0, 0.0, 0.05), rng=rng)
+    views = render_scene(meshes, p.table_size, cams, p.depth_noise, rng)
+    points = np.concatenate(
+        [transform_points(v.T_world_camera, v.points) for v in views]
+    )
+    return Scene(views=views, points=points), present, meshes
+
+
+def _owners(points: Array, meshes: list[tuple[Any, Array]]) -> NDArray[np.int64]:
+    """Index into ``meshes`` of the surface nearest each point ``(n, 3)``."""
+    import open3d as o3d
+
+    from wsgrasp.geometry import transform_points
+
+    q = o3d.core.Tensor.from_numpy(np.ascontiguousarray(points, dtype=np.float32))
+    dist = []
+    for mesh, T in meshes:
+        sc = o3d.t.geometry.RaycastingScene()
+        v = transform_points(T, np.asarray(mesh.vertices, dtype=np.float64))
+        sc.add_triangles(
+            o3d.core.Tensor.from_numpy(v.astype(np.float32)),
+            o3d.core.Tensor.from_numpy(np.asarray(mesh.faces, dtype=np.uint32)),
+        )
+        dist.append(sc.compute_distance(q).numpy())
+    return np.argmin(np.stack(dist, axis=1), axis=1)  # type: ignore[no-any-return]
+
+
+def run_clutter_scene(
+    objects: list[SimObject],
+    kind: str,
+    pipeline: Any,
+    sim_gripper: Any,
+    p: SimParams,
+    seed: int,
+    *,
+    max_steps: int | None = None,
+    record_dir: str | Path | None = None,
+) -> dict[str, Any]:
+    """Clear one ``pile`` or ``packed`` scene of ``objects`` with ``pipeline``
+    (see the module docstring); with ``record_dir``, every step's plan is
+    recorded there (``step-NN.mcap``) and ``clutter.json`` lists the steps with
+    their outcomes.
+
+    Returns
+    -------
+    dict
+        ``scene``, ``seed``, ``objects`` (names of those that stayed on the
+        table), ``attempts``, ``successes``, ``removed``, ``steps`` (each a
+        :class:`Step` as a dict), ``end`` (``clear``, ``two_failures`` or
+        ``step_limit``).
+    """
+    from wsgrasp.sim.trial import execution_error
+
+    rng = np.random.default_rng(seed)
+    settle = ClutterWorld.build(objects, p)
+    place_objects(settle, kind, rng, p)
+    present = settle.present.copy()
+    poses = settle.poses()
+    names = [o.name for o in objects]
+    start = [names[k] for k in np.flatnonzero(present)]
+    grip = ClutterWorld.build(objects, p, sim_gripper)
+    limit = max_steps if max_steps is not None else 2 * len(start)
+    out_dir = None if record_dir is None else Path(record_dir)
+    if out_dir is not None:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    steps: list[Step] = []
+    failures = 0
+    end = "step_limit"
+    for i in range(limit):
+        if not present.any():
+            end = "clear"
+            break
+        settle.set_poses(poses, present)
+        scene, shown, meshes = render_world(settle, rng, p)
+        step = Step(step=i, objects_left=int(present.sum()), found=False)
+        t0 = time.perf_counter()
+        result, capture = _plan_step(pipeline, scene, step, out_dir)
+        step.plan_ms = (time.perf_counter() - t0) * 1e3
+        step.segments = capture.segments
+        if result is None or not result.found:
+            step.kind = "no_grasp"
+            step.hint = "" if result is None else result.hint
+        else:
+            step.found = True
+            target, share = _target(capture.object_points, meshes)
+            k_target = shown[target]
+            step.target = names[k_target]
+            grip.set_poses(poses, present)
+            before = grip.data.xipos[grip.bodies].copy()  # (n, 3)
+            world = _target_scene(grip, k_target)
+            from wsgrasp.sim.trial import execute_grasp
+
+            ex = execute_grasp(
+                world,
+                poses[k_target],
+                np.asarray(result.T_world_ee, dtype=np.float64),
+                p,
+                T_world_pregrasp=result.T_world_pregrasp,
+                joints_pregrasp=dict(result.joints_pregrasp),
+                joints_grasp=dict(result.joints_grasp),
+                error=execution_error(rng, p),
+            )
+            after = grip.data.xipos[grip.bodies].copy()
+            rise = after[:, 2] - before[:, 2]
+            lifted = present & (rise > p.lifted_fraction * p.lift_height)
+            pushed = (
+                present
+                & ~lifted
+                & (
+                    np.linalg.norm(after[:, :2] - before[:, :2], axis=1)
+                    > p.displaced_distance
+                )
+            )
+            pushed[k_target] = False
+            step.outcome = ex.outcome
+            step.success = ex.outcome == "success"
+            step.lifted = [names[k] for k in np.flatnonzero(lifted)]
+            step.kind = _kind(ex.outcome, share, int(lifted.sum()), bool(pushed.any()))
+            # what is left settles where the attempt left it
+            poses = grip.poses()
+            present = present & ~lifted
+            settle.set_poses(poses, present)
+            settle.settle(p)
+            present = settle.on_table(p)
+            poses = settle.poses()
+        steps.append(step)
+        failures = 0 if step.success else failures + 1
+        if failures >= 2:
+            end = "two_failures"
+            break
+    else:
+        if not present.any():
+            end = "clear"
+    removed = len(start) - int(present.sum())
+    summary = {
+        "scene": kind,
+        "seed": seed,
+        "objects": start,
+        "attempts": len(steps),
+        "successes": sum(s.success for s in steps),
+        "removed": removed,
+        "end": end,
+        "steps": [s.__dict__ for s in steps],
+    }
+    if out_dir is not None:
+        (out_dir / "clutter.json").write_text(json.dumps(summary, indent=1) + "\n")
+    return summary
+
+
+def _plan_step(
+    pipeline: Any, scene: Any, step: Step, out_dir: Path | None
+) -> tuple[Any, _Capture]:
+    """Plan a step: the pipeline's own target first; where it finds no grasp,
+    the other instances, highest first (``target: {rule: id}`` with the ids the
+    first plan listed), until one has a grasp. Each plan is recorded in
+    ``out_dir`` (``step-NN-T.mcap``, try ``T``) and listed in ``step.records``;
+    ``step.tries`` counts them. Returns the last plan (None where it raised)
+    and what it segmented."""
+    from copy import copy
+
+    from wsgrasp.errors import WsgraspError
+    from wsgrasp.spec import TargetRule
+
+    order: list[int] | None = None
+    current = pipeline
+    result: Any = None
+    capture = _Capture()
+    while True:
+        capture = _Capture()
+        observers: list[Any] = [capture]
+        recorder = None
+        if out_dir is not None:
+            from wsgrasp.record import RunRecorder
+
+            name = f"step-{step.step:02d}-{step.tries}.mcap"
+            recorder = RunRecorder(out_dir / name, force=True)
+            observers.append(recorder)
+            step.records.append(name)
+        step.tries += 1
+        try:
+            result = current.plan(scene, observers=observers)
+        except WsgraspError as exc:
+            result = None
+            step.error = str(exc).splitlines()[0]
+        finally:
+            if recorder is not None:
+                recorder.close()
+        if result is not None and result.found:
+            return result, capture
+        if order is None:  # the other instances, highest first
+            segs = [] if result is None else result.info.get("segments", [])
+            order = [
+                s["id"]
+                for s in sorted(segs, key=lambda s: -s["top"])
+                if not s["target"]
+            ]
+        if not order:
+            return result, capture
+        current = copy(pipeline)
+        current.spec = pipeline.spec.model_copy(
+            update={"target": TargetRule(rule="id", id=order.pop(0))}
+        )
+
+
+def _target(
+    object_points: Array | None, meshes: list[tuple[Any, Array]]
+) -> tuple[int, float]:
+    """The mesh most of the target's points lie on, and the share of them on
+    the second most."""
+    if object_points is None or not len(object_points):
+        return 0, 0.0
+    owners = _owners(object_points, meshes)
+    counts = np.bincount(owners, minlength=len(meshes))
+    order = np.argsort(-counts)
+    second = float(counts[order[1]]) / len(owners) if len(meshes) > 1 else 0.0
+    return int(order[0]), second
+
+
+def _kind(outcome: str, share: float, lifted: int, pushed: bool) -> str | None:
+    """The failure kind of an executed attempt (None for a success)."""
+    if lifted > 1:
+        return "two_lifted"
+    if outcome == "success":
+        return None
+    if share >= _WRONG_SPLIT_SHARE:
+        return "wrong_split"
+    if outcome == "approach_collision" or pushed:
+        return "neighbour_collision"
+    return "slip"
+
+
+def _target_scene(world: ClutterWorld, k: int) -> Any:
+    """``world`` as the trial's ``SimScene`` with object ``k`` as its object."""
+    mujoco = require_mujoco()
+    from wsgrasp.sim.gripper import PREFIX
+    from wsgrasp.sim.scene import DRIVE_JOINTS, SimScene, _has_ancestor
+
+    m = world.model
+    g = world.gripper
+    root = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, g.root_body)
+    gbodies = [b for b in range(m.nbody) if _has_ancestor(m, b, root)]
+    gj = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, DRIVE_JOINTS[0])
+    qa, da = int(m.jnt_qposadr[gj]), int(m.jnt_dofadr[gj])
+    joint_qpos: dict[str, int] = {}
+    for j in range(m.njnt):
+        name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or ""
+        if name.startswith(PREFIX):
+            joint_qpos[name[len(PREFIX) :]] = int(m.jnt_qposadr[j])
+    return SimScene(
+        model=m,
+        data=world.data,
+        object_body=world.bodies[k],
+        object_qpos=world.qpos[k],
+        object_dof=world.dof[k],
+        gripper=g,
+        gripper_bodies=np.asarray(gbodies, dtype=np.int64),
+        gripper_qpos=slice(qa, qa + 6),
+        gripper_dof=slice(da, da + 6),
+        root_body=root,
+        table_geom=mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "table"),
+        joint_qpos=joint_qpos,
+    )
+
+
+def clutter_summary(scenes: list[dict[str, Any]]) -> dict[str, Any]:
+    """Grasp success rate (successes / attempts), declutter rate (removed /
+    objects), the failed attempts by kind and the attempts that lifted two
+    objects or more (``two_lifted``, successes too) over ``scenes``
+    (:func:`run_clutter_scene`'s results), with the per-step planning times'
+    median and maximum (ms)."""
+    attempts = sum(s["attempts"] for s in scenes)
+    successes = sum(s["successes"] for s in scenes)
+    objects = sum(len(s["objects"]) for s in scenes)
+    removed = sum(s["removed"] for s in scenes)
+    kinds: dict[str, int] = {}
+    times = []
+    two = 0
+    for s in scenes:
+        for st in s["steps"]:
+            times.append(st["plan_ms"])
+            two += st["kind"] == "two_lifted"
+            if st["kind"] and not st["success"]:
+                kinds[st["kind"]] = kinds.get(st["kind"], 0) + 1
+    return {
+        "scenes": len(scenes),
+        "objects": objects,
+        "attempts": attempts,
+        "successes": successes,
+        "removed": removed,
+        "grasp_success_rate": successes / attempts if attempts else None,
+        "declutter_rate": removed / objects if objects else None,
+        "failure_kinds": kinds,
+        "two_lifted": two,
+        "plan_ms_median": float(np.median(times)) if times else None,
+        "plan_ms_max": float(np.max(times)) if times else None,
+    }
