@@ -185,7 +185,8 @@ def test_posture_naming_an_arm_joint_is_refused(tmp_path: Path):
 
 def test_scaffold_plan_and_simulate_a_hand_on_an_arm(tmp_path: Path):
     """`wsgrasp gripper new --base-link palm` on the arm's URDF, then one eval
-    trial: drop, look, plan, approach, close, lift, hold."""
+    trial: drop, look, plan, approach, close, lift, hold; its recording lands in
+    the record folder (named by the YAML's stem), not beside the gripper YAML."""
     from wsgrasp.gripper.scaffold import scaffold_plugin
 
     urdf = write_arm_with_jaw(tmp_path / "src")
@@ -200,10 +201,15 @@ def test_scaffold_plan_and_simulate_a_hand_on_an_arm(tmp_path: Path):
         seed=0,
         params=SimParams(hold_time=1.0),
         workers=1,
+        record_dir=tmp_path / "runs",
     )
+    (tmp_path / "runs").mkdir()
     records, _ = run_eval(config, progress=False)
     (rec,) = records
     assert rec["found"], rec.get("hint")
+    assert Path(rec["record"]).parent == tmp_path / "runs"
+    assert Path(rec["record"]).name.startswith(f"{yaml_path.stem}-")
+    assert Path(rec["record"]).is_file()
     # approached from the plan's pre-grasp pose, closed to its joint targets
     assert rec["approach_from"] == "plan" and rec["finger_targets"] == "plan"
     assert set(rec["joints_grasp"]) == {"left_joint"}

@@ -16,6 +16,7 @@ keeps its pipelines, grippers and compiled MuJoCo models between tasks.
 from __future__ import annotations
 
 import os
+import re
 import time
 import zlib
 from collections.abc import Callable, Sequence
@@ -154,6 +155,17 @@ def run_task(task: Task) -> list[dict[str, Any]]:
     return records
 
 
+def record_name(gripper: str, label: str, object_name: str, trial: int) -> str:
+    """The file name of one plan's recording in ``--record-dir``: the gripper
+    (a YAML path by its file's stem), the spec's label, the object and the trial,
+    with anything but letters, digits, ``.``, ``_`` and ``-`` made ``_``, so that
+    every recording lands in the folder whatever the gripper or label is."""
+    if gripper.endswith((".yaml", ".yml")):
+        gripper = Path(gripper).stem
+    name = f"{gripper}-{label}-{object_name}-{trial:03d}"
+    return re.sub(r"[^A-Za-z0-9._-]", "_", name) + ".mcap"
+
+
 def random_candidates(result: Any, rng: np.random.Generator, count: int) -> list[int]:
     """``count`` × :data:`BASELINE_DRAWS` feasible candidates of ``result``
     (indices into ``result.candidates``), drawn uniformly with replacement, in
@@ -228,8 +240,8 @@ def _run_specs(
         if task.record_dir:
             from wsgrasp.record import RunRecorder
 
-            path = Path(task.record_dir) / (
-                f"{entry.gripper}-{entry.label}-{obj.name}-{task.trial:03d}.mcap"
+            path = Path(task.record_dir) / record_name(
+                entry.gripper, entry.label, obj.name, task.trial
             )
             observers.append(RunRecorder(path, force=True))
             recorders.append(observers[-1])
