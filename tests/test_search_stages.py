@@ -703,3 +703,25 @@ def test_a_single_plan_does_not_import_numba(tmp_path):
     )
     assert out.returncode == 0, out.stderr
     assert out.stdout.split()[-2:] == ["True", "False"]
+
+
+@SETTINGS
+@given(seed=st.integers(0, 10_000), distinct=st.integers(1, 60), C=st.integers(0, 500))
+def test_sweeps_group_rotations_as_numpy_unique_does(seed, distinct, C):
+    """The closing sweeps take each distinct rotation once: the same rotations,
+    in the same order, and the same index per candidate as ``np.unique`` over
+    rows, also where rows differ only in the sign of a zero."""
+    from wsgrasp.planning.closing import _distinct_rotations
+
+    rng = np.random.default_rng(seed)
+    R = Rotation.random(distinct, random_state=seed).as_matrix().reshape(-1, 3, 3)
+    R[0] = np.eye(3)
+    if distinct > 1:
+        R[1] = np.eye(3) * np.array([1.0, 1.0, 1.0])[:, None]
+        R[1][0, 1] = -0.0
+    T = R[rng.integers(0, distinct, C)]
+    got, of = _distinct_rotations(T)
+    want, want_of = np.unique(T.reshape(-1, 9), axis=0, return_inverse=True)
+    np.testing.assert_array_equal(got.reshape(-1, 9), want)
+    np.testing.assert_array_equal(of, want_of.reshape(-1))
+    np.testing.assert_array_equal(got[of], T)

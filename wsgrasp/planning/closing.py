@@ -290,9 +290,7 @@ def sweep_back_offs(
     n = np.asarray(T_world_table, dtype=np.float64)[:3, 2]
     o = np.asarray(T_world_table, dtype=np.float64)[:3, 3]
     # candidates share their rotations (samples x orientations): each once
-    rotations, of = np.unique(T[:, :3, :3].reshape(C, 9), axis=0, return_inverse=True)
-    R = rotations.reshape(-1, 3, 3)  # (U, 3, 3)
-    of = of.reshape(-1)  # (C,) index into R
+    R, of = _distinct_rotations(T[:, :3, :3])  # (U, 3, 3), (C,) index into R
     u = np.einsum("uij,i->uj", R, n)  # (U, 3) table normal, gripper frame
     hull = index.hull.reshape(-1, 3)  # (nf K H, 3)
     low = (hull @ u.T).reshape(nf, K, -1, len(R)).min(axis=2)  # (nf, K, U)
@@ -325,6 +323,23 @@ def sweep_back_offs(
         if not len(todo):
             break
     return out
+
+
+def _distinct_rotations(R: Array) -> tuple[Array, NDArray[np.int64]]:
+    """The distinct rotations of ``R`` (C, 3, 3), in ``np.unique``'s order (rows
+    compared as numbers, lexicographically), and each one's index: (U, 3, 3),
+    (C,). One stable sort of the rows (``np.lexsort``): ``np.unique`` over
+    rows took 0.12 s of the Allegro's dense sweeps (88,000 feasible candidates)."""
+    rows = np.ascontiguousarray(R, dtype=np.float64).reshape(-1, 9)  # (C, 9)
+    if len(rows) == 0:
+        return rows.reshape(0, 3, 3), np.zeros(0, dtype=np.int64)
+    order = np.lexsort(rows.T[::-1])  # first column most significant
+    s = rows[order]
+    new = np.ones(len(s), dtype=bool)
+    new[1:] = np.any(s[1:] != s[:-1], axis=1)
+    of = np.empty(len(s), dtype=np.int64)
+    of[order] = np.cumsum(new) - 1
+    return s[new].reshape(-1, 3, 3), of
 
 
 def _reached_first(
