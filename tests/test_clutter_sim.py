@@ -129,3 +129,32 @@ def test_eval_scene_refuses_bad_input(args, message, capsys):
     rc = main(["eval", "--objects", "realsense_box", *args])
     assert rc != 0
     assert message in capsys.readouterr().err
+
+
+def test_a_recorded_clutter_run_replays_and_is_drawn_step_by_step(
+    franka_clutter, tmp_path, capsys
+):
+    from wsgrasp.cli import main
+
+    pipeline, gripper, p = franka_clutter
+    out = run_clutter_scene(
+        _boxes(2), "pile", pipeline, gripper, p, seed=2, record_dir=tmp_path
+    )
+    capsys.readouterr()
+    assert main(["replay", str(tmp_path)]) == 0
+    text = capsys.readouterr().out
+    assert text.count("identical") == len(out["steps"])
+    assert "step 0: 2 objects left" in text
+    assert main(["view", str(tmp_path)]) == 0
+    for step in out["steps"]:
+        for rec in step["records"]:
+            assert (tmp_path / rec).with_suffix(".png").stat().st_size > 0
+
+
+def test_a_folder_that_is_no_clutter_run_is_refused(tmp_path, capsys):
+    from wsgrasp.cli import main
+
+    assert main(["replay", str(tmp_path)]) != 0
+    assert (
+        "no clutter.json, so it is no recorded clutter run" in capsys.readouterr().err
+    )

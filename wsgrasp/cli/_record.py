@@ -142,7 +142,9 @@ def inspect(
 
 
 def replay(
-    run: Path = typer.Argument(..., help="A recorded run (.mcap)."),
+    run: Path = typer.Argument(
+        ..., help="A recorded run (.mcap), or a recorded clutter run's folder."
+    ),
     spec: Path | None = typer.Option(
         None,
         "--spec",
@@ -165,9 +167,13 @@ def replay(
 
     With the recorded spec, the replay checks that the run reproduces: exit 0
     when identical, 1 when not. With --spec, the difference is the result: exit
-    0 when the replay ran (1 on a difference only with --expect-identical)."""
+    0 when the replay ran (1 on a difference only with --expect-identical).
+    A clutter run's folder replays every plan of every step, in order."""
     from wsgrasp.record import replay_run
 
+    if run.is_dir():
+        _replay_sequence(run, spec, expect_identical, as_json)
+        return
     report = replay_run(run, spec=spec, record=record, force=force)
     data = report.to_json()
     if as_json:
@@ -175,6 +181,37 @@ def replay(
     else:
         _print_replay(data)
     if not report.identical and (spec is None or expect_identical):
+        raise typer.Exit(1)
+
+
+def _replay_sequence(
+    folder: Path, spec: Path | None, expect_identical: bool, as_json: bool
+) -> None:
+    """Replay each plan of a recorded clutter run, step after step."""
+    from wsgrasp.record import open_sequence, replay_run
+
+    summary, steps = open_sequence(folder)
+    rows: list[dict[str, Any]] = []
+    identical = True
+    for st in steps:
+        reports = [replay_run(r, spec=spec).to_json() for r in st.records]
+        identical &= all(r["identical"] for r in reports)
+        rows.append({"step": st.info, "replays": reports})
+        if not as_json:
+            same = all(r["identical"] for r in reports)
+            mark = "[green]identical[/]" if same else "[red]different[/]"
+            console.print(f"{st.line()} — {mark}", highlight=False)
+    if as_json:
+        print_json({"clutter": summary, "identical": identical, "steps": rows})
+    else:
+        console.print(
+            f"{summary.get('scene')} scene: {summary.get('successes')} of "
+            f"{summary.get('attempts')} grasps held, {summary.get('removed')} of "
+            f"{len(summary.get('objects') or [])} objects removed "
+            f"({summary.get('end')})",
+            highlight=False,
+        )
+    if not identical and (spec is None or expect_identical):
         raise typer.Exit(1)
 
 
@@ -225,7 +262,9 @@ def _print_replay(d: dict[str, Any]) -> None:
 
 
 def view(
-    run: Path = typer.Argument(..., help="A recorded run (.mcap)."),
+    run: Path = typer.Argument(
+        ..., help="A recorded run (.mcap), or a recorded clutter run's folder."
+    ),
     out: Path | None = typer.Option(
         None,
         "--out",
@@ -240,9 +279,14 @@ def view(
     shape at pre-grasp and grasp, and the candidates coloured by why they were
     rejected. Writes RUN.png and RUN.html beside the run unless -o says where;
     -o FILE.mcap writes the run again with its Foxglove views (for a run whose
-    process was killed before they were written)."""
+    process was killed before they were written). A clutter run's folder draws
+    every plan of every step beside its file, in order."""
     from wsgrasp.errors import RecordingError
     from wsgrasp.record import open_run
+
+    if run.is_dir():
+        _view_sequence(run, out, force)
+        return
 
     # beside the run itself, also when RUN is a link such as runs/latest.mcap
     outs = (
@@ -280,3 +324,30 @@ def view(
             render_html(r, o)
             note = " (the run is truncated: drawn up to where it stops)"
         console.print(f"wrote {o}{note if r.truncated else ''}", highlight=False)
+
+
+def _view_sequence(folder: Path, out: Path | None, force: bool) -> None:
+    """Draw each plan of a recorded clutter run beside its file, step by step."""
+    from wsgrasp.errors import RecordingError
+    from wsgrasp.record import open_run, open_sequence
+    from wsgrasp.view._html import render_html
+    from wsgrasp.view._png import render_png
+
+    if out is not None:
+        raise RecordingError(
+            f"{folder}: -o names one file, and a clutter run draws one per plan",
+            hint="leave -o out: each plan's STEP.png and STEP.html go beside it",
+        )
+    summary, steps = open_sequence(folder)
+    for st in steps:
+        console.print(st.line(), highlight=False)
+        for rec in st.records:
+            for suffix, render in ((".png", render_png), (".html", render_html)):
+                o = rec.with_suffix(suffix)
+                if o.exists() and not force:
+                    raise RecordingError(
+                        f"{o}: exists already",
+                        hint="pass --force to draw the run again",
+                    )
+                render(open_run(rec), o)
+                console.print(f"  wrote {o}", highlight=False)

@@ -7,6 +7,8 @@
   :func:`copy_with_views` writes it again with its Foxglove views.
 - :func:`replay_run` re-plans a run's inputs and compares the results.
 - :func:`summarize_run` is what ``wsgrasp inspect --json`` prints.
+- :func:`open_sequence` reads a recorded clutter run: a folder of runs, one per
+  plan, and the ``clutter.json`` that orders them into steps.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from wsgrasp.record._copy import copy_with_views
 from wsgrasp.record._reader import open_run
 from wsgrasp.record._replay import ReplayReport, compare_results, replay_run
 from wsgrasp.record._run import PARTS, RawMessage, Run
+from wsgrasp.record._sequence import SequenceStep, open_sequence
 from wsgrasp.record._summary import summarize_run
 from wsgrasp.record._writer import (
     RunRecorder,
@@ -31,11 +34,13 @@ __all__ = [
     "ReplayReport",
     "Run",
     "RunRecorder",
+    "SequenceStep",
     "check_record_path",
     "compare_results",
     "copy_with_views",
     "default_run_path",
     "open_run",
+    "open_sequence",
     "replay_run",
     "summarize_run",
     "wait_for_recorders",
