@@ -42,11 +42,12 @@ PUBLISH = $(BIN)/python benchmarks/publish_result.py --commit "$(COMMIT)"
 BARRETT := examples/plugins/barrett_bh8_like/wsgrasp_barrett_bh8_like/barrett_bh8_like.yaml
 EVAL_GRIPPERS := --gripper franka_hand --gripper allegro_right --gripper $(BARRETT)
 
-# each gripper with its default spec, the paper's sampling and the follow-up's
+# each gripper with its default spec, the paper's sampling and the follow-up's,
+# each plan's choice beside 3 random feasible candidates of the same plan
 eval: $(STAMP)
 	$(BIN)/python -m pip install -q -e '.[sim]'
 	$(BIN)/wsgrasp eval $(EVAL_GRIPPERS) --objects paper13 --followup \
-		--trials 10 --seed 0 --json-out eval-results/paper13.json \
+		--trials 10 --seed 0 --baseline random --json-out eval-results/paper13.json \
 		--md-out eval-results/paper13.md
 	$(PUBLISH) --command "make eval" eval-results/paper13.json docs/results/eval/paper13.json
 
@@ -54,7 +55,7 @@ eval: $(STAMP)
 eval-random: $(STAMP)
 	$(BIN)/python -m pip install -q -e '.[sim]'
 	$(BIN)/wsgrasp eval $(EVAL_GRIPPERS) --followup \
-		--objects random:000-299 --trials 3 --seed 0 \
+		--objects random:000-299 --trials 3 --seed 0 --baseline random \
 		--json-out eval-results/random-dev.json --md-out eval-results/random-dev.md
 	$(PUBLISH) --command "make eval-random" eval-results/random-dev.json \
 		docs/results/eval/random-dev.json
@@ -63,7 +64,7 @@ eval-random: $(STAMP)
 eval-heldout: $(STAMP)
 	$(BIN)/python -m pip install -q -e '.[sim]'
 	$(BIN)/wsgrasp eval $(EVAL_GRIPPERS) --no-paper \
-		--objects random:300-999 --trials 1 --seed 1 \
+		--objects random:300-999 --trials 1 --seed 1 --baseline random \
 		--json-out eval-results/random-heldout.json \
 		--md-out eval-results/random-heldout.md
 	$(PUBLISH) --command "make eval-heldout" eval-results/random-heldout.json \
