@@ -11,6 +11,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 pytest.importorskip("pyarrow")
@@ -275,6 +276,44 @@ def test_dataset_rows_labels_and_resume(tmp_path: Path, capsys):
     assert _dataset(tmp_path / "d", "--resume") == 0
     assert json.loads(capsys.readouterr().out)["resumed"] == 1
     assert pq.read_table(tmp_path / "d" / "scenes").num_rows == 1
+
+
+def test_dataset_labels_random_feasible_candidates_beside_the_choice(
+    tmp_path: Path, capsys
+):
+    pytest.importorskip("mujoco")
+    import json
+
+    assert _dataset(tmp_path / "d", "-j", "1", "-k", "1", "--random", "3") == 0
+    summary = json.loads(capsys.readouterr().out)
+    (scene,) = pq.read_table(tmp_path / "d" / "scenes").to_pylist()
+    cands = pq.read_table(tmp_path / "d" / "candidates").to_pylist()
+    drawn = [c for c in cands if c["random_pick"]]
+    assert len(drawn) == scene["random_labels"] == summary["random_labels"] == 3
+    # every draw is labelled, as is the choice; nothing else
+    labelled = [c for c in cands if c["label"] is not None]
+    assert {c["candidate"] for c in labelled} == {
+        c["candidate"] for c in cands if c["random_pick"] or c["rank"] == 0
+    }
+    assert scene["random_successes"] == sum(c["success"] for c in drawn)
+    assert scene["chosen_success"] == next(c["success"] for c in cands if c["chosen"])
+    assert summary["chosen"] == 1
+
+
+def test_random_feasible_draws_are_seeded_distinct_and_feasible():
+    from types import SimpleNamespace
+
+    from wsgrasp.batch.dataset import random_feasible
+
+    reason = np.array([0, 3, 0, 0, 1, 0, 0, 2])  # feasible: 0, 2, 3, 5, 6
+    C = SimpleNamespace(reason=reason)
+    a = random_feasible(C, [0, 1, 2], 3)
+    assert a == random_feasible(C, [0, 1, 2], 3)  # the trial's seed alone
+    assert len(set(a)) == 3 and set(a) <= {0, 2, 3, 5, 6}
+    assert sorted(random_feasible(C, [0, 1, 2], 10)) == [0, 2, 3, 5, 6]
+    assert random_feasible(C, [0, 1, 2], 0) == []
+    draws = {tuple(random_feasible(C, [0, 1, t], 2)) for t in range(20)}
+    assert len(draws) > 1  # other trials draw others
 
 
 @pytest.mark.slow

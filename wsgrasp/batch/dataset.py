@@ -17,6 +17,12 @@ A candidate whose pre-grasp pose would hit the table is labelled
 ``no_grasp``, as the plan that took it would find none. The ``scenes`` table
 has one row per job: the settled pose, the views (points in camera frames) and
 the counts.
+
+Chance beside the choice: ``random_k`` uniformly random feasible candidates of
+each scene (drawn without replacement with a seed of the trial's, the same for
+every run) are labelled too, finished exactly as the top ones are, and marked
+``random_pick``; a scene's ``chosen_success`` and ``random_successes`` /
+``random_labels`` give the choice's outcome beside chance's on the same drop.
 """
 
 from __future__ import annotations
@@ -60,6 +66,7 @@ def dataset_schemas() -> dict[str, Any]:
             ("flipped", pa.bool_()),
             ("contacts", pa.list_(pa.int32())),
             ("chosen", pa.bool_()),
+            ("random_pick", pa.bool_()),
             ("label", pa.string()),
             ("success", pa.bool_()),
             ("label_targets", pa.string()),
@@ -87,6 +94,9 @@ def dataset_schemas() -> dict[str, Any]:
             ("feasible", pa.int32()),
             ("labels", pa.int32()),
             ("successes", pa.int32()),
+            ("chosen_success", pa.bool_()),
+            ("random_labels", pa.int32()),
+            ("random_successes", pa.int32()),
             ("error", pa.string()),
             ("scene_s", pa.float64()),
             ("plan_ms", pa.float64()),
@@ -111,6 +121,12 @@ class DatasetSummary:
     candidates: int = 0
     labels: int = 0
     successes: int = 0
+    #: scenes whose choice was labelled, and of them those it held
+    chosen: int = 0
+    chosen_successes: int = 0
+    #: random feasible candidates labelled, and of them those that held
+    random_labels: int = 0
+    random_successes: int = 0
     errors: int = 0
     wall_s: float = 0.0
 
@@ -125,6 +141,10 @@ class DatasetSummary:
             "candidates": self.candidates,
             "labels": self.labels,
             "successes": self.successes,
+            "chosen": self.chosen,
+            "chosen_successes": self.chosen_successes,
+            "random_labels": self.random_labels,
+            "random_successes": self.random_successes,
             "errors": self.errors,
             "wall_s": round(self.wall_s, 1),
             "labels_per_hour": round(self.labels_per_hour, 1),
@@ -184,11 +204,17 @@ def dataset_job(obj: Any, trial: int) -> dict[str, list[dict[str, Any]]]:
     key = ("pipeline", id(pay))
     pipeline = _cached(key, lambda: Pipeline(pay["spec"], gripper=pay["model"]))
     top_k = int(pay["top_k"])
+    random_k = int(pay.get("random_k", 0))
+    drawn: list[int] = []
 
     def others(res: Any) -> list[int]:
-        """The labelled candidates besides the plan's choice."""
+        """The labelled candidates besides the plan's choice: the top ones, then
+        the random draws that are not among them."""
         chosen = res.best_index if res.found else -1
-        return [int(c) for c in _ranked(res.candidates)[:top_k] if c != chosen]
+        top = [int(c) for c in _ranked(res.candidates)[:top_k]]
+        drawn.extend(random_feasible(res.candidates, seed, random_k))
+        extra = [c for c in drawn if c not in top]
+        return [c for c in top + extra if c != chosen]
 
     try:
         # the plan and the plans that take its other labelled candidates, from
@@ -200,18 +226,34 @@ def dataset_job(obj: Any, trial: int) -> dict[str, list[dict[str, Any]]]:
         return {"candidates": [], "scenes": [scene_row]}
     rows = _candidate_rows(result, obj.name, trial, pay["gripper"])
     t1 = time.perf_counter()
-    labelled = rows[:top_k]
+    by_candidate = {r["candidate"]: r for r in rows}
+    picked = set(drawn)
+    for r in rows:
+        r["random_pick"] = r["candidate"] in picked
+    # in the order others() gave the plans: the top rows, then the draws
+    top = [int(r["candidate"]) for r in rows[:top_k]]
+    order = top + [c for c in drawn if c not in top]
     others_taken = iter(taken_plans)
-    for row in labelled:
+    for c in order:
+        row = by_candidate[c]
         taken = result if row["chosen"] else next(others_taken)
         outcome = _label(row, taken, obj, settled, okey, pay, seed)
         row.update(label=outcome, success=outcome == "success")
+    chosen_row = next((r for r in rows if r["chosen"]), None)
+    random_rows = [by_candidate[c] for c in drawn]
+    scene_row.update(
+        chosen_success=None
+        if chosen_row is None or "success" not in chosen_row
+        else bool(chosen_row["success"]),
+        random_labels=len(random_rows),
+        random_successes=sum(bool(r["success"]) for r in random_rows),
+    )
     scene_row.update(
         found=bool(result.found),
         best_candidate=result.best_index,
         candidates=len(result.candidates),
         feasible=len(rows),
-        labels=min(len(rows), pay["top_k"]),
+        labels=len(order),
         successes=sum(bool(r.get("success")) for r in rows),
         plan_ms=float(result.timing_ms.get("total", float("nan"))),
         sim_s=time.perf_counter() - t1,
@@ -249,6 +291,23 @@ def _candidate_rows(
         }
         for r, c in enumerate(order)
     ]
+
+
+def random_feasible(C: Any, seed: Sequence[int], count: int) -> list[int]:
+    """``count`` feasible candidates of ``C`` (all of them if fewer), drawn
+    uniformly without replacement, in the order drawn; the draw depends on the
+    trial's ``seed`` alone, so every run of the same trial draws the same."""
+    feasible = np.flatnonzero(C.reason == 0)  # (F,) candidate indices
+    if count <= 0 or len(feasible) == 0:
+        return []
+    rng = np.random.default_rng([*seed, RANDOM_STREAM])
+    picks = rng.choice(feasible, size=min(count, len(feasible)), replace=False)
+    return [int(c) for c in picks]
+
+
+#: the seed sequence's extra entry of the random labels' draws (apart from the
+#: drop's, the views' and the execution error's streams)
+RANDOM_STREAM = 3
 
 
 def _ranked(C: Any) -> NDArray[np.int64]:
@@ -307,6 +366,7 @@ def run_dataset(
     *,
     trials: int = 1,
     top_k: int = 5,
+    random_k: int = 0,
     seed: int = 0,
     params: Any = None,
     resume: bool = False,
@@ -317,7 +377,9 @@ def run_dataset(
 ) -> DatasetSummary:
     """Every object × trial on ``engine``; tables ``out/candidates`` and
     ``out/scenes``, written as jobs finish (``resume`` skips the scenes there).
-    Without ``views`` the scenes' rows hold no points (~1.7 MB a scene less)."""
+    Without ``views`` the scenes' rows hold no points (~1.7 MB a scene less).
+    ``random_k`` random feasible candidates of each scene are labelled beside
+    the top ``top_k`` (chance, :func:`random_feasible`)."""
     from wsgrasp._names import gripper_ref
     from wsgrasp.batch.plans import spec_hash
     from wsgrasp.gripper import load_gripper
@@ -335,6 +397,7 @@ def run_dataset(
         "params": params if params is not None else SimParams(),
         "seed": seed,
         "top_k": top_k,
+        "random_k": random_k,
         "views": views,
     }
     sink = PartSink(
@@ -358,6 +421,11 @@ def run_dataset(
             summary.candidates += len(rows["candidates"])
             summary.labels += int(s.get("labels") or 0)
             summary.successes += int(s.get("successes") or 0)
+            if s.get("chosen_success") is not None:
+                summary.chosen += 1
+                summary.chosen_successes += bool(s["chosen_success"])
+            summary.random_labels += int(s.get("random_labels") or 0)
+            summary.random_successes += int(s.get("random_successes") or 0)
             summary.errors += s.get("error") is not None
             advance(f"{summary.successes}/{summary.labels} held · {s['object']}")
             if on_scene is not None:

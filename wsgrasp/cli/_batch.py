@@ -337,6 +337,13 @@ def dataset(
     top_k: int = typer.Option(
         5, "--top-k", "-k", min=0, help="Best candidates of each scene simulated."
     ),
+    random_k: int = typer.Option(
+        0,
+        "--random",
+        min=0,
+        help="Also simulate this many uniformly random feasible candidates of each "
+        "scene (chance beside the choice; rows marked random_pick).",
+    ),
     seed: int = typer.Option(0, "--seed", help="Random seed of drops and cameras."),
     protocol: str = typer.Option("strict", "--protocol", help=_PROTOCOL_HELP),
     views: bool = typer.Option(
@@ -383,6 +390,7 @@ def dataset(
             eng,
             trials=trials,
             top_k=top_k,
+            random_k=random_k,
             seed=seed,
             params=params,
             resume=resume,
@@ -404,6 +412,12 @@ def dataset(
         f"{summary.candidates} feasible candidates, {summary.labels} labels "
         f"({summary.successes} held) in {summary.wall_s:.0f} s on {eng.name} × "
         f"{eng.workers} ({summary.labels_per_hour:.0f} labels/h)"
+        + (
+            f"; choice held {summary.chosen_successes}/{summary.chosen}, random "
+            f"feasible {summary.random_successes}/{summary.random_labels}"
+            if summary.random_labels
+            else ""
+        )
         + (f"; {summary.resumed} scenes already in {out}" if summary.resumed else "")
         + f"; tables in {out}",
         highlight=False,
