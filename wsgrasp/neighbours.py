@@ -25,6 +25,8 @@ __all__ = ["blocked_by_body", "blocked_in_closing"]
 
 Array = NDArray[np.float64]
 
+#: the first pass tests every this-many-th obstacle point
+_COARSE = 4
 #: point-sphere pairs tested at once (memory bound: pairs x spheres floats)
 _CHUNK = 200_000
 
@@ -42,16 +44,23 @@ def blocked_in_closing(
     mid = centers.mean(axis=0)
     reach = float((np.linalg.norm(centers - mid, axis=1) + radii).max())
 
+    lo = (centers - radii[:, None]).min(axis=0)  # (3,) the spheres' box
+    hi = (centers + radii[:, None]).max(axis=0)
+    r2 = radii * radii
+    step = max(1, _CHUNK // len(centers))
+
     def inside(p: Array) -> NDArray[np.bool_]:
         out = np.zeros(len(p), dtype=bool)
-        r2 = radii * radii
-        for s in range(0, len(p), max(1, _CHUNK // len(centers))):
-            q = p[s : s + max(1, _CHUNK // len(centers))]  # (m, 3)
-            d2 = ((q[:, None, :] - centers[None, :, :]) ** 2).sum(axis=2)  # (m, S)
-            out[s : s + len(q)] = (d2 < r2).any(axis=1)
+        box = np.flatnonzero(((p > lo) & (p < hi)).all(axis=1))  # most are not
+        for s in range(0, len(box), step):
+            rows = box[s : s + step]
+            # (m, S) squared distances of these points to every sphere's centre
+            d2 = ((p[rows, None, :] - centers[None, :, :]) ** 2).sum(axis=2)
+            out[rows] = (d2 < r2).any(axis=1)
         return out
 
-    return _blocked(T_world_gripper, obstacles, mid, reach, inside)
+    # most candidates are clear: one pass with every point
+    return _blocked_all(T_world_gripper, obstacles, mid, reach, inside)
 
 
 def blocked_by_body(
@@ -76,6 +85,25 @@ def blocked_by_body(
 
 
 def _blocked(
+    T_world_gripper: Array,
+    obstacles: list[Array],
+    mid_gripper: Array,
+    reach: float,
+    inside: Callable[[Array], NDArray[np.bool_]],
+) -> NDArray[np.int64]:
+    """:func:`_blocked_all`, first with every :data:`_COARSE`-th obstacle point
+    (most blocked candidates have many points inside), then with all of them
+    for the candidates that pass left unnamed."""
+    coarse = [np.asarray(o).reshape(-1, 3)[::_COARSE] for o in obstacles]
+    who = _blocked_all(T_world_gripper, coarse, mid_gripper, reach, inside)
+    rest = np.flatnonzero(who < 0)
+    if len(rest):
+        T = np.asarray(T_world_gripper, dtype=np.float64).reshape(-1, 4, 4)
+        who[rest] = _blocked_all(T[rest], obstacles, mid_gripper, reach, inside)
+    return who
+
+
+def _blocked_all(
     T_world_gripper: Array,
     obstacles: list[Array],
     mid_gripper: Array,

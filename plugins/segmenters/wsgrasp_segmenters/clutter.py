@@ -160,7 +160,11 @@ def split_instances(
     done: list[Array] = []
     while queue:
         part = queue.pop()
-        touching = find_touching(part, table) if waists < o.max_waist_splits else None
+        # a waist splits a part only into two object-sized halves
+        splittable = waists < o.max_waist_splits and (
+            len(part) >= 2 * o.min_instance_points
+        )
+        touching = find_touching(part, table) if splittable else None
         if touching is None:
             done.append(part)
             continue
