@@ -162,7 +162,7 @@ def _print_table(report: dict[str, Any]) -> None:
         "attempts",
         "grasp success",
         "declutter",
-        "plan ms (median / max)",
+        "plan ms (median / p90)",
         "failures",
     ):
         table.add_column(col)
@@ -175,8 +175,8 @@ def _print_table(report: dict[str, Any]) -> None:
             "-" if gs is None else f"{100 * gs:.1f} % ({s['successes']})",
             "-" if dr is None else f"{100 * dr:.1f} % ({s['removed']}/{s['objects']})",
             "-"
-            if s["plan_ms_median"] is None
-            else f"{s['plan_ms_median']:.0f} / {s['plan_ms_max']:.0f}",
+            if s["first_plan_ms_median"] is None
+            else f"{s['first_plan_ms_median']:.0f} / {s['first_plan_ms_p90']:.0f}",
             ", ".join(f"{k} {v}" for k, v in sorted(s["failure_kinds"].items())),
         )
     console.print(table)
