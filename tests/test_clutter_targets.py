@@ -182,3 +182,26 @@ def test_a_plan_lists_the_instances_and_an_id_from_it_names_the_same_object():
     again = _franka("id", id=other["id"]).plan(scene)
     chosen = next(s for s in again.info["segments"] if s["target"])
     assert chosen["centroid"] == other["centroid"]
+
+
+def test_walls_in_the_fingers_closing_paths_reject_candidates_by_name():
+    # walls 8 mm from a box: outside the fingers' bodies when they straddle the
+    # box, inside the space they sweep as they close
+    items = [
+        ("box", (0.03, 0.05, 0.12), (0.0, 0.0, 0.0), 0.0),
+        ("box", (0.01, 0.12, 0.12), (0.028, 0.0, 0.0), 0.0),
+        ("box", (0.01, 0.12, 0.12), (-0.028, 0.0, 0.0), 0.0),
+    ]
+    pipeline = _franka("nearest", point=(0.0, 0.0, 0.12))
+    scene = pile(items).scene
+    result = pipeline.plan(scene)
+    closing = {n: v["closing"] for n, v in result.info["blocked_by"].items()}
+    assert sum(closing.values()) > 0
+    assert all(n.startswith("object ") for n, v in closing.items() if v)
+    assert result.found
+    # the choice has nothing of its neighbours where its fingers close
+    obstacles = pipeline.prepare(scene).obstacles
+    T = result.T_world_ee[None]
+    assert blocked_in_closing(pipeline.gripper, T, obstacles).tolist() == [-1]
+    axis = result.T_world_ee[:3, :3] @ pipeline.gripper.closing_axis
+    assert abs(axis[1]) > 0.9  # it closes along the walls, not through them
