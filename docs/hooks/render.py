@@ -698,6 +698,7 @@ def render_results_eval() -> str:
                 rows,
             )
         )
+        out.append(_per_object(r.get("results", [])))
         base = r.get("baseline")
         if base:
             out.append(
@@ -735,6 +736,42 @@ def render_results_eval() -> str:
                         brow,
                     )
                 )
+    return "\n".join(out)
+
+
+def _per_object(results: list[dict[str, Any]]) -> str:
+    """Per gripper, a folded table of each object's success under each spec (and
+    the paper's, where the object set has it); only for small object sets."""
+    objects = {o["object"] for res in results for o in res.get("objects", [])}
+    if not objects or len(objects) > 25:
+        return ""
+    out = []
+    for gripper in dict.fromkeys(res["gripper"] for res in results):
+        mine = [res for res in results if res["gripper"] == gripper]
+        specs = [res["spec"] for res in mine]
+        cells: dict[str, dict[str, str]] = {}
+        paper: dict[str, str] = {}
+        for res in mine:
+            for o in res.get("objects", []):
+                cells.setdefault(o["object"], {})[res["spec"]] = (
+                    f"{100 * o['success_rate']:.0f} %"
+                )
+                if o.get("paper"):
+                    pp = o["paper"]
+                    paper[o["object"]] = (
+                        f"{100 * pp['success_rate']:.0f} % ({pp['plan_s']:.2f} s)"
+                    )
+        header = ["object", *specs] + (
+            ["paper (real robot, plan time)"] if paper else []
+        )
+        rows = [
+            [f"`{name}`", *(c.get(sp, "–") for sp in specs)]
+            + ([paper.get(name, "–")] if paper else [])
+            for name, c in cells.items()
+        ]
+        table = _table(header, rows)
+        body = "\n".join("    " + ln if ln else "" for ln in table.splitlines())
+        out.append(f'??? note "`{_short(gripper)}`, per object"\n\n{body}\n')
     return "\n".join(out)
 
 
