@@ -1,0 +1,431 @@
+"""Results pages' tables and charts, rendered from the JSON files that runs write
+under docs/results/ (make bench, make eval*, make eval-grippers)."""
+
+from __future__ import annotations
+
+import io
+import json
+from pathlib import Path
+from typing import Any
+
+from docs_tables import short, table
+
+ROOT = Path(__file__).resolve().parents[2]
+RESULTS = ROOT / "docs" / "results"
+
+
+def _load(path: Path) -> dict[str, Any] | None:
+    return json.loads(path.read_text()) if path.is_file() else None
+
+
+def _provenance(report: dict[str, Any], what: str) -> str:
+    commit = report.get("commit") or "not recorded"
+    machine = report.get("machine") or "not recorded"
+    date = report.get("date") or "not recorded"
+    load = report.get("load_average")
+    busy = f", load average {load[0]:.1f} as it ended" if load else ""
+    return f"From {what} at commit `{commit}` on {machine} ({date}{busy})."
+
+
+def _eval_grippers_markdown(report: dict[str, Any]) -> str:
+    import importlib.util
+
+    path = ROOT / "benchmarks" / "eval_grippers.py"
+    spec = importlib.util.spec_from_file_location("_eval_grippers", path)
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return str(mod.markdown(report))
+
+
+def render_results_grippers() -> str:
+    report = _load(RESULTS / "grippers.json")
+    if report is None:
+        return (
+            "No `docs/results/grippers.json` yet: `make eval-grippers` writes it "
+            "(see [Evaluate a gripper](../how-to/evaluate-a-gripper.md)).\n"
+        )
+    return _eval_grippers_markdown(report)
+
+
+def render_defaults_success() -> str:
+    """The built-in and example grippers' default specs, from grippers.json."""
+    report = _load(RESULTS / "grippers.json")
+    if report is None:
+        return "No `docs/results/grippers.json` yet: `make eval-grippers` writes it.\n"
+    rows = []
+    for r in report["rows"]:
+        if r.get("source") != "built-in" or "trials" not in r:
+            continue
+        fails = ", ".join(f"{k} {v}" for k, v in sorted(r["failures"].items()) if v)
+        rows.append(
+            [
+                f"`{r['name']}`",
+                r["trials"],
+                f"{100 * r['success_rate']:.0f} %",
+                fails or "–",
+            ]
+        )
+    return (
+        _provenance(report, "`make eval-grippers`")
+        + f" Protocol `{report['protocol']}`, objects `{report['objects']}`, "
+        f"{report['trials']} trial each, seed {report['seed']}.\n\n"
+        + table(["gripper", "trials", "success", "failures"], rows)
+    )
+
+
+def render_chart_grippers() -> str:
+    if not (RESULTS / "grippers.json").is_file():
+        return ""
+    return (
+        "![success of every gripper with its default spec, from "
+        "docs/results/grippers.json](grippers-success.svg)\n"
+    )
+
+
+def _svg(fig: Any) -> bytes:
+    buf = io.StringIO()
+    fig.savefig(buf, format="svg", metadata={"Date": None})
+    return buf.getvalue().encode()
+
+
+def chart_grippers() -> bytes | None:
+    """Horizontal bars: each gripper's success, failures stacked by kind."""
+    report = _load(RESULTS / "grippers.json")
+    if report is None:
+        return None
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    plt.rcParams["svg.hashsalt"] = "wsgrasp"
+    rows = [r for r in report["rows"] if "trials" in r]
+    kinds = sorted({k for r in rows for k, v in r["failures"].items() if v})
+    names = [r["name"] for r in rows][::-1]
+    fig, ax = plt.subplots(figsize=(8, 0.4 * len(rows) + 1.4))
+    left = [0.0] * len(rows)
+    succ = [100.0 * r["successes"] / r["trials"] for r in rows][::-1]
+    ax.barh(names, succ, color="#2e7d32", label="success")
+    left = succ
+    colours = ["#c62828", "#ef6c00", "#f9a825", "#6a1b9a", "#1565c0", "#757575"]
+    for i, kind in enumerate(kinds):
+        vals = [100.0 * r["failures"].get(kind, 0) / r["trials"] for r in rows][::-1]
+        ax.barh(names, vals, left=left, color=colours[i % len(colours)], label=kind)
+        left = [a + b for a, b in zip(left, vals, strict=True)]
+    for y, s in enumerate(succ):
+        ax.text(1, y, f"{s:.0f} %", va="center", color="white", fontsize=8)
+    ax.set_xlim(0, 100)
+    ax.set_xlabel(
+        f"% of trials ({report['objects']}, protocol {report['protocol']}, "
+        f"commit {report['commit']})"
+    )
+    ax.legend(
+        loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=4, fontsize=8, frameon=False
+    )
+    fig.tight_layout()
+    data = _svg(fig)
+    plt.close(fig)
+    return data
+
+
+def chart_eval(path: Path) -> bytes:
+    """Bars: success of each gripper and spec of one eval summary, with chance's
+    beside the choice where the run had a random baseline."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    plt.rcParams["svg.hashsalt"] = "wsgrasp"
+    r = json.loads(path.read_text())
+    res = r.get("results", [])
+    chance = {
+        (b["gripper"], b.get("spec")): b["random_rate"]
+        for b in r.get("baseline") or []
+        if isinstance(b, dict) and "random_rate" in b
+    }
+    labels = [f"{short(x['gripper'])} · {x['spec']}" for x in res][::-1]
+    rates = [100 * x["success_rate"] for x in res][::-1]
+    fig, ax = plt.subplots(figsize=(8, 0.4 * len(res) + 1.4))
+    ax.barh(labels, rates, color="#2e7d32", label="chosen grasp")
+    if chance:
+        ch = [100 * chance.get((x["gripper"], x["spec"]), 0) for x in res][::-1]
+        ax.scatter(
+            ch,
+            labels,
+            color="#c62828",
+            marker="|",
+            s=300,
+            zorder=3,
+            label="random feasible candidate",
+        )
+    for y, v in enumerate(rates):
+        ax.text(1, y, f"{v:.0f} %", va="center", color="white", fontsize=8)
+    ax.set_xlim(0, 100)
+    protocol = r.get("params", {}).get("protocol", "?")
+    ax.set_xlabel(
+        f"% of trials ({r.get('objects')}, protocol {protocol}, "
+        f"commit {r.get('commit', '?')})"
+    )
+    ax.legend(
+        loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=2, fontsize=8, frameon=False
+    )
+    fig.tight_layout()
+    data = _svg(fig)
+    plt.close(fig)
+    return data
+
+
+def _ms(x: Any) -> str:
+    if x is None or (isinstance(x, float) and x != x):
+        return "–"
+    x = float(x)
+    if x >= 1000:
+        return f"{x / 1000:.2f} s"
+    if x >= 100:
+        return f"{x:.0f} ms"
+    if x >= 10:
+        return f"{x:.1f} ms"
+    return f"{x:.2f} ms"
+
+
+def render_results_bench() -> str:
+    report = _load(RESULTS / "bench.json")
+    if report is None:
+        return "No `docs/results/bench.json` yet: `make bench` writes it.\n"
+    out = [_provenance(report, "`make bench`") + " Medians.\n"]
+    rows, dense = [], []
+    for name, r in report["rows"].items():
+        if "plan_ms" in r:
+            rows.append(
+                [
+                    f"`{name}`",
+                    f"{int(r.get('candidates', 0)):,}",
+                    _ms(r.get("plan_ms")),
+                    _ms(r.get("preprocess_ms")),
+                    _ms(r.get("segmentation_ms")),
+                    _ms(r.get("object_frame_ms")),
+                    _ms(r.get("search_ms")),
+                    _ms(r.get("reference_search_ms")),
+                    f"{r['speedup']:.0f}×" if r.get("speedup") else "–",
+                    _ms(r.get("paper_plan_ms")),
+                ]
+            )
+        else:
+            dense.append((name, r))
+    out.append(
+        table(
+            [
+                "entry",
+                "candidates",
+                "whole plan",
+                "preprocess",
+                "segmentation",
+                "object frame",
+                "search",
+                "loop-by-loop reference",
+                "speed-up",
+                "paper (Table II)",
+            ],
+            rows,
+        )
+    )
+    if dense:
+        out.append(
+            "Dense entries (the search and the evaluation alone, alternating):\n"
+        )
+        out.append(
+            table(
+                [
+                    "entry",
+                    "candidates",
+                    "search",
+                    "evaluation",
+                    "per candidate",
+                    "peak (search)",
+                    "compiled loops",
+                ],
+                [
+                    [
+                        f"`{n}`",
+                        f"{int(r.get('candidates', 0)):,}",
+                        _ms(r.get("search_ms")),
+                        _ms(r.get("evaluate_ms")),
+                        _us(r.get("us_per_candidate")),
+                        _mb(r.get("peak_mb")),
+                        "yes" if r.get("compiled") else "no",
+                    ]
+                    for n, r in dense
+                ],
+            )
+        )
+    scaling = report.get("scaling") or []
+    if scaling:
+        out.append("How the search grows with candidates and object points:\n")
+        out.append(
+            table(
+                ["gripper", "samples × orientations", "object points", "search"],
+                [
+                    [
+                        f"`{s['gripper']}`",
+                        f"{s['samples']} × {s['orientations']}",
+                        s["object_points"],
+                        _ms(s["search_ms"]),
+                    ]
+                    for s in scaling
+                ],
+            )
+        )
+    return "\n".join(out)
+
+
+def _us(v: Any) -> str:
+    return "–" if v is None else f"{float(v):.2f} µs"
+
+
+def _mb(v: Any) -> str:
+    return "–" if v is None else f"{float(v):.0f} MB"
+
+
+def eval_files() -> list[Path]:
+    return sorted((RESULTS / "eval").glob("*.json"))
+
+
+def render_results_eval() -> str:
+    files = eval_files()
+    if not files:
+        return (
+            "No run of `make eval`, `make eval-random`, `make eval-heldout`, "
+            "`make eval-ycb` or `make eval-chance` is committed under "
+            "`docs/results/eval/` yet; each of these targets writes its summary "
+            "there (see [Evaluate a gripper](../how-to/evaluate-a-gripper.md)).\n"
+        )
+    out = []
+    for path in files:
+        r = json.loads(path.read_text())
+        params = r.get("params", {})
+        out.append(f"### `{path.stem}`\n")
+        out.append(f"![success in {path.stem}](eval-{path.stem}.svg)\n")
+        out.append(
+            _provenance(r, f"`{r.get('command', 'wsgrasp eval')}`")
+            + f" Protocol `{params.get('protocol', 'not recorded')}`, objects "
+            f"`{r.get('objects')}`, {r.get('trials_per_object')} trial(s) each, "
+            f"seed {r.get('seed')}.\n"
+        )
+        rows = []
+        for res in r.get("results", []):
+            fails = ", ".join(
+                f"{k} {v}" for k, v in sorted(res.get("failures", {}).items()) if v
+            )
+            row = [
+                short(res["gripper"]),
+                res["spec"],
+                res["trials"],
+                f"{100 * res['success_rate']:.1f} %",
+                _ms(res.get("plan_ms_median")),
+                fails or "–",
+            ]
+            rows.append(row)
+        out.append(
+            table(
+                ["gripper", "spec", "trials", "success", "median plan", "failures"],
+                rows,
+            )
+        )
+        out.append(_per_object(r.get("results", [])))
+        base = r.get("baseline")
+        if base:
+            out.append(
+                "Against chance (random feasible candidates of the same plan):\n"
+            )
+            brow = []
+            for b in base if isinstance(base, list) else base.values():
+                if not isinstance(b, dict) or "gripper" not in b:
+                    continue
+                lo, hi = b.get("ci95") or [None, None]
+                brow.append(
+                    [
+                        short(b["gripper"]),
+                        b.get("spec", ""),
+                        f"{100 * b.get('chosen_rate', 0):.1f} %",
+                        f"{100 * b.get('random_rate', 0):.1f} %",
+                        f"{100 * b.get('difference', 0):+.1f}"
+                        + (
+                            f" [{100 * lo:+.1f}, {100 * hi:+.1f}]"
+                            if lo is not None
+                            else ""
+                        ),
+                    ]
+                )
+            if brow:
+                out.append(
+                    table(
+                        [
+                            "gripper",
+                            "spec",
+                            "chosen",
+                            "random feasible",
+                            "difference [95 %]",
+                        ],
+                        brow,
+                    )
+                )
+    return "\n".join(out)
+
+
+def _per_object(results: list[dict[str, Any]]) -> str:
+    """Per gripper, a folded table of each object's success under each spec (and
+    the paper's, where the object set has it); only for small object sets."""
+    objects = {o["object"] for res in results for o in res.get("objects", [])}
+    if not objects or len(objects) > 25:
+        return ""
+    out = []
+    for gripper in dict.fromkeys(res["gripper"] for res in results):
+        mine = [res for res in results if res["gripper"] == gripper]
+        specs = [res["spec"] for res in mine]
+        cells: dict[str, dict[str, str]] = {}
+        paper: dict[str, str] = {}
+        for res in mine:
+            for o in res.get("objects", []):
+                cells.setdefault(o["object"], {})[res["spec"]] = (
+                    f"{100 * o['success_rate']:.0f} %"
+                )
+                if o.get("paper"):
+                    pp = o["paper"]
+                    paper[o["object"]] = (
+                        f"{100 * pp['success_rate']:.0f} % ({pp['plan_s']:.2f} s)"
+                    )
+        header = ["object", *specs] + (
+            ["paper (real robot, plan time)"] if paper else []
+        )
+        rows = [
+            [f"`{name}`", *(c.get(sp, "–") for sp in specs)]
+            + ([paper.get(name, "–")] if paper else [])
+            for name, c in cells.items()
+        ]
+        folded = table(header, rows)
+        body = "\n".join("    " + ln if ln else "" for ln in folded.splitlines())
+        out.append(f'??? note "`{short(gripper)}`, per object"\n\n{body}\n')
+    return "\n".join(out)
+
+
+def render_default_spec_runs() -> str:
+    """The runs the generic default spec was chosen by: success per setting."""
+    rows = []
+    for path in sorted((RESULTS / "default-spec").glob("*.json")):
+        r = json.loads(path.read_text())
+        for res in r.get("results", []):
+            rows.append(
+                [
+                    f"`{path.name}`",
+                    f"`{r.get('objects')}`",
+                    f"`{short(res['gripper'])}`",
+                    f"`{res['spec']}`",
+                    res["trials"],
+                    f"{100 * res['success_rate']:.0f} %",
+                ]
+            )
+    if not rows:
+        return "No runs under `docs/results/default-spec/`.\n"
+    return table(["file", "objects", "gripper", "setting", "trials", "success"], rows)
