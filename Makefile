@@ -23,8 +23,8 @@ demo: $(STAMP)
 	$(BIN)/wsgrasp demo --out demo
 
 lint: $(STAMP)
-	$(BIN)/ruff format --check wsgrasp plugins tests benchmarks
-	$(BIN)/ruff check wsgrasp plugins tests benchmarks
+	$(BIN)/ruff format --check wsgrasp plugins tests benchmarks docs/hooks
+	$(BIN)/ruff check wsgrasp plugins tests benchmarks docs/hooks
 	$(BIN)/mypy
 
 # the documentation site (mkdocs.yml, docs/): strict, so a broken link or a
