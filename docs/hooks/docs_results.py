@@ -429,3 +429,41 @@ def render_default_spec_runs() -> str:
     if not rows:
         return "No runs under `docs/results/default-spec/`.\n"
     return table(["file", "objects", "gripper", "setting", "trials", "success"], rows)
+
+
+def render_defaults_effect() -> str:
+    """Each gripper's default spec beside the paper's and the follow-up's setting,
+    from every eval summary that ran more than one spec per gripper."""
+    out = []
+    for path in eval_files():
+        r = json.loads(path.read_text())
+        by: dict[str, dict[str, float]] = {}
+        for res in r.get("results", []):
+            by.setdefault(short(res["gripper"]), {})[res["spec"]] = res["success_rate"]
+        specs = sorted({sp for v in by.values() for sp in v}, key=_spec_order)
+        if len(specs) < 2:
+            continue
+        protocol = r.get("params", {}).get("protocol", "not recorded")
+        what = "`" + (r.get("command") or "wsgrasp eval") + "`"
+        out.append(
+            f"`{path.stem}`: {_provenance(r, what)} "
+            f"Protocol `{protocol}`, objects `{r.get('objects')}`, "
+            f"{r.get('trials_per_object')} trial(s) each.\n"
+        )
+        rows = [
+            [g, *(f"{100 * v[sp]:.0f} %" if sp in v else "–" for sp in specs)]
+            for g, v in by.items()
+        ]
+        out.append(table(["gripper", *specs], rows))
+    if not out:
+        return (
+            "No evaluation run with several specs per gripper is committed under "
+            "`docs/results/eval/` yet (`make eval` runs each gripper's default, "
+            "paper and follow-up specs).\n"
+        )
+    return "\n".join(out)
+
+
+def _spec_order(spec: str) -> tuple[int, str]:
+    order = {"default": 0, "paper": 1, "followup": 2}
+    return (order.get(spec, 3), spec)
