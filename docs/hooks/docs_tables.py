@@ -29,7 +29,7 @@ def type_name(annotation: Any) -> str:
     s = re.sub(r"Annotated\[(\w+), [^\]]*\]", r"\1", s)
     s = re.sub(r"<class '([\w.]+)'>", lambda m: m.group(1).rsplit(".", 1)[-1], s)
     s = re.sub(r"wsgrasp\.spec\.", "", s)
-    s = s.replace("NoneType", "None")
+    s = s.replace("NoneType", "None").replace(" | ", " or ")
     return s
 
 
