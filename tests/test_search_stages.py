@@ -725,3 +725,29 @@ def test_sweeps_group_rotations_as_numpy_unique_does(seed, distinct, C):
     np.testing.assert_array_equal(got.reshape(-1, 9), want)
     np.testing.assert_array_equal(of, want_of.reshape(-1))
     np.testing.assert_array_equal(got[of], T)
+
+
+@SETTINGS
+@given(
+    seed=st.integers(0, 10_000),
+    nf=st.integers(1, 6),
+    H=st.integers(1, 40),
+    U=st.integers(0, 300),
+    block=st.integers(1, 5000),
+)
+def test_sweeps_lowest_heights_do_not_depend_on_blocking(seed, nf, H, U, block):
+    """The fingers' lowest sweep heights per rotation: the same bits whatever
+    block of directions is computed at once, and each the least of the
+    corners' heights."""
+    from wsgrasp.planning import closing
+
+    rng = np.random.default_rng(seed)
+    hull = rng.normal(0.0, 0.05, (nf, 4, H, 3))
+    u = rng.normal(size=(U, 3))
+    whole = closing._lowest(hull, u)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(closing, "_LOWEST_ENTRIES", block)
+        blocked = closing._lowest(hull, u)
+    np.testing.assert_array_equal(blocked.view(np.uint64), whole.view(np.uint64))
+    heights = np.einsum("fkhi,ui->fkuh", hull, u)  # (nf, 4, U, H)
+    np.testing.assert_allclose(whole, heights.min(axis=3), rtol=0, atol=1e-15)

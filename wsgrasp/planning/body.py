@@ -25,7 +25,7 @@ from wsgrasp.geometry._superellipsoid import _power
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.planning import _compiled
 from wsgrasp.planning._grids import NearestPoint
-from wsgrasp.planning.kernels import Kernels
+from wsgrasp.planning.kernels import SLAB_FROM, Kernels
 from wsgrasp.planning.poses import (
     Slabs,
     StructuredPoses,
@@ -136,7 +136,7 @@ def _numpy_hits(
         x, y, z = (Qs[ol[todo], i] - u[todo, i, None] for i in range(3))
         hit[todo] = coordinates_in_superellipsoids(x, y, z, *se).any(axis=1)
         todo = todo[~hit[todo]]
-    if todo.size > 2 * len(Q):
+    if todo.size > SLAB_FROM * len(Q):
         hit[todo] = _slab_hits(Slabs(Q), ol, u, todo, *se)
     elif todo.size:  # few per orientation: every point beats sorting them
         x, y, z = (Q[ol[todo], i] - u[todo, i, None] for i in range(3))

@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.planning import _compiled
 from wsgrasp.planning._grids import FingerDepth, finger_depth
-from wsgrasp.planning.kernels import Kernels
+from wsgrasp.planning.kernels import SLAB_FROM, SLAB_MOST, Kernels
 from wsgrasp.planning.poses import Slabs, StructuredPoses, grouped, separated
 from wsgrasp.planning.spheres import FingerSpheres
 
@@ -195,14 +195,14 @@ class _Fingers:
         lo, hi = self.f_lo.min(axis=0), self.f_hi.max(axis=0)  # the fingers' box
         k = int(np.argmin(hi - lo))
         n = Q.shape[2]
-        if len(cand) <= 2 * len(Q):  # few per orientation: sorting costs more
+        if len(cand) <= SLAB_FROM * len(Q):  # few per orientation: sorting costs more
             pair = None
         else:
             slabs = Slabs(Q)
             pair, j, r = slabs.pairs(
                 ol[cand], u[cand, k], k, float(lo[k]), float(hi[k])
             )
-        if pair is None or len(pair) > 0.5 * len(cand) * n:
+        if pair is None or len(pair) > SLAB_MOST * len(cand) * n:
             held = np.empty((len(cand), n, self.nf), dtype=bool)
             step = max(1, _CHUNK_PAIRS // max(n, 1))
             for a in range(0, len(cand), step):

@@ -23,6 +23,12 @@ nearest-point grid (3.4 ms to build for 800 points) and the finger loop reads th
 points in space order (the Allegro's dense counts 20 % faster; sorting costs
 more than it saves on a few hundred candidates, 0.13 ms of the Franka hand's
 Table I search).
+
+Within numpy's kernels, points sorted along a gripper axis per orientation
+(``poses.Slabs``) let a test read only the points in a body's or the fingers'
+slab; sorting pays from ``SLAB_FROM`` candidates per orientation on, and the
+fingers' test takes every point where the slab holds more than ``SLAB_MOST`` of
+them (poses checked one by one, one candidate per orientation, take every point).
 """
 
 from __future__ import annotations
@@ -36,6 +42,8 @@ __all__ = ["Kernels", "choose_kernels"]
 COMPILED_FROM = 1_000_000
 SMALL_FROM = 20_000
 SMALL_BEFORE_LOADING = 3
+SLAB_FROM = 2
+SLAB_MOST = 0.5
 
 _small_searches = 0
 
