@@ -217,6 +217,8 @@ def test_plan_records_and_draws(hands, tmp_path: Path, n: int) -> None:
         "approach_direction",
         "joint_margin",
         "mass_center",
+        "wrench_balance",
+        "contact_depth",
     ]
     spec = load_spec(
         {

@@ -65,6 +65,51 @@ def test_antipodal_prefers_opposite_faces_along_the_closing_axis():
     assert s[1] < 0.7
 
 
+def test_wrench_balance_prefers_pushes_that_cancel():
+    scorer, opts = _scorer("wrench_balance")
+    s = scorer.score(_batch(HOLD, NORMALS), opts)
+    assert s[0] == pytest.approx(1.0)  # opposite faces, on one line
+    # a face and a side face: the net force is |(1, 1, 0)| / 2, no torque
+    assert s[1] == pytest.approx(1.0 - 0.5 * np.sqrt(2.0) / 2.0)
+
+
+def test_wrench_balance_sees_a_couple():
+    """Opposite normals whose contacts are offset across the closing line push
+    the object round: the same net force (none), a torque, a lower score."""
+    scorer, opts = _scorer("wrench_balance")
+    points = np.array([[0.0, 0.03, 0.0], [0.0, -0.03, 0.0], [0.04, -0.03, 0.0]])
+    normals = np.array([[0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [0.0, -1.0, 0.0]])
+    holding = np.zeros((2, 3, 2), dtype=bool)
+    holding[0, 0, 0] = holding[0, 1, 1] = True  # on one line
+    holding[1, 0, 0] = holding[1, 2, 1] = True  # offset 4 cm along x
+    T = np.tile(np.eye(4), (2, 1, 1))
+    s = scorer.score(_jaw_batch(T, holding, points, normals, np.zeros(2)), opts)
+    assert s[0] == pytest.approx(1.0) and s[1] < 0.9
+
+
+def test_contact_depth_prefers_contacts_down_the_object():
+    """Approach straight down (-z) over an object 10 cm tall: contacts at its
+    top score 0, halfway down (the default ``depth``) and deeper score 1."""
+    scorer, opts = _scorer("contact_depth")
+    z = np.array([0.1, 0.1, 0.05, 0.05, 0.0, 0.0])
+    points = np.stack([np.tile([0.03, -0.03], 3), np.zeros(6), z], axis=1)
+    normals = np.stack([np.tile([1.0, -1.0], 3), np.zeros(6), np.zeros(6)], axis=1)
+    holding = np.zeros((3, 6, 2), dtype=bool)
+    for k, (i, j) in enumerate([(0, 1), (2, 3), (4, 5)]):
+        holding[k, i, 0] = holding[k, j, 1] = True
+    T = np.tile(np.eye(4), (3, 1, 1))
+    T[:, :3, 2] = [0.0, 0.0, -1.0]  # approach axis
+    T[:, :3, 0] = [1.0, 0.0, 0.0]
+    T[:, :3, 1] = np.cross(T[0, :3, 2], T[0, :3, 0])
+    s = scorer.score(_jaw_batch(T, holding, points, normals, np.zeros(3)), opts)
+    np.testing.assert_allclose(s, [0.0, 1.0, 1.0])
+    shallow = scorer.Options(depth=1.0)
+    np.testing.assert_allclose(
+        scorer.score(_jaw_batch(T, holding, points, normals, np.zeros(3)), shallow),
+        [0.0, 0.5, 1.0],
+    )
+
+
 def test_contact_balance():
     scorer, opts = _scorer("contact_balance")
     hold = [[[True, False], [True, False], [False, True]], HOLD[0]]

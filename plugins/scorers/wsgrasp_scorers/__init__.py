@@ -78,6 +78,61 @@ class AntipodalScorer:
         return 0.5 * np.clip(opposition, 0.0, 1.0) + 0.5 * alignment
 
 
+class WrenchBalanceScorer:
+    """Equal pushes at the contacts that cancel: no net force and no net torque.
+
+    Each finger pushes with a unit force against the mean outward normal ``n_f``
+    of the points it holds, at their centroid ``c_f``. The net force
+    ``|sum n_f| / nf`` and the net torque about the contacts' middle ``c``,
+    ``|sum (c_f - c) x n_f| / (nf r)`` with ``r`` half the object's diagonal,
+    are 0 for fingers that squeeze the object in place and grow as the squeeze
+    pushes or twists it out of the hand (two fingers of a three-finger hand on
+    one side, a jaw's pads offset along a face); the score is
+    ``1 - (force + torque) / 2``, clipped to ``[0, 1]``. Unlike ``antipodal`` it
+    does not prefer the closing axis and it sees torques.
+    """
+
+    class Options(_Options):
+        pass
+
+    def score(self, batch: Any, options: Options) -> np.ndarray:
+        n = batch.contact_normals  # (F, nf, 3), zero for a finger holding none
+        c = np.nan_to_num(batch.contact_centroids)  # (F, nf, 3)
+        nf = n.shape[1]
+        force = np.linalg.norm(n.sum(axis=1), axis=-1) / nf  # (F,)
+        r = c - c.mean(axis=1, keepdims=True)  # (F, nf, 3)
+        r_ref = max(0.5 * float(np.linalg.norm(batch.extents)), 1e-6)
+        torque = np.linalg.norm(np.cross(r, n).sum(axis=1), axis=-1) / (nf * r_ref)
+        return np.clip(1.0 - 0.5 * (force + torque), 0.0, 1.0)
+
+
+class ContactDepthScorer:
+    """Fingers that reach down the object along the approach, not at its rim.
+
+    ``d`` is how far the middle of the fingers' contacts (the mean of their
+    centroids) lies past the object's nearest point along the approach axis, as
+    a fraction of the object's length along it; the score is
+    ``min(d / depth, 1)``: a grasp on the object's first millimetres scores 0.
+    """
+
+    class Options(_Options):
+        depth: float = Field(
+            0.5,
+            gt=0.0,
+            le=1.0,
+            description="fraction of the object's length along the approach that "
+            "earns the full score",
+        )
+
+    def score(self, batch: Any, options: Options) -> np.ndarray:
+        a = batch.approach  # (F, 3) unit
+        centre = np.nanmean(batch.contact_centroids, axis=1)  # (F, 3)
+        proj = batch.object_points @ a.T  # (no, F)
+        near, far = proj.min(axis=0), proj.max(axis=0)  # (F,)
+        reach = np.einsum("fj,fj->f", centre, a) - near
+        return np.clip(reach / np.maximum(far - near, 1e-9) / options.depth, 0.0, 1.0)
+
+
 class TableClearanceScorer:
     """Distance between the gripper and the table, saturating at ``margin``."""
 
@@ -172,6 +227,8 @@ def wsgrasp_register_scorers(register: Any) -> None:
     register("centroid_distance", CentroidDistanceScorer)
     register("contact_balance", ContactBalanceScorer)
     register("antipodal", AntipodalScorer)
+    register("wrench_balance", WrenchBalanceScorer)
+    register("contact_depth", ContactDepthScorer)
     register("table_clearance", TableClearanceScorer)
     register("approach_direction", ApproachDirectionScorer)
     register("joint_margin", JointMarginScorer)
