@@ -96,6 +96,15 @@ eval-chance: $(STAMP)
 			docs/results/eval/chance-$$protocol.json || exit 1; \
 	done
 
+# which score terms rank the grasps that hold first: each built-in gripper's
+# choice and 15 random feasible candidates per scene of random:000-059, labelled
+# under the strict protocol with every scorer's term (benchmarks/scorer_concordance.py)
+.PHONY: eval-scorers
+eval-scorers: $(STAMP)
+	$(BIN)/python -m pip install -q -e '.[sim]'
+	$(BIN)/python benchmarks/scorer_concordance.py --objects random:000-059 \
+		--random 15 --commit "$(COMMIT)"
+
 # every URDF under GRIPPERS_DIR (the vendor descriptions wsgrasp is developed
 # against) scaffolded with no edit, checked, planned on the bundled scenes and tried
 # on random:000-299 x 1 (the lift protocol; PROTOCOL=strict for eval's default),
