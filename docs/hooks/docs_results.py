@@ -464,6 +464,42 @@ def render_defaults_effect() -> str:
     return "\n".join(out)
 
 
+def render_results_scorers() -> str:
+    """Each score term's concordance with success and its pick rate, per
+    gripper, from the last ``make eval-scorers`` (docs/results/scorers.json)."""
+    report = _load(RESULTS / "scorers.json")
+    if report is None:
+        return "No `docs/results/scorers.json` yet: `make eval-scorers` writes it.\n"
+    what = "`" + (report.get("command") or "make eval-scorers") + "`"
+    out = [
+        f"{_provenance(report, what)} Protocol `{report.get('protocol')}`, objects "
+        f"`{report.get('objects')}`, the choice and {report.get('random_per_scene')} "
+        "random feasible candidates labelled per scene.\n"
+    ]
+    for g, r in report["grippers"].items():
+        out.append(
+            f"**{g}**: {r['scenes']} scenes; the choice held "
+            f"{100 * r['chosen_success']:.0f} %, a random feasible candidate "
+            f"{100 * r['random_success']:.0f} % ({r['random_labels']} labels); the "
+            "default weights' pick among the random ones "
+            f"{100 * r['default_pick_rate']:.0f} %.\n"
+        )
+        terms = sorted(r["terms"].items(), key=lambda kv: -kv[1]["concordance"])
+        rows = [
+            [
+                f"`{name}`",
+                f"{t['concordance']:.2f}",
+                f"{100 * t['pick_rate']:.0f} %",
+                f"{t['default_weight']:g}",
+            ]
+            for name, t in terms
+        ]
+        out.append(
+            table(["term", "concordance", "its pick holds", "default weight"], rows)
+        )
+    return "\n".join(out)
+
+
 def _spec_order(spec: str) -> tuple[int, str]:
     order = {"default": 0, "paper": 1, "followup": 2}
     return (order.get(spec, 3), spec)

@@ -40,6 +40,7 @@ from docs_results import (
     render_results_bench,
     render_results_eval,
     render_results_grippers,
+    render_results_scorers,
 )
 
 MARKER = re.compile(r"^<!-- render: ([a-z0-9-]+) -->$", re.M)
@@ -59,6 +60,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "results-bench": render_results_bench,
     "results-eval": render_results_eval,
     "default-spec-runs": render_default_spec_runs,
+    "results-scorers": render_results_scorers,
 }
 
 #: generated files: site path -> function giving its bytes (None: not made)
