@@ -205,3 +205,19 @@ def test_walls_in_the_fingers_closing_paths_reject_candidates_by_name():
     assert blocked_in_closing(pipeline.gripper, T, obstacles).tolist() == [-1]
     axis = result.T_world_ee[:3, :3] @ pipeline.gripper.closing_axis
     assert abs(axis[1]) > 0.9  # it closes along the walls, not through them
+
+
+def test_a_neighbour_the_finger_sweeps_before_the_target_blocks_it(franka):
+    from wsgrasp.planning.closing import closing_paths
+
+    g = franka
+    paths = closing_paths(g)  # (nf, K, 3) pad centres, pre-grasp to closed
+    K = paths.shape[1]
+    # the target between the pads where they close; a neighbour on finger 0's
+    # way there, and one behind where finger 0 starts
+    target = paths[:, -1].mean(axis=0)[None]
+    on_the_way = paths[0, K // 4][None]
+    behind = (paths[0, 0] + 3.0 * (paths[0, 0] - target[0]))[None]
+    T = np.eye(4)[None]
+    assert blocked_in_closing(g, T, [behind, on_the_way], target).tolist() == [1]
+    assert blocked_in_closing(g, T, [behind], target).tolist() == [-1]

@@ -526,8 +526,9 @@ def _clear_of_neighbours(
     spheres: FingerSpheres | None,
     top_k: int,
 ) -> SearchOutput:
-    """``out`` with every feasible candidate that has a neighbour's points
-    inside a finger's workspace spheres (in its closing path) rejected as
+    """``out`` with every feasible candidate that has a neighbour's points in a
+    finger's closing path (:func:`wsgrasp.neighbours.blocked_in_closing`: the
+    finger reaches them no later than the target) rejected as
     ``obstacle_collision``, the best of the rest chosen; ``prep.blocked_by``
     counts, per neighbour, the candidates its points rejected in the body
     superellipsoids (the search's own obstacle test) and in the closing paths."""
@@ -547,7 +548,12 @@ def _clear_of_neighbours(
     for k, n in zip(*np.unique(body[body >= 0], return_counts=True), strict=True):
         tally[names[k]]["body"] += int(n)
     feasible = np.flatnonzero(cands.reason == 0)
-    closing = blocked_in_closing(g, cands.T_world_ee[feasible], prep.obstacles)
+    closing = blocked_in_closing(
+        g,
+        cands.T_world_ee[feasible],
+        prep.obstacles,
+        prep.search_input.object_points,
+    )
     blocked = feasible[closing >= 0]
     for k, n in zip(*np.unique(closing[closing >= 0], return_counts=True), strict=True):
         tally[names[k]]["closing"] += int(n)

@@ -1,7 +1,10 @@
 """Which neighbour blocks a candidate: the obstacle whose points lie inside the
-gripper's body superellipsoids, or inside a finger's workspace spheres (the
-space each finger sweeps as it closes; a neighbour there stops the finger or is
-squeezed along with the target).
+gripper's body superellipsoids, or in a finger's closing path: the finger's
+sweep (``wsgrasp.planning.closing``: its links' points from the pre-grasp
+posture to the closed one) reaches the neighbour no later than it reaches the
+target, so the neighbour stops the finger or is squeezed along with the
+target. A model without finger configurations has no sweeps: its fingers'
+workspace spheres stand for the paths.
 
 Each test takes candidate poses ``(C, 4, 4)`` and obstacle clouds (one per
 neighbour) and answers, per candidate, the index of the neighbour with the most
@@ -13,6 +16,7 @@ bounding sphere of the region (body or workspace spheres) around its pose.
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -32,11 +36,28 @@ _CHUNK = 200_000
 
 
 def blocked_in_closing(
-    g: GripperModel, T_world_gripper: Array, obstacles: list[Array]
+    g: GripperModel,
+    T_world_gripper: Array,
+    obstacles: list[Array],
+    object_points: Array | None = None,
 ) -> NDArray[np.int64]:
     """Per candidate ``(C,)``: the index into ``obstacles`` of the neighbour with
-    the most points strictly inside a finger's workspace spheres at pose
-    ``T_world_gripper`` ``(C, 4, 4)``, or -1 where none has any."""
+    the most points in a finger's closing path at pose ``T_world_gripper``
+    ``(C, 4, 4)``, or -1 where none has any.
+
+    With the target's ``object_points`` ``(n, 3)`` (world) and a model whose
+    fingers have configurations, a point is in finger ``f``'s path when the
+    finger's sweep reaches it (the reach grid of
+    ``wsgrasp.planning.closing``) at a posture no later than the first at which
+    it reaches a target point (a finger whose sweep never meets the target is
+    not judged); otherwise, when it lies strictly inside one of the fingers'
+    workspace spheres."""
+    if (
+        object_points is not None
+        and g.num_fingers
+        and (g.has_sweeps or g.has_configurations)
+    ):
+        return _blocked_in_sweeps(g, T_world_gripper, obstacles, object_points)
     centers = np.asarray(g.sphere_centers, dtype=np.float64)  # (S, 3)
     radii = np.asarray(g.sphere_radii, dtype=np.float64)  # (S,)
     if not len(centers):
@@ -49,7 +70,7 @@ def blocked_in_closing(
     r2 = radii * radii
     step = max(1, _CHUNK // len(centers))
 
-    def inside(p: Array) -> NDArray[np.bool_]:
+    def inside(p: Array, cand: NDArray[np.int64]) -> NDArray[np.bool_]:
         out = np.zeros(len(p), dtype=bool)
         box = np.flatnonzero(((p > lo) & (p < hi)).all(axis=1))  # most are not
         for s in range(0, len(box), step):
@@ -76,7 +97,7 @@ def blocked_by_body(
     mid = c.mean(axis=0)
     reach = float((np.linalg.norm(c - mid, axis=1) + np.linalg.norm(ax, axis=1)).max())
 
-    def inside(p: Array) -> NDArray[np.bool_]:
+    def inside(p: Array, cand: NDArray[np.int64]) -> NDArray[np.bool_]:
         return coordinates_in_superellipsoids(  # type: ignore[no-any-return]
             p[:, 0], p[:, 1], p[:, 2], c, ax, g.se_exponent
         )
@@ -89,7 +110,7 @@ def _blocked(
     obstacles: list[Array],
     mid_gripper: Array,
     reach: float,
-    inside: Callable[[Array], NDArray[np.bool_]],
+    inside: Callable[[Array, NDArray[np.int64]], NDArray[np.bool_]],
 ) -> NDArray[np.int64]:
     """:func:`_blocked_all`, first with every :data:`_COARSE`-th obstacle point
     (most blocked candidates have many points inside), then with all of them
@@ -108,11 +129,12 @@ def _blocked_all(
     obstacles: list[Array],
     mid_gripper: Array,
     reach: float,
-    inside: Callable[[Array], NDArray[np.bool_]],
+    inside: Callable[[Array, NDArray[np.int64]], NDArray[np.bool_]],
 ) -> NDArray[np.int64]:
     """The neighbour with the most points for which ``inside`` (gripper-frame
-    points ``(m, 3)`` -> ``(m,)`` bool) holds, per pose; only the points within
-    ``reach`` of ``mid_gripper`` (gripper frame) are tested."""
+    points ``(m, 3)`` and the candidate of each ``(m,)`` -> ``(m,)`` bool)
+    holds, per pose; only the points within ``reach`` of ``mid_gripper``
+    (gripper frame) are tested."""
     T = np.asarray(T_world_gripper, dtype=np.float64).reshape(-1, 4, 4)
     C = len(T)
     none = np.full(C, -1, dtype=np.int64)
@@ -131,9 +153,56 @@ def _blocked_all(
     # (P, 3) each pair's point in its candidate's gripper frame: R^T (p - t)
     d = points[idx] - T[cand, :3, 3]
     p_g = np.einsum("pji,pj->pi", T[cand, :3, :3], d)
-    hit = inside(p_g)
+    hit = inside(p_g, cand)
     if not hit.any():
         return none
     tally = np.zeros((C, len(clouds)), dtype=np.int64)
     np.add.at(tally, (cand[hit], owner[idx[hit]]), 1)
     return np.where(tally.max(axis=1) > 0, tally.argmax(axis=1), -1)  # type: ignore[no-any-return]
+
+
+def _blocked_in_sweeps(
+    g: GripperModel,
+    T_world_gripper: Array,
+    obstacles: list[Array],
+    object_points: Array,
+) -> NDArray[np.int64]:
+    """:func:`blocked_in_closing` by the fingers' sweeps (see there)."""
+    from wsgrasp.planning.closing import _REACH_VOXEL, _sweep_index, finger_sweep
+
+    index = _sweep_index(g)
+    K = index.hull.shape[1]
+    T = np.asarray(T_world_gripper, dtype=np.float64).reshape(-1, 4, 4)
+    sweep = finger_sweep(g).reshape(-1, 3)  # (nf K P, 3) gripper frame
+    mid = sweep.mean(axis=0)
+    reach = float(np.linalg.norm(sweep - mid, axis=1).max()) + 4 * _REACH_VOXEL
+    pts = np.asarray(object_points, dtype=np.float64).reshape(-1, 3)
+    # (C, nf) the first posture at which each finger reaches the target
+    first = np.full((len(T), len(index.reach)), K, dtype=np.int64)
+    step = max(1, _CHUNK // max(len(pts), 1))
+    for a in range(0, len(T), step):
+        Tc = T[a : a + step]
+        # (c, n, 3) the target's points in each candidate's gripper frame
+        p_g = np.einsum("cji,cnj->cni", Tc[:, :3, :3], pts[None] - Tc[:, None, :3, 3])
+        steps = _reach_steps(index, p_g.reshape(-1, 3), K, _REACH_VOXEL)
+        first[a : a + step] = steps.reshape(len(Tc), len(pts), -1).min(axis=1)
+
+    def inside(p: Array, cand: NDArray[np.int64]) -> NDArray[np.bool_]:
+        steps = _reach_steps(index, p, K, _REACH_VOXEL)  # (m, nf)
+        # a finger whose sweep never meets the target (it closes to its own
+        # contact, off this straight path) is not judged
+        f = first[cand]  # (m, nf)
+        return ((steps <= f) & (f < K)).any(axis=1)  # type: ignore[no-any-return]
+
+    return _blocked_all(T, obstacles, mid, reach, inside)
+
+
+def _reach_steps(index: Any, p: Array, K: int, voxel: float) -> NDArray[np.int64]:
+    """Per point ``(m, 3)`` (gripper frame) and finger: the first posture at
+    which the finger's sweep reaches it, ``K`` where it never does ``(m, nf)``."""
+    out = np.full((len(p), len(index.reach)), K, dtype=np.int64)
+    for f, grid in enumerate(index.reach):
+        ijk = np.rint((p - index.origin[f]) / voxel).astype(np.int64)  # (m, 3)
+        ok = ((ijk >= 0) & (ijk < np.asarray(grid.shape))).all(axis=1)
+        out[ok, f] = grid[tuple(ijk[ok].T)]
+    return out
