@@ -18,8 +18,9 @@ package's simulator:
 3. **End.** The table is clear, two steps failed in a row, or ``max_steps``.
 
 Grasp success rate = successful grasps / attempts (a plan that finds no grasp
-is an attempt that failed); declutter rate = objects removed / objects. Each
-failure gets a kind: ``no_grasp``, ``wrong_split`` (the target's points lie on
+is an attempt that failed); declutter rate = objects removed (lifted off the
+table by a grasp; one pushed or knocked off the table is gone but not removed)
+/ objects. Each failure gets a kind: ``no_grasp``, ``wrong_split`` (the target's points lie on
 two objects), ``neighbour_collision`` (the approach was flagged or another
 object was pushed more than ``displaced_distance``), ``slip`` (dropped,
 slipped, not lifted) and ``two_lifted`` (more objects than the target came up).
@@ -426,8 +427,10 @@ def run_clutter_scene(
     -------
     dict
         ``scene``, ``seed``, ``objects`` (names of those that stayed on the
-        table), ``attempts``, ``successes``, ``removed``, ``steps`` (each a
-        :class:`Step` as a dict), ``end`` (``clear``, ``two_failures`` or
+        table), ``attempts``, ``successes``, ``removed`` (objects lifted off
+        the table by a grasp), ``fell_off`` (names of those that left the
+        table otherwise: pushed or knocked off, not removed), ``steps`` (each
+        a :class:`Step` as a dict), ``end`` (``clear``, ``two_failures`` or
         ``step_limit``).
     """
     from wsgrasp.sim.trial import execution_error
@@ -512,7 +515,13 @@ def run_clutter_scene(
     else:
         if not present.any():
             end = "clear"
-    removed = len(start) - int(present.sum())
+    # removed: lifted by a grasp; what left the table otherwise (pushed or
+    # knocked off) is no more on it, but was not removed
+    lifted_names = {n for s in steps for n in s.lifted}
+    removed = len(lifted_names)
+    fell_off = [
+        n for n in start if n not in lifted_names and not present[names.index(n)]
+    ]
     summary = {
         "scene": kind,
         "seed": seed,
@@ -520,6 +529,7 @@ def run_clutter_scene(
         "attempts": len(steps),
         "successes": sum(s.success for s in steps),
         "removed": removed,
+        "fell_off": fell_off,
         "end": end,
         "steps": [s.__dict__ for s in steps],
     }
