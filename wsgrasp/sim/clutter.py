@@ -20,10 +20,11 @@ package's simulator:
 Grasp success rate = successful grasps / attempts (a plan that finds no grasp
 is an attempt that failed); declutter rate = objects removed (lifted off the
 table by a grasp; one pushed or knocked off the table is gone but not removed)
-/ objects. Each failure gets a kind: ``no_grasp``, ``wrong_split`` (the target's points lie on
-two objects), ``neighbour_collision`` (the approach was flagged or another
-object was pushed more than ``displaced_distance``), ``slip`` (dropped,
-slipped, not lifted) and ``two_lifted`` (more objects than the target came up).
+/ objects. Each failure gets a kind: ``no_grasp``, ``wrong_split`` (the
+target's points lie on two objects), ``neighbour_collision`` (the approach was
+flagged or another object was pushed more than ``displaced_distance``),
+``slip`` (dropped, slipped, not lifted) and ``two_lifted`` (more objects than
+the target came up).
 """
 
 from __future__ import annotations
