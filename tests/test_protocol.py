@@ -324,3 +324,12 @@ def test_random_candidates_are_finished_and_executed_as_the_choice():
         assert ex.outcome == rec["outcome"]
         got = {k: v for k, v in rec["metrics"].items() if k != "cpu_s"}
         assert ex.metrics == got
+
+
+def test_a_long_random_selection_resolves():
+    """A selection longer than a file name may be (a comma list of 300 objects)
+    is read as the set's selection, not tried as a path."""
+    pytest.importorskip("pybullet_data")
+    names = ",".join(f"{i:03d}" for i in range(300))
+    resolved = resolve_objects([f"random:{names}"])
+    assert len(resolved.objects) + len(resolved.skipped) == 300

@@ -487,6 +487,15 @@ def mesh_folder(folder: Path) -> list[Path]:
     return files
 
 
+def _path_is(name: str | Path, test: Any) -> bool:
+    """``test(Path(name))``, False where the name cannot be a path at all (too
+    long for the file system, say: a long ``random:`` selection)."""
+    try:
+        return bool(test(Path(name)))
+    except (OSError, ValueError):
+        return False
+
+
 def mesh_source(
     path: str | Path, *, mass: float | None = None, friction: float | None = None
 ) -> MeshSource:
@@ -503,7 +512,7 @@ def mesh_source(
     import trimesh
 
     p = Path(path)
-    if not p.exists():
+    if not _path_is(p, Path.exists):
         raise InputError(
             f"object mesh {str(p)!r} does not exist",
             hint=f"pass a named set ({_SET_NAMES}), OBJ/STL/PLY files or a "
@@ -651,13 +660,13 @@ def resolve_objects(
     skipped: list[Skipped] = []
     for name in names:
         base, sep, selection = name.partition(":")
-        if base in OBJECT_SETS and not (sep and Path(name).exists()):
+        if base in OBJECT_SETS and not (sep and _path_is(name, Path.exists)):
             got, left_out = OBJECT_SETS[base](selection)
             items.extend(got)
             skipped.extend(left_out)
         elif name in PAPER13:
             items.append(PAPER13[name]())
-        elif Path(name).is_dir():
+        elif _path_is(name, Path.is_dir):
             items.extend(
                 mesh_source(f, mass=mass, friction=friction)
                 for f in mesh_folder(Path(name))
