@@ -44,8 +44,6 @@ from wsgrasp.sim.objects import (
     OBJECT_CONAFFINITY,
     OBJECT_CONTYPE,
     SimObject,
-    trial_friction,
-    trial_mass,
 )
 from wsgrasp.sim.params import SimParams
 
@@ -79,43 +77,16 @@ _WRONG_SPLIT_SHARE = 0.2
 def clutter_xml(objects: list[SimObject], gripper: Any, p: SimParams) -> str:
     """The MJCF text of a table with ``objects`` (bodies ``object<k>``, each on
     a free joint) and, when given, the gripper on the trial's 6-DoF drive."""
-    from wsgrasp.sim.scene import _drive_actuators, _drive_xml
+    from wsgrasp.sim.scene import _drive_actuators, _drive_xml, object_xml
 
     assets: list[str] = []
     bodies = []
     for k, obj in enumerate(objects):
-        mass, friction = trial_mass(obj, p), trial_friction(obj, p)
-        geoms = []
-        for i, part in enumerate(obj.parts):
-            shape, pose = part.to_mjcf(f"object{k}/{i}", assets)
-            geoms.append(
-                f"<geom {shape} {pose} "
-                + attrs(
-                    name=f"object{k}/{i}",
-                    contype=OBJECT_CONTYPE,
-                    conaffinity=OBJECT_CONAFFINITY,
-                    priority=1,
-                    condim=4,
-                    solref=(p.contact_timeconst, 1.0),
-                    friction=(friction, p.torsional_friction, p.rolling_friction),
-                    density=0,
-                )
-                + "/>"
-            )
-        com, inertia = obj.inertial(mass)
-        # MuJoCo's fullinertia order: xx, yy, zz, xy, xz, yz
-        full = [
-            inertia[i, j] for i, j in ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
-        ]
+        geoms, inertial = object_xml(obj, f"object{k}", p, assets)
         park = _PARK + [0.0, 0.3 * k, 0.0]
         bodies.append(
             f'<body name="object{k}" pos="{park[0]} {park[1]} {park[2]}">'
-            f'<freejoint name="object{k}"/>'
-            + "<inertial "
-            + attrs(pos=com, mass=mass, fullinertia=full)
-            + "/>"
-            + "".join(geoms)
-            + "</body>"
+            f'<freejoint name="object{k}"/>' + inertial + "".join(geoms) + "</body>"
         )
     half = p.table_size / 2.0
     gripper_xml = equality = actuator = ""

@@ -32,17 +32,20 @@ __all__ = ["SimScene", "build_scene", "scene_xml"]
 Array = NDArray[np.float64]
 
 
-def scene_xml(obj: SimObject, gripper: SimGripper | None, p: SimParams) -> str:
-    """The MJCF text of the world (see the module docstring)."""
-    assets: list[str] = []
-    geoms = []
+def object_xml(
+    obj: SimObject, name: str, p: SimParams, assets: list[str]
+) -> tuple[list[str], str]:
+    """The ``<geom>`` elements (named ``name/<part>``) and the ``<inertial>`` of
+    an object's body under the trial's mass, friction and contact parameters;
+    the parts' mesh assets are appended to ``assets``."""
     mass, friction = trial_mass(obj, p), trial_friction(obj, p)
+    geoms = []
     for i, part in enumerate(obj.parts):
-        shape, pose = part.to_mjcf(f"object/{i}", assets)
+        shape, pose = part.to_mjcf(f"{name}/{i}", assets)
         geoms.append(
             f"<geom {shape} {pose} "
             + attrs(
-                name=f"object/{i}",
+                name=f"{name}/{i}",
                 contype=OBJECT_CONTYPE,
                 conaffinity=OBJECT_CONAFFINITY,
                 priority=1,
@@ -54,15 +57,16 @@ def scene_xml(obj: SimObject, gripper: SimGripper | None, p: SimParams) -> str:
             + "/>"
         )
     com, inertia = obj.inertial(mass)
-    full = (
-        inertia[0, 0],
-        inertia[1, 1],
-        inertia[2, 2],
-        inertia[0, 1],
-        inertia[0, 2],
-        inertia[1, 2],
-    )
+    # MuJoCo's fullinertia order: xx, yy, zz, xy, xz, yz
+    full = [inertia[i, j] for i, j in ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))]
     inertial = "<inertial " + attrs(pos=com, mass=mass, fullinertia=full) + "/>"
+    return geoms, inertial
+
+
+def scene_xml(obj: SimObject, gripper: SimGripper | None, p: SimParams) -> str:
+    """The MJCF text of the world (see the module docstring)."""
+    assets: list[str] = []
+    geoms, inertial = object_xml(obj, "object", p, assets)
     half = p.table_size / 2.0
     gripper_xml = ""
     equality = ""
