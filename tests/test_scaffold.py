@@ -71,7 +71,11 @@ def test_claw_with_odd_conventions(tmp_path):
     assert [f["joints"] for f in d["fingers"]] == [["upper_knuckle"], ["lower_knuckle"]]
     # fingers open outwards at the lower limit, close at the upper one
     assert d["pregrasp"] == {"upper_knuckle": -0.3, "lower_knuckle": -0.3}
-    assert d["closed"] == {"upper_knuckle": 0.7, "lower_knuckle": 0.7}
+    # ... and their pads meet 70 % of the way there: past it the fingers cross,
+    # so the closing path stops where they meet
+    assert d["closed"] == pytest.approx(
+        {"upper_knuckle": 0.403, "lower_knuckle": 0.403}, abs=0.01
+    )
     # the upper finger (y > 0) closes towards -y: its pad is on its -y face
     assert d["fingers"][0]["pad"]["center"][1] < 0 < d["fingers"][1]["pad"]["center"][1]
 

@@ -52,6 +52,11 @@ PATH_STEPS = 33
 #: a finger stopped by the palm before this fraction of its closing path keeps
 #: its limits (the palm's box is too loose to tell)
 MIN_STOP = 0.25
+#: steps along the closing path when looking for where the pads meet
+MEET_STEPS = 129
+#: the pads' spread (m) must grow at least this much again past its least for
+#: ``closed`` to stop where they meet
+MEET_MARGIN = 0.001
 #: values tried per held joint when choosing where it holds its finger
 HOLD_SAMPLES = 5
 #: configurations per closing joint when measuring how near a finger gets
@@ -833,6 +838,61 @@ def _stop_at_palm(
     return limits
 
 
+def _stop_where_pads_meet(
+    u: _Urdf,
+    pads: list[dict[str, Any]],
+    pregrasp: dict[str, float],
+    closed: dict[str, float],
+) -> None:
+    """Stop the closing path where the pads meet.
+
+    A hand closes all its joints together, along the straight line in joint space
+    from ``pregrasp`` to ``closed`` (what a position-controlled hand ramping its
+    targets does). Its pads come nearest each other somewhere on that line; a
+    claw's or a three-finger hand's fingertips cross and part again past that
+    point, and a hand driven on to its limits pushes a small object out of the
+    grip it had or closes over it. At the first least value of the pads' spread
+    (their mean distance from their centroid) past which it grows again by
+    ``MEET_MARGIN`` at least, ``closed`` is set to that posture, in place. A jaw
+    whose pads get nearer all the way to its limits, or a single finger, keeps
+    its ``closed``.
+    """
+    if len(pads) < 2:
+        return
+    moving = [m for m in pregrasp if closed[m] != pregrasp[m]]
+    if not moving:
+        return
+    t = np.linspace(0.0, 1.0, MEET_STEPS)  # (S,)
+    values: dict[str, Any] = dict(pregrasp)
+    for m in moving:
+        values[m] = pregrasp[m] + t * (closed[m] - pregrasp[m])  # (S,)
+    points = []
+    for p in pads:
+        T = u.kin.chain_poses(u.base, p["link"], values)  # (S, 4, 4)
+        T = np.broadcast_to(T, (len(t), 4, 4))
+        c = np.asarray(p["center"], dtype=np.float64)
+        points.append(np.einsum("sij,j->si", T[:, :3, :3], c) + T[:, :3, 3])
+    P = np.stack(points)  # (F, S, 3)
+    spread = np.linalg.norm(P - P.mean(axis=0), axis=2).mean(axis=0)  # (S,)
+    # the first local minimum after which the pads part by MEET_MARGIN at least
+    rising = (
+        np.flatnonzero((spread[1:-1] <= spread[:-2]) & (spread[1:-1] < spread[2:])) + 1
+    )
+    parted = [j for j in rising if spread[j:].max() - spread[j] >= MEET_MARGIN]
+    if not parted:
+        return
+    k = int(parted[0])
+    for m in moving:
+        closed[m] = float(pregrasp[m] + t[k] * (closed[m] - pregrasp[m]))
+    u.notes["closed"] += (
+        f"; stopped where the pads meet: closing all joints together, the pads' "
+        f"centres come nearest each other {t[k]:.0%} of the way (their mean "
+        f"distance from their centroid {spread[k] * 1000:.1f} mm, "
+        f"{spread[-1] * 1000:.1f} mm at the end), past which the fingers part "
+        "again or close over the object"
+    )
+
+
 def _pads(
     u: _Urdf,
     distal: list[str],
@@ -1118,6 +1178,7 @@ def guess_description(
     _hold_postures(u, joints, fingers, targets, pregrasp, closed)
     limits = _stop_at_palm(u, fingers, pregrasp, closed)
     pads = _pads(u, distal, names, pregrasp, closed, targets)
+    _stop_where_pads_meet(u, pads, pregrasp, closed)
     approach, closing, tcp = _axes(u, pads, pregrasp, closed)
     data: dict[str, Any] = {
         "version": 1,
