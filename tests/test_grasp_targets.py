@@ -178,3 +178,37 @@ def test_a_model_without_configurations_closes_to_closed():
     assert t.joints_grasp == {"panda_finger_joint1": 0.0}
     assert t.joints_pregrasp == {"panda_finger_joint1": 0.04}
     assert t.fingers == []
+
+
+def test_a_contact_past_closed_squeezes_on_towards_the_limit():
+    """A hand whose ``closed`` stops where its pads meet (0.375 rad for the
+    Barrett-like fingers) holds a large object with its fingers curled further:
+    from a contact at 1.0 rad each finger squeezes on towards its 1.6 rad limit,
+    not back towards ``closed``."""
+    from dataclasses import replace
+
+    from wsgrasp.planning.result import Contact
+    from wsgrasp.planning.targets import grasp_targets, pad_positions
+
+    root = Path(__file__).resolve().parents[1]
+    g = load_gripper(
+        str(
+            root / "examples/plugins/barrett_bh8_like/wsgrasp_barrett_bh8_like"
+            "/barrett_bh8_like.yaml"
+        )
+    )
+    closers = [j[-1] for j in g.finger_joints]  # the flexion joint of each finger
+    g = replace(g, closed={**g.closed, **{j: 0.375 for j in closers}})
+    contacts = []
+    for f, joints in enumerate(g.finger_joints):
+        q = np.array([[1.0 if j in closers else g.pregrasp[j] for j in joints]])
+        pad = pad_positions(g, f, q)  # (1, 3), gripper frame = world here
+        own = np.flatnonzero(g.sphere_finger == f)
+        contacts.append(Contact(g.finger_names[f], pad, own))
+    t = grasp_targets(
+        g, np.eye(4), contacts, approach_distance=0.1, squeeze=0.01, close_to="contacts"
+    )
+    for ft in t.fingers:
+        (j,) = [j for j in ft.contact if j in closers]
+        assert ft.contact[j] > 0.8, ft
+        assert ft.grasp[j] > ft.contact[j], ft

@@ -262,3 +262,39 @@ def test_contact_quantities_from_held_points_match_the_mask(seed):
         )
     assert "holding" not in lazy.__dict__ and isinstance(lazy._holding, Holdings)
     assert not lazy._holding.is_dense  # the sums read blocks; no mask was kept
+
+
+def test_closing_centre_prefers_fingers_closing_on_the_centre_of_mass():
+    """The Franka hand closes its pads together between the fingertips; a
+    candidate that puts that point on the object's centre of mass scores 1, one
+    5 cm beside it less. A model without finger configurations closes on its
+    tool frame's origin."""
+    from wsgrasp.gripper import load_gripper
+    from wsgrasp.planning.closing import closing_centre
+
+    g = load_gripper("franka_hand")
+    c = closing_centre(g)
+    assert abs(c[0]) < 1e-3 and abs(c[1]) < 1e-3
+    assert np.linalg.norm(c - g.T_gripper_tcp[:3, 3]) < 0.02
+    jaw = make_jaw_gripper()
+    np.testing.assert_allclose(closing_centre(jaw), jaw.T_gripper_tcp[:3, 3])
+
+    scorer, opts = _scorer("closing_centre")
+    T = np.tile(np.eye(4), (2, 1, 1))
+    T[:, :3, 3] = -c  # the closing centre at the origin ...
+    T[1, 0, 3] += 0.05  # ... and 5 cm beside it
+    points = np.array([[0.0, 0.02, -0.01], [0.0, -0.02, 0.01]])
+    batch = CandidateBatch(
+        gripper=g,
+        T_world_gwc=T,
+        T_world_gripper=T,
+        theta=np.zeros(2),
+        holding=np.ones((2, 2, g.num_fingers), dtype=bool),
+        object_points=points,
+        T_world_object=np.eye(4),
+        extents=np.array([0.02, 0.04, 0.02]),
+        table_normal=np.array([0.0, 0.0, 1.0]),
+        min_table_height=np.zeros(2),
+    )
+    s = scorer.score(batch, opts)
+    assert s[0] == pytest.approx(1.0) and s[1] < 0.5

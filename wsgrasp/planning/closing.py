@@ -37,6 +37,7 @@ from wsgrasp.planning.poses import hull_vertices
 __all__ = [
     "GRAZE_SLACK",
     "SWEEP_SLACK",
+    "closing_centre",
     "closing_paths",
     "finger_sweep",
     "prepare_sweeps",
@@ -85,6 +86,16 @@ def closing_paths(g: GripperModel) -> Array:
         paths = np.stack(out)
     g.__dict__["_closing_paths"] = paths
     return paths
+
+
+def closing_centre(g: GripperModel) -> Array:
+    """Where the fingers close to: the centroid of the pad centres at the end of
+    their closing paths (the ``closed`` posture), gripper frame, ``(3,)``; the
+    tool frame's origin for a model without finger configurations."""
+    paths = closing_paths(g)
+    if len(paths) == 0:
+        return np.asarray(g.T_gripper_tcp[:3, 3], dtype=np.float64)
+    return np.asarray(paths[:, -1].mean(axis=0), dtype=np.float64)
 
 
 def table_back_off(

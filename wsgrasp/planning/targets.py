@@ -5,11 +5,13 @@ whose pad samples fell inside it (``GripperModel.sphere_config_index``). For the
 chosen grasp, each finger's contact posture is the configuration, among those of
 the spheres holding object points, whose pad centre lies nearest the points the
 finger holds. The grasp posture drives it further towards the gripper's ``closed``
-posture until the pad has travelled ``squeeze`` metres through the contact (or the
-joint limit stops it): a position-controlled finger whose target lies inside the
-object presses on it. The pre-grasp pose backs the gripper off along its approach
-axis. No inverse kinematics is solved: the finger's pad positions over its joint
-grid, kept in the model, are interpolated (multilinear) between grid points.
+posture (each joint already at or past its ``closed`` value: towards its limit on
+the closing side) until the pad has travelled ``squeeze`` metres through the
+contact (or the joint limit stops it): a position-controlled finger whose target
+lies inside the object presses on it. The pre-grasp pose backs the gripper off
+along its approach axis. No inverse kinematics is solved: the finger's pad
+positions over its joint grid, kept in the model, are interpolated (multilinear)
+between grid points.
 """
 
 from __future__ import annotations
@@ -241,6 +243,14 @@ def _finger_target(
     )
     lim = np.asarray(g.finger_limits[f], dtype=np.float64)
     closed = np.clip(closed, lim[:, 0], lim[:, 1])
+    # a joint whose contact lies at or past ``closed`` (a hand whose ``closed``
+    # stops where its pads meet, holding a large object) squeezes on towards
+    # its limit on the closing side, never back towards ``closed``
+    pre_f = np.array([pre.get(j, q) for j, q in zip(joints, q_contact, strict=True)])
+    way = np.sign(closed - pre_f)  # (d,) +1 closes upwards, -1 downwards
+    beyond = np.where(way > 0, lim[:, 1], lim[:, 0])  # (d,) the closing side's limit
+    past = (way != 0) & ((closed - q_contact) * way <= 0.0)
+    closed = np.where(past & (np.abs(beyond - closed) > 1e-6), beyond, closed)
     t = np.linspace(0.0, 1.0, _SQUEEZE_STEPS)
     ray = q_contact + t[:, None] * (closed - q_contact)  # (T, d)
     p_ray = pad_positions(g, f, ray)  # (T, 3)

@@ -18,6 +18,7 @@ __all__ = [
     "AntipodalScorer",
     "ApproachDirectionScorer",
     "CentroidDistanceScorer",
+    "ClosingCentreScorer",
     "ContactBalanceScorer",
     "JointMarginScorer",
     "MassCenterScorer",
@@ -43,6 +44,32 @@ class CentroidDistanceScorer:
         d = np.linalg.norm(
             batch.T_world_gwc[:, :3, 3] - batch.T_world_object[:3, 3], axis=-1
         )
+        d_ref = max(0.5 * float(np.linalg.norm(batch.extents)), 1e-6)
+        return 1.0 / (1.0 + d / d_ref)
+
+
+class ClosingCentreScorer:
+    """The point the fingers close to near the object's centre of mass.
+
+    A hand that closes to its ``closed`` posture (``approach.close_to: closed``)
+    grasps around where its pads meet, wherever its workspaces reach: a claw's
+    tips converge below its base, a hand's fingertips in front of its palm. ``d``
+    is the distance from that point (the pads' centroid at ``closed``, the end of
+    their closing paths) to ``batch.mass_center``; the score is
+    ``1 / (1 + d / d_ref)``, ``d_ref`` half the object's diagonal. For a jaw the
+    point lies between its pads, as the workspace centre does.
+    """
+
+    class Options(_Options):
+        pass
+
+    def score(self, batch: Any, options: Options) -> np.ndarray:
+        from wsgrasp.planning.closing import closing_centre
+
+        c = closing_centre(batch.gripper)  # (3,) gripper frame
+        T = batch.T_world_gripper  # (F, 4, 4)
+        p = np.einsum("fij,j->fi", T[:, :3, :3], c) + T[:, :3, 3]
+        d = np.linalg.norm(p - batch.mass_center, axis=-1)
         d_ref = max(0.5 * float(np.linalg.norm(batch.extents)), 1e-6)
         return 1.0 / (1.0 + d / d_ref)
 
@@ -225,6 +252,7 @@ class MassCenterScorer:
 @hookimpl
 def wsgrasp_register_scorers(register: Any) -> None:
     register("centroid_distance", CentroidDistanceScorer)
+    register("closing_centre", ClosingCentreScorer)
     register("contact_balance", ContactBalanceScorer)
     register("antipodal", AntipodalScorer)
     register("wrench_balance", WrenchBalanceScorer)
