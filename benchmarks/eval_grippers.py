@@ -19,8 +19,9 @@ YAMLs. Each gripper's trials run in a ``wsgrasp eval`` process of their own, so
 a crash costs only that row. Writes ``grippers.json`` (every figure) and
 ``grippers.md`` (the table) under ``--out``, and the same ``grippers.json`` to
 ``--results`` (``docs/results/grippers.json``), which the documentation renders
-(its Results: grippers page, with a chart). ``--render FILE`` prints the table of
-a ``grippers.json``.
+(its Results: grippers page, with a chart), and a short table into the README.
+``--render FILE`` prints the table of a ``grippers.json``; ``--readme FILE``
+writes the README's table from one.
 
     python benchmarks/eval_grippers.py                  # what `make eval-grippers` runs
     python benchmarks/eval_grippers.py --objects random:000-019 --no-results
@@ -268,6 +269,60 @@ def markdown(report: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
+#: the README's gripper table lies between these lines
+README_START = (
+    "<!-- gripper table: benchmarks/eval_grippers.py writes it from "
+    "docs/results/grippers.json -->"
+)
+README_END = "<!-- end of gripper table -->"
+
+
+def readme_table(report: dict[str, Any]) -> str:
+    """The README's short gripper table: one row per gripper, with the run."""
+    lines = [
+        f"From `make eval-grippers` at commit {report['commit']}: `gripper new` with",
+        f"no edit, `gripper check`, plans on the bundled scenes and {len(SHAPES)} "
+        "synthetic shapes,",
+        f"grasps held in MuJoCo (protocol `{report['protocol']}`, "
+        f"`{report['objects']}`, {report['trials']} trial",
+        "each, default spec).",
+        "",
+        "| gripper | fingers | from | scaffolds | `gripper check` | plans found "
+        "| held |",
+        "|---|---:|---|---|---|---|---:|",
+    ]
+    for r in report["rows"]:
+        built_in = r["source"] == "built-in"
+        scaf = "built in" if built_in else ("yes" if r.get("scaffolds") else "no")
+        source = "wsgrasp" if built_in else r["source"].split("/")[0]
+        held = f"{100 * r['success_rate']:.1f} %" if "success_rate" in r else "–"
+        found = "–"
+        if "errors" in r:
+            e, w = len(r["errors"]), len(r["warnings"])
+            found = (f"{e} error(s), " if e else "") + (
+                f"{w} warning(s)" if w else "no errors"
+            )
+        lines.append(
+            f"| {r['name']} | {r.get('fingers', '–')} | {source} | {scaf} | "
+            f"{found} | {_cell_plans(r).split(' (')[0]} | {held} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def write_readme(report: dict[str, Any], readme: Path) -> None:
+    """Replace the table between ``README_START`` and ``README_END`` in
+    ``readme`` with :func:`readme_table`."""
+    text = readme.read_text()
+    start, end = text.find(README_START), text.find(README_END)
+    if start < 0 or end < start:
+        raise SystemExit(
+            f"{readme} has no gripper table markers ({README_START!r} ... "
+            f"{README_END!r}); put them where the table goes"
+        )
+    head = text[: start + len(README_START)]
+    readme.write_text(head + "\n" + readme_table(report) + text[end:])
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument(
@@ -295,9 +350,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--render", type=Path, help="only print the table of this grippers.json"
     )
+    ap.add_argument(
+        "--readme",
+        type=Path,
+        help="only write the README's table from this grippers.json",
+    )
     args = ap.parse_args(argv)
     if args.render is not None:
         print(markdown(json.loads(args.render.read_text())), end="")
+        return 0
+    if args.readme is not None:
+        write_readme(json.loads(args.readme.read_text()), ROOT / "README.md")
         return 0
 
     from rich.console import Console
@@ -374,7 +437,8 @@ def main(argv: list[str] | None = None) -> int:
     if not args.no_results:
         args.results.parent.mkdir(parents=True, exist_ok=True)
         args.results.write_text(text)
-        console.print(f"wrote {args.results}")
+        write_readme(report, ROOT / "README.md")
+        console.print(f"wrote {args.results} and the README's table")
     return 0
 
 

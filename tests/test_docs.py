@@ -245,3 +245,23 @@ def test_spec_file_comment_is_one_line_linking_to_its_rationale(path: Path) -> N
     page = (ROOT / m.group(1)).read_text()
     headings = {slugify(h, "-") for h in re.findall(r"^#+ (.+)$", page, flags=re.M)}
     assert m.group(2) in headings, f"{path}: no section #{m.group(2)}"
+
+
+def test_readme_gripper_table_is_the_published_run():
+    """The README's gripper table is what ``benchmarks/eval_grippers.py`` writes
+    from ``docs/results/grippers.json``, not typed by hand."""
+    import json
+
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        import eval_grippers
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    text = (ROOT / "README.md").read_text()
+    report = json.loads((DOCS / "results" / "grippers.json").read_text())
+    start = text.index(eval_grippers.README_START) + len(eval_grippers.README_START)
+    table = text[start : text.index(eval_grippers.README_END)]
+    assert table == "\n" + eval_grippers.readme_table(report), (
+        "the README's gripper table differs from docs/results/grippers.json: run "
+        "python benchmarks/eval_grippers.py --readme docs/results/grippers.json"
+    )
