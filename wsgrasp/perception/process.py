@@ -38,7 +38,15 @@ def warm_up() -> None:
 
 
 def downsample(points: ArrayLike, voxel: float) -> Array:
-    """Voxel-grid downsampling (open3d): one point, the mean, per occupied voxel.
+    """Voxel-grid downsampling: one point, the mean, per occupied voxel, in the
+    order of the voxels (by x, then y, then z index).
+
+    The voxels and means are open3d's ``voxel_down_sample``'s, bit for bit (the
+    grid starts half a voxel below the least coordinates; a mean is the sum of
+    the voxel's points in their order over their count); its order is its hash
+    map's. Here in numpy, without converting the cloud: 2 to 3 times faster than
+    open3d with the conversions (box_upright's 101,213 points: 3.0 against 7.0
+    ms on the 2-core machine under load; ``benchmarks/preprocess.py``).
 
     Parameters
     ----------
@@ -53,7 +61,57 @@ def downsample(points: ArrayLike, voxel: float) -> Array:
     p = np.asarray(points, dtype=np.float64)
     if voxel <= 0.0 or p.shape[0] == 0:
         return p
-    return np.asarray(_pcd(p).voxel_down_sample(float(voxel)).points, dtype=np.float64)
+    n = p.shape[0]
+    # a column at a time: numpy reduces (n, 3) along axis 0 far more slowly
+    cols = p.T  # (3, n) view
+    lo = [float(c.min()) - voxel * 0.5 for c in cols]
+    # voxel index of each column's greatest value: floor is monotonic
+    dims = [
+        int(np.floor((float(c.max()) - lo[k]) / voxel)) + 1 for k, c in enumerate(cols)
+    ]
+    cells = dims[0] * dims[1] * dims[2]  # Python ints: no overflow
+    # each point's voxel, built in place (fresh memory costs page faults)
+    index = np.empty((3, n), dtype=np.int64) if cells >= 2**62 else None
+    key = np.empty(n, dtype=np.int64)
+    part = np.empty(n, dtype=np.int64)
+    tmp = np.empty(n)
+    for k in range(3):
+        np.subtract(cols[k], lo[k], out=tmp)
+        np.divide(tmp, voxel, out=tmp)
+        np.floor(tmp, out=tmp)
+        if index is not None:  # a key would overflow: sort the rows
+            index[k] = tmp
+            continue
+        part[:] = tmp
+        if k:
+            key *= dims[k]
+            key += part
+        else:
+            key[:] = part
+    if index is not None:
+        _, inverse, counts = np.unique(
+            index.T, axis=0, return_inverse=True, return_counts=True
+        )
+        inverse = inverse.reshape(-1)
+    elif cells <= _DENSE_CELLS_PER_POINT * n:
+        # a dense grid: counting orders the voxels in O(n + cells)
+        slot = np.bincount(key, minlength=cells)  # (cells,) counts, then slots
+        occupied = np.flatnonzero(slot > 0)
+        counts = slot[occupied]
+        slot[occupied] = np.arange(occupied.size)
+        inverse = slot[key]
+    else:
+        _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
+    m = counts.size
+    out = np.empty((m, 3))
+    for k in range(3):  # bincount adds each voxel's points in their order
+        out[:, k] = np.bincount(inverse, weights=cols[k], minlength=m) / counts
+    return out
+
+
+#: ``downsample`` counts voxels in a dense grid of up to this many cells per
+#: point, and sorts their keys beyond
+_DENSE_CELLS_PER_POINT = 16
 
 
 def crop(
