@@ -207,6 +207,42 @@ def test_thumb_is_held_where_it_closes_against_the_fingers(tmp_path):
     assert d["pregrasp"]["THJ_TURN"] == d["closed"]["THJ_TURN"] == 0.0
 
 
+def test_pinch_brings_the_pads_nearer_a_common_point(tmp_path):
+    """The pinch search over each finger's joints between its pregrasp and
+    closed values finds a posture whose pads lie no farther from their centroid
+    than at any posture on the straight closing line, every joint inside its
+    range, and reports that distance and point."""
+    from wsgrasp.gripper import _guess as G
+
+    urdf = tmp_path / "hand.urdf"
+    urdf.write_text(forearm_hand_urdf())
+    u = G._read(urdf, "hand", None)
+    fingers = G._fingers(u)
+    distal = list(fingers)
+    targets = G._targets(u, fingers)
+    pregrasp, closed = G._postures(u, fingers, targets)
+    G._hold_postures(
+        u, {k: list(v) for k, v in fingers.items()}, fingers, targets, pregrasp, closed
+    )
+    pads = G._pads(u, distal, G._finger_names(distal), pregrasp, closed, targets)
+    t = np.linspace(0.0, 1.0, 65)
+    values = {m: pregrasp[m] + t * (closed[m] - pregrasp[m]) for m in pregrasp}
+    line = np.stack([G._pad_points(u, p, values, len(t)) for p in pads])  # (F, S, 3)
+    least = np.linalg.norm(line - line.mean(axis=0), axis=2).mean(axis=0).min()
+    pinch = G._pinch(u, fingers, pads, pregrasp, closed, line[:, -1].mean(axis=0))
+    assert pinch is not None
+    posture, gap, point = pinch
+    assert gap <= least + 1e-12  # no farther apart than anywhere on the line
+    for m, v in posture.items():
+        lo, hi = sorted((pregrasp[m], closed[m]))
+        assert lo - 1e-12 <= v <= hi + 1e-12, m
+    # the gap is the pads' mean distance from the point, at that posture
+    at = {**pregrasp, **posture}
+    pts = np.stack([G._pad_points(u, p, at, 1)[0] for p in pads])
+    np.testing.assert_allclose(pts.mean(axis=0), point, atol=1e-9)
+    assert np.linalg.norm(pts - point, axis=1).mean() == pytest.approx(gap)
+
+
 def test_fingers_side_by_side_keep_their_spread():
     """The built-in Allegro hand's URDF: its index and ring fingers' spread joints
     would bring them nearer the others turned inwards, but the fingers flex
@@ -366,5 +402,9 @@ def test_vendor_gripper_scaffolds_and_checks(tmp_path, name):
         assert d["approach_axis"] == [0.0, 0.0, 1.0]
     if name in ("ability", "shadow"):  # palm first: the palms face +x
         assert d["approach_axis"] == [1.0, 0.0, 0.0]
+        # fingertips meeting the thumb's, not curled past it
+        assert "nearest a common point" in sc.notes["closed"]
+    if name in ("barrett", "dclaw", "robotiq_3f"):  # tips that cross or part
+        assert "closing all joints together" in sc.notes["closed"]
     if name == "robotiq_3f":
         assert sum("visual mesh" in w for w in sc.warnings) == 5

@@ -55,8 +55,15 @@ MIN_STOP = 0.25
 #: steps along the closing path when looking for where the pads meet
 MEET_STEPS = 129
 #: the pads' spread (m) must grow at least this much again past its least for
-#: ``closed`` to stop where they meet
+#: ``closed`` to stop where they meet, and a pinch must bring them this much nearer
 MEET_MARGIN = 0.001
+#: pads whose spread (m) on the closing line falls to this meet there
+MEET_DISTANCE = 0.005
+#: postures per finger at most, and grid points per joint at most, when looking
+#: for where the pads come nearest a common point; and the rounds of that search
+PINCH_GRID = 4096
+PINCH_SAMPLES = 17
+PINCH_ROUNDS = 50
 #: values tried per held joint when choosing where it holds its finger
 HOLD_SAMPLES = 5
 #: configurations per closing joint when measuring how near a finger gets
@@ -840,22 +847,32 @@ def _stop_at_palm(
 
 def _stop_where_pads_meet(
     u: _Urdf,
+    fingers: dict[str, list[str]],
     pads: list[dict[str, Any]],
     pregrasp: dict[str, float],
     closed: dict[str, float],
 ) -> None:
-    """Stop the closing path where the pads meet.
+    """Close the hand only to where its pads meet.
 
     A hand closes all its joints together, along the straight line in joint space
     from ``pregrasp`` to ``closed`` (what a position-controlled hand ramping its
-    targets does). Its pads come nearest each other somewhere on that line; a
-    claw's or a three-finger hand's fingertips cross and part again past that
-    point, and a hand driven on to its limits pushes a small object out of the
-    grip it had or closes over it. At the first least value of the pads' spread
-    (their mean distance from their centroid) past which it grows again by
-    ``MEET_MARGIN`` at least, ``closed`` is set to that posture, in place. A jaw
-    whose pads get nearer all the way to its limits, or a single finger, keeps
-    its ``closed``.
+    targets does). Driven on to its limits, a claw's or a three-finger hand's
+    fingertips cross and part again, a hand's fingers curl into a fist: a small
+    object is pushed out of the grip or closed over. ``closed`` is set, in place,
+    to the posture at which the pads meet:
+
+    - on that line, at the first least value of the pads' spread (their mean
+      distance from their centroid) past which it grows again by ``MEET_MARGIN``,
+      when the pads come within ``MEET_DISTANCE`` there (they meet);
+    - else, for fingers that share no joint, the posture at which they come
+      nearest a common point, each finger's joints searched over a grid between
+      their pregrasp and closed values (:func:`_pinch`), when that brings the
+      pads ``MEET_MARGIN`` nearer together than the line does: a hand's
+      fingertips meeting its thumb's rather than curling past it;
+    - else at the line's least spread, where there is one.
+
+    A jaw whose pads get nearer all the way to its limits, or a single finger,
+    keeps its ``closed``.
     """
     if len(pads) < 2:
         return
@@ -866,22 +883,31 @@ def _stop_where_pads_meet(
     values: dict[str, Any] = dict(pregrasp)
     for m in moving:
         values[m] = pregrasp[m] + t * (closed[m] - pregrasp[m])  # (S,)
-    points = []
-    for p in pads:
-        T = u.kin.chain_poses(u.base, p["link"], values)  # (S, 4, 4)
-        T = np.broadcast_to(T, (len(t), 4, 4))
-        c = np.asarray(p["center"], dtype=np.float64)
-        points.append(np.einsum("sij,j->si", T[:, :3, :3], c) + T[:, :3, 3])
-    P = np.stack(points)  # (F, S, 3)
+    P = np.stack([_pad_points(u, p, values, len(t)) for p in pads])  # (F, S, 3)
     spread = np.linalg.norm(P - P.mean(axis=0), axis=2).mean(axis=0)  # (S,)
     # the first local minimum after which the pads part by MEET_MARGIN at least
     rising = (
         np.flatnonzero((spread[1:-1] <= spread[:-2]) & (spread[1:-1] < spread[2:])) + 1
     )
     parted = [j for j in rising if spread[j:].max() - spread[j] >= MEET_MARGIN]
-    if not parted:
+    k = int(parted[0]) if parted else None
+    least = float(spread[k]) if k is not None else float(spread.min())
+    if k is None or least > MEET_DISTANCE:
+        start = P[:, k if k is not None else int(np.argmin(spread))]  # (F, 3)
+        pinch = _pinch(u, fingers, pads, pregrasp, closed, start.mean(axis=0))
+        if pinch is not None and pinch[1] <= least - MEET_MARGIN:
+            posture, gap, point = pinch
+            closed.update(posture)
+            u.notes["closed"] += (
+                "; stopped where the pads meet: the posture at which they come "
+                "nearest a common point (each finger's joints searched between "
+                f"their pregrasp and closed values), {_r(point * 1000, 1)} mm, the "
+                f"pads {gap * 1000:.1f} mm from it on average ({least * 1000:.1f} mm "
+                "at best closing all joints together)"
+            )
+            return
+    if k is None:
         return
-    k = int(parted[0])
     for m in moving:
         closed[m] = float(pregrasp[m] + t[k] * (closed[m] - pregrasp[m]))
     u.notes["closed"] += (
@@ -891,6 +917,64 @@ def _stop_where_pads_meet(
         f"{spread[-1] * 1000:.1f} mm at the end), past which the fingers part "
         "again or close over the object"
     )
+
+
+def _pad_points(u: _Urdf, pad: dict[str, Any], values: dict[str, Any], n: int) -> Array:
+    """The centre of ``pad`` in the base frame for a batch of ``n`` joint values,
+    ``(n, 3)``."""
+    T = np.broadcast_to(u.kin.chain_poses(u.base, pad["link"], values), (n, 4, 4))
+    c = np.asarray(pad["center"], dtype=np.float64)
+    return np.asarray(np.einsum("sij,j->si", T[:, :3, :3], c) + T[:, :3, 3])
+
+
+def _pinch(
+    u: _Urdf,
+    fingers: dict[str, list[str]],
+    pads: list[dict[str, Any]],
+    pregrasp: dict[str, float],
+    closed: dict[str, float],
+    start: Array,
+) -> tuple[dict[str, float], float, Array] | None:
+    """The posture at which the pads come nearest a common point.
+
+    Each finger's closing joints (those whose pregrasp and closed values differ)
+    are sampled on a grid between those values (``PINCH_GRID`` postures at most);
+    from ``start`` ``(3,)``, each finger takes the posture whose pad centre lies
+    nearest the point and the point moves to their mean, until it stays. Returns
+    the fingers' joint values, the pads' mean distance from the point and the
+    point; None when fingers share a closing joint (a coupled jaw) or one has
+    none.
+    """
+    joints = [[m for m in fingers[p["link"]] if closed[m] != pregrasp[m]] for p in pads]
+    flat = [m for js in joints for m in js]
+    if any(not js for js in joints) or len(flat) != len(set(flat)):
+        return None
+    grids, points = [], []
+    for p, js in zip(pads, joints, strict=True):
+        n = max(2, min(PINCH_SAMPLES, int(PINCH_GRID ** (1.0 / len(js)))))
+        q = grid_configurations(
+            np.array([pregrasp[m] for m in js]), np.array([closed[m] for m in js]), n
+        )  # (K, d); each joint's values from pregrasp to closed
+        values: dict[str, Any] = dict(pregrasp)
+        values.update({m: q[:, i] for i, m in enumerate(js)})
+        grids.append(q)
+        points.append(_pad_points(u, p, values, len(q)))  # (K, 3)
+    point = np.asarray(start, dtype=np.float64)
+    nearest = [-1] * len(pads)
+    for _ in range(PINCH_ROUNDS):
+        now = [int(np.argmin(np.linalg.norm(q - point, axis=1))) for q in points]
+        if now == nearest:
+            break
+        nearest = now
+        point = np.mean([q[k] for q, k in zip(points, now, strict=True)], axis=0)
+    chosen = np.array([q[k] for q, k in zip(points, nearest, strict=True)])
+    gap = float(np.linalg.norm(chosen - point, axis=1).mean())
+    posture = {
+        m: float(g[k, i])
+        for js, g, k in zip(joints, grids, nearest, strict=True)
+        for i, m in enumerate(js)
+    }
+    return posture, gap, point
 
 
 def _pads(
@@ -1178,7 +1262,7 @@ def guess_description(
     _hold_postures(u, joints, fingers, targets, pregrasp, closed)
     limits = _stop_at_palm(u, fingers, pregrasp, closed)
     pads = _pads(u, distal, names, pregrasp, closed, targets)
-    _stop_where_pads_meet(u, pads, pregrasp, closed)
+    _stop_where_pads_meet(u, fingers, pads, pregrasp, closed)
     approach, closing, tcp = _axes(u, pads, pregrasp, closed)
     data: dict[str, Any] = {
         "version": 1,
