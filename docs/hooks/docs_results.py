@@ -467,16 +467,25 @@ def render_defaults_effect() -> str:
 def render_results_scorers() -> str:
     """Each score term's concordance with success and its pick rate, per
     gripper, from the last ``make eval-scorers`` (docs/results/scorers.json)."""
-    report = _load(RESULTS / "scorers.json")
-    if report is None:
+    paths = sorted(RESULTS.glob("scorers*.json"))
+    if not paths:
         return "No `docs/results/scorers.json` yet: `make eval-scorers` writes it.\n"
+    out = []
+    for path in paths:
+        out.extend(_scorer_run(_load(path) or {}))
+    return "\n".join(out)
+
+
+def _scorer_run(report: dict[str, Any]) -> list[str]:
+    """One run of ``benchmarks/scorer_concordance.py``: per gripper, the choice
+    and chance, and each term's concordance and pick rate."""
     what = "`" + (report.get("command") or "make eval-scorers") + "`"
     out = [
         f"{_provenance(report, what)} Protocol `{report.get('protocol')}`, objects "
         f"`{report.get('objects')}`, the choice and {report.get('random_per_scene')} "
         "random feasible candidates labelled per scene.\n"
     ]
-    for g, r in report["grippers"].items():
+    for g, r in report.get("grippers", {}).items():
         out.append(
             f"**{g}**: {r['scenes']} scenes; the choice held "
             f"{100 * r['chosen_success']:.0f} %, a random feasible candidate "
@@ -497,7 +506,7 @@ def render_results_scorers() -> str:
         out.append(
             table(["term", "concordance", "its pick holds", "default weight"], rows)
         )
-    return "\n".join(out)
+    return out
 
 
 def _spec_order(spec: str) -> tuple[int, str]:
