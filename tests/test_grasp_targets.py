@@ -88,12 +88,22 @@ def test_forward_kinematics_puts_pads_at_their_contacts(plans, name):
         if shared == len(target["grasp"]):  # the finger's joints are its own
             # the URDF's pad travels what the planner's interpolation said ...
             assert moved == pytest.approx(target["squeeze"], abs=3e-3)
-            # ... the squeeze, unless the finger reached its closed posture first
-            closed = all(
-                v == pytest.approx(g.closed.get(j, v))
-                for j, v in target["grasp"].items()
-            )
-            assert target["squeeze"] == pytest.approx(squeeze, abs=2e-3) or closed
+            # ... the squeeze, unless the finger reached the end of its way
+            # first: each joint at its closed value or, where its contact lay
+            # past that, at its limit on the closing side
+            limits = {
+                j: lim
+                for js, lims in zip(g.finger_joints, g.finger_limits, strict=True)
+                for j, lim in zip(js, np.asarray(lims), strict=True)
+            }
+
+            def at_end(j: str, v: float) -> bool:
+                c, p = g.closed.get(j, v), g.pregrasp.get(j, v)
+                side = limits[j][1] if c > p else limits[j][0]
+                return bool(v == pytest.approx(c) or v == pytest.approx(side))
+
+            ended = all(at_end(j, v) for j, v in target["grasp"].items())
+            assert target["squeeze"] == pytest.approx(squeeze, abs=2e-3) or ended
         else:  # a joint another finger shares closes as far as either asks
             assert moved >= squeeze - 2e-3
 
