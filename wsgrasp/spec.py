@@ -160,7 +160,10 @@ class GripperDescription(_Model):
         description="joint positions (m or rad) of the open, pre-grasp posture"
     )
     closed: dict[str, float] = Field(
-        description="joint positions (m or rad) the fingers close towards"
+        description="joint positions (m or rad) the fingers close towards, all "
+        "joints together on the straight line from pregrasp: where the pads meet "
+        "(a claw's tips before they cross, a hand's fingertips at its thumb's), "
+        "or the limits of a jaw whose pads meet only there"
     )
 
     @field_validator("fingers", mode="before")
