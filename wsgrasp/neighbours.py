@@ -16,7 +16,6 @@ bounding sphere of the region (body or workspace spheres) around its pose.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -168,41 +167,30 @@ def _blocked_in_sweeps(
     object_points: Array,
 ) -> NDArray[np.int64]:
     """:func:`blocked_in_closing` by the fingers' sweeps (see there)."""
-    from wsgrasp.planning.closing import _REACH_VOXEL, _sweep_index, finger_sweep
+    from wsgrasp.planning.closing import REACH_VOXEL, finger_sweep, reach_steps
 
-    index = _sweep_index(g)
-    K = index.hull.shape[1]
+    sweep = finger_sweep(g)  # (nf, K, P, 3) gripper frame
+    K = sweep.shape[1]
+    sweep = sweep.reshape(-1, 3)
     T = np.asarray(T_world_gripper, dtype=np.float64).reshape(-1, 4, 4)
-    sweep = finger_sweep(g).reshape(-1, 3)  # (nf K P, 3) gripper frame
     mid = sweep.mean(axis=0)
-    reach = float(np.linalg.norm(sweep - mid, axis=1).max()) + 4 * _REACH_VOXEL
+    reach = float(np.linalg.norm(sweep - mid, axis=1).max()) + 4 * REACH_VOXEL
     pts = np.asarray(object_points, dtype=np.float64).reshape(-1, 3)
     # (C, nf) the first posture at which each finger reaches the target
-    first = np.full((len(T), len(index.reach)), K, dtype=np.int64)
+    first = np.full((len(T), g.num_fingers), K, dtype=np.int64)
     step = max(1, _CHUNK // max(len(pts), 1))
     for a in range(0, len(T), step):
         Tc = T[a : a + step]
         # (c, n, 3) the target's points in each candidate's gripper frame
         p_g = np.einsum("cji,cnj->cni", Tc[:, :3, :3], pts[None] - Tc[:, None, :3, 3])
-        steps = _reach_steps(index, p_g.reshape(-1, 3), K, _REACH_VOXEL)
+        steps = reach_steps(g, p_g.reshape(-1, 3))
         first[a : a + step] = steps.reshape(len(Tc), len(pts), -1).min(axis=1)
 
     def inside(p: Array, cand: NDArray[np.int64]) -> NDArray[np.bool_]:
-        steps = _reach_steps(index, p, K, _REACH_VOXEL)  # (m, nf)
+        steps = reach_steps(g, p)  # (m, nf)
         # a finger whose sweep never meets the target (it closes to its own
         # contact, off this straight path) is not judged
         f = first[cand]  # (m, nf)
         return ((steps <= f) & (f < K)).any(axis=1)  # type: ignore[no-any-return]
 
     return _blocked_all(T, obstacles, mid, reach, inside)
-
-
-def _reach_steps(index: Any, p: Array, K: int, voxel: float) -> NDArray[np.int64]:
-    """Per point ``(m, 3)`` (gripper frame) and finger: the first posture at
-    which the finger's sweep reaches it, ``K`` where it never does ``(m, nf)``."""
-    out = np.full((len(p), len(index.reach)), K, dtype=np.int64)
-    for f, grid in enumerate(index.reach):
-        ijk = np.rint((p - index.origin[f]) / voxel).astype(np.int64)  # (m, 3)
-        ok = ((ijk >= 0) & (ijk < np.asarray(grid.shape))).all(axis=1)
-        out[ok, f] = grid[tuple(ijk[ok].T)]
-    return out

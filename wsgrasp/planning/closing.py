@@ -41,6 +41,7 @@ __all__ = [
     "closing_paths",
     "finger_sweep",
     "prepare_sweeps",
+    "reach_steps",
     "sweep_back_offs",
     "table_back_off",
 ]
@@ -149,8 +150,8 @@ SWEEP_SLACK = 0.002
 #: that one joint drives (a jaw, a linkage, mimic-coupled links) stops there
 #: (the BarrettHand's, 1 cm deep: 81 held, 94 with the sweeps kept up)
 GRAZE_SLACK = 0.015
-#: voxel (m) of each finger's reach grid (:func:`_reach_grid`)
-_REACH_VOXEL = 0.004
+#: voxel (m) of each finger's reach grid (:func:`_reach_grid`, :func:`reach_steps`)
+REACH_VOXEL = 0.004
 #: a finger reaches an object point within this share of its sweep points'
 #: spacing (the median distance to the nearest other point) ...
 _REACH_SHARE = 0.6
@@ -246,7 +247,7 @@ def _reach_grid(points: Array) -> tuple[Array, NDArray[np.uint8]]:
         radius = max(_REACH_MIN, _REACH_SHARE * spacing)
     else:
         radius = _REACH_PAD
-    v = _REACH_VOXEL
+    v = REACH_VOXEL
     r = int(np.ceil(radius / v))
     flat = points.reshape(-1, 3)  # (K P, 3)
     origin = flat.min(axis=0) - (r + 1) * v
@@ -260,6 +261,23 @@ def _reach_grid(points: Array) -> tuple[Array, NDArray[np.uint8]]:
     cells = (idx[:, None, :] + off[None, :, :]).reshape(-1, 3)  # (K P m, 3)
     np.minimum.at(grid, tuple(cells.T), np.repeat(step, len(off)))
     return origin, grid
+
+
+def reach_steps(g: GripperModel, points: Array) -> NDArray[np.int64]:
+    """Per point ``(m, 3)`` (gripper frame) and finger: the first posture (step
+    along the closing path, as :func:`finger_sweep` counts them) at which the
+    finger's sweep reaches the point, ``K`` (the path's steps) where it never
+    does: ``(m, nf)``. Looked up in the fingers' reach grids, built once per
+    model."""
+    index = _sweep_index(g)
+    K = index.hull.shape[1]
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    out = np.full((len(p), len(index.reach)), K, dtype=np.int64)
+    for f, grid in enumerate(index.reach):
+        ijk = np.rint((p - index.origin[f]) / REACH_VOXEL).astype(np.int64)  # (m, 3)
+        ok = ((ijk >= 0) & (ijk < np.asarray(grid.shape))).all(axis=1)
+        out[ok, f] = grid[tuple(ijk[ok].T)]
+    return out
 
 
 def sweep_back_offs(
@@ -318,7 +336,7 @@ def sweep_back_offs(
     p_rot = np.empty((len(R), len(pts), 3), dtype=np.float32)  # (U, n, 3)
     step = max(1, _LOWEST_ENTRIES // max(3 * len(pts), 1))  # bounds the float64s
     for a in range(0, len(R), step):
-        p_rot[a : a + step] = np.matmul(pts[None], R[a : a + step]) / _REACH_VOXEL
+        p_rot[a : a + step] = np.matmul(pts[None], R[a : a + step]) / REACH_VOXEL
     t_g = np.einsum("cji,cj->ci", R[of], T[:, :3, 3])  # (C, 3) R^T t
     slack = np.array(
         [GRAZE_SLACK if len(j) > 1 else SWEEP_SLACK for j in g.finger_joints]
@@ -340,7 +358,7 @@ def sweep_back_offs(
             x = crossing[lo : lo + _CHUNK]
             c = todo[x]
             # the gripper origins, backed off, in the candidates' own axes
-            shift = (t_g[c] - d * g.approach_axis) / _REACH_VOXEL  # (x, 3)
+            shift = (t_g[c] - d * g.approach_axis) / REACH_VOXEL  # (x, 3)
             limit = first[:, x]  # (nf, x) the step each finger enters the table
             clear[x] = _reached_first(index, p_rot, of[c], shift, limit)
         out[todo[clear]] = d
@@ -418,7 +436,7 @@ def _reached_first(
             continue
         grid = index.reach[f]
         top = np.array(grid.shape, dtype=np.int32) - 1
-        offset = (shift[rows] + index.origin[f] / _REACH_VOXEL).astype(np.float32)
+        offset = (shift[rows] + index.origin[f] / REACH_VOXEL).astype(np.float32)
         q = p_rot[rotation[rows]] - offset[:, None, :]  # (r, n, 3) voxels
         idx = np.rint(q, out=q).astype(np.int32)
         # the grid's border voxels never hold a step: clipped points fall there

@@ -30,6 +30,13 @@ class _Options(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
+def _nearness(d: np.ndarray, batch: Any) -> np.ndarray:
+    """``1 / (1 + d / d_ref)`` for distances ``d`` (m), ``d_ref`` half the
+    object's diagonal: 1 at no distance, monotone decreasing."""
+    d_ref = max(0.5 * float(np.linalg.norm(batch.extents)), 1e-6)
+    return 1.0 / (1.0 + d / d_ref)  # type: ignore[no-any-return]
+
+
 class CentroidDistanceScorer:
     """The paper's criterion: the GWC frame's origin close to the object centroid.
 
@@ -44,8 +51,7 @@ class CentroidDistanceScorer:
         d = np.linalg.norm(
             batch.T_world_gwc[:, :3, 3] - batch.T_world_object[:3, 3], axis=-1
         )
-        d_ref = max(0.5 * float(np.linalg.norm(batch.extents)), 1e-6)
-        return 1.0 / (1.0 + d / d_ref)
+        return _nearness(d, batch)
 
 
 class ClosingCentreScorer:
@@ -70,8 +76,7 @@ class ClosingCentreScorer:
         T = batch.T_world_gripper  # (F, 4, 4)
         p = np.einsum("fij,j->fi", T[:, :3, :3], c) + T[:, :3, 3]
         d = np.linalg.norm(p - batch.mass_center, axis=-1)
-        d_ref = max(0.5 * float(np.linalg.norm(batch.extents)), 1e-6)
-        return 1.0 / (1.0 + d / d_ref)
+        return _nearness(d, batch)
 
 
 class ContactBalanceScorer:
@@ -245,8 +250,7 @@ class MassCenterScorer:
         a = batch.closing  # (F, 3) unit
         across = r - np.einsum("fj,fj->f", r, a)[:, None] * a
         d = np.linalg.norm(across, axis=-1)
-        d_ref = max(0.5 * float(np.linalg.norm(batch.extents)), 1e-6)
-        return 1.0 / (1.0 + d / d_ref)
+        return _nearness(d, batch)
 
 
 @hookimpl
