@@ -296,15 +296,9 @@ def readme_table(report: dict[str, Any]) -> str:
         scaf = "built in" if built_in else ("yes" if r.get("scaffolds") else "no")
         source = "wsgrasp" if built_in else r["source"].split("/")[0]
         held = f"{100 * r['success_rate']:.1f} %" if "success_rate" in r else "–"
-        found = "–"
-        if "errors" in r:
-            e, w = len(r["errors"]), len(r["warnings"])
-            found = (f"{e} error(s), " if e else "") + (
-                f"{w} warning(s)" if w else "no errors"
-            )
         lines.append(
             f"| {r['name']} | {r.get('fingers', '–')} | {source} | {scaf} | "
-            f"{found} | {_cell_plans(r).split(' (')[0]} | {held} |"
+            f"{_cell_check(r)} | {_cell_plans(r).split(' (')[0]} | {held} |"
         )
     return "\n".join(lines) + "\n"
 

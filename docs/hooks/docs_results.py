@@ -466,7 +466,9 @@ def render_defaults_effect() -> str:
 
 def render_results_scorers() -> str:
     """Each score term's concordance with success and its pick rate, per
-    gripper, from the last ``make eval-scorers`` (docs/results/scorers.json)."""
+    gripper, from every run of ``benchmarks/scorer_concordance.py`` under
+    docs/results (``scorers.json``, which ``make eval-scorers`` writes, and any
+    other ``scorers*.json``)."""
     paths = sorted(RESULTS.glob("scorers*.json"))
     if not paths:
         return "No `docs/results/scorers.json` yet: `make eval-scorers` writes it.\n"
