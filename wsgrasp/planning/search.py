@@ -227,8 +227,11 @@ def _contacts(
     for f, name in enumerate(g.finger_names):
         mine = np.flatnonzero(g.sphere_finger == f)
         held_points = holding[:, f]
+        held = p[held_points]  # (k, 3)
+        if len(held):
+            mine = mine[~_beyond_box(held, mine, g)]
         inside = points_in_spheres(
-            p[held_points], g.sphere_centers[mine], g.sphere_radii[mine]
+            held, g.sphere_centers[mine], g.sphere_radii[mine]
         )  # (k, nsp)
         out.append(
             Contact(
@@ -238,6 +241,28 @@ def _contacts(
             )
         )
     return out
+
+
+#: a sphere whose centre lies this far (m) past its radius from the held points'
+#: bounding box, along one axis, holds none of them, whatever the rounding
+_BOX_MARGIN = 1e-9
+
+
+def _beyond_box(
+    held: Array, spheres: NDArray[np.int64], g: GripperModel
+) -> NDArray[np.bool_]:
+    """Per sphere of ``spheres`` ``(m,)``: whether it lies too far from the
+    bounding box of the points ``held`` ``(k, 3)`` to hold any of them.
+
+    Exact for ``points_in_spheres``: a point's distance to a sphere's centre
+    along one axis is at least the box's, so, rounded, its square and the sum
+    are at least the radius squared, and it is not strictly inside. The test of
+    every point against every sphere takes about 0.2 ms a finger on the Allegro
+    hand's 77 spheres and some 300 held points; about half the spheres are
+    dropped here first."""
+    c = g.sphere_centers[spheres]  # (m, 3)
+    gap = np.maximum(held.min(axis=0) - c, c - held.max(axis=0)).max(axis=1)  # (m,)
+    return gap > g.sphere_radii[spheres] + _BOX_MARGIN  # type: ignore[no-any-return]
 
 
 def no_grasp_hint(
