@@ -66,7 +66,6 @@ def find_touching(points: Array, table: Plane) -> Touching | None:
     if len(p) < 20:
         return None
     uv = p @ plane_basis(table.normal)  # (n, 2) in the table plane
-    height = table.signed_distance(p)  # (n,)
     lo = uv.min(axis=0) - 2 * CELL
     ij = np.floor((uv - lo) / CELL).astype(np.int64)  # (n, 2)
     shape = tuple(int(x) for x in ij.max(axis=0) + 3)
@@ -78,9 +77,6 @@ def find_touching(points: Array, table: Plane) -> Touching | None:
     grid = ndimage.binary_closing(grid, structure=np.ones((3, 3)))
     grid = ndimage.binary_fill_holes(grid)
     dist = ndimage.distance_transform_edt(grid) * CELL  # (h, w) inscribed radius
-    top = np.full(shape, -np.inf)
-    np.maximum.at(top, (ij[:, 0], ij[:, 1]), height)
-    top = ndimage.grey_dilation(top, size=(3, 3))
 
     # the widest part, then the widest whose centre lies outside the first's
     # inscribed disk (the neck test below decides whether they are two)
@@ -119,6 +115,11 @@ def find_touching(points: Array, table: Plane) -> Touching | None:
     ) & grid
     if not boundary.any():
         return None
+    # each cell's highest point, for the heights at the neck and of the parts:
+    # only for a footprint with a waist (most clusters have none)
+    top = np.full(shape, -np.inf)
+    np.maximum.at(top, (ij[:, 0], ij[:, 1]), table.signed_distance(p))
+    top = ndimage.grey_dilation(top, size=(3, 3))
     neck_height = float(top[boundary].max())
     heights = [float(top[parts == i].max()) for i in (1, 2)]
     if neck_height < NECK_HEIGHT * min(heights):
