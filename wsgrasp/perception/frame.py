@@ -114,6 +114,19 @@ def check_object(points: ArrayLike, name: str = "object") -> Array:
     return p
 
 
+def _squared_norms(diff: Array) -> Array:
+    """``(diff ** 2).sum(axis=-1)`` of differences ``(..., d)`` (d < 8), bit for
+    bit: numpy adds fewer than eight terms one after the other from the first, as
+    here, but through its general reduction over a short axis, which took about
+    twice as long (the 73 hull vertices' pairs of a bundled object: 175 against
+    95 us)."""
+    sq = diff * diff  # (..., d)
+    out = sq[..., 0].copy()
+    for k in range(1, sq.shape[-1]):
+        out += sq[..., k]
+    return out
+
+
 def _farthest_pair(points: Array) -> tuple[int, int]:
     """Indices of the two farthest points of ``(n, d)`` points (d = 2 or 3).
 
@@ -125,12 +138,12 @@ def _farthest_pair(points: Array) -> tuple[int, int]:
     try:
         idx = ConvexHull(points).vertices
     except (QhullError, ValueError):
-        a = int(np.argmax(((points - points.mean(axis=0)) ** 2).sum(axis=1)))
-        b = int(np.argmax(((points - points[a]) ** 2).sum(axis=1)))
+        a = int(np.argmax(_squared_norms(points - points.mean(axis=0))))
+        b = int(np.argmax(_squared_norms(points - points[a])))
         return a, b
     hull = points[idx]
     # (h, h) squared distances between hull vertices
-    d2 = ((hull[:, None, :] - hull[None, :, :]) ** 2).sum(axis=-1)
+    d2 = _squared_norms(hull[:, None, :] - hull[None, :, :])
     i, j = np.unravel_index(int(np.argmax(d2)), d2.shape)
     return int(idx[i]), int(idx[j])
 
@@ -139,8 +152,8 @@ def _split_axis(points: Array) -> Array:
     """Direction between the centroids of the halves nearer each of the two farthest
     points; ``points`` is ``(n, d)`` and centred."""
     a, b = _farthest_pair(points)
-    da = ((points - points[a]) ** 2).sum(axis=1)
-    db = ((points - points[b]) ** 2).sum(axis=1)
+    da = _squared_norms(points - points[a])  # (n,)
+    db = _squared_norms(points - points[b])
     near_b = db < da
     if near_b.all() or not near_b.any():
         axis = points[b] - points[a]
