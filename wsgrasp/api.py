@@ -714,6 +714,8 @@ def _one_object(
 #: an object no wider than the gripper encloses plus this (m; noise on the
 #: measured width) may fit between the fingers
 _WIDTH_SLACK = 0.002
+#: far more (m) than rounding moves a width measured over different points
+_WIDTH_ROUNDING = 1e-9
 #: points deeper than this (m) inside the object's convex hull, beyond what
 #: the surface noise puts there, are a concavity (a mug's inside, the gap under
 #: a handle) the fingers may hold a wall of
@@ -751,6 +753,17 @@ def _too_large(
     enclosure = g.enclosure
     if len(object_points) < 4 or enclosure <= 0.0:
         return ""
+    if closing is not None:
+        directions = np.unique(np.round(np.asarray(closing, np.float64), 9), axis=0)
+        if not len(directions):
+            return ""
+        # the hull's vertices are some of the points, so its width along a
+        # direction is at most theirs: an object this narrow fits, and its hull
+        # (0.3-0.5 ms on 800 points) is not needed
+        proj = directions @ object_points.T  # (k, n)
+        narrowest = float((proj.max(axis=1) - proj.min(axis=1)).min())
+        if narrowest + _WIDTH_ROUNDING <= enclosure + _WIDTH_SLACK:
+            return ""
     try:
         hull = ConvexHull(object_points)
     except QhullError:  # flat or degenerate: the search decides
@@ -758,10 +771,6 @@ def _too_large(
     vertices = object_points[hull.vertices]  # (h, 3)
     if closing is None:
         directions = hull.equations[:, :3]  # (facets, 3)
-    else:
-        directions = np.unique(np.round(np.asarray(closing, np.float64), 9), axis=0)
-        if not len(directions):
-            return ""
     proj = directions @ vertices.T  # (k, h)
     width = float((proj.max(axis=1) - proj.min(axis=1)).min())
     if width <= enclosure + _WIDTH_SLACK:
