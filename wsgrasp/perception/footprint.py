@@ -46,6 +46,16 @@ class Footprint:
         n = np.asarray(normal, dtype=np.float64).reshape(3)
         basis = plane_basis(n)
         uv = np.asarray(points, dtype=np.float64).reshape(-1, 3) @ basis  # (m, 2)
+        return cls.from_uv(n, offset, basis, uv)
+
+    @classmethod
+    def from_uv(
+        cls, normal: ArrayLike, offset: float, basis: Array, uv: Array
+    ) -> Footprint:
+        """The outline of points already projected on the plane: ``uv`` ``(m,
+        2)`` is ``points @ basis``, ``basis`` ``(3, 2)`` is ``plane_basis(normal)``
+        (for a caller that needs the projection too)."""
+        n = np.asarray(normal, dtype=np.float64).reshape(3)
         equations = np.zeros((0, 3))
         if len(uv) >= 3:
             try:

@@ -128,6 +128,10 @@ class RansacDbscan:
                     and other.size >= _OTHER_PLANE_FRACTION * inliers.size
                 ):
                     exclude[other] = True
+            # the inliers in the plane, for this plane's outline and for what
+            # reaches past a cluster's footprint: projected once
+            basis = plane_basis(normal)  # (3, 2)
+            plane_uv = p[inliers] @ basis  # (m, 2)
             # without the cameras' poses, the outlines of this plane and of the
             # wide planes at least as large, along which what hangs is no object
             borders: list[Footprint] = []
@@ -135,10 +139,14 @@ class RansacDbscan:
                 for j, (n_j, off_j, other, wide) in enumerate(finder.planes):
                     if j == k or (wide and other.size >= inliers.size):
                         if j not in outlines:
-                            outlines[j] = Footprint.from_points(n_j, off_j, p[other])
+                            outlines[j] = (
+                                Footprint.from_uv(n_j, off_j, basis, plane_uv)
+                                if j == k
+                                else Footprint.from_points(n_j, off_j, p[other])
+                            )
                         borders.append(outlines[j])
             found = self._clusters_on(
-                p, normal, offset, o, exclude, viewpoints, p[inliers], borders
+                p, normal, offset, o, exclude, viewpoints, plane_uv, borders
             )
             tried.append({"inliers": int(inliers.size), **found["why"]})
             if found["clusters"]:
@@ -196,13 +204,14 @@ class RansacDbscan:
         o: RansacDbscanOptions,
         exclude: NDArray[np.bool_],
         viewpoints: Array | None = None,
-        plane_points: Array | None = None,
+        plane_uv: Array | None = None,
         borders: list[Footprint] | tuple[Footprint, ...] = (),
     ) -> dict[str, Any]:
         """Clusters standing on either side of a plane: the cameras' side when
         ``viewpoints`` are given, else the side with more points. A cluster
-        stands on a plane that reaches past its footprint (``plane_points``, the
-        inliers): an object's own face is no table for it. A cluster that hangs
+        stands on a plane that reaches past its footprint (``plane_uv`` ``(m,
+        2)``, the inliers projected on ``plane_basis(normal)``; reordered here):
+        an object's own face is no table for it. A cluster that hangs
         along one of the outlines ``borders`` (this plane's first, then those of
         wider planes) is no object: along another plane's, wherever it lies;
         along this plane's, on the side that the other clusters do not put up,
@@ -236,8 +245,8 @@ class RansacDbscan:
             }
         )
         standing = ~(small | far | large)
-        if plane_points is not None and standing.any():
-            beyond = _reaches_past(plane_points, normal, p, idx, lab, nlab)
+        if plane_uv is not None and standing.any():
+            beyond = _reaches_past(plane_uv, normal, p, idx, lab, nlab)
             why["on its own face"] = int((standing & ~beyond).sum())
             standing &= beyond
         # the clusters that decide which side is up
@@ -330,19 +339,19 @@ _FOOTPRINT_SIDES = 2
 
 
 def _reaches_past(
-    plane_points: Array,
+    plane_uv: Array,
     normal: Array,
     p: Array,
     idx: NDArray[np.int64],
     lab: NDArray[np.int64],
     nlab: int,
 ) -> NDArray[np.bool_]:
-    """Per cluster ``(nlab,)``: whether the plane's inliers reach past the
-    cluster's footprint (its bounding box in the plane) by ``_FOOTPRINT_MARGIN``
-    on ``_FOOTPRINT_SIDES`` or more sides. A table seen around an object does; an
+    """Per cluster ``(nlab,)``: whether the plane's inliers (``plane_uv`` ``(m,
+    2)``, projected on ``plane_basis(normal)``) reach past the cluster's
+    footprint (its bounding box in the plane) by ``_FOOTPRINT_MARGIN`` on
+    ``_FOOTPRINT_SIDES`` or more sides. A table seen around an object does; an
     object's face, which the rest of the object seems to stand on, does not."""
     basis = plane_basis(normal)  # (3, 2)
-    plane_uv = plane_points @ basis  # (m, 2)
     # (2,) each; plane_uv is a temporary the partition may reorder in place
     lo_p, hi_p = np.percentile(plane_uv, [1, 99], axis=0, overwrite_input=True)
     uv = p[idx] @ basis  # (k, 2)
