@@ -159,3 +159,34 @@ def test_a_folder_that_is_no_clutter_run_is_refused(tmp_path, capsys):
     assert (
         "no clutter.json, so it is no recorded clutter run" in capsys.readouterr().err
     )
+
+
+def _step(target, outcome, lifted, kind=None):
+    return {
+        "target": target,
+        "outcome": outcome,
+        "success": outcome == "success",
+        "lifted": lifted,
+        "kind": kind,
+        "plan_ms": 50.0,
+    }
+
+
+def test_a_target_lifted_but_slipping_in_the_grip_counts_as_lifted_not_held():
+    scene = {
+        "objects": ["a", "b", "c"],
+        "attempts": 4,
+        "successes": 1,
+        "removed": 3,
+        "steps": [
+            _step("a", "success", ["a"]),
+            _step("b", "slipped_in_grip", ["b"], "slip"),  # came up, moved in the grip
+            _step("c", "slipped_lifting", [], "slip"),  # stayed on the table
+            _step("c", "approach_collision", ["b2"], "neighbour_collision"),
+        ],
+    }
+    s = clutter_summary([scene])
+    assert s["successes"] == 1 and s["grasp_success_rate"] == 0.25
+    # the other object that came up with the last attempt is not its target
+    assert s["target_lifted"] == 2 and s["lift_rate"] == 0.5
+    assert s["failure_kinds"] == {"slip": 2, "neighbour_collision": 1}

@@ -161,6 +161,7 @@ def _print_table(report: dict[str, Any]) -> None:
         "gripper",
         "attempts",
         "grasp success",
+        "target lifted",
         "declutter",
         "plan ms (median / p90)",
         "failures",
@@ -169,10 +170,12 @@ def _print_table(report: dict[str, Any]) -> None:
     for g, r in report["grippers"].items():
         s = r["summary"]
         gs, dr = s["grasp_success_rate"], s["declutter_rate"]
+        lr = s.get("lift_rate")
         table.add_row(
             g,
             str(s["attempts"]),
             "-" if gs is None else f"{100 * gs:.1f} % ({s['successes']})",
+            "-" if lr is None else f"{100 * lr:.1f} % ({s['target_lifted']})",
             "-" if dr is None else f"{100 * dr:.1f} % ({s['removed']}/{s['objects']})",
             "-"
             if s["first_plan_ms_median"] is None
