@@ -11,8 +11,10 @@ their meshes works the same way):
 3. a plan with the gripper's default spec on each bundled scene
    (``examples/scenes``) and on an upright 6 x 5 x 11 cm box and a 5 cm cube;
 4. ``wsgrasp eval`` with the default spec on ``--objects`` (``random:000-299``,
-   the development range, 1 trial each, by default): success rate and failure
-   kinds.
+   the development range, 1 trial each, by default): success rate, failure
+   kinds, and success apart on objects that settled lower than
+   :data:`LOW_OBJECT` (lying flat: a hand whose fingertips cannot reach down
+   their sides touches them on top) and on the taller ones.
 
 The built-in grippers and the example plugins run steps 2-4 with their own
 YAMLs. Each gripper's trials run in a ``wsgrasp eval`` process of their own, so
@@ -53,6 +55,8 @@ BUILT_IN = {
         "/robotiq_2f85_like.yaml"
     ),
 }
+#: objects that settled lower than this (m) are counted apart
+LOW_OBJECT = 0.03
 #: the synthetic shapes every default spec must grasp: size (m), scene seed
 SHAPES = {"box 6x5x11": ((0.06, 0.05, 0.11), 2), "cube 5": ((0.05, 0.05, 0.05), 3)}
 
@@ -169,10 +173,47 @@ def trials(
         "successes": res["successes"],
         "success_rate": res["success_rate"],
         "failures": {k: v for k, v in res["failures"].items() if v},
+        **by_height(report.get("trial_records", [])),
         "plan_ms_median": res["plan_ms_median"],
         "sim_notes": report.get("sim_notes", {}),
         "eval_wall_s": report.get("wall_s"),
     }
+
+
+def by_height(records: list[dict[str, Any]]) -> dict[str, Any]:
+    """Trials and successes of the plans' grasps on objects that settled lower
+    than :data:`LOW_OBJECT` (``low``) and on the others (``tall``); nothing for
+    records without the object's height."""
+    plans = [
+        r
+        for r in records
+        if r.get("pick", "plan") == "plan" and r.get("object_height") is not None
+    ]
+    if not plans:
+        return {}
+    out = {}
+    for key, keep in (
+        ("low", lambda h: h < LOW_OBJECT),
+        ("tall", lambda h: h >= LOW_OBJECT),
+    ):
+        mine = [r for r in plans if keep(r["object_height"])]
+        out[key] = {
+            "trials": len(mine),
+            "successes": sum(r["outcome"] == "success" for r in mine),
+        }
+    return {"by_height": out, "low_object_m": LOW_OBJECT}
+
+
+def _cell_heights(row: dict[str, Any]) -> str:
+    """Success on the low objects and on the taller ones, or '–'."""
+    split = row.get("by_height")
+    if not split:
+        return "–"
+    cells = []
+    for key in ("low", "tall"):
+        n, k = split[key]["trials"], split[key]["successes"]
+        cells.append(f"{100 * k / n:.0f} % of {n}" if n else "–")
+    return " / ".join(cells)
 
 
 def commands(gripper: str, name: str, out: Path) -> dict[str, Any]:
@@ -252,8 +293,9 @@ def markdown(report: dict[str, Any]) -> str:
         f"{report['trials']} trial each, seed {report['seed']}, default spec.",
         "",
         "| gripper | source | fingers | scaffolds | `gripper check` | plans found "
-        "| plan, view, batch, dataset | success (failures) |",
-        "|---|---|---:|---|---|---|---|---|",
+        "| plan, view, batch, dataset | success (failures) "
+        f"| success, objects under {100 * LOW_OBJECT:.0f} cm high / taller |",
+        "|---|---|---:|---|---|---|---|---|---|",
     ]
     for r in report["rows"]:
         scaf = (
@@ -264,7 +306,7 @@ def markdown(report: dict[str, Any]) -> str:
         lines.append(
             f"| {r['name']} | {r['source']} | {r.get('fingers', '–')} | {scaf} | "
             f"{_cell_check(r)} | {_cell_plans(r)} | {_cell_commands(r)} | "
-            f"{_cell_success(r)} |"
+            f"{_cell_success(r)} | {_cell_heights(r)} |"
         )
     return "\n".join(lines) + "\n"
 
@@ -288,8 +330,8 @@ def readme_table(report: dict[str, Any]) -> str:
         "each, default spec).",
         "",
         "| gripper | fingers | from | scaffolds | `gripper check` | plans found "
-        "| held |",
-        "|---|---:|---|---|---|---|---:|",
+        f"| held | held, objects under {100 * LOW_OBJECT:.0f} cm high / taller |",
+        "|---|---:|---|---|---|---|---:|---:|",
     ]
     for r in report["rows"]:
         built_in = r["source"] == "built-in"
@@ -298,7 +340,8 @@ def readme_table(report: dict[str, Any]) -> str:
         held = f"{100 * r['success_rate']:.1f} %" if "success_rate" in r else "–"
         lines.append(
             f"| {r['name']} | {r.get('fingers', '–')} | {source} | {scaf} | "
-            f"{_cell_check(r)} | {_cell_plans(r).split(' (')[0]} | {held} |"
+            f"{_cell_check(r)} | {_cell_plans(r).split(' (')[0]} | {held} | "
+            f"{_cell_heights(r)} |"
         )
     return "\n".join(lines) + "\n"
 

@@ -265,3 +265,30 @@ def test_readme_gripper_table_is_the_published_run():
         "the README's gripper table differs from docs/results/grippers.json: run "
         "python benchmarks/eval_grippers.py --readme docs/results/grippers.json"
     )
+
+
+def test_gripper_table_counts_low_and_tall_objects_apart():
+    """The gripper table's split of the plans' grasps by how high the object
+    settled: plans only (random draws left out), records without a height
+    ignored."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        import eval_grippers
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    low = eval_grippers.LOW_OBJECT
+    records = [
+        {"pick": "plan", "object_height": low / 2, "outcome": "success"},
+        {"pick": "plan", "object_height": low / 2, "outcome": "slipped_lifting"},
+        {"pick": "plan", "object_height": 2 * low, "outcome": "success"},
+        {"pick": "random", "object_height": 2 * low, "outcome": "slipped_lifting"},
+        {"pick": "plan", "outcome": "success"},  # a run from before the heights
+    ]
+    split = eval_grippers.by_height(records)["by_height"]
+    assert split == {
+        "low": {"trials": 2, "successes": 1},
+        "tall": {"trials": 1, "successes": 1},
+    }
+    assert eval_grippers._cell_heights({"by_height": split}) == "50 % of 2 / 100 % of 1"
+    assert eval_grippers.by_height(records[-1:]) == {}
+    assert eval_grippers._cell_heights({}) == "–"

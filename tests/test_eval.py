@@ -51,6 +51,9 @@ def test_eval_one_object_one_trial(tmp_path: Path, capsys: pytest.CaptureFixture
     (record,) = [r for r in report["trial_records"] if r["spec"] == "default"]
     assert record["outcome"] in OUTCOMES
     assert record["protocol"] == report["params"]["protocol"] == "strict"
+    # the box settles on one of its faces: its height is one of its sides
+    sides = (0.13, 0.07, 0.055)
+    assert min(abs(record["object_height"] - s) for s in sides) < 0.005
     assert "| realsense_box |" in md.read_text()
 
 

@@ -387,3 +387,15 @@ def test_eval_uses_the_plans_targets_and_records_which(monkeypatch):
     assert closed == pytest.approx(
         {"yaml": 0.0, "plan": 0.01, "plan_again": 0.01, "wider": 0.03}, abs=5e-4
     )
+
+
+def test_eval_records_how_high_the_object_settled():
+    from wsgrasp.sim.runner import _height
+
+    box = SimObject("box", [Part("box", (0.05, 0.06, 0.08))], mass=0.1)
+    T = np.eye(4)
+    T[2, 3] = 0.04  # standing on its 5 x 6 cm face
+    assert _height(box, T) == pytest.approx(0.08)
+    lying = np.eye(4)
+    lying[:3, :3] = [[1, 0, 0], [0, 0, -1], [0, 1, 0]]  # its 8 cm side along y
+    assert _height(box, lying) == pytest.approx(0.06)

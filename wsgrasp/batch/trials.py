@@ -40,6 +40,7 @@ def trial_schema() -> Any:
             ("finger_targets", pa.string()),
             ("metrics", pa.map_(pa.string(), pa.float64())),
             ("drops", pa.int32()),
+            ("object_height", pa.float64()),
             ("plan_ms", pa.float64()),
             ("scene_s", pa.float64()),
             ("exec_s", pa.float64()),

@@ -208,6 +208,15 @@ def _plans(
     return result, [(i, by_index[i]) for i in drawn]
 
 
+def _height(obj: SimObject, T_world_object: Any) -> float:
+    """How high (m) the object stands on the table as it settled: its surface's
+    extent along the world's vertical (the table's normal)."""
+    v = np.asarray(obj.mesh().vertices, dtype=np.float64)  # (n, 3) object frame
+    T = np.asarray(T_world_object, dtype=np.float64)
+    z = v @ T[2, :3] + T[2, 3]  # (n,) world heights
+    return float(z.max() - z.min()) if len(z) else 0.0
+
+
 def _run_specs(
     task: Task,
     scene: Any,
@@ -234,6 +243,7 @@ def _run_specs(
             "pick": "plan",
             "protocol": p.protocol,
             "drops": settled.drops,
+            "object_height": _height(obj, settled.T_world_object),
             "scene_s": prep_s,
         }
         observers = []
@@ -280,7 +290,16 @@ def _random_records(
     )
     base = {
         k: chosen[k]
-        for k in ("object", "trial", "gripper", "spec", "protocol", "drops", "scene_s")
+        for k in (
+            "object",
+            "trial",
+            "gripper",
+            "spec",
+            "protocol",
+            "drops",
+            "object_height",
+            "scene_s",
+        )
     }
     found = [
         (i, plan) for i, plan in draws if plan.found and plan.T_world_ee is not None
