@@ -59,10 +59,10 @@ def _count_loop(
     d_codes: NDArray[np.integer],
     packed: NDArray[np.int64],
     held_f: NDArray[np.uint8],
-    unsure_f: NDArray[np.uint8],
     unsure_any: NDArray[np.uint8],
     start: NDArray[np.int32],
     listed: NDArray[np.int32],
+    owner: NDArray[np.int32],
     centers: Array,
     radii: Array,
     counts: NDArray[np.int64],
@@ -76,23 +76,25 @@ def _count_loop(
     themselves: ``held[dest[i], perm[j], f]`` for point ``j`` (``perm``: each
     column's index in the caller's point order).
 
-    The depth grid's code at each point's nearest node decides first: per
-    code (``FingerDepth``'s tables, ``(K, ...)``), ``packed[code, w]`` holds
-    finger ``f``'s held bit at bit ``16 (f % 4)`` of word ``w = f // 4``, so
-    one sum per word counts four fingers; ``held_f``, ``unsure_f`` (K, nf) and
-    ``unsure_any`` (K,) the fingers it proves to hold the point and those it
-    leaves open. For a finger it leaves unsure, the spheres listed at that node
-    (``FingerDepth.compact_lists``: from ``start[node]``, per unsure finger in
-    order, sphere ids ending at -1) decide, with the arithmetic of
-    ``FingerSpheres.holding_coordinates``.
+    The depth grid's list code at each point's nearest node decides first
+    (``FingerDepth.compact_lists``; the tables per list code, ``(L, ...)``):
+    ``packed[code, w]`` holds finger ``f``'s held bit at bit ``16 (f % 4)``
+    of word ``w = f // 4``, so one sum per word counts four fingers;
+    ``held_f`` (L, nf) the fingers it proves to hold the point, ``unsure_any``
+    (L,) whether it leaves some open. For those, the entries ``start[code]``
+    to ``start[code + 1]`` (a sphere ``listed`` of finger ``owner`` each)
+    decide, with the arithmetic of ``FingerSpheres.holding_coordinates``:
+    their bits go to the same words (a finger is never both held and unsure
+    at a node, so a lane still counts below 2**16).
 
     Per candidate, three loops: the nearest nodes of its points (from the
     points in node units, once per row of ``Q``, less the translation in node
     units: about 1e-14 of a node from ``(Q - u - origin) / cell``, far inside
     the grid's margin); their codes, noting the unsure points without a
-    branch; then the unsure points' listed spheres, each list read to its end
-    (on a 2,500-candidate chunk of the Allegro's dense search, 12-16 ms; the
-    sphere grid per point took 60-95 ms)."""
+    branch; then the unsure points' entries, one loop over them whatever
+    fingers they are for. The code names the entries, so an unsure point
+    reads no per-node table (a lookup in 10 MB of node starts took 40 % of
+    the Allegro's dense count loop, a branch per finger another 20 %)."""
     m = ol.shape[0]
     n = Q.shape[2]
     nf = counts.shape[1]
@@ -100,9 +102,9 @@ def _count_loop(
     Qn = np.empty((3, n))  # the row's points in node units, offset half a node
     node = np.empty(n, dtype=np.int64)
     unsure = np.empty(n, dtype=np.int64)
-    first = np.ascontiguousarray(packed[:, 0])  # (K,) fingers 0-3
+    first = np.ascontiguousarray(packed[:, 0])  # (L,) fingers 0-3
     more = np.zeros(words, dtype=np.int64)  # the words past the first
-    listed_held = np.zeros(nf, dtype=np.int64)  # held per finger by the lists
+    got = np.zeros(words, dtype=np.int64)  # one unsure point's held bits
     prev = -1
     keep = held.shape[0] > 0
     for i in range(m):
@@ -122,8 +124,6 @@ def _count_loop(
         total = np.int64(0)  # the first word: fingers 0-3
         for w in range(1, words):
             more[w] = 0
-        for f in range(nf):
-            listed_held[f] = 0
         nu = 0
         row = dest[i] if keep else 0
         # up to four fingers (one word): loops without the one over words,
@@ -163,28 +163,25 @@ def _count_loop(
             x = Q[r, 0, j] - ux
             y = Q[r, 1, j] - uy
             z = Q[r, 2, j] - uz
-            at = start[node[j]]
             pj = perm[j]
-            for f in range(nf):
-                if not unsure_f[code, f]:
-                    continue
-                inside = False
-                s = listed[at]
-                while s >= 0:
-                    dx = x - centers[s, 0]
-                    dy = y - centers[s, 1]
-                    dz = z - centers[s, 2]
-                    inside |= dx * dx + dy * dy + dz * dz < radii[s] * radii[s]
-                    at += 1
-                    s = listed[at]
-                at += 1  # past the terminator
-                listed_held[f] += inside
+            for e in range(start[code], start[code + 1]):
+                s = listed[e]
+                dx = x - centers[s, 0]
+                dy = y - centers[s, 1]
+                dz = z - centers[s, 2]
+                inside = dx * dx + dy * dy + dz * dz < radii[s] * radii[s]
+                f = owner[e]
+                got[f >> 2] |= np.int64(inside) << (16 * (f & 3))
                 if keep and inside:
                     held[row, pj, f] = True
+            total += got[0]
+            got[0] = 0
+            for w in range(1, words):
+                more[w] += got[w]
+                got[w] = 0
         for f in range(nf):
             word = total if f < 4 else more[f // 4]
-            lane = (word >> (16 * (f % 4))) & 0xFFFF
-            counts[i, f] = lane + listed_held[f]
+            counts[i, f] = (word >> (16 * (f % 4))) & 0xFFFF
 
 
 #: the compiled loops, once :func:`load` has compiled or loaded them
@@ -232,7 +229,7 @@ def count_by_fingers(
     """
     run = loop or _compiled_count or load()[0]
     _, _, centers, radii = depth.sphere_lists()
-    start, listed = depth.compact_lists()
+    codes, of, start, listed, owner = depth.compact_lists()
     n = Q.shape[2]
     if n >= 2**16:
         raise ValueError(f"count_by_fingers counts below 2**16 points, got {n}")
@@ -249,13 +246,13 @@ def count_by_fingers(
         float(1.0 / depth.cell),
         np.asarray(depth.shape - 1, dtype=np.float64),
         np.asarray(depth.strides, dtype=np.float64),
-        depth.codes,
-        depth.packed_held,
-        depth.held_fingers.view(np.uint8),
-        depth.unsure_fingers.view(np.uint8),
-        depth.unsure_codes.view(np.uint8),
+        codes,
+        depth.packed_held[of],  # (L, ...) the tables per list code
+        depth.held_fingers[of].view(np.uint8),
+        depth.unsure_codes[of].view(np.uint8),
         start,
         listed,
+        owner,
         np.ascontiguousarray(centers, dtype=np.float64),
         np.ascontiguousarray(radii, dtype=np.float64),
         counts,

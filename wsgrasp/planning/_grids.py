@@ -33,6 +33,9 @@ Array = NDArray[np.float64]
 #: bounds decide a verdict only this far (m) from it
 MARGIN = 1e-6
 _SQRT3 = float(np.sqrt(3.0))
+#: ``FingerDepth.compact_lists``: list codes, their codes, starts, spheres, fingers
+_Ints = NDArray[np.int32]
+_Compact = tuple[NDArray[np.integer], NDArray[np.int64], _Ints, _Ints, _Ints]
 
 
 class NearestPoint:
@@ -142,7 +145,7 @@ class FingerDepth:
         )
         self._lists: tuple[NDArray[np.int32], NDArray[np.int32], Array, Array] | None
         self._lists = None
-        self._compact: tuple[NDArray[np.int32], NDArray[np.int32]] | None = None
+        self._compact: _Compact | None = None
         reach = 2.0 * lim  # nodes farther than this from every sphere: D < -lim
         lo, hi = lo0 - reach - h, hi0 + reach + h
         shape = np.ceil((hi - lo) / h).astype(np.int64) + 1
@@ -297,38 +300,53 @@ class FingerDepth:
         self._lists = (node_id, lists, centers, radii)
         return self._lists
 
-    def compact_lists(self) -> tuple[NDArray[np.int32], NDArray[np.int32]]:
-        """:meth:`sphere_lists` without the padding, for a loop that reads one
-        node at a time (built on first use, then kept).
+    def compact_lists(self) -> _Compact:
+        """:meth:`sphere_lists` as the compiled count loop reads them: one code
+        per node that names its lists too, so that a point's code says both
+        its fingers' states and where its spheres are listed (built on first
+        use, then kept).
+
+        A node unsure for no finger keeps its code; one unsure for some finger
+        gets ``K`` (the number of codes) plus the rank of its combination of
+        code and lists among those that occur (a few thousand on the Allegro
+        hand's 156,000 unsure nodes).
 
         Returns
         -------
-        start : (nodes,) int32
-            Where each node's lists begin in ``listed`` (0 at the nodes unsure
-            for no finger, which are never read).
-        listed : (e,) int32
-            Per node, for each finger its code leaves unsure, in finger order:
-            that finger's sphere ids (into :meth:`sphere_lists`' ``centers``,
-            ``radii``), then -1.
+        codes : (nodes,) int
+            Per node its list code, in the narrowest unsigned integers that
+            hold it (int32 beyond 2**16).
+        of : (L,) int
+            Per list code, its code: the row of :attr:`states`.
+        start : (L + 1,) int32
+            List code ``c``'s entries are ``start[c]`` to ``start[c + 1]``.
+        listed, owner : (e,) int32
+            Per entry, a sphere (into :meth:`sphere_lists`' ``centers``,
+            ``radii``) and its finger, one that the code leaves unsure.
         """
         if self._compact is not None:
             return self._compact
         node_id, lists, _, radii = self.sphere_lists()
-        pad = len(radii) - 1
-        nodes = np.flatnonzero(node_id >= 0)  # ascending, so compact ids in order
-        L = lists[node_id[nodes]]  # (u, nf, K)
-        open_f = self._unsure_f[self.codes[nodes]]  # (u, nf) the fingers listed
-        real = (L != pad) & open_f[:, :, None]  # (u, nf, K)
-        # entries per (node, finger): its spheres and a terminator, if listed
-        per = real.sum(axis=2) + open_f  # (u, nf)
-        ends = np.cumsum(per.ravel()).reshape(per.shape)  # (u, nf) exclusive end
-        begin = ends - per  # (u, nf) where each finger's list starts
-        listed = np.full(int(per.sum()), -1, dtype=np.int32)
-        u_i, f_i, k_i = np.nonzero(real)  # spheres in list order (k ascending)
-        listed[begin[u_i, f_i] + k_i] = L[u_i, f_i, k_i]  # lists end at padding
-        start = np.zeros(len(self.codes), dtype=np.int32)
-        start[nodes] = begin[:, 0]
-        self._compact = (start, listed)
+        K, pad = len(self.states), len(radii) - 1
+        nodes = np.flatnonzero(node_id >= 0)
+        L = lists[node_id[nodes]]  # (u, nf, w)
+        key = np.concatenate(
+            [self.codes[nodes, None].astype(np.int32), L.reshape(len(nodes), -1)], 1
+        )  # (u, 1 + nf w) a node's code and lists, one byte string a row
+        rows = key.view(np.dtype((np.void, 4 * key.shape[1]))).ravel()
+        _, first, rank = np.unique(rows, return_index=True, return_inverse=True)
+        total = K + len(first)
+        wide = np.uint8 if total <= 2**8 else np.uint16 if total <= 2**16 else np.int32
+        codes: NDArray[np.integer] = self.codes.astype(wide)
+        codes[nodes] = K + rank.ravel()
+        of: NDArray[np.int64] = np.concatenate([np.arange(K), self.codes[nodes[first]]])
+        U = L[first]  # (L - K, nf, w) each combination's lists
+        real = (U != pad) & self._unsure_f[of[K:]][:, :, None]
+        c_i, f_i, k_i = np.nonzero(real)  # entries by combination, finger, rank
+        start = np.zeros(total + 1, dtype=np.int32)
+        start[K + 1 :] = np.cumsum(np.bincount(c_i, minlength=len(first)))
+        listed = U[c_i, f_i, k_i].astype(np.int32)
+        self._compact = (codes, of, start, listed, f_i.astype(np.int32))
         return self._compact
 
 
