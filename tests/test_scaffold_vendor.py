@@ -284,6 +284,64 @@ def test_hand_on_a_forearm_approaches_palm_first_and_finds_grasps(tmp_path):
     assert result.found, result.hint
 
 
+def test_hand_gets_a_fingertips_first_alternative_and_claws_none(tmp_path):
+    """A hand of four fingers gets a second approach along its open fingers
+    (a unit axis with a closing axis across it); a jaw gets none."""
+    urdf = tmp_path / "hand.urdf"
+    urdf.write_text(forearm_hand_urdf())
+    sc = guess_description(urdf, "hand")
+    alt = sc.fingertips_first
+    assert alt is not None and alt["notes"]["approach_axis"].startswith("fingertips")
+    a, c = np.array(alt["approach_axis"]), np.array(alt["closing_axis"])
+    assert abs(np.linalg.norm(a) - 1) < 1e-5 and abs(float(a @ c)) < 1e-5
+    # the fingers stand on the palm's top (+z), leaning towards its front (+y)
+    assert a[2] > 0.5 and a[1] > 0.3
+    assert np.degrees(np.arccos(a @ np.array(sc.data["approach_axis"]))) > 30
+    (tmp_path / "jaw.urdf").write_text(
+        named_jaw_urdf(("left_joint", "right_joint"), ("palm", "left", "right"))
+    )
+    assert guess_description(tmp_path / "jaw.urdf", "jaw").fingertips_first is None
+
+
+@pytest.mark.parametrize(
+    ("palm", "tips", "first"), [(10, 30, "tips"), (30, 10, "palm"), (5, 5, "palm")]
+)
+def test_approach_with_more_feasible_grasps_on_flat_objects_is_kept(
+    tmp_path, monkeypatch, palm, tips, first
+):
+    """`gripper new` plans both approaches on flat objects and keeps the one
+    that leaves more feasible grasps (palm first on a tie), saying so."""
+    from wsgrasp.gripper import _approach
+
+    urdf = tmp_path / "hand.urdf"
+    urdf.write_text(forearm_hand_urdf())
+    sc = guess_description(urdf, "hand")
+    palm_axes = sc.data["approach_axis"], sc.data["closing_axis"]
+    alt = sc.fingertips_first
+    seen = []
+
+    def count(path):
+        d = yaml.safe_load(Path(path).read_text())
+        seen.append(path.name)
+        return tips if d["approach_axis"] == alt["approach_axis"] else palm
+
+    monkeypatch.setattr(_approach, "feasible_on_low_objects", count)
+    _approach.choose_approach(sc, tmp_path)
+    assert len(seen) == 2 and not list(tmp_path.glob(".hand-*"))  # removed
+    note = sc.notes["approach_axis"]
+    assert f"{tips} feasible grasps fingertips first and {palm} palm first" in note
+    if first == "tips":
+        assert (sc.data["approach_axis"], sc.data["closing_axis"]) == (
+            alt["approach_axis"],
+            alt["closing_axis"],
+        )
+        assert note.startswith("fingertips first")
+        assert sc.notes["closing_axis"] == alt["notes"]["closing_axis"]
+    else:
+        assert (sc.data["approach_axis"], sc.data["closing_axis"]) == palm_axes
+    GripperDescription.model_validate(sc.data)
+
+
 # ------------------------------------------------------------------------------
 # Meshes
 # ------------------------------------------------------------------------------
@@ -400,10 +458,19 @@ def test_vendor_gripper_scaffolds_and_checks(tmp_path, name):
         assert len(d["fingers"]) == 5
     if name in ("barrett", "dclaw", "panda"):
         assert d["approach_axis"] == [0.0, 0.0, 1.0]
-    if name in ("ability", "shadow"):  # palm first: the palms face +x
-        assert d["approach_axis"] == [1.0, 0.0, 0.0]
+    if name in ("ability", "shadow"):
         # fingertips meeting the thumb's, not curled past it
         assert "nearest a common point" in sc.notes["closed"]
+        # both approaches planned on flat objects: the Ability hand's palm (+x)
+        # leaves more grasps, the Shadow hand's fingertips (+z, along its
+        # fingers), whose open thumb stands far out in front of the palm
+        note = sc.notes["approach_axis"]
+        assert "feasible grasps fingertips first" in note
+        if name == "ability":
+            assert d["approach_axis"] == [1.0, 0.0, 0.0] and "palm" in note
+        else:
+            assert d["approach_axis"] == [0.0, 0.0, 1.0]
+            assert note.startswith("fingertips first")
     if name in ("barrett", "dclaw", "robotiq_3f"):  # tips that cross or part
         assert "closing all joints together" in sc.notes["closed"]
     if name == "robotiq_3f":

@@ -34,6 +34,11 @@ MAX_GRIPPER_EXTENT = 1.5
 MIN_GRIPPER_EXTENT = 0.01
 #: an axis within this angle (degrees) of a base-frame axis is snapped onto it
 SNAP_DEG = 15.0
+#: a hand of at least this many fingers may approach fingertips first, when the
+#: way its open fingers point lies more than FINGERTIPS_FIRST_DEG from its palm's
+#: normal (grippers of fewer fingers approach along them already)
+FINGERTIPS_FIRST_MIN = 4
+FINGERTIPS_FIRST_DEG = 30.0
 #: a joint that brings its fingertip nearer the other fingers by less than this
 #: fraction of its finger's strongest closer is a posture joint (ab/adduction):
 #: held in place, not opened
@@ -107,6 +112,9 @@ class Scaffold:
     warnings: list[str] = field(default_factory=list)
     build_error: str | None = None
     limits: dict[str, tuple[float, float]] = field(default_factory=dict)
+    #: a second approach for a hand, fingertips first: ``approach_axis``,
+    #: ``closing_axis`` and their notes; :func:`choose_approach` picks one
+    fingertips_first: dict[str, Any] | None = None
 
 
 @dataclass
@@ -1112,8 +1120,9 @@ def _axes(
     pads: list[dict[str, Any]],
     pregrasp: dict[str, float],
     closed: dict[str, float],
-) -> tuple[Array, Array, Array]:
-    """Approach axis, closing axis and TCP position from the pads.
+) -> tuple[Array, Array, Array, Array | None]:
+    """Approach axis, closing axis, TCP position and, for a hand, the direction
+    in which its open fingers point.
 
     The approach axis is the side of the palm that grasps: the outward normal of
     the face of the palm's geometry box (:func:`_palm_link`) through which its
@@ -1121,25 +1130,22 @@ def _axes(
     closed; their centre is that of the smallest ball holding them, so that two
     fingers against one do not pull it their way). A jaw's fingers hold an
     object beyond the palm's end, so it approaches along them; a hand's fingers
-    curl in front of the palm, so it approaches palm first, whatever the
+    curl in front of the palm, so it may approach palm first, whatever the
     forearm or wrist above it. Without a palm with geometry, or with that
     centre inside the palm's box, the axis points from the base origin to the
     pads' centre (open). The closing axis is the main direction across it in
     which the pads move relative to each other (their closing motions less the
     motion they share, such as curling towards the palm).
+
+    The last value is the fingers' direction (:func:`_finger_direction`) where it
+    lies more than :data:`FINGERTIPS_FIRST_DEG` from the approach axis: a hand
+    can also approach fingertips first, and :func:`choose_approach` decides.
     """
 
-    def pad_points(posture: dict[str, float]) -> Array:
-        ps = u.kin.link_poses(u.base, posture)
-        out = []
-        for p in pads:
-            T = ps[p["link"]]
-            out.append(T[:3, :3] @ np.asarray(p["center"]) + T[:3, 3])
-        return np.array(out)  # (F, 3)
-
-    p_open, p_closed = pad_points(pregrasp), pad_points(closed)
+    p_open, p_closed = _pad_centres(u, pads, pregrasp), _pad_centres(u, pads, closed)
     mid = {m: 0.5 * (pregrasp[m] + closed[m]) for m in pregrasp}
-    face = _palm_face(u, [p["link"] for p in pads], pregrasp, pad_points(mid))
+    half_closed = _pad_centres(u, pads, mid)
+    face = _palm_face(u, [p["link"] for p in pads], pregrasp, half_closed)
     if face is not None:
         approach, u.notes["approach_axis"] = _snap(
             face[0],
@@ -1163,6 +1169,34 @@ def _axes(
             "of the smallest ball holding them), as no palm link with geometry "
             "faces them",
         )
+    closing, u.notes["closing_axis"] = _closing_axis(u, approach, p_open, p_closed)
+    u.notes["tool_frame"] = "midway between the pads' centres open and closed"
+    tcp = 0.5 * (p_open.mean(axis=0) + p_closed.mean(axis=0))
+    fingers = _finger_direction(u, [p["link"] for p in pads], pregrasp)
+    if fingers is not None:
+        angle = np.degrees(np.arccos(np.clip(fingers @ approach, -1.0, 1.0)))
+        if angle <= FINGERTIPS_FIRST_DEG:
+            fingers = None
+    return approach, closing, tcp, fingers
+
+
+def _pad_centres(
+    u: _Urdf, pads: list[dict[str, Any]], posture: dict[str, float]
+) -> Array:
+    """The pads' centres in the base frame at ``posture``: ``(F, 3)``."""
+    ps = u.kin.link_poses(u.base, posture)
+    out = []
+    for p in pads:
+        T = ps[p["link"]]
+        out.append(T[:3, :3] @ np.asarray(p["center"]) + T[:3, 3])
+    return np.array(out)
+
+
+def _closing_axis(
+    u: _Urdf, approach: Array, p_open: Array, p_closed: Array
+) -> tuple[Array, str]:
+    """The closing axis across ``approach`` from the pads open and closed
+    ``(F, 3)``, with its note (see :func:`_axes`)."""
 
     def across(v: Array) -> Array:
         return v - np.outer(v @ approach, approach)  # (F, 3)
@@ -1180,18 +1214,52 @@ def _axes(
         helper = np.eye(3)[int(np.argmin(np.abs(approach)))]
         closing = np.cross(approach, helper)
         what = "any axis perpendicular to the approach axis (the pads do not move)"
-        u.warnings.append("the pads do not move across the approach axis when closing")
+        warning = "the pads do not move across the approach axis when closing"
+        if warning not in u.warnings:
+            u.warnings.append(warning)
     else:
         closing = np.linalg.eigh(relative.T @ relative)[1][:, -1]
     closing = closing - (closing @ approach) * approach
-    closing, u.notes["closing_axis"] = _snap(closing, what)
+    closing, note = _snap(closing, what)
     if abs(float(closing @ approach)) > 1e-6:  # the snap broke orthogonality
         closing = closing - (closing @ approach) * approach
         closing /= np.linalg.norm(closing)
     if closing[int(np.argmax(np.abs(closing)))] < 0:
         closing = -closing
-    u.notes["tool_frame"] = "midway between the pads' centres open and closed"
-    return approach, closing, 0.5 * (p_open.mean(axis=0) + p_closed.mean(axis=0))
+    return closing, note
+
+
+def _finger_direction(
+    u: _Urdf, distal: list[str], pregrasp: dict[str, float]
+) -> Array | None:
+    """The way a hand's open fingers point (base frame, unit): the mean over the
+    fingers of the unit vector from the finger's first joint to its distal
+    link's geometry-box centre, at ``pregrasp``. None for fewer than
+    :data:`FINGERTIPS_FIRST_MIN` fingers (a jaw or a claw approaches along its
+    fingers already) or where the fingers point every way (the mean is short)."""
+    if len(distal) < FINGERTIPS_FIRST_MIN:
+        return None
+    poses = u.kin.link_poses(u.base, pregrasp)
+    directions = []
+    for link in distal:
+        first = next(
+            (
+                j
+                for j in u.kin.chain(u.base, link)
+                if j.kind != 0 and u.kin.master(j.name) not in u.wrist
+            ),
+            None,
+        )
+        if first is None:
+            return None
+        v = u.centroids([link], pregrasp)[0] - poses[first.child][:3, 3]
+        if float(np.linalg.norm(v)) < 1e-9:
+            return None
+        directions.append(v / np.linalg.norm(v))
+    mean = np.mean(directions, axis=0)  # (3,)
+    if float(np.linalg.norm(mean)) < 0.5:
+        return None
+    return _snap(mean, "")[0]
 
 
 def _settings(
@@ -1263,7 +1331,21 @@ def guess_description(
     limits = _stop_at_palm(u, fingers, pregrasp, closed)
     pads = _pads(u, distal, names, pregrasp, closed, targets)
     _stop_where_pads_meet(u, fingers, pads, pregrasp, closed)
-    approach, closing, tcp = _axes(u, pads, pregrasp, closed)
+    approach, closing, tcp, tips_axis = _axes(u, pads, pregrasp, closed)
+    alternative = None
+    if tips_axis is not None:
+        ends = _pad_centres(u, pads, pregrasp), _pad_centres(u, pads, closed)
+        closing_f, closing_note = _closing_axis(u, tips_axis, *ends)
+        alternative = {
+            "approach_axis": _r(tips_axis, 6),
+            "closing_axis": _r(closing_f, 6),
+            "notes": {
+                "approach_axis": "fingertips first: the way the open fingers point "
+                "(the mean of the directions from each finger's first joint to its "
+                "tip, at pregrasp)",
+                "closing_axis": closing_note,
+            },
+        }
     data: dict[str, Any] = {
         "version": 1,
         "name": name,
@@ -1283,7 +1365,13 @@ def guess_description(
         "pregrasp": {k: float(v) for k, v in pregrasp.items()},
         "closed": {k: float(v) for k, v in closed.items()},
     }
-    return Scaffold(data, u.notes, u.kin.warnings + u.warnings, limits=limits)
+    return Scaffold(
+        data,
+        u.notes,
+        u.kin.warnings + u.warnings,
+        limits=limits,
+        fingertips_first=alternative,
+    )
 
 
 def fit_sphere_count(scaffold: Scaffold, base_dir: Path) -> None:

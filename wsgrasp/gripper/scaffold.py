@@ -20,6 +20,7 @@ from typing import Any
 
 from wsgrasp.default_specs import generic_spec_text
 from wsgrasp.errors import GripperError, WsgraspError
+from wsgrasp.gripper._approach import choose_approach
 from wsgrasp.gripper._guess import Scaffold, fit_sphere_count, guess_description
 from wsgrasp.gripper._scaffold_urdf import MESH_UNITS, copy_urdf, narrow_limits
 
@@ -360,6 +361,7 @@ def _write_package(
     scaffold.warnings[:0] = mesh_warnings
     narrow_limits(urdf_copy, scaffold.limits)
     fit_sphere_count(scaffold, pkg)
+    choose_approach(scaffold, pkg)
     header = []
     if mesh_notes:
         header.append("meshes copied: " + "; ".join(mesh_notes))

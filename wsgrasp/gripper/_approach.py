@@ -1,0 +1,91 @@
+"""Palm first or fingertips first: how ``gripper new`` picks a hand's approach.
+
+A hand of four or more fingers can meet an object two ways: palm first, the
+fingers curling round it in front of the palm, or fingertips first, the fingers
+pointing at it and closing on it with their tips against the thumb's. Which one
+grasps more depends on the hand: a hand whose open thumb stands far out in front
+of its palm cannot bring its pads down to an object lying flat palm first (the
+thumb meets the table first), while a hand with short, thick fingers reaches
+such an object palm first and hardly at all fingertips first. No single
+geometric rule read from the URDF told these apart on the hands wsgrasp is
+developed against, so :func:`choose_approach` plans both on a few low objects
+(:data:`LOW_OBJECTS`, rendered as the views of a camera would see them) and keeps
+the approach that leaves more feasible grasps. Upright objects do not decide:
+either approach grasps them from the side.
+"""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+from typing import Any
+
+from wsgrasp.gripper._guess import Scaffold
+
+__all__ = ["LOW_OBJECTS", "choose_approach"]
+
+#: the objects both approaches are planned on: (primitive, size in m), each in
+#: two renderings (seeds 0 and 1): a book, a small box and a disc lying flat
+LOW_OBJECTS: tuple[tuple[str, tuple[float, ...]], ...] = (
+    ("box", (0.08, 0.05, 0.02)),
+    ("box", (0.04, 0.04, 0.015)),
+    ("cylinder", (0.03, 0.02)),
+)
+SEEDS = (0, 1)
+
+
+def feasible_on_low_objects(yaml_path: Path) -> int:
+    """Feasible candidates summed over :data:`LOW_OBJECTS` for the gripper YAML
+    at ``yaml_path``, planned with wsgrasp's generic default spec."""
+    from wsgrasp._loading import load_document
+    from wsgrasp.api import Pipeline
+    from wsgrasp.default_specs import GENERIC_DEFAULT
+    from wsgrasp.perception.synth import synth_scene
+    from wsgrasp.spec import PipelineSpec
+
+    data, _ = load_document(GENERIC_DEFAULT)
+    spec = {**dict(data), "gripper": str(yaml_path), "record": {"enabled": False}}
+    pipeline = Pipeline(PipelineSpec.model_validate(spec))
+    total = 0
+    for kind, size in LOW_OBJECTS:
+        for seed in SEEDS:
+            scene = synth_scene(kind, size=size, seed=seed)
+            total += int(pipeline.plan(scene.points).candidates.feasible.sum())
+    return total
+
+
+def choose_approach(scaffold: Scaffold, base_dir: Path) -> None:
+    """Keep the palm-first guess in ``scaffold`` or switch it to fingertips
+    first (``scaffold.fingertips_first``), whichever leaves more feasible grasps
+    on :data:`LOW_OBJECTS`; a tie keeps palm first. Notes the counts. The two
+    trial YAMLs are written into ``base_dir`` (beside the URDF they name) and
+    removed."""
+    from wsgrasp.gripper.scaffold import render_yaml
+
+    alternative = scaffold.fingertips_first
+    if alternative is None:
+        return
+    fingers = copy.deepcopy(scaffold)
+    fingers.data.update(
+        approach_axis=alternative["approach_axis"],
+        closing_axis=alternative["closing_axis"],
+    )
+    fingers.notes.update(alternative["notes"])
+    counts: list[int] = []
+    for label, option in (("palm", scaffold), ("fingertips", fingers)):
+        path = Path(base_dir) / f".{scaffold.data['name']}-{label}-first.yaml"
+        path.write_text(render_yaml(option))
+        try:
+            counts.append(feasible_on_low_objects(path))
+        finally:
+            path.unlink(missing_ok=True)
+    palm, tips = counts
+    what = (
+        f"; planned on {len(LOW_OBJECTS) * len(SEEDS)} renderings of "
+        f"{len(LOW_OBJECTS)} objects lying flat, it leaves {tips} feasible grasps "
+        f"fingertips first and {palm} palm first"
+    )
+    chosen: dict[str, Any] = fingers.data if tips > palm else scaffold.data
+    notes = fingers.notes if tips > palm else scaffold.notes
+    scaffold.data = chosen
+    scaffold.notes = {**notes, "approach_axis": notes["approach_axis"] + what}
