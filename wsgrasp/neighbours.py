@@ -149,9 +149,13 @@ def _blocked_all(
         return none
     cand = np.repeat(np.arange(C), counts)  # (P,) candidate of each pair
     idx = np.concatenate([np.asarray(n, dtype=np.int64) for n in near if len(n)])
-    # (P, 3) each pair's point in its candidate's gripper frame: R^T (p - t)
-    d = points[idx] - T[cand, :3, 3]
-    p_g = np.einsum("pji,pj->pi", T[cand, :3, :3], d)
+    # (P, 3) each pair's point in its candidate's gripper frame: R^T (p - t),
+    # one candidate's run of pairs at a time
+    p_g = np.empty((len(idx), 3))
+    end = np.cumsum(counts)
+    for c in np.flatnonzero(counts):
+        s, e = end[c] - counts[c], end[c]
+        np.matmul(points[idx[s:e]] - T[c, :3, 3], T[c, :3, :3], out=p_g[s:e])
     hit = inside(p_g, cand)
     if not hit.any():
         return none
@@ -182,15 +186,20 @@ def _blocked_in_sweeps(
     for a in range(0, len(T), step):
         Tc = T[a : a + step]
         # (c, n, 3) the target's points in each candidate's gripper frame
-        p_g = np.einsum("cji,cnj->cni", Tc[:, :3, :3], pts[None] - Tc[:, None, :3, 3])
+        p_g = np.matmul(pts[None] - Tc[:, None, :3, 3], Tc[:, :3, :3])
         steps = reach_steps(g, p_g.reshape(-1, 3))
         first[a : a + step] = steps.reshape(len(Tc), len(pts), -1).min(axis=1)
 
     def inside(p: Array, cand: NDArray[np.int64]) -> NDArray[np.bool_]:
-        steps = reach_steps(g, p)  # (m, nf)
-        # a finger whose sweep never meets the target (it closes to its own
-        # contact, off this straight path) is not judged
-        f = first[cand]  # (m, nf)
-        return ((steps <= f) & (f < K)).any(axis=1)  # type: ignore[no-any-return]
+        hit = np.zeros(len(p), dtype=bool)
+        for f in range(g.num_fingers):
+            limit = first[cand, f]  # (m,)
+            # a finger whose sweep never meets the target (it closes to its own
+            # contact, off this straight path) is not judged, nor a point
+            # another finger reaches first
+            todo = np.flatnonzero((limit < K) & ~hit)
+            if len(todo):
+                hit[todo] = reach_steps(g, p[todo], finger=f)[:, 0] <= limit[todo]
+        return hit
 
     return _blocked_all(T, obstacles, mid, reach, inside)

@@ -263,17 +263,21 @@ def _reach_grid(points: Array) -> tuple[Array, NDArray[np.uint8]]:
     return origin, grid
 
 
-def reach_steps(g: GripperModel, points: Array) -> NDArray[np.int64]:
+def reach_steps(
+    g: GripperModel, points: Array, finger: int | None = None
+) -> NDArray[np.int64]:
     """Per point ``(m, 3)`` (gripper frame) and finger: the first posture (step
     along the closing path, as :func:`finger_sweep` counts them) at which the
     finger's sweep reaches the point, ``K`` (the path's steps) where it never
-    does: ``(m, nf)``. Looked up in the fingers' reach grids, built once per
-    model."""
+    does: ``(m, nf)``, or ``(m, 1)`` for ``finger`` alone. Looked up in the
+    fingers' reach grids, built once per model."""
     index = _sweep_index(g)
     K = index.hull.shape[1]
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    out = np.empty((len(p), len(index.reach)), dtype=np.int64)
-    for f, grid in enumerate(index.reach):
+    fingers = range(len(index.reach)) if finger is None else [finger]
+    out = np.empty((len(p), len(fingers)), dtype=np.int64)
+    for col, f in enumerate(fingers):
+        grid = index.reach[f]
         ijk = np.rint((p - index.origin[f]) / REACH_VOXEL).astype(np.int64)  # (m, 3)
         nx, ny, nz = grid.shape
         i, j, k = ijk[:, 0], ijk[:, 1], ijk[:, 2]
@@ -282,7 +286,7 @@ def reach_steps(g: GripperModel, points: Array) -> NDArray[np.int64]:
         # and a tuple of index arrays took twice as long (the neighbour test
         # looks up some 100,000 points per finger in a clutter plan)
         flat = np.where(ok, (i * ny + j) * nz + k, 0)
-        out[:, f] = np.where(ok, grid.reshape(-1)[flat], K)
+        out[:, col] = np.where(ok, grid.reshape(-1)[flat], K)
     return out
 
 
