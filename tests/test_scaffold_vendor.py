@@ -342,6 +342,30 @@ def test_approach_with_more_feasible_grasps_on_flat_objects_is_kept(
     GripperDescription.model_validate(sc.data)
 
 
+def test_approach_trial_that_cannot_plan_keeps_palm_first(tmp_path, monkeypatch):
+    """Where planning a trial approach fails, the guess stays palm first and the
+    note says why, instead of `gripper new` failing."""
+    from wsgrasp.errors import GripperError
+    from wsgrasp.gripper import _approach
+
+    urdf = tmp_path / "hand.urdf"
+    urdf.write_text(forearm_hand_urdf())
+    sc = guess_description(urdf, "hand")
+    palm_axis = sc.data["approach_axis"]
+
+    def fail(path):
+        raise GripperError("the model does not build", hint="")
+
+    monkeypatch.setattr(_approach, "feasible_on_low_objects", fail)
+    _approach.choose_approach(sc, tmp_path)
+    assert sc.data["approach_axis"] == palm_axis
+    assert (
+        "palm-first guess cannot plan (the model does not build"
+        in (sc.notes["approach_axis"])
+    )
+    assert not list(tmp_path.glob(".hand-*"))
+
+
 # ------------------------------------------------------------------------------
 # Meshes
 # ------------------------------------------------------------------------------

@@ -20,6 +20,7 @@ import copy
 from pathlib import Path
 from typing import Any
 
+from wsgrasp.errors import WsgraspError
 from wsgrasp.gripper._guess import Scaffold
 
 __all__ = ["LOW_OBJECTS", "choose_approach"]
@@ -77,6 +78,12 @@ def choose_approach(scaffold: Scaffold, base_dir: Path) -> None:
         path.write_text(render_yaml(option))
         try:
             counts.append(feasible_on_low_objects(path))
+        except WsgraspError as exc:  # a guess that does not build: keep palm first
+            scaffold.notes["approach_axis"] += (
+                f"; fingertips first was not tried: the {label}-first guess "
+                f"cannot plan ({str(exc).splitlines()[0]})"
+            )
+            return
         finally:
             path.unlink(missing_ok=True)
     palm, tips = counts
