@@ -10,8 +10,10 @@ such an object palm first and hardly at all fingertips first. No single
 geometric rule read from the URDF told these apart on the hands wsgrasp is
 developed against, so :func:`choose_approach` plans both on a few low objects
 (:data:`LOW_OBJECTS`, rendered as the views of a camera would see them) and keeps
-the approach that leaves more feasible grasps. Upright objects do not decide:
-either approach grasps them from the side.
+the approach that leaves more feasible grasps. Upright objects are left out: a
+hand finds grasps on them either way, and their counts did not follow what held
+(the Shadow hand's palm-first guess leaves more feasible grasps on upright
+boxes and cylinders, yet holds fewer of the taller random objects in MuJoCo).
 """
 
 from __future__ import annotations
