@@ -320,7 +320,8 @@ def test_approach_with_more_feasible_grasps_on_flat_objects_is_kept(
     alt = sc.fingertips_first
     seen = []
 
-    def count(path):
+    def count(path, scenes):
+        assert len(scenes) == 6  # 3 flat objects, 2 renderings each
         d = yaml.safe_load(Path(path).read_text())
         seen.append(path.name)
         return tips if d["approach_axis"] == alt["approach_axis"] else palm
@@ -353,7 +354,7 @@ def test_approach_trial_that_cannot_plan_keeps_palm_first(tmp_path, monkeypatch)
     sc = guess_description(urdf, "hand")
     palm_axis = sc.data["approach_axis"]
 
-    def fail(path):
+    def fail(path, scenes):
         raise GripperError("the model does not build", hint="")
 
     monkeypatch.setattr(_approach, "feasible_on_low_objects", fail)

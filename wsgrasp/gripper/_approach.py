@@ -37,24 +37,31 @@ LOW_OBJECTS: tuple[tuple[str, tuple[float, ...]], ...] = (
 SEEDS = (0, 1)
 
 
-def feasible_on_low_objects(yaml_path: Path) -> int:
-    """Feasible candidates summed over :data:`LOW_OBJECTS` for the gripper YAML
-    at ``yaml_path``, planned with wsgrasp's generic default spec."""
+def low_object_scenes() -> list[Any]:
+    """The clouds of :data:`LOW_OBJECTS`, each rendered with every seed of
+    :data:`SEEDS`."""
+    from wsgrasp.perception.synth import synth_scene
+
+    return [
+        synth_scene(kind, size=size, seed=seed).points
+        for kind, size in LOW_OBJECTS
+        for seed in SEEDS
+    ]
+
+
+def feasible_on_low_objects(yaml_path: Path, scenes: list[Any]) -> int:
+    """Feasible candidates summed over ``scenes`` (:func:`low_object_scenes`) for
+    the gripper YAML at ``yaml_path``, planned with wsgrasp's generic default
+    spec."""
     from wsgrasp._loading import load_document
     from wsgrasp.api import Pipeline
     from wsgrasp.default_specs import GENERIC_DEFAULT
-    from wsgrasp.perception.synth import synth_scene
     from wsgrasp.spec import PipelineSpec
 
     data, _ = load_document(GENERIC_DEFAULT)
     spec = {**dict(data), "gripper": str(yaml_path), "record": {"enabled": False}}
     pipeline = Pipeline(PipelineSpec.model_validate(spec))
-    total = 0
-    for kind, size in LOW_OBJECTS:
-        for seed in SEEDS:
-            scene = synth_scene(kind, size=size, seed=seed)
-            total += int(pipeline.plan(scene.points).candidates.feasible.sum())
-    return total
+    return sum(int(pipeline.plan(s).candidates.feasible.sum()) for s in scenes)
 
 
 def choose_approach(scaffold: Scaffold, base_dir: Path) -> None:
@@ -74,12 +81,13 @@ def choose_approach(scaffold: Scaffold, base_dir: Path) -> None:
         closing_axis=alternative["closing_axis"],
     )
     fingers.notes.update(alternative["notes"])
+    scenes = low_object_scenes()  # rendered once, planned on by both
     counts: list[int] = []
     for label, option in (("palm", scaffold), ("fingertips", fingers)):
         path = Path(base_dir) / f".{scaffold.data['name']}-{label}-first.yaml"
         path.write_text(render_yaml(option))
         try:
-            counts.append(feasible_on_low_objects(path))
+            counts.append(feasible_on_low_objects(path, scenes))
         except WsgraspError as exc:  # a guess that does not build: keep palm first
             scaffold.notes["approach_axis"] += (
                 f"; fingertips first was not tried: the {label}-first guess "

@@ -1120,9 +1120,9 @@ def _axes(
     pads: list[dict[str, Any]],
     pregrasp: dict[str, float],
     closed: dict[str, float],
-) -> tuple[Array, Array, Array, Array | None]:
-    """Approach axis, closing axis, TCP position and, for a hand, the direction
-    in which its open fingers point.
+) -> tuple[Array, Array, Array, dict[str, Any] | None]:
+    """Approach axis, closing axis, TCP position and, for a hand, a second
+    approach fingertips first (:attr:`Scaffold.fingertips_first`).
 
     The approach axis is the side of the palm that grasps: the outward normal of
     the face of the palm's geometry box (:func:`_palm_link`) through which its
@@ -1137,9 +1137,10 @@ def _axes(
     which the pads move relative to each other (their closing motions less the
     motion they share, such as curling towards the palm).
 
-    The last value is the fingers' direction (:func:`_finger_direction`) where it
-    lies more than :data:`FINGERTIPS_FIRST_DEG` from the approach axis: a hand
-    can also approach fingertips first, and :func:`choose_approach` decides.
+    The last value approaches along the fingers' direction
+    (:func:`_finger_direction`), with its own closing axis, where that lies more
+    than :data:`FINGERTIPS_FIRST_DEG` from the approach axis: a hand can also
+    approach fingertips first, and :func:`choose_approach` decides; else None.
     """
 
     p_open, p_closed = _pad_centres(u, pads, pregrasp), _pad_centres(u, pads, closed)
@@ -1169,15 +1170,30 @@ def _axes(
             "of the smallest ball holding them), as no palm link with geometry "
             "faces them",
         )
-    closing, u.notes["closing_axis"] = _closing_axis(u, approach, p_open, p_closed)
+    closing, u.notes["closing_axis"], moves = _closing_axis(approach, p_open, p_closed)
+    if not moves:
+        u.warnings.append("the pads do not move across the approach axis when closing")
     u.notes["tool_frame"] = "midway between the pads' centres open and closed"
     tcp = 0.5 * (p_open.mean(axis=0) + p_closed.mean(axis=0))
-    fingers = _finger_direction(u, [p["link"] for p in pads], pregrasp)
-    if fingers is not None:
-        angle = np.degrees(np.arccos(np.clip(fingers @ approach, -1.0, 1.0)))
-        if angle <= FINGERTIPS_FIRST_DEG:
-            fingers = None
-    return approach, closing, tcp, fingers
+    tips = _finger_direction(u, [p["link"] for p in pads], pregrasp)
+    if (
+        tips is None
+        or np.degrees(np.arccos(np.clip(tips @ approach, -1.0, 1.0)))
+        <= FINGERTIPS_FIRST_DEG
+    ):
+        return approach, closing, tcp, None
+    closing_tips, closing_note, _ = _closing_axis(tips, p_open, p_closed)
+    alternative = {
+        "approach_axis": _r(tips, 6),
+        "closing_axis": _r(closing_tips, 6),
+        "notes": {
+            "approach_axis": "fingertips first: the way the open fingers point (the "
+            "mean of the directions from each finger's first joint to its tip, at "
+            "pregrasp)",
+            "closing_axis": closing_note,
+        },
+    }
+    return approach, closing, tcp, alternative
 
 
 def _pad_centres(
@@ -1193,10 +1209,11 @@ def _pad_centres(
 
 
 def _closing_axis(
-    u: _Urdf, approach: Array, p_open: Array, p_closed: Array
-) -> tuple[Array, str]:
+    approach: Array, p_open: Array, p_closed: Array
+) -> tuple[Array, str, bool]:
     """The closing axis across ``approach`` from the pads open and closed
-    ``(F, 3)``, with its note (see :func:`_axes`)."""
+    ``(F, 3)``, its note (see :func:`_axes`), and whether the pads move across
+    ``approach`` at all."""
 
     def across(v: Array) -> Array:
         return v - np.outer(v @ approach, approach)  # (F, 3)
@@ -1214,11 +1231,10 @@ def _closing_axis(
         helper = np.eye(3)[int(np.argmin(np.abs(approach)))]
         closing = np.cross(approach, helper)
         what = "any axis perpendicular to the approach axis (the pads do not move)"
-        warning = "the pads do not move across the approach axis when closing"
-        if warning not in u.warnings:
-            u.warnings.append(warning)
+        moves = False
     else:
         closing = np.linalg.eigh(relative.T @ relative)[1][:, -1]
+        moves = True
     closing = closing - (closing @ approach) * approach
     closing, note = _snap(closing, what)
     if abs(float(closing @ approach)) > 1e-6:  # the snap broke orthogonality
@@ -1226,7 +1242,7 @@ def _closing_axis(
         closing /= np.linalg.norm(closing)
     if closing[int(np.argmax(np.abs(closing)))] < 0:
         closing = -closing
-    return closing, note
+    return closing, note, moves
 
 
 def _finger_direction(
@@ -1240,8 +1256,9 @@ def _finger_direction(
     if len(distal) < FINGERTIPS_FIRST_MIN:
         return None
     poses = u.kin.link_poses(u.base, pregrasp)
+    tips = u.centroids(distal, pregrasp)  # (F, 3)
     directions = []
-    for link in distal:
+    for link, tip in zip(distal, tips, strict=True):
         first = next(
             (
                 j
@@ -1252,7 +1269,7 @@ def _finger_direction(
         )
         if first is None:
             return None
-        v = u.centroids([link], pregrasp)[0] - poses[first.child][:3, 3]
+        v = tip - poses[first.child][:3, 3]
         if float(np.linalg.norm(v)) < 1e-9:
             return None
         directions.append(v / np.linalg.norm(v))
@@ -1331,21 +1348,7 @@ def guess_description(
     limits = _stop_at_palm(u, fingers, pregrasp, closed)
     pads = _pads(u, distal, names, pregrasp, closed, targets)
     _stop_where_pads_meet(u, fingers, pads, pregrasp, closed)
-    approach, closing, tcp, tips_axis = _axes(u, pads, pregrasp, closed)
-    alternative = None
-    if tips_axis is not None:
-        ends = _pad_centres(u, pads, pregrasp), _pad_centres(u, pads, closed)
-        closing_f, closing_note = _closing_axis(u, tips_axis, *ends)
-        alternative = {
-            "approach_axis": _r(tips_axis, 6),
-            "closing_axis": _r(closing_f, 6),
-            "notes": {
-                "approach_axis": "fingertips first: the way the open fingers point "
-                "(the mean of the directions from each finger's first joint to its "
-                "tip, at pregrasp)",
-                "closing_axis": closing_note,
-            },
-        }
+    approach, closing, tcp, alternative = _axes(u, pads, pregrasp, closed)
     data: dict[str, Any] = {
         "version": 1,
         "name": name,
