@@ -373,7 +373,7 @@ def sweep_back_offs(
         c = todo
         clear = ~((lowest[:, of[c]] + lift[c] - d * a_n[c]) < -slack).any(axis=0)
         crossing = np.flatnonzero(~clear)
-        if d == 0.0:  # the rotations of the candidates that cross as they are
+        if d == BACK_OFF_STEPS[0]:  # the rotations of those that cross at all
             rs = np.unique(of[todo[crossing]])  # (r,)
             at = np.zeros(len(R), dtype=np.int64)
             at[rs] = np.arange(len(rs))
