@@ -65,17 +65,25 @@ def unsegmented(segmentation: Segmentation) -> Array:
 
 def _clearances(clusters: list[Array], stray: Array) -> Array:
     """Per cluster ``(k,)``: the distance (m) from it to the nearest point of any
-    other cluster or of ``stray``; ``inf`` for a cluster alone."""
-    out = np.full(len(clusters), np.inf)
-    for k, c in enumerate(clusters):
-        others = [o for i, o in enumerate(clusters) if i != k]
-        if len(stray):
-            others.append(stray)
-        if not others:
-            continue
-        d, _ = cKDTree(np.concatenate(others)).query(c)
-        out[k] = float(d.min())
-    return out
+    other cluster or of ``stray``; ``inf`` for a cluster alone. Each pair of
+    clouds is measured once, the smaller one's points looked up in a KD-tree
+    of the larger."""
+    clouds = [np.asarray(c, dtype=np.float64).reshape(-1, 3) for c in clusters]
+    k = len(clouds)
+    if len(stray):
+        clouds.append(np.asarray(stray, dtype=np.float64).reshape(-1, 3))
+    trees: dict[int, cKDTree] = {}
+    gap = np.full((len(clouds), len(clouds)), np.inf)  # symmetric
+    for a in range(k):
+        for b in range(a + 1, len(clouds)):
+            small, large = (a, b) if len(clouds[a]) <= len(clouds[b]) else (b, a)
+            if not len(clouds[small]):
+                continue
+            if large not in trees:
+                trees[large] = cKDTree(clouds[large])
+            d, _ = trees[large].query(clouds[small])
+            gap[a, b] = gap[b, a] = float(d.min())
+    return gap[:k].min(axis=1) if len(clouds) > 1 else np.full(k, np.inf)
 
 
 def segments(segmentation: Segmentation, target: int | None) -> list[dict[str, Any]]:
