@@ -125,3 +125,22 @@ def test_a_split_it_is_not_confident_of_is_not_made():
     _, _, seg = _segment(PILES["two cans touching"], min_instance_points=5000)
     assert len(seg.clusters) == 1
     assert seg.info["splits"][0]["instances"] == 1
+
+
+def test_a_point_no_smooth_pair_reaches_joins_the_instance_of_its_nearest():
+    from wsgrasp_segmenters.clutter import _seam_labels
+
+    items = PILES["box stacked on a box"]
+    scene = pile(items)
+    points = downsample(scene.scene.points, 0.005)
+    seg = Clutter().segment(points, ClutterOptions(), seed=0)
+    cluster = max(seg.clusters, key=len)
+    o = ClutterOptions()
+    # 2 cm above the top box's highest point: farther than edge_radius from all
+    top = cluster[np.argmax(seg.table.signed_distance(cluster))]
+    lone = top + 0.02 * seg.table.normal
+    p = np.concatenate([np.concatenate(seg.clusters), lone[None]])
+    labels = _seam_labels(p, seg.table, o, scene.scene.viewpoints())
+    assert labels.max() == 1  # the two boxes
+    nearest = int(np.argmin(np.linalg.norm(p[:-1] - lone, axis=1)))
+    assert labels[-1] == labels[nearest]

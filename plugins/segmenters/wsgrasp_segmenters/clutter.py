@@ -195,7 +195,8 @@ def _seam_labels(
     d = p[i] - p[j]  # (e, 3)
     dist = np.linalg.norm(d, axis=1)
     ok = dist > 1e-9
-    i, j, d, dist = i[ok], j[ok], d[ok], dist[ok]
+    if not ok.all():
+        i, j, d, dist = i[ok], j[ok], d[ok], dist[ok]
     c = np.einsum("ij,ij->i", normals[i] - normals[j], d) / dist  # (e,)
     concave = c < -o.concavity
     count = np.bincount(i[concave], minlength=n) + np.bincount(j[concave], minlength=n)
@@ -224,8 +225,10 @@ def _seam_labels(
     reach, _, source = dijkstra(
         graph, directed=False, indices=seeds, min_only=True, return_predecessors=True
     )
-    _, nearest = cKDTree(p[seeds]).query(p)
-    source = np.where(np.isfinite(reach), source, seeds[nearest])
+    cut_off = np.flatnonzero(~np.isfinite(reach))
+    if len(cut_off):
+        _, nearest = cKDTree(p[seeds]).query(p[cut_off])
+        source[cut_off] = seeds[nearest]
     return remap[comp[source]]  # type: ignore[no-any-return]
 
 
