@@ -9,7 +9,7 @@ import pytest
 
 import wsgrasp.neighbours as nb
 from wsgrasp.gripper import load_gripper
-from wsgrasp.planning.closing import finger_sweep, reach_steps
+from wsgrasp.planning.closing import finger_sweep, reach_boxes, reach_steps
 
 
 @pytest.fixture(scope="module", params=["franka_hand", "allegro_right"])
@@ -81,7 +81,7 @@ def test_a_point_outside_a_fingers_box_is_never_reached_by_it(gripper):
     rng = np.random.default_rng(5)
     sweep = finger_sweep(gripper).reshape(-1, 3)
     K = finger_sweep(gripper).shape[1]
-    lo, hi = nb._reach_boxes(gripper)
+    lo, hi = reach_boxes(gripper)
     p = rng.uniform(sweep.min(axis=0) - 0.05, sweep.max(axis=0) + 0.05, (200_000, 3))
     for f in range(gripper.num_fingers):
         steps = reach_steps(gripper, p, finger=f)[:, 0]

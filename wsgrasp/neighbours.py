@@ -239,7 +239,12 @@ def _blocked_in_sweeps(
     object_points: Array,
 ) -> NDArray[np.int64]:
     """:func:`blocked_in_closing` by the fingers' sweeps (see there)."""
-    from wsgrasp.planning.closing import REACH_VOXEL, finger_sweep, reach_steps
+    from wsgrasp.planning.closing import (
+        REACH_VOXEL,
+        finger_sweep,
+        reach_boxes,
+        reach_steps,
+    )
 
     sweep = finger_sweep(g)  # (nf, K, P, 3) gripper frame
     K = sweep.shape[1]
@@ -247,7 +252,7 @@ def _blocked_in_sweeps(
     T = np.asarray(T_world_gripper, dtype=np.float64).reshape(-1, 4, 4)
     mid = sweep.mean(axis=0)
     reach = float(np.linalg.norm(sweep - mid, axis=1).max()) + 4 * REACH_VOXEL
-    lo, hi = _reach_boxes(g)
+    lo, hi = reach_boxes(g)
 
     # only the points in a finger's box are looked up in its reach grid
     pts = np.asarray(object_points, dtype=np.float64).reshape(-1, 3)
@@ -280,22 +285,6 @@ def _blocked_in_sweeps(
         return hit
 
     return _blocked_all(T, obstacles, mid, reach, inside)
-
-
-def _reach_boxes(g: GripperModel) -> tuple[list[Array], list[Array]]:
-    """Per finger, the corners ``lo``, ``hi`` (gripper frame) of a box holding
-    its reach grid (``wsgrasp.planning.closing``) with half a voxel to spare: a
-    point outside it reads ``K`` (never reached) in
-    :func:`~wsgrasp.planning.closing.reach_steps`."""
-    from wsgrasp.planning.closing import REACH_VOXEL, _sweep_index
-
-    index = _sweep_index(g)
-    lo = [o - REACH_VOXEL for o in index.origin]
-    hi = [
-        o + np.array(r.shape) * REACH_VOXEL
-        for o, r in zip(index.origin, index.reach, strict=True)
-    ]
-    return lo, hi
 
 
 def _in_box(xyz: Array, lo: Array, hi: Array) -> NDArray[np.bool_]:

@@ -42,6 +42,7 @@ __all__ = [
     "closing_paths",
     "finger_sweep",
     "prepare_sweeps",
+    "reach_boxes",
     "reach_steps",
     "sweep_back_offs",
     "table_back_off",
@@ -279,6 +280,19 @@ def _reach_grid(points: Array) -> tuple[Array, NDArray[np.uint8]]:
     cells = (idx[:, None, :] + off[None, :, :]).reshape(-1, 3)  # (K P m, 3)
     np.minimum.at(grid, tuple(cells.T), np.repeat(step, len(off)))
     return origin, grid
+
+
+def reach_boxes(g: GripperModel) -> tuple[list[Array], list[Array]]:
+    """Per finger, the corners ``lo``, ``hi`` (gripper frame) of a box holding
+    its reach grid with half a voxel to spare: :func:`reach_steps` reads ``K``
+    (never reached) for every point outside it."""
+    index = _sweep_index(g)
+    lo = [o - REACH_VOXEL for o in index.origin]
+    hi = [
+        o + np.array(r.shape) * REACH_VOXEL
+        for o, r in zip(index.origin, index.reach, strict=True)
+    ]
+    return lo, hi
 
 
 def reach_steps(
