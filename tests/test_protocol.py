@@ -6,6 +6,7 @@ from density or masses.json, and random candidates finished as the choice is."""
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -161,12 +162,14 @@ def test_report_params_are_what_mujoco_was_given(capsys: pytest.CaptureFixture):
     rc = main(
         ["eval", "-g", "franka_hand", "--objects", "realsense_box", "-n", "1"]
         + ["-j", "1", "--no-paper", "--friction", "0.65", "--mass", "0.45", "--json"]
+        + ["--sim", "kp_prismatic=4000", "--sim", "noslip_iterations=12"]
     )
     assert rc == 0
     report = json.loads(capsys.readouterr().out)
     params = report["params"]
     assert params["protocol"] == "strict"
     assert params["friction"] == 0.65 and params["object_mass"] == 0.45
+    assert params["kp_prismatic"] == 4000.0 and params["noslip_iterations"] == 12
     assert report["object_masses"] == {"realsense_box": {"kg": 0.45, "from": "forced"}}
     (rec,) = report["trial_records"]
     m = rec["metrics"]
@@ -177,6 +180,39 @@ def test_report_params_are_what_mujoco_was_given(capsys: pytest.CaptureFixture):
     )
     assert m["execution_offset"] == pytest.approx(params["execution_offset"])
     assert "protocol: strict (friction 0.65, mass 0.45 kg" in report_markdown(report)
+
+
+def test_sim_settings_reach_the_model_and_bad_ones_are_named():
+    from wsgrasp.sim.gripper import load_sim_gripper
+    from wsgrasp.sim.params import parse_overrides
+
+    over = parse_overrides(["kp_revolute=10", " views = 2 ", "kp_revolute=12.5"])
+    assert over == {"kp_revolute": 12.5, "views": 2}
+    assert isinstance(over["views"], int)
+    p = SimParams.for_protocol("lift", **over)
+    g = load_sim_gripper("allegro_right", p)
+    gains = {float(k) for k in re.findall(r'kp="([^"]+)"', g.actuator_xml)}
+    assert gains == {12.5}
+    for item, message, fix in [
+        ("kp_revolute", "is not KEY=VALUE", "kp_revolute=10"),
+        ("kp_revolut=3", "is not a simulation parameter", "did you mean kp_revolute"),
+        ("friction=0.3", "option of its own", "--friction"),
+        ("views=2.5", "is not an integer", "views=3"),
+        ("kp_revolute=nan", "out of range", "the default is 2.0"),
+        ("hold_time=-1", "zero or more", "the default"),
+        ("timestep=0", "above zero", "the default"),
+    ]:
+        with pytest.raises(InputError, match=message) as info:
+            parse_overrides([item])
+        assert fix in info.value.hint
+
+
+def test_a_bad_sim_setting_is_one_clear_error_from_the_cli(capsys):
+    rc = main(["eval", "--objects", "realsense_box", "--sim", "kp_revolut=3"])
+    text = capsys.readouterr()
+    out = text.out + text.err
+    assert rc == 2, out
+    assert "did you mean kp_revolute" in out and "Traceback" not in out
 
 
 # --------------------------------------------------------------------------------

@@ -82,6 +82,14 @@ def eval_command(
         callback=number(0.0, 10.0, above=True),
         help="Object friction coefficient, overriding the protocol's.",
     ),
+    sim: list[str] = typer.Option(
+        [],
+        "--sim",
+        help="KEY=VALUE: set a simulation parameter (a field of "
+        "wsgrasp.sim.params.SimParams, e.g. kp_revolute=10, the finger joints' "
+        "gain in N·m/rad) over the protocol's; repeat for several. The report's "
+        "params give what the trials used.",
+    ),
     baseline: str | None = typer.Option(
         None,
         "--baseline",
@@ -174,7 +182,12 @@ def eval_command(
             hint="pass --baseline random, or leave it out",
         )
     params = sim_params(
-        protocol, drop=drop, mass=mass, density=density, friction=friction
+        protocol,
+        drop=drop,
+        mass=mass,
+        density=density,
+        friction=friction,
+        sim=sim,
     )
     if scene != "single":
         from wsgrasp.cli._clutter import clutter_eval
@@ -282,12 +295,14 @@ def sim_params(
     mass: float | None = None,
     density: float | None = None,
     friction: float | None = None,
+    sim: list[str] | None = None,
 ) -> SimParams:
     """The trials' parameters: the protocol's, with the command line's
-    overrides (those not given keep the protocol's values)."""
-    from wsgrasp.sim.params import SimParams
+    overrides (those not given keep the protocol's values; ``sim``: ``--sim``
+    KEY=VALUE settings)."""
+    from wsgrasp.sim.params import SimParams, parse_overrides
 
-    over: dict[str, Any] = {"drop_pose": drop}
+    over: dict[str, Any] = {**parse_overrides(sim or ()), "drop_pose": drop}
     for key, value in (
         ("object_mass", mass),
         ("density", density),

@@ -162,10 +162,13 @@ Protocol
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+import difflib
+import math
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, fields
 from typing import Any
 
-__all__ = ["PROTOCOLS", "SimParams"]
+__all__ = ["PROTOCOLS", "SimParams", "parse_overrides"]
 
 #: what each protocol sets differently from :class:`SimParams`' defaults (strict)
 PROTOCOLS: dict[str, dict[str, Any]] = {
@@ -281,3 +284,73 @@ class SimParams:
 
     def to_json(self) -> dict[str, Any]:
         return asdict(self)
+
+
+#: parameters that ``eval --sim`` leaves to options of their own
+OWN_OPTIONS = {
+    "protocol": "--protocol",
+    "drop_pose": "--drop",
+    "object_mass": "--mass",
+    "density": "--density",
+    "friction": "--friction",
+}
+#: parameters that must be above zero (the others may be zero)
+POSITIVE = frozenset(
+    {
+        "timestep",
+        "impratio",
+        "table_size",
+        "contact_timeconst",
+        "approach_speed",
+        "lift_speed",
+        "views",
+    }
+)
+
+
+def parse_overrides(items: Sequence[str]) -> dict[str, Any]:
+    """``KEY=VALUE`` settings (``wsgrasp eval --sim``) as overrides for
+    :meth:`SimParams.for_protocol`: ``KEY`` a field of :class:`SimParams`,
+    ``VALUE`` a finite number of the field's kind, zero or more (above zero for
+    :data:`POSITIVE`). A later setting of a key replaces an earlier one."""
+    from wsgrasp.errors import InputError
+
+    kinds = {f.name: f.type for f in fields(SimParams)}
+    out: dict[str, Any] = {}
+    for item in items:
+        key, sep, text = (part.strip() for part in item.partition("="))
+        if not sep or not key or not text:
+            raise InputError(
+                f"--sim {item!r} is not KEY=VALUE",
+                hint="pass a parameter and its value, e.g. --sim kp_revolute=10",
+            )
+        if key in OWN_OPTIONS:
+            raise InputError(
+                f"--sim {key} is set by an option of its own",
+                hint=f"pass {OWN_OPTIONS[key]} instead",
+            )
+        if key not in kinds:
+            near = difflib.get_close_matches(key, list(kinds), n=1)
+            raise InputError(
+                f"--sim {key!r} is not a simulation parameter",
+                hint=f"did you mean {near[0]}?"
+                if near
+                else "the parameters are the fields of wsgrasp.sim.params.SimParams",
+            )
+        integer = kinds[key] == "int"
+        try:
+            value: float = int(text) if integer else float(text)
+        except ValueError:
+            kind = "an integer" if integer else "a number"
+            raise InputError(
+                f"--sim {key}={text!r} is not {kind}",
+                hint=f"pass e.g. --sim {key}={getattr(SimParams(), key)}",
+            ) from None
+        low = "above zero" if key in POSITIVE else "zero or more"
+        if not math.isfinite(value) or value < 0 or (value == 0 and key in POSITIVE):
+            raise InputError(
+                f"--sim {key}={text} is out of range: {key} must be finite and {low}",
+                hint=f"the default is {getattr(SimParams(), key)}",
+            )
+        out[key] = value
+    return out
