@@ -207,6 +207,29 @@ def test_sim_settings_reach_the_model_and_bad_ones_are_named():
         assert fix in info.value.hint
 
 
+def test_a_grippers_drive_sets_its_gains_and_leaves_its_model_alone():
+    from pydantic import ValidationError
+
+    from wsgrasp.gripper._cache import source_hash
+    from wsgrasp.sim.gripper import sim_gripper_from_files
+    from wsgrasp.spec import DriveSettings, load_gripper_description
+
+    path = ROOT / "plugins/grippers/wsgrasp_grippers/allegro_right/allegro_right.yaml"
+    desc, base = load_gripper_description(path)
+    p = SimParams.for_protocol("lift", kp_revolute=3.0)
+    plain = sim_gripper_from_files(desc.model_dump(), base, p)
+    assert plain.gains["revolute"] == (3.0, "params")
+    assert plain.notes_json()["gains"]["revolute"] == {"kp": 3.0, "source": "params"}
+    own = desc.model_copy(update={"drive": DriveSettings(kp_revolute=7.5)})
+    g = sim_gripper_from_files(own.model_dump(), base, p)
+    assert g.gains["revolute"] == (7.5, "gripper")
+    assert {float(k) for k in re.findall(r'kp="([^"]+)"', g.actuator_xml)} == {7.5}
+    assert source_hash(own, base) == source_hash(desc, base)  # no model rebuild
+    for bad in (0.0, -1.0, float("nan")):
+        with pytest.raises(ValidationError):
+            DriveSettings(kp_revolute=bad)
+
+
 def test_a_bad_sim_setting_is_one_clear_error_from_the_cli(capsys):
     rc = main(["eval", "--objects", "realsense_box", "--sim", "kp_revolut=3"])
     text = capsys.readouterr()

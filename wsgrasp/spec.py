@@ -118,6 +118,24 @@ class EllipsoidSettings(_Model):
         return self
 
 
+class DriveSettings(_Model):
+    """The fingers' drive in simulation (``wsgrasp eval``): the position gains of
+    the hand's own controller, where they are known. Planning does not read it."""
+
+    kp_revolute: float | None = Field(
+        None,
+        gt=0.0,
+        description="gain (N·m/rad) of every revolute finger joint's position "
+        "actuator; default: the simulator's kp_revolute",
+    )
+    kp_prismatic: float | None = Field(
+        None,
+        gt=0.0,
+        description="gain (N/m) of every prismatic finger joint's position "
+        "actuator; default: the simulator's kp_prismatic",
+    )
+
+
 class _TooFewFingers(SpecError):
     """A gripper description with fewer than two fingers."""
 
@@ -164,6 +182,11 @@ class GripperDescription(_Model):
         "joints together on the straight line from pregrasp: where the pads meet "
         "(a claw's tips before they cross, a hand's fingertips at its thumb's), "
         "or the limits of a jaw whose pads meet only there"
+    )
+    drive: DriveSettings = Field(
+        default_factory=DriveSettings,
+        description="the fingers' position gains in simulation, where the hand's "
+        "controller is known to be stiffer or softer than the simulator's default",
     )
 
     @field_validator("fingers", mode="before")

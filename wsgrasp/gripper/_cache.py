@@ -41,7 +41,9 @@ def source_hash(desc: GripperDescription, base_dir: Path) -> str:
     h = hashlib.sha256()
     versions = f"{__version__}/{MODEL_FORMAT_VERSION}/{BUILDER_VERSION}"
     h.update(versions.encode())
-    h.update(json.dumps(desc.model_dump(mode="json"), sort_keys=True).encode())
+    # the drive is the simulator's, not the model's: changing it rebuilds nothing
+    model = desc.model_dump(mode="json", exclude={"drive"})
+    h.update(json.dumps(model, sort_keys=True).encode())
     path = urdf_path(desc, base_dir)
     try:
         text = path.read_bytes()

@@ -84,6 +84,10 @@ class SimGripper:
     efforts : dict of str to (float, str, str)
         Each actuated joint's force limit, its unit (``N`` or ``N·m``) and where
         it came from (``urdf`` or ``default``).
+    gains : dict of str to (float, str)
+        The position gain of each kind of finger joint (``revolute`` in N·m/rad,
+        ``prismatic`` in N/m) and where it came from: ``gripper`` (the YAML's
+        ``drive``) or ``params`` (the run's ``kp_revolute`` / ``kp_prismatic``).
     repairs : list of Repair
         The URDF's values replaced (inertials, efforts, mimic limits), with what
         was wrong and what was used instead.
@@ -106,6 +110,7 @@ class SimGripper:
     upper: Array = field(default_factory=lambda: np.zeros(0))
     mimics: dict[str, tuple[str, float, float]] = field(default_factory=dict)
     efforts: dict[str, tuple[float, str, str]] = field(default_factory=dict)
+    gains: dict[str, tuple[float, str]] = field(default_factory=dict)
     repairs: list[Repair] = field(default_factory=list)
 
     def notes_json(self) -> dict[str, Any]:
@@ -114,6 +119,9 @@ class SimGripper:
             "efforts": {
                 j: {"effort": v, "unit": unit, "source": src}
                 for j, (v, unit, src) in self.efforts.items()
+            },
+            "gains": {
+                kind: {"kp": v, "source": src} for kind, (v, src) in self.gains.items()
             },
             "repairs": [r.to_json() for r in self.repairs],
         }
@@ -298,8 +306,16 @@ def sim_gripper_from_files(
         for j in movable
         if j.mimic is not None
     )
+    drive = description.get("drive") or {}
+    for kind in ("revolute", "prismatic"):
+        own = drive.get(f"kp_{kind}")
+        gripper.gains[kind] = (
+            (float(own), "gripper")
+            if own is not None
+            else (float(getattr(p, f"kp_{kind}")), "params")
+        )
     gripper.actuator_xml = "\n".join(
-        _actuator(j, p, gripper.efforts[j.name][0]) for j in actuated
+        _actuator(j, gripper.gains, gripper.efforts[j.name][0]) for j in actuated
     )
     return gripper
 
@@ -452,14 +468,14 @@ def _geom(shape: Shape, solid: Any, name: str, p: SimParams, assets: list[str]) 
     return f'<geom type="mesh" mesh="{mesh_name}" {pose} {common}/>'
 
 
-def _actuator(j: Joint, p: SimParams, effort: float) -> str:
-    prismatic = j.kind == JOINT_PRISMATIC
+def _actuator(j: Joint, gains: Mapping[str, tuple[float, str]], effort: float) -> str:
+    kind = "prismatic" if j.kind == JOINT_PRISMATIC else "revolute"
     return (
         "<position "
         + attrs(
             name=PREFIX + j.name,
             joint=PREFIX + j.name,
-            kp=p.kp_prismatic if prismatic else p.kp_revolute,
+            kp=gains[kind][0],
             ctrlrange=None if j.continuous else fmt((j.lower, j.upper)),
             forcerange=fmt((-effort, effort)),
         )
