@@ -299,6 +299,8 @@ POSITIVE = frozenset(
     {
         "timestep",
         "impratio",
+        "kp_prismatic",
+        "kp_revolute",
         "table_size",
         "contact_timeconst",
         "approach_speed",
@@ -350,7 +352,7 @@ def parse_overrides(items: Sequence[str]) -> dict[str, Any]:
         if not math.isfinite(value) or value < 0 or (value == 0 and key in POSITIVE):
             raise InputError(
                 f"--sim {key}={text} is out of range: {key} must be finite and {low}",
-                hint=f"the default is {getattr(SimParams(), key)}",
+                hint=f"the default is {getattr(SimParams(), key)} (strict protocol)",
             )
         out[key] = value
     return out
