@@ -74,7 +74,7 @@ eval-heldout: $(STAMP)
 # from where it lies (never copied here), beside chance: each plan's choice and 3
 # random feasible candidates of the same plan, under the strict protocol
 YCB_DIR ?= ../shared/objects/ycb
-.PHONY: eval-ycb eval-chance
+.PHONY: eval-ycb eval-chance eval-clutter
 eval-ycb: $(STAMP)
 	@test -d $(YCB_DIR) || { echo "no YCB set at $(YCB_DIR): pass YCB_DIR=..."; exit 2; }
 	$(BIN)/python -m pip install -q -e '.[sim]'
@@ -94,6 +94,19 @@ eval-chance: $(STAMP)
 			--md-out eval-results/chance-$$protocol.md || exit 1; \
 		$(PUBLISH) --command "make eval-chance" eval-results/chance-$$protocol.json \
 			docs/results/eval/chance-$$protocol.json || exit 1; \
+	done
+
+# clutter removal (docs: Results, Clutter): each gripper clears 20 pile and 20
+# packed scenes of 5 held-out objects (random:300-999), pick until the table is
+# clear, under the strict protocol
+eval-clutter: $(STAMP)
+	$(BIN)/python -m pip install -q -e '.[sim]'
+	for scene in pile packed; do \
+		$(BIN)/wsgrasp eval $(EVAL_GRIPPERS) --no-paper --scene $$scene \
+			--objects random:300-999 --objects-per-scene 5 --scenes 20 --seed 1 \
+			--json-out eval-results/clutter-$$scene.json || exit 1; \
+		$(PUBLISH) --command "make eval-clutter" eval-results/clutter-$$scene.json \
+			docs/results/clutter/$$scene.json || exit 1; \
 	done
 
 # which score terms rank the grasps that hold first: each built-in gripper's

@@ -514,3 +514,127 @@ def _scorer_run(report: dict[str, Any]) -> list[str]:
 def _spec_order(spec: str) -> tuple[int, str]:
     order = {"default": 0, "paper": 1, "followup": 2}
     return (order.get(spec, 3), spec)
+
+
+#: the clutter benchmark's scene kinds, in the order the page shows them
+_CLUTTER_ORDER = ("pile", "packed")
+#: failure kinds of a clutter step (wsgrasp/sim/clutter.py), in the order shown
+_CLUTTER_KINDS = ("no_grasp", "wrong_split", "neighbour_collision", "slip")
+
+
+def clutter_files() -> list[Path]:
+    """The published clutter runs, ``docs/results/clutter/*.json``: pile, packed,
+    then any other by name."""
+    paths = (RESULTS / "clutter").glob("*.json")
+
+    def order(p: Path) -> tuple[int, str]:
+        k = _CLUTTER_ORDER.index(p.stem) if p.stem in _CLUTTER_ORDER else 9
+        return (k, p.stem)
+
+    return sorted(paths, key=order)
+
+
+def _share(rate: Any, count: Any, total: Any) -> str:
+    """``62.5 % (5 of 8)``, or a dash where nothing was attempted."""
+    if rate is None:
+        return "–"
+    return f"{100 * float(rate):.1f} % ({count} of {total})"
+
+
+def render_results_clutter() -> str:
+    """Every published clutter-removal run (``wsgrasp eval --scene pile|packed``,
+    ``make eval-clutter``): where it ran, and per gripper the attempts, the
+    rates, the plans' times and the failures by kind."""
+    files = clutter_files()
+    if not files:
+        return (
+            "No clutter run is published under `docs/results/clutter/` yet: "
+            "`make eval-clutter` writes `pile.json` and `packed.json` there "
+            "(see [Grasp in clutter](../how-to/clutter.md#measure-clutter-removal)).\n"
+        )
+    out = []
+    for path in files:
+        out.extend(_clutter_run(path.stem, json.loads(path.read_text())))
+    return "\n".join(out)
+
+
+def _clutter_run(name: str, r: dict[str, Any]) -> list[str]:
+    """One clutter report: its provenance and protocol, then a row per gripper."""
+    params = r.get("params") or {}
+    what = "`" + (r.get("command") or "wsgrasp eval") + "`"
+    steps = r.get("max_steps")
+    limit = (
+        f"at most {steps} attempts per scene"
+        if steps
+        else "at most twice as many attempts as objects per scene"
+    )
+    n = r.get("scenes")
+    wall = r.get("wall_s")
+    took = ""
+    if wall is not None:
+        w = float(wall)
+        took = (
+            f" The run took {w:.0f} s."
+            if w < 120
+            else f" The run took {w / 60:.0f} min."
+        )
+    out = [
+        f"### `{name}`\n",
+        f"{_provenance(r, what)} Scene `{r.get('scene', name)}`: "
+        f"{r.get('objects_per_scene')} objects per scene drawn from "
+        f"`{r.get('objects')}`, {n} scene{'' if n == 1 else 's'} per gripper "
+        f"(the same objects and seeds for each), seed {r.get('seed')}, protocol "
+        f"`{params.get('protocol', 'not recorded')}`, {limit}.{took}\n",
+    ]
+    rows = []
+    for gripper, g in (r.get("grippers") or {}).items():
+        s = g.get("summary") or {}
+        kinds = dict(s.get("failure_kinds") or {})
+        order = [k for k in _CLUTTER_KINDS if k in kinds] + sorted(
+            k for k in kinds if k not in _CLUTTER_KINDS
+        )
+        fails = ", ".join(f"{k} {kinds[k]}" for k in order if kinds[k])
+        ends: dict[str, int] = {}
+        fell = 0
+        for scene in g.get("scenes") or []:
+            ends[scene.get("end", "?")] = ends.get(scene.get("end", "?"), 0) + 1
+            fell += len(scene.get("fell_off") or [])
+        p90 = s.get("first_plan_ms_p90")
+        first = _ms(s.get("first_plan_ms_median")) + (
+            f" / {_ms(p90)}" if p90 is not None else ""
+        )
+        attempts = s.get("attempts", 0)
+        rows.append(
+            [
+                f"`{short(gripper)}`",
+                attempts,
+                _share(s.get("grasp_success_rate"), s.get("successes"), attempts),
+                _share(s.get("lift_rate"), s.get("target_lifted"), attempts),
+                _share(s.get("declutter_rate"), s.get("removed"), s.get("objects")),
+                _ms(s.get("pipeline_ms_median")),
+                first,
+                fails or "–",
+                s.get("two_lifted", "–"),
+                fell,
+                ", ".join(f"{k} {v}" for k, v in sorted(ends.items())) or "–",
+            ]
+        )
+    out.append(
+        table(
+            [
+                "gripper",
+                "attempts",
+                "grasp success",
+                "target lifted",
+                "declutter (removed of objects)",
+                "plans per step, median",
+                "first plan, median / p90",
+                "failed attempts by kind",
+                "two lifted at once",
+                "knocked off the table",
+                "scenes ended",
+            ],
+            rows,
+        )
+    )
+    return out

@@ -38,6 +38,7 @@ from docs_results import (
     render_defaults_effect,
     render_defaults_success,
     render_results_bench,
+    render_results_clutter,
     render_results_eval,
     render_results_grippers,
     render_results_scorers,
@@ -59,6 +60,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "defaults-effect": render_defaults_effect,
     "results-bench": render_results_bench,
     "results-eval": render_results_eval,
+    "results-clutter": render_results_clutter,
     "default-spec-runs": render_default_spec_runs,
     "results-scorers": render_results_scorers,
 }
