@@ -95,6 +95,16 @@ def test_scaffolded_package_is_complete_and_its_yaml_validates(tmp_path):
     assert "# the root link of the URDF tree" in text
     assert "`wsgrasp gripper check` on this guess" in text
     GripperDescription.model_validate(yaml.safe_load(text))
+    # the drive is not guessed: it ends the YAML commented out, at the
+    # simulator's defaults, and uncommented it is a valid drive
+    from wsgrasp.sim.params import SimParams
+
+    last = text.rstrip("\n").splitlines()[-1]
+    assert last.startswith("# drive: ")
+    assert "drive" not in yaml.safe_load(text)
+    on = GripperDescription.model_validate(yaml.safe_load(text + last[2:] + "\n"))
+    assert on.drive.kp_revolute == SimParams().kp_revolute
+    assert on.drive.kp_prismatic == SimParams().kp_prismatic
     # the package ships the default spec that plan --gripper and eval use
     from wsgrasp.default_specs import default_spec
 
