@@ -218,3 +218,21 @@ def test_scene_yaml_errors(tmp_path: Path) -> None:
         load_scene(tmp_path / "u.yaml")
     with pytest.raises(InputError, match="alone"):
         load_scene([tmp_path / "u.yaml", tmp_path / "v.npz"])
+
+
+@pytest.mark.parametrize("suffix", [".npy", ".npz"])
+def test_damaged_array_header_is_one_input_error(tmp_path: Path, suffix: str) -> None:
+    """A flipped bit that turns the header's ``(`` into ``)`` reaches numpy's
+    Python-2 header filter, whose tokenizer raises; the loader says what is wrong."""
+    path = tmp_path / f"c{suffix}"
+    if suffix == ".npy":
+        np.save(path, RNG_POINTS)
+        raw = bytearray(path.read_bytes())
+    else:  # stored, not compressed, so the header's bytes are in the file
+        np.savez(path, points=RNG_POINTS)
+        raw = bytearray(path.read_bytes())
+    i = raw.index(b"'shape': (") + len(b"'shape': ")
+    raw[i] ^= 0x01  # '(' (0x28) -> ')' (0x29)
+    path.write_bytes(bytes(raw))
+    with pytest.raises(InputError, match="array header is damaged|not a readable"):
+        load_cloud(path)

@@ -284,3 +284,19 @@ def test_eval_reports_the_skipped_objects(
     assert report["objects_skipped"] == {"random_000": "under 3 cm"}
     assert "skipped 1 objects: 1 under 3 cm" in report["objects"]
     assert {r["object"] for r in report["trial_records"]} == {"random_001"}
+
+
+def test_damaged_cache_entry_is_decomposed_again(cache: Path):
+    u = u_shape()
+    first = convex_decomposition(u)
+    (entry,) = [p for p in cache.rglob("*") if p.is_file()]
+    raw = bytearray(entry.read_bytes())
+    if b"'shape': (" in raw:  # stored: garble an array header
+        i = raw.index(b"'shape': (") + len(b"'shape': ")
+        raw[i] ^= 0x01
+    else:  # compressed: cut it short
+        raw = raw[: len(raw) // 2]
+    entry.write_bytes(bytes(raw))
+    again = convex_decomposition(u)
+    assert again.status == "miss"
+    assert len(again.hulls) == len(first.hulls)

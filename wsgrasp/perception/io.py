@@ -22,6 +22,7 @@ clouds whose extents suggest millimetres raise ``InputError``.
 
 from __future__ import annotations
 
+import tokenize
 import warnings
 import zipfile
 from collections.abc import Sequence
@@ -203,12 +204,25 @@ def _read_text(p: Path) -> Array:
 def _read_npy(p: Path) -> Array:
     try:
         arr = np.load(p, allow_pickle=False)
-    except (ValueError, EOFError, OSError) as exc:
+    except _NUMPY_READ_ERRORS as exc:
         raise InputError(
             f"cloud file {str(p)!r} is not a readable .npy array: {_numpy_says(exc)}",
             hint="save it with np.save(path, points) where points is (n, 3)",
         ) from None
     return _as_numeric(arr, str(p))
+
+
+#: what numpy raises on a damaged .npy/.npz: a garbled array header reaches its
+#: Python-2 header filter, whose tokenizer raises TokenError (or SyntaxError)
+#: instead of numpy's own ValueError
+_NUMPY_READ_ERRORS = (
+    ValueError,
+    OSError,
+    EOFError,
+    zipfile.BadZipFile,
+    SyntaxError,
+    tokenize.TokenError,
+)
 
 
 def _numpy_says(exc: BaseException) -> str:
@@ -221,6 +235,8 @@ def _numpy_says(exc: BaseException) -> str:
         return "it is empty or cut short"
     if isinstance(exc, zipfile.BadZipFile):
         return "it is not a complete zip archive (cut short, or another format)"
+    if isinstance(exc, (SyntaxError, tokenize.TokenError)):
+        return "its array header is damaged"
     return text
 
 
@@ -240,7 +256,7 @@ def _read_npz(p: Path) -> Array:
                     "named 'points'",
                     hint="save the cloud with np.savez(path, points=points)",
                 )
-    except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
+    except _NUMPY_READ_ERRORS as exc:
         raise InputError(
             f"cloud file {str(p)!r} is not a readable .npz archive: {_numpy_says(exc)}",
             hint="save it with np.savez(path, points=points)",

@@ -30,6 +30,8 @@ import json
 import os
 import tempfile
 import time
+import tokenize
+import zipfile
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -246,7 +248,15 @@ def _read(path: Path, key: str) -> list[Array] | None:
                 return None
             vertices = np.asarray(data["vertices"], dtype=np.float64)  # (n, 3)
             counts = np.asarray(data["counts"], dtype=np.int64)  # (k,)
-    except (OSError, KeyError, ValueError):
+    except (
+        OSError,
+        KeyError,
+        ValueError,
+        EOFError,
+        zipfile.BadZipFile,
+        SyntaxError,  # a damaged array header (numpy's header filter)
+        tokenize.TokenError,
+    ):
         return None  # missing, corrupt or old: decompose again
     return list(np.split(vertices, np.cumsum(counts)[:-1]))
 
