@@ -40,6 +40,7 @@ from wsgrasp.perception.types import Array, Scene, View
 __all__ = [
     "CLOUD_SUFFIXES",
     "MAX_SCENE_EXTENT",
+    "NUMPY_READ_ERRORS",
     "check_units",
     "load_cloud",
     "load_scene",
@@ -204,7 +205,7 @@ def _read_text(p: Path) -> Array:
 def _read_npy(p: Path) -> Array:
     try:
         arr = np.load(p, allow_pickle=False)
-    except _NUMPY_READ_ERRORS as exc:
+    except NUMPY_READ_ERRORS as exc:
         raise InputError(
             f"cloud file {str(p)!r} is not a readable .npy array: {_numpy_says(exc)}",
             hint="save it with np.save(path, points) where points is (n, 3)",
@@ -212,10 +213,11 @@ def _read_npy(p: Path) -> Array:
     return _as_numeric(arr, str(p))
 
 
-#: what numpy raises on a damaged .npy/.npz: a garbled array header reaches its
-#: Python-2 header filter, whose tokenizer raises TokenError (or SyntaxError)
-#: instead of numpy's own ValueError
-_NUMPY_READ_ERRORS = (
+#: what ``np.load`` raises on a damaged .npy/.npz (also caught by the mesh
+#: decomposition cache): a garbled array header reaches numpy's Python-2 header
+#: filter, whose tokenizer raises TokenError (or SyntaxError) instead of numpy's
+#: own ValueError
+NUMPY_READ_ERRORS = (
     ValueError,
     OSError,
     EOFError,
@@ -256,7 +258,7 @@ def _read_npz(p: Path) -> Array:
                     "named 'points'",
                     hint="save the cloud with np.savez(path, points=points)",
                 )
-    except _NUMPY_READ_ERRORS as exc:
+    except NUMPY_READ_ERRORS as exc:
         raise InputError(
             f"cloud file {str(p)!r} is not a readable .npz archive: {_numpy_says(exc)}",
             hint="save it with np.savez(path, points=points)",

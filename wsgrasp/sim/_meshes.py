@@ -30,8 +30,6 @@ import json
 import os
 import tempfile
 import time
-import tokenize
-import zipfile
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -41,6 +39,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from wsgrasp.errors import SimulationError
+from wsgrasp.perception.io import NUMPY_READ_ERRORS
 from wsgrasp.sim._pool import progress_bar, run_in_processes
 
 __all__ = [
@@ -248,15 +247,7 @@ def _read(path: Path, key: str) -> list[Array] | None:
                 return None
             vertices = np.asarray(data["vertices"], dtype=np.float64)  # (n, 3)
             counts = np.asarray(data["counts"], dtype=np.int64)  # (k,)
-    except (
-        OSError,
-        KeyError,
-        ValueError,
-        EOFError,
-        zipfile.BadZipFile,
-        SyntaxError,  # a damaged array header (numpy's header filter)
-        tokenize.TokenError,
-    ):
+    except (KeyError, *NUMPY_READ_ERRORS):
         return None  # missing, corrupt or old: decompose again
     return list(np.split(vertices, np.cumsum(counts)[:-1]))
 
