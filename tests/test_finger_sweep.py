@@ -25,6 +25,7 @@ from wsgrasp.planning.closing import (
     SWEEP_SLACK,
     closing_paths,
     finger_sweep,
+    slides,
     sweep_back_offs,
     table_back_off,
 )
@@ -69,14 +70,17 @@ def _finger(i: int, side: float, knuckle: bool) -> str:
   </joint>"""
 
 
-def write_claw(folder: Path, knuckles: bool = False) -> Path:
+def write_claw(
+    folder: Path, knuckles: bool = False, on_table: str | None = None
+) -> Path:
     """Write the claw's URDF and gripper YAML into ``folder``; the YAML's path.
 
     Approach +z; at joint angle 0 a finger points outwards along x, at pi/2
     along the approach, at 2.6 inwards and back up; the pad is the inner face
     of the finger ``PAD_AT`` from the hinge. With ``knuckles`` each finger is
     two links, the outer one on a second joint at the pad (held straight while
-    the finger closes): the same sweeps, from fingers that two joints drive."""
+    the finger closes): the same sweeps, from fingers that two joints drive.
+    ``on_table`` is written into each finger's description where given."""
     folder.mkdir(parents=True, exist_ok=True)
     palm = (
         '<collision><origin xyz="0 0 0.01" rpy="0 0 0"/>'
@@ -99,6 +103,7 @@ def write_claw(folder: Path, knuckles: bool = False) -> Path:
     fingers = "".join(
         f"  - name: f{i}\n    joints: {joints[i]}\n    pad: {{link: {link}, center: "
         f"[{x}, 0.0, 0.006], size: [0.02, 0.016, 0.0], samples: 5}}\n"
+        + (f"    on_table: {on_table}\n" if on_table else "")
         for i, (link, x) in enumerate(pads)
     )
     path = folder / "claw.yaml"
@@ -260,6 +265,32 @@ def test_fingers_that_several_joints_drive_may_graze_the_table(tmp_path):
     assert _lowest(knuckled, back) >= -GRAZE_SLACK
     back[2, 3] -= 0.005
     assert _lowest(knuckled, back) < -GRAZE_SLACK
+
+
+def test_a_finger_whose_tip_sticks_on_the_table_is_kept_off_it(tmp_path):
+    # the knuckled claw described as sticking: the graze that needed no
+    # back-off is backed off as a one-joint finger's would be, and a
+    # one-joint finger described as sliding may graze
+    sticking = load_gripper(
+        write_claw(tmp_path / "s", knuckles=True, on_table="sticks"),
+        cache_dir=tmp_path / "cache",
+    )
+    assert slides(sticking) == [False, False]
+    column = _column(0.05)
+    T = _top_down(0.09)
+    assert -GRAZE_SLACK < _lowest(sticking, T) < -SWEEP_SLACK
+    d = sweep_back_offs(sticking, T[None], TABLE, column)[0]
+    assert d > 0.0
+    back = T.copy()
+    back[2, 3] += d
+    assert _lowest(sticking, back) >= -SWEEP_SLACK
+    sliding = load_gripper(
+        write_claw(tmp_path / "g", on_table="slides"), cache_dir=tmp_path / "cache"
+    )
+    assert slides(sliding) == [True, True]
+    T = _top_down(0.09)
+    assert -GRAZE_SLACK < _lowest(sliding, T) < -SWEEP_SLACK
+    assert sweep_back_offs(sliding, T[None], TABLE, column)[0] == 0.0
 
 
 def test_sweeps_that_no_back_off_clears_are_rejected(claw):

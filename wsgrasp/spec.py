@@ -78,6 +78,14 @@ class FingerDescription(_Model):
         "follow their masters automatically",
     )
     pad: PadRegion
+    on_table: Literal["slides", "sticks"] | None = Field(
+        None,
+        description="what the fingertip does where its closing sweep meets the "
+        "table: 'slides' along it (the sweep may dip up to 15 mm below the "
+        "table), or 'sticks' there (the sweep stays above it, within the "
+        "plane's 2 mm noise); default: slides for a finger of several joints, "
+        "sticks for one joint",
+    )
 
 
 class FrameOffset(_Model):

@@ -410,10 +410,11 @@ def _per_object(results: list[dict[str, Any]]) -> str:
     return "\n".join(out)
 
 
-def render_default_spec_runs() -> str:
-    """The runs the generic default spec was chosen by: success per setting."""
+def _runs_in(folder: str) -> str:
+    """One row per gripper and run for every eval summary in
+    ``docs/results/<folder>/``: its objects, setting, trials and success."""
     rows = []
-    for path in sorted((RESULTS / "default-spec").glob("*.json")):
+    for path in sorted((RESULTS / folder).glob("*.json")):
         r = json.loads(path.read_text())
         for res in r.get("results", []):
             rows.append(
@@ -427,8 +428,18 @@ def render_default_spec_runs() -> str:
                 ]
             )
     if not rows:
-        return "No runs under `docs/results/default-spec/`.\n"
+        return f"No runs under `docs/results/{folder}/`.\n"
     return table(["file", "objects", "gripper", "setting", "trials", "success"], rows)
+
+
+def render_default_spec_runs() -> str:
+    """The runs the generic default spec was chosen by: success per setting."""
+    return _runs_in("default-spec")
+
+
+def render_on_table_runs() -> str:
+    """The runs that measured fingers sliding or sticking on the table."""
+    return _runs_in("on-table")
 
 
 def render_defaults_effect() -> str:

@@ -37,6 +37,7 @@ from docs_results import (
     render_default_spec_runs,
     render_defaults_effect,
     render_defaults_success,
+    render_on_table_runs,
     render_results_bench,
     render_results_clutter,
     render_results_eval,
@@ -62,6 +63,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "results-eval": render_results_eval,
     "results-clutter": render_results_clutter,
     "default-spec-runs": render_default_spec_runs,
+    "on-table-runs": render_on_table_runs,
     "results-scorers": render_results_scorers,
 }
 

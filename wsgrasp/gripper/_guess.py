@@ -1302,6 +1302,13 @@ def _settings(
         f"; samples: pad points about one workspace voxel apart (at most {cap} per "
         "edge)"
     )
+    if dof > 1:
+        u.notes["pad"] += (
+            "; on_table is left out: a finger of several joints is taken to slide "
+            "along the table where its closing sweep meets it; add `on_table: "
+            "sticks` to a finger whose tip digs into the table and stops short of "
+            "low objects in `wsgrasp eval`"
+        )
     return {
         "joint_samples": samples,
         "spheres_per_finger": spheres,

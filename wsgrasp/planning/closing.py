@@ -44,6 +44,7 @@ __all__ = [
     "prepare_sweeps",
     "reach_boxes",
     "reach_steps",
+    "slides",
     "sweep_back_offs",
     "table_back_off",
 ]
@@ -150,7 +151,12 @@ SWEEP_SLACK = 0.002
 #: deep still reaches round the object: random objects 000-099, 1 trial, lift
 #: protocol, 88 of 100 held, 77 with the sweeps kept 2 mm up), while a finger
 #: that one joint drives (a jaw, a linkage, mimic-coupled links) stops there
-#: (the BarrettHand's, 1 cm deep: 81 held, 94 with the sweeps kept up)
+#: (the BarrettHand's, 1 cm deep: 81 held, 94 with the sweeps kept up). Not
+#: every hand of several joints per finger slides: a D'Claw's two-joint fingers
+#: press their tips into the table and stop there (random objects 000-099,
+#: lift: 68 of 100 held, 93 with ``on_table: sticks``; the same setting on the
+#: Allegro hand: 94 and 85, the Shadow hand: 72 and 60; the runs are under
+#: docs/results/on-table/), so a description says so per finger (:func:`slides`)
 GRAZE_SLACK = 0.015
 #: voxel (m) of each finger's reach grid (:func:`_reach_grid`, :func:`reach_steps`)
 REACH_VOXEL = 0.004
@@ -333,8 +339,8 @@ def sweep_back_offs(
 
     A finger's sweep (:func:`finger_sweep`) is followed posture by posture from
     the pre-grasp one: it fails at the first posture with a point more than
-    :data:`SWEEP_SLACK` (:data:`GRAZE_SLACK` for a finger that several joints
-    drive) below the table plane, unless an earlier posture
+    :data:`SWEEP_SLACK` (:data:`GRAZE_SLACK` for a finger whose tip slides
+    along the table, :func:`slides`) below the table plane, unless an earlier posture
     already reached an object point (a finger stopped by the object goes no
     further). A candidate is clear when no finger fails; backing it off
     ``d`` along its approach lifts the sweeps and moves the object deeper into
@@ -379,9 +385,9 @@ def sweep_back_offs(
     a_n = u[of] @ g.approach_axis  # (C,) how the approach moves along the normal
     pts = np.asarray(object_points, dtype=np.float64).reshape(-1, 3)
     t_g = np.einsum("cji,cj->ci", R[of], T[:, :3, 3])  # (C, 3) R^T t
-    slack = np.array(
-        [GRAZE_SLACK if len(j) > 1 else SWEEP_SLACK for j in g.finger_joints]
-    )[:, None]  # (nf, 1)
+    slack = np.array([GRAZE_SLACK if s else SWEEP_SLACK for s in slides(g)])[
+        :, None
+    ]  # (nf, 1)
     todo = np.arange(C)  # candidates not yet settled
     for d in BACK_OFF_STEPS:
         c = todo
@@ -412,6 +418,18 @@ def sweep_back_offs(
         todo = todo[~clear]
         if not len(todo):
             break
+    return out
+
+
+def slides(g: GripperModel) -> list[bool]:
+    """Per finger, whether its tip slides along the table where its sweep meets
+    it (the description's ``on_table``; by default, a finger that several
+    joints drive slides and one that a single joint drives sticks)."""
+    fingers = g.description.get("fingers", []) if g.description else []
+    out = []
+    for f, joints in enumerate(g.finger_joints):
+        said = fingers[f].get("on_table") if f < len(fingers) else None
+        out.append(len(joints) > 1 if said is None else said == "slides")
     return out
 
 
