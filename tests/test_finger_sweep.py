@@ -17,6 +17,7 @@ from scipy.spatial import cKDTree
 
 from wsgrasp.api import Pipeline, as_scene
 from wsgrasp.gripper import load_gripper
+from wsgrasp.gripper.check import check_gripper
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.planning.candidates import candidate_poses
 from wsgrasp.planning.closing import (
@@ -291,6 +292,60 @@ def test_a_finger_whose_tip_sticks_on_the_table_is_kept_off_it(tmp_path):
     T = _top_down(0.09)
     assert -GRAZE_SLACK < _lowest(sliding, T) < -SWEEP_SLACK
     assert sweep_back_offs(sliding, T[None], TABLE, column)[0] == 0.0
+
+
+def _two_joint_claw(folder: Path, pregrasp: tuple, closed: tuple) -> Path:
+    """The knuckled claw with its pads at the fingertips and the outer joint
+    free to turn both ways, closing from ``pregrasp`` to ``closed`` (each
+    ``(inner, outer)`` joint angle)."""
+    path = write_claw(folder, knuckles=True)
+    urdf = folder / "claw.urdf"
+    urdf.write_text(
+        urdf.read_text().replace('lower="0" upper="0.5"', 'lower="-0.6" upper="0.6"')
+    )
+    text = path.read_text().replace(
+        "center: [0.0, 0.0, 0.006]", f"center: [{LENGTH - PAD_AT - 0.005}, 0.0, 0.006]"
+    )
+    lines = [
+        f"pregrasp: {{j0: {pregrasp[0]}, j1: {pregrasp[0]}, k0: {pregrasp[1]}, "
+        f"k1: {pregrasp[1]}}}\n"
+        if ln.startswith("pregrasp:")
+        else f"closed: {{j0: {closed[0]}, j1: {closed[0]}, k0: {closed[1]}, "
+        f"k1: {closed[1]}}}\n"
+        if ln.startswith("closed:")
+        else ln
+        for ln in text.splitlines(keepends=True)
+    ]
+    path.write_text("".join(lines))
+    return path
+
+
+def test_whether_a_tip_slides_on_the_table_is_guessed_from_its_joints(tmp_path):
+    # two-joint fingers coming down onto the table from above: one that curls
+    # as it closes pushes its tip along the table and slides; one whose outer
+    # joint straightens against the inner one (a D'Claw's) pushes it into the
+    # table, inside the friction cone, and sticks
+    curling = load_gripper(
+        _two_joint_claw(tmp_path / "curl", (0.2, 0.0), (2.0, 0.5)),
+        cache_dir=tmp_path / "cache",
+    )
+    assert slides(curling) == [True, True]
+    straightening = _two_joint_claw(tmp_path / "straight", (0.2, 0.5), (2.0, -0.5))
+    sticking = load_gripper(straightening, cache_dir=tmp_path / "cache")
+    assert slides(sticking) == [False, False]
+    report = check_gripper(straightening, cache_dir=tmp_path / "cache")
+    assert [f["on_table"] for f in report.fingers] == ["sticks", "sticks"]
+    assert "tip sticks on the table (guessed)" in report.format()
+    # the description overrules the guess
+    said = straightening.read_text().replace(
+        "samples: 5}\n", "samples: 5}\n    on_table: slides\n"
+    )
+    straightening.write_text(said)
+    overruled = load_gripper(straightening, cache_dir=tmp_path / "cache")
+    assert slides(overruled) == [True, True]
+    report = check_gripper(straightening, cache_dir=tmp_path / "cache")
+    assert report.format().count("tip slides on the table") == 2
+    assert "(guessed)" not in report.format()
 
 
 def test_sweeps_that_no_back_off_clears_are_rejected(claw):

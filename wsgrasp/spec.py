@@ -83,8 +83,9 @@ class FingerDescription(_Model):
         description="what the fingertip does where its closing sweep meets the "
         "table: 'slides' along it (the sweep may dip up to 15 mm below the "
         "table), or 'sticks' there (the sweep stays above it, within the "
-        "plane's 2 mm noise); default: slides for a finger of several joints, "
-        "sticks for one joint",
+        "plane's 2 mm noise); left out, guessed: a finger of one joint sticks, "
+        "one of several joints slides unless its joints press its pad into the "
+        "table as it comes down (`gripper check` prints the guess)",
     )
 
 

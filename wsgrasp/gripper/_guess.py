@@ -1304,10 +1304,10 @@ def _settings(
     )
     if dof > 1:
         u.notes["pad"] += (
-            "; on_table is left out: a finger of several joints is taken to slide "
-            "along the table where its closing sweep meets it; add `on_table: "
-            "sticks` to a finger whose tip digs into the table and stops short of "
-            "low objects in `wsgrasp eval`"
+            "; on_table is left out: the search guesses whether each finger's tip "
+            "slides along the table or sticks where its closing sweep meets it "
+            "(`gripper check` prints the guess); set it on a finger whose tip "
+            "`wsgrasp eval` shows doing otherwise"
         )
     return {
         "joint_samples": samples,

@@ -61,7 +61,10 @@ class CheckReport:
     fingers : list of dict
         Per finger: name, workspace_volume_m3, covered_fraction, spheres,
         pad_closes_mm (how much nearer the others the pad gets when closing),
-        pad_facing_deg (angle between pad normal and the direction to the others).
+        pad_facing_deg (angle between pad normal and the direction to the others),
+        on_table ("slides" or "sticks": what the search takes the tip to do where
+        its closing sweep meets the table) and on_table_given (the description
+        says so, rather than the search's guess).
     intrusions : list of dict
         Superellipsoid index, finger, fraction of that finger's workspace inside.
     """
@@ -115,10 +118,16 @@ class CheckReport:
                 if f.get("pad_closes_mm") is not None
                 else ""
             )
+            table = (
+                f", tip {f['on_table']} on the table"
+                + ("" if f.get("on_table_given") else " (guessed)")
+                if f.get("on_table")
+                else ""
+            )
             lines.append(
                 f"  finger {f['name']}: workspace {f['workspace_volume_m3'] * 1e6:.1f}"
                 f" cm3, {f['spheres']} spheres cover {f['covered_fraction']:.0%}"
-                f"{closes}{facing}"
+                f"{closes}{facing}{table}"
             )
         lines.append(
             f"  cloud inside the body superellipsoids: {self.cloud_inside_se:.1%}"
@@ -177,6 +186,7 @@ def check_gripper(
     extent = model.cloud.max(axis=0) - model.cloud.min(axis=0)
     report = CheckReport(model.name, model, float(np.max(extent)))
     report.cloud_inside_se = float(model.stats.get("cloud_inside_se", 1.0))
+    on_table = _on_table(model)
     for f, stats in zip(
         model.finger_names, model.stats.get("fingers", []), strict=False
     ):
@@ -186,6 +196,7 @@ def check_gripper(
                 "workspace_volume_m3": float(stats.get("workspace_volume_m3", 0.0)),
                 "covered_fraction": float(stats.get("covered_fraction", 0.0)),
                 "spheres": int(np.sum(model.sphere_finger == len(report.fingers))),
+                **on_table[len(report.fingers)],
             }
         )
     _check_size(report)
@@ -195,6 +206,24 @@ def check_gripper(
     desc, base_dir = resolved
     _check_kinematics(report, desc, base_dir)
     return report
+
+
+def _on_table(model: GripperModel) -> list[dict[str, Any]]:
+    """Per finger, whether the search takes its tip to slide along the table or
+    to stick there (``on_table``), and whether the description says so or it is
+    guessed (``on_table_given``)."""
+    from wsgrasp.planning.closing import slides
+
+    if not model.has_configurations:
+        return [{} for _ in model.finger_names]
+    given = (model.description or {}).get("fingers", [])
+    return [
+        {
+            "on_table": "slides" if s else "sticks",
+            "on_table_given": f < len(given) and given[f].get("on_table") is not None,
+        }
+        for f, s in enumerate(slides(model))
+    ]
 
 
 def _add(report: CheckReport, *args: Any) -> None:

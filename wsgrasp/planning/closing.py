@@ -38,6 +38,7 @@ from wsgrasp.planning.poses import MARGIN, hull_vertices
 __all__ = [
     "GRAZE_SLACK",
     "SWEEP_SLACK",
+    "TIP_FRICTION",
     "closing_centre",
     "closing_paths",
     "finger_sweep",
@@ -152,11 +153,12 @@ SWEEP_SLACK = 0.002
 #: protocol, 88 of 100 held, 77 with the sweeps kept 2 mm up), while a finger
 #: that one joint drives (a jaw, a linkage, mimic-coupled links) stops there
 #: (the BarrettHand's, 1 cm deep: 81 held, 94 with the sweeps kept up). Not
-#: every hand of several joints per finger slides: a D'Claw's two-joint fingers
-#: press their tips into the table and stop there (random objects 000-099,
-#: lift: 68 of 100 held, 93 with ``on_table: sticks``; the same setting on the
-#: Allegro hand: 94 and 85, the Shadow hand: 72 and 60; the runs are under
-#: docs/results/on-table/), so a description says so per finger (:func:`slides`)
+#: every finger of several joints slides: a D'Claw's nearly straight two-joint
+#: fingers press their tips into the table and stop there (random objects
+#: 000-099, lift: 68 of 100 held as sliding, 93 as sticking; sticking, the
+#: Allegro hand holds 85 instead of 94, the Shadow hand 60 instead of 72; the
+#: runs are under docs/results/on-table/), so which it is is the description's
+#: ``on_table`` or guessed per finger (:func:`slides`)
 GRAZE_SLACK = 0.015
 #: voxel (m) of each finger's reach grid (:func:`_reach_grid`, :func:`reach_steps`)
 REACH_VOXEL = 0.004
@@ -190,6 +192,7 @@ def prepare_sweeps(g: GripperModel) -> None:
     model), so that the first plan does not pay for it."""
     if g.num_fingers and (g.has_sweeps or g.has_configurations):
         _sweep_index(g)
+        slides(g)
 
 
 @dataclass(frozen=True)
@@ -423,14 +426,88 @@ def sweep_back_offs(
 
 def slides(g: GripperModel) -> list[bool]:
     """Per finger, whether its tip slides along the table where its sweep meets
-    it (the description's ``on_table``; by default, a finger that several
-    joints drive slides and one that a single joint drives sticks)."""
+    it: the description's ``on_table`` where it says; otherwise a finger that
+    one joint drives sticks, and one that several joints drive slides unless
+    its joints press its pad into the table as it comes down onto it
+    (:func:`_presses_into_table`). Kept on the model (built once)."""
+    cached = g.__dict__.get("_slides")
+    if cached is not None:
+        return cached  # type: ignore[no-any-return]
     fingers = g.description.get("fingers", []) if g.description else []
     out = []
     for f, joints in enumerate(g.finger_joints):
         said = fingers[f].get("on_table") if f < len(fingers) else None
-        out.append(len(joints) > 1 if said is None else said == "slides")
+        if said is not None:
+            out.append(said == "slides")
+        else:
+            out.append(len(joints) > 1 and not _presses_into_table(g, f))
+    g.__dict__["_slides"] = out
     return out
+
+
+#: friction between a fingertip and the table, for :func:`_presses_into_table`
+#: (rubber or plastic on a table top: 0.5 to 1; the simulator's pads: 0.8)
+TIP_FRICTION = 0.8
+#: postures whose sweep is within this (m) of its lowest, along the approach,
+#: are where a table under a low object meets a finger grasping it from above
+_NEAR_TABLE = 0.02
+#: a finger sticks where at least this share of those postures press it in
+_STICK_SHARE = 1.0 / 3.0
+
+
+def _presses_into_table(g: GripperModel, f: int) -> bool:
+    """Whether finger ``f``'s joints, closing, press its pad into a table below
+    it inside the friction cone, where it comes down onto the table.
+
+    The gripper approaches from above (the table's normal against the approach
+    axis), the finger closes from its pre-grasp posture towards its closed one,
+    and each joint is driven, as the simulator's position actuators with one
+    gain drive it, with a torque along its remaining travel: the pad force
+    ``F = pinv(J^T) (q_closed - q_pregrasp)``, ``J`` the pad centre's Jacobian.
+    At the postures where the finger's sweep comes down to within
+    ``_NEAR_TABLE`` of its lowest, a force into the table with less sideways
+    push than ``TIP_FRICTION`` times its push into it holds the tip where it
+    touches (friction cone): the joints stop, as a D'Claw's do. A force along
+    the table or away from it lets the tip slide (the Allegro's, the Shadow
+    hand's). The finger sticks where at least ``_STICK_SHARE`` of those
+    postures press it in."""
+    from wsgrasp.planning.targets import pad_positions
+
+    joints = g.finger_joints[f]
+    if len(joints) < 2 or not g.has_configurations:
+        return len(joints) < 2
+    index = _sweep_index(g)
+    K = index.hull.shape[1]
+    down = -np.asarray(g.approach_axis, dtype=np.float64)  # table normal, up
+    low = _lowest(index.hull[f : f + 1], down[None])[0, :, 0]  # (K,)
+    k_min = int(np.argmin(low))
+    ks = np.arange(1, k_min + 1)
+    ks = ks[(low[ks] < low[ks - 1]) & (low[ks] - low[k_min] < _NEAR_TABLE)]
+    if not len(ks):
+        return False
+    lim = np.asarray(g.finger_limits[f], dtype=np.float64)  # (d, 2)
+    pre = np.array(
+        [g.pregrasp.get(j, lo) for j, lo in zip(joints, lim[:, 0], strict=True)]
+    )
+    closed = np.array([g.closed.get(j, p) for j, p in zip(joints, pre, strict=True)])
+    pre = np.clip(pre, lim[:, 0], lim[:, 1])
+    closed = np.clip(closed, lim[:, 0], lim[:, 1])
+    q = pre + (ks / (K - 1))[:, None] * (closed - pre)  # (k, d)
+    d, eps = len(joints), 0.02
+    J = np.empty((len(ks), 3, d))
+    for i in range(d):
+        step = np.zeros(d)
+        step[i] = eps
+        hi = np.clip(q + step, lim[:, 0], lim[:, 1])
+        lo = np.clip(q - step, lim[:, 0], lim[:, 1])
+        J[:, :, i] = (pad_positions(g, f, hi) - pad_positions(g, f, lo)) / (
+            hi[:, i] - lo[:, i]
+        ).clip(min=1e-12)[:, None]
+    F = np.einsum("kij,j->ki", np.linalg.pinv(J.transpose(0, 2, 1)), closed - pre)
+    into = -(F @ down)  # (k,) the push into the table
+    sideways = np.sqrt(np.maximum((F * F).sum(axis=1) - into**2, 0.0))
+    pressed = (into > 0.0) & (sideways < TIP_FRICTION * into)
+    return bool(pressed.mean() >= _STICK_SHARE)
 
 
 def _lowest(hull: Array, u: Array) -> Array:
