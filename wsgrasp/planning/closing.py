@@ -77,20 +77,24 @@ def closing_paths(g: GripperModel) -> Array:
     if g.has_configurations:
         t = np.linspace(0.0, 1.0, _PATH_STEPS)[:, None]  # (K, 1)
         out = []
-        for f, joints in enumerate(g.finger_joints):
-            lim = np.asarray(g.finger_limits[f], dtype=np.float64)  # (d, 2)
-            pre = np.array(
-                [g.pregrasp.get(j, lo) for j, lo in zip(joints, lim[:, 0], strict=True)]
-            )
-            closed = np.array(
-                [g.closed.get(j, p) for j, p in zip(joints, pre, strict=True)]
-            )
-            pre = np.clip(pre, lim[:, 0], lim[:, 1])
-            closed = np.clip(closed, lim[:, 0], lim[:, 1])
+        for f in range(g.num_fingers):
+            pre, closed = _pre_closed(g, f)
             out.append(pad_positions(g, f, pre + t * (closed - pre)))  # (K, 3)
         paths = np.stack(out)
     g.__dict__["_closing_paths"] = paths
     return paths
+
+
+def _pre_closed(g: GripperModel, f: int) -> tuple[Array, Array]:
+    """Finger ``f``'s joints at the pre-grasp and closed postures, clipped to
+    their limits: ``(d,)`` each, the closing path running straight between."""
+    joints = g.finger_joints[f]
+    lim = np.asarray(g.finger_limits[f], dtype=np.float64)  # (d, 2)
+    pre = np.array(
+        [g.pregrasp.get(j, lo) for j, lo in zip(joints, lim[:, 0], strict=True)]
+    )
+    closed = np.array([g.closed.get(j, p) for j, p in zip(joints, pre, strict=True)])
+    return np.clip(pre, lim[:, 0], lim[:, 1]), np.clip(closed, lim[:, 0], lim[:, 1])
 
 
 def closing_centre(g: GripperModel) -> Array:
@@ -486,12 +490,7 @@ def _presses_into_table(g: GripperModel, f: int) -> bool:
     if not len(ks):
         return False
     lim = np.asarray(g.finger_limits[f], dtype=np.float64)  # (d, 2)
-    pre = np.array(
-        [g.pregrasp.get(j, lo) for j, lo in zip(joints, lim[:, 0], strict=True)]
-    )
-    closed = np.array([g.closed.get(j, p) for j, p in zip(joints, pre, strict=True)])
-    pre = np.clip(pre, lim[:, 0], lim[:, 1])
-    closed = np.clip(closed, lim[:, 0], lim[:, 1])
+    pre, closed = _pre_closed(g, f)
     q = pre + (ks / (K - 1))[:, None] * (closed - pre)  # (k, d)
     d, eps = len(joints), 0.02
     J = np.empty((len(ks), 3, d))
