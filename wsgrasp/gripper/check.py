@@ -212,17 +212,13 @@ def _on_table(model: GripperModel) -> list[dict[str, Any]]:
     """Per finger, whether the search takes its tip to slide along the table or
     to stick there (``on_table``), and whether the description says so or it is
     guessed (``on_table_given``)."""
-    from wsgrasp.planning.closing import slides
+    from wsgrasp.planning.closing import declared_on_table, slides
 
     if not model.has_configurations:
         return [{} for _ in model.finger_names]
-    given = (model.description or {}).get("fingers", [])
     return [
-        {
-            "on_table": "slides" if s else "sticks",
-            "on_table_given": f < len(given) and given[f].get("on_table") is not None,
-        }
-        for f, s in enumerate(slides(model))
+        {"on_table": "slides" if s else "sticks", "on_table_given": said is not None}
+        for s, said in zip(slides(model), declared_on_table(model), strict=True)
     ]
 
 

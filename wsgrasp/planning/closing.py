@@ -41,6 +41,7 @@ __all__ = [
     "TIP_FRICTION",
     "closing_centre",
     "closing_paths",
+    "declared_on_table",
     "finger_sweep",
     "prepare_sweeps",
     "reach_boxes",
@@ -437,16 +438,24 @@ def slides(g: GripperModel) -> list[bool]:
     cached = g.__dict__.get("_slides")
     if cached is not None:
         return cached  # type: ignore[no-any-return]
-    fingers = g.description.get("fingers", []) if g.description else []
     out = []
-    for f, joints in enumerate(g.finger_joints):
-        said = fingers[f].get("on_table") if f < len(fingers) else None
+    for f, said in enumerate(declared_on_table(g)):
         if said is not None:
             out.append(said == "slides")
         else:
-            out.append(len(joints) > 1 and not _presses_into_table(g, f))
+            out.append(len(g.finger_joints[f]) > 1 and not _presses_into_table(g, f))
     g.__dict__["_slides"] = out
     return out
+
+
+def declared_on_table(g: GripperModel) -> list[str | None]:
+    """Per finger, the description's ``on_table`` (``None`` where it leaves it
+    out, and for a model kept without its description)."""
+    fingers = g.description.get("fingers", []) if g.description else []
+    return [
+        fingers[f].get("on_table") if f < len(fingers) else None
+        for f in range(g.num_fingers)
+    ]
 
 
 #: friction between a fingertip and the table, for :func:`_presses_into_table`
@@ -477,9 +486,9 @@ def _presses_into_table(g: GripperModel, f: int) -> bool:
     postures press it in."""
     from wsgrasp.planning.targets import pad_positions
 
+    if not g.has_configurations:
+        return False
     joints = g.finger_joints[f]
-    if len(joints) < 2 or not g.has_configurations:
-        return len(joints) < 2
     index = _sweep_index(g)
     K = index.hull.shape[1]
     down = -np.asarray(g.approach_axis, dtype=np.float64)  # table normal, up
