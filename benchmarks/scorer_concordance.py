@@ -175,7 +175,7 @@ def main(argv: list[str] | None = None) -> int:
         g, _, f = item.partition("=")
         folders[g] = Path(f)
     for g in args.gripper or ([] if folders else ["franka_hand", "allegro_right"]):
-        folder = args.work / g
+        folder = args.work / Path(g).stem  # a gripper's name, or its YAML's
         spec = all_terms_spec(g)
         t0 = time.perf_counter()
         label(g, args.objects, args.random_k, args.protocol, folder)

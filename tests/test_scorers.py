@@ -298,3 +298,45 @@ def test_closing_centre_prefers_fingers_closing_on_the_centre_of_mass():
     )
     s = scorer.score(batch, opts)
     assert s[0] == pytest.approx(1.0) and s[1] < 0.5
+
+
+def test_squeeze_inward_prefers_a_push_towards_the_palm():
+    """From above, pads on an object's upper edges (normals up and out) push it
+    down and out of the hand; on its side faces (normals across) they push
+    neither way; under a rounded overhang (normals down and out) they push it up
+    into the palm."""
+    scorer, opts = _scorer("squeeze_inward")
+    s = np.sqrt(0.5)
+    points = np.array([[0, 0.03, 0], [0, -0.03, 0]] * 3, dtype=float)
+    normals = np.array(
+        [[0, s, s], [0, -s, s], [0, 1, 0], [0, -1, 0], [0, s, -s], [0, -s, -s]]
+    )
+    holding = np.zeros((3, 6, 2), dtype=bool)
+    for c in range(3):
+        holding[c, 2 * c, 0] = holding[c, 2 * c + 1, 1] = True
+    T = np.tile(np.eye(4), (3, 1, 1))
+    T[:, :3, 2] = [0, 0, -1]  # approach straight down
+    T[:, :3, 0] = [-1, 0, 0]
+    batch = _jaw_batch(T, holding, points, normals, np.zeros(3))
+    np.testing.assert_allclose(
+        scorer.score(batch, opts), [0.5 - 0.5 * s, 0.5, 0.5 + 0.5 * s], atol=1e-12
+    )
+    # a finger holding nothing pushes nothing: half the push of one edge
+    holding[0, 1, 1] = False
+    batch = _jaw_batch(T, holding, points, normals, np.zeros(3))
+    assert scorer.score(batch, opts)[0] == pytest.approx(0.5 - 0.25 * s)
+
+
+def test_reach_down_prefers_a_gripper_down_at_the_table():
+    """An object 4 cm tall on a table: a gripper whose lowest point is at the
+    table scores 1, one 1 cm up 0.75, one level with the top or above it 0;
+    without a table every candidate scores 1."""
+    scorer, opts = _scorer("reach_down")
+    points = np.array([[0, 0.03, 0.0], [0, -0.03, 0.04]])
+    holding = np.ones((4, 2, 2), dtype=bool)
+    T = np.tile(np.eye(4), (4, 1, 1))
+    heights = np.array([0.0, 0.01, 0.04, 0.07])
+    batch = _jaw_batch(T, holding, points, np.zeros((2, 3)), heights, np.eye(4))
+    np.testing.assert_allclose(scorer.score(batch, opts), [1.0, 0.75, 0.0, 0.0])
+    batch = _jaw_batch(T, holding, points, np.zeros((2, 3)), heights)
+    np.testing.assert_array_equal(scorer.score(batch, opts), np.ones(4))

@@ -22,6 +22,8 @@ __all__ = [
     "ContactBalanceScorer",
     "JointMarginScorer",
     "MassCenterScorer",
+    "ReachDownScorer",
+    "SqueezeInwardScorer",
     "TableClearanceScorer",
 ]
 
@@ -253,6 +255,52 @@ class MassCenterScorer:
         return _nearness(d, batch)
 
 
+class ReachDownScorer:
+    """A gripper that reaches down the object to the table, not one that holds
+    it by its top.
+
+    ``h`` is the gripper cloud's lowest point above the table (the pre-grasp
+    posture, as the table test sees it) and ``top`` the object's highest point
+    above the table; the score is ``1 - h / top``, clipped to ``[0, 1]``: 1 for
+    a gripper down at the table, 0 for one whose lowest point is level with the
+    object's top. Without a table every candidate scores 1.
+    """
+
+    class Options(_Options):
+        pass
+
+    def score(self, batch: Any, options: Options) -> np.ndarray:
+        if batch.T_world_table is None:
+            return np.ones(len(batch))
+        n = batch.T_world_table[:3, 2]
+        origin = batch.T_world_table[:3, 3]
+        top = max(float(((batch.object_points - origin) @ n).max()), 1e-6)
+        return np.clip(1.0 - batch.min_table_height / top, 0.0, 1.0)
+
+
+class SqueezeInwardScorer:
+    """A squeeze that presses the object towards the palm, not out of the hand.
+
+    Each finger pushes against the mean outward normal ``n_f`` of the points it
+    holds. The share of the fingers' summed push along the approach direction
+    ``a`` (from the hand into the object), ``e = -(sum n_f) . a / nf``, is
+    positive where the fingers grip a face that turns back towards the hand (a
+    rounded top, the upper edge of a flat object, a cone from above): squeezing
+    there pushes the object away from the palm, out through the fingertips,
+    and once lifted nothing but friction holds it in. The score is
+    ``(1 - e) / 2``: 1 for a push straight into the palm, 0.5 for a push
+    square across the approach, 0 for a push straight out.
+    """
+
+    class Options(_Options):
+        pass
+
+    def score(self, batch: Any, options: Options) -> np.ndarray:
+        n = batch.contact_normals  # (F, nf, 3), zero for a finger holding none
+        e = -np.einsum("fj,fj->f", n.sum(axis=1), batch.approach) / n.shape[1]
+        return np.clip(0.5 * (1.0 - e), 0.0, 1.0)
+
+
 @hookimpl
 def wsgrasp_register_scorers(register: Any) -> None:
     register("centroid_distance", CentroidDistanceScorer)
@@ -265,3 +313,5 @@ def wsgrasp_register_scorers(register: Any) -> None:
     register("approach_direction", ApproachDirectionScorer)
     register("joint_margin", JointMarginScorer)
     register("mass_center", MassCenterScorer)
+    register("reach_down", ReachDownScorer)
+    register("squeeze_inward", SqueezeInwardScorer)
