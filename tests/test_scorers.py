@@ -340,3 +340,22 @@ def test_reach_down_prefers_a_gripper_down_at_the_table():
     np.testing.assert_allclose(scorer.score(batch, opts), [1.0, 0.75, 0.0, 0.0])
     batch = _jaw_batch(T, holding, points, np.zeros((2, 3)), heights)
     np.testing.assert_array_equal(scorer.score(batch, opts), np.ones(4))
+
+
+def test_reach_down_depth_asks_a_tall_object_for_its_top_alone():
+    """With ``depth`` 2 cm, on an object 4 cm tall a gripper 2 cm down from the
+    top already scores 1 and one 1 cm down 0.5; on one 1 cm tall the full score
+    still needs the table."""
+    entry = get_registry().get("scorers", "reach_down")
+    scorer, opts = entry.obj(), entry.obj.Options(depth=0.02)
+    holding = np.ones((3, 2, 2), dtype=bool)
+    T = np.tile(np.eye(4), (3, 1, 1))
+    heights = np.array([0.0, 0.02, 0.03])
+    tall = np.array([[0, 0.03, 0.0], [0, -0.03, 0.04]])
+    batch = _jaw_batch(T, holding, tall, np.zeros((2, 3)), heights, np.eye(4))
+    np.testing.assert_allclose(scorer.score(batch, opts), [1.0, 1.0, 0.5])
+    flat = np.array([[0, 0.03, 0.0], [0, -0.03, 0.01]])
+    batch = _jaw_batch(
+        T, holding, flat, np.zeros((2, 3)), np.array([0.0, 0.005, 0.01]), np.eye(4)
+    )
+    np.testing.assert_allclose(scorer.score(batch, opts), [1.0, 0.5, 0.0])

@@ -256,18 +256,24 @@ class MassCenterScorer:
 
 
 class ReachDownScorer:
-    """A gripper that reaches down the object to the table, not one that holds
-    it by its top.
+    """A gripper that reaches down the object, not one that holds it by its top.
 
     ``h`` is the gripper cloud's lowest point above the table (the pre-grasp
     posture, as the table test sees it) and ``top`` the object's highest point
-    above the table; the score is ``1 - h / top``, clipped to ``[0, 1]``: 1 for
-    a gripper down at the table, 0 for one whose lowest point is level with the
-    object's top. Without a table every candidate scores 1.
+    above the table. The score is ``(top - h) / min(top, depth)``, clipped to
+    ``[0, 1]``: 1 for a gripper that comes ``depth`` down from the object's top,
+    or down to the table where the object is lower than that; 0 for one whose
+    lowest point stays level with the top. Without ``depth`` the full score
+    needs the table for every object. Without a table every candidate scores 1.
     """
 
     class Options(_Options):
-        pass
+        depth: float | None = Field(
+            None,
+            gt=0.0,
+            description="how far (m) below the object's top the gripper's lowest "
+            "point earns the full score; none: down to the table",
+        )
 
     def score(self, batch: Any, options: Options) -> np.ndarray:
         if batch.T_world_table is None:
@@ -275,7 +281,8 @@ class ReachDownScorer:
         n = batch.T_world_table[:3, 2]
         origin = batch.T_world_table[:3, 3]
         top = max(float(((batch.object_points - origin) @ n).max()), 1e-6)
-        return np.clip(1.0 - batch.min_table_height / top, 0.0, 1.0)
+        full = top if options.depth is None else min(top, options.depth)
+        return np.clip((top - batch.min_table_height) / full, 0.0, 1.0)
 
 
 class SqueezeInwardScorer:
