@@ -442,6 +442,11 @@ def render_on_table_runs() -> str:
     return _runs_in("on-table")
 
 
+def render_reach_down_runs() -> str:
+    """The runs that measured the reach_down scorer in the generic default."""
+    return _runs_in("reach-down")
+
+
 def render_defaults_effect() -> str:
     """Each gripper's default spec beside the paper's and the follow-up's setting,
     from every eval summary that ran more than one spec per gripper."""
@@ -500,7 +505,7 @@ def _scorer_run(report: dict[str, Any]) -> list[str]:
     ]
     for g, r in report.get("grippers", {}).items():
         out.append(
-            f"**{g}**: {r['scenes']} scenes; the choice held "
+            f"**{short(g)}**: {r['scenes']} scenes; the choice held "
             f"{100 * r['chosen_success']:.0f} %, a random feasible candidate "
             f"{100 * r['random_success']:.0f} % ({r['random_labels']} labels); the "
             "default weights' pick among the random ones "

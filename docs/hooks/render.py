@@ -38,6 +38,7 @@ from docs_results import (
     render_defaults_effect,
     render_defaults_success,
     render_on_table_runs,
+    render_reach_down_runs,
     render_results_bench,
     render_results_clutter,
     render_results_eval,
@@ -64,6 +65,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "results-clutter": render_results_clutter,
     "default-spec-runs": render_default_spec_runs,
     "on-table-runs": render_on_table_runs,
+    "reach-down-runs": render_reach_down_runs,
     "results-scorers": render_results_scorers,
 }
 
