@@ -1028,7 +1028,9 @@ def _sweeps_cleared(
             None if o.depth is None else o.depth[k : k + 1],
         )
         T[np.searchsorted(feasible, best)] = T_gen[0]
-    d = sweep_back_offs(g, T, inp.table.T_world_table, inp.object_points)  # (F,)
+    # the candidates of one orientation share their rotation
+    groups = cands.orientation[feasible] if cands.orientation is not None else None
+    d = sweep_back_offs(g, T, inp.table.T_world_table, inp.object_points, groups)
     rejected = np.isnan(d)
     moved = np.flatnonzero(d > 0.0)
     T_moved = T[moved]  # (m, 4, 4) a copy

@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 
 from wsgrasp.geometry._superellipsoid import _power as superellipsoid_power
 from wsgrasp.planning._grids import FingerDepth, NearestPoint
+from wsgrasp.planning.poses import MARGIN
 
 __all__ = [
     "count_by_fingers",
@@ -69,6 +70,10 @@ def _count_loop(
     perm: NDArray[np.int64],
     held: NDArray[np.bool_],
     dest: NDArray[np.int64],
+    q_lo: Array,
+    q_hi: Array,
+    box_lo: Array,
+    box_hi: Array,
 ) -> None:  # pragma: no cover - run compiled, or by the tests on tiny inputs
     """``counts[i, f]``: the points of candidate ``i`` (``Q[ol[i], :, j] -
     u[i]``) strictly inside a sphere of finger ``f`` (any number of fingers,
@@ -94,7 +99,13 @@ def _count_loop(
     branch; then the unsure points' entries, one loop over them whatever
     fingers they are for. The code names the entries, so an unsure point
     reads no per-node table (a lookup in 10 MB of node starts took 40 % of
-    the Allegro's dense count loop, a branch per finger another 20 %)."""
+    the Allegro's dense count loop, a branch per finger another 20 %).
+
+    First, a candidate whose object box (its row's extremes ``q_lo``,
+    ``q_hi`` (q, 3), less ``u``) lies below ``box_lo[f]`` or above
+    ``box_hi[f]`` along some axis, for every finger ``f`` (the fingers'
+    sphere boxes, widened by the caller's margin), holds nothing: its counts
+    stay 0 and its holdings are written false, with no point looked up."""
     m = ol.shape[0]
     n = Q.shape[2]
     nf = counts.shape[1]
@@ -116,6 +127,21 @@ def _count_loop(
                     Qn[k, j] = (Q[r, k, j] - d_origin[k]) * d_inv_cell + 0.5
             prev = r
         ux, uy, uz = u[i, 0], u[i, 1], u[i, 2]
+        near = False  # some finger's box meets the candidate's object box
+        for f in range(nf):
+            apart = False
+            for k in range(3):
+                uk = ux if k == 0 else (uy if k == 1 else uz)
+                if q_lo[r, k] - uk > box_hi[f, k] or q_hi[r, k] - uk < box_lo[f, k]:
+                    apart = True
+            if not apart:
+                near = True
+        if not near:
+            if keep:
+                for j in range(n):
+                    for f in range(nf):
+                        held[dest[i], perm[j], f] = False
+            continue
         vx, vy, vz = ux * d_inv_cell, uy * d_inv_cell, uz * d_inv_cell
         for j in range(n):  # clipped onto the border, far from every sphere
             nx = min(max(np.floor(Qn[0, j] - vx), 0.0), d_last[0])
@@ -266,6 +292,11 @@ def count_by_fingers(
         np.ascontiguousarray(np.arange(n) if perm is None else perm, dtype=np.int64),
         out,
         np.ascontiguousarray(dest, dtype=np.int64),
+        Q.min(axis=2) if n else np.zeros((len(Q), 3)),  # each row's object box
+        Q.max(axis=2) if n else np.zeros((len(Q), 3)),
+        # the fingers' boxes as ``poses.separated`` widens them
+        np.asarray(depth.box_lo, dtype=np.float64) - MARGIN,
+        np.asarray(depth.box_hi, dtype=np.float64) + MARGIN,
     )
     return counts
 

@@ -341,6 +341,7 @@ def sweep_back_offs(
     T_world_gripper: Array,
     T_world_table: Array,
     object_points: Array,
+    groups: NDArray[np.int64] | None = None,
 ) -> Array:
     """The least back-off along each candidate's approach axis that keeps its
     fingers' sweeps out of the table until they reach the object.
@@ -362,6 +363,11 @@ def sweep_back_offs(
         Table frame: origin on the surface, z its normal towards the object.
     object_points : (n, 3) float
         World frame.
+    groups : (C,) int, optional
+        A label per candidate (its orientation in a search's candidate set)
+        such that candidates with one label share their rotation: the
+        rotations are then told apart by label (checked; see
+        :func:`_distinct_rotations`). The answers are the same without it.
 
     Returns
     -------
@@ -381,7 +387,7 @@ def sweep_back_offs(
     n = np.asarray(T_world_table, dtype=np.float64)[:3, 2]
     o = np.asarray(T_world_table, dtype=np.float64)[:3, 3]
     # candidates share their rotations (samples x orientations): each once
-    R, of = _distinct_rotations(T[:, :3, :3])  # (U, 3, 3), (C,) index into R
+    R, of = _distinct_rotations(T[:, :3, :3], groups)  # (U, 3, 3), (C,) into R
     u = np.einsum("uij,i->uj", R, n)  # (U, 3) table normal, gripper frame
     # a finger's sweep dips below the table at some posture iff at its lowest
     # corner of all (heights rise with a candidate's lift, rounding included):
@@ -545,20 +551,38 @@ def _lowest(hull: Array, u: Array) -> Array:
     return out
 
 
-def _distinct_rotations(R: Array) -> tuple[Array, NDArray[np.int64]]:
+def _distinct_rotations(
+    R: Array, groups: NDArray[np.int64] | None = None
+) -> tuple[Array, NDArray[np.int64]]:
     """The distinct rotations of ``R`` (C, 3, 3), in ``np.unique``'s order (rows
     compared as numbers, lexicographically), and each one's index: (U, 3, 3),
-    (C,). Rows are grouped by one sort of a 64-bit mix of their bits (checked;
-    ``+ 0.0`` makes ``-0.0`` one with ``0.0``), then only the groups' first rows
-    are sorted (``np.lexsort``): a lexsort of every row took 37 ms of the
-    Allegro's dense sweeps (87,417 rows, 4,670 distinct), this 23 ms."""
+    (C,). Rows are grouped by ``groups`` (C,) (nonnegative labels, a rotation
+    per label: a row of each label stands for it, checked), or else by one sort
+    of a 64-bit mix of their bits (checked; ``+ 0.0`` makes ``-0.0`` one with
+    ``0.0``), then only the groups' first rows are sorted (``np.lexsort``): a
+    lexsort of every row took 37 ms of the Allegro's dense sweeps (87,417 rows,
+    4,670 distinct), the mix 23 ms, the labels (the candidates' orientations)
+    3 ms."""
     rows = np.ascontiguousarray(R, dtype=np.float64).reshape(-1, 9)  # (C, 9)
-    z = (rows + 0.0).view(np.uint64) * _MIX  # (C, 9), wrapping around
-    z ^= z >> np.uint64(31)  # (a linear mix: two sign flips cancel)
-    key = (z * _MIX[::-1]).sum(axis=1)  # (C,)
-    _, first, of = np.unique(key, return_index=True, return_inverse=True)
-    if not np.array_equal(rows[first][of.reshape(-1)], rows):  # a shared key
-        first = of = np.arange(len(rows))
+    first: NDArray[np.int64] | None = None
+    if groups is not None and len(rows):
+        label = np.asarray(groups, dtype=np.int64).reshape(-1)
+        # a row of each label (whichever the assignment keeps), labels renumbered
+        some = np.full(int(label.max()) + 1, -1, dtype=np.int64)
+        some[label] = np.arange(len(label))
+        used = np.flatnonzero(some >= 0)
+        renumber = np.zeros(len(some), dtype=np.int64)
+        renumber[used] = np.arange(len(used))
+        first, of = some[used], renumber[label]
+        if not np.array_equal(rows[first][of], rows):  # labels sharing rotations
+            first = None
+    if first is None:
+        z = (rows + 0.0).view(np.uint64) * _MIX  # (C, 9), wrapping around
+        z ^= z >> np.uint64(31)  # (a linear mix: two sign flips cancel)
+        key = (z * _MIX[::-1]).sum(axis=1)  # (C,)
+        _, first, of = np.unique(key, return_index=True, return_inverse=True)
+        if not np.array_equal(rows[first][of.reshape(-1)], rows):  # a shared key
+            first = of = np.arange(len(rows))
     order = np.lexsort(rows[first].T[::-1])  # first column most significant
     s = rows[first][order]
     new = np.ones(len(s), dtype=bool)

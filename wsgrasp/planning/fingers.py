@@ -136,17 +136,21 @@ class _Fingers:
         self.nf = len(self.f_lo)
 
     def _groups(
-        self, s: NDArray[np.int64], o: NDArray[np.int64], P: Array
+        self, s: NDArray[np.int64], o: NDArray[np.int64], P: Array, box: bool = True
     ) -> Iterator[tuple[NDArray[np.int64], Array, NDArray[np.int64], Array, Any]]:
         """Chunks of candidates grouped by orientation, as ``(rows, Q, ol, u,
         need)``: positions ``rows`` (m,) into ``s``, the chunk's arrays as
         ``StructuredPoses.chunk`` gives them for the points ``P``, and ``need``:
         the chunk's candidates with some finger's sphere box meeting the
-        object's box."""
+        object's box (with ``box``; else every one, a slice: the compiled loop
+        tests the boxes itself)."""
         order = grouped(o)  # rows grouped by orientation
         for a in range(0, len(s), self.step):
             rows = order[a : a + self.step]
             _, Q, ol, u = self.poses.chunk(P, s[rows], o[rows])
+            if not box:
+                yield rows, Q, ol, u, slice(None)
+                continue
             lo = (Q.min(axis=2)[ol] - u)[:, None, :]  # (m, 1, 3)
             hi = (Q.max(axis=2)[ol] - u)[:, None, :]
             apart = separated(lo, hi, self.f_lo[None], self.f_hi[None])  # (m, nf)
@@ -158,7 +162,7 @@ class _Fingers:
         """Points held per candidate and finger: (k, nf) int."""
         out = np.zeros((len(s), self.nf), dtype=np.int64)
         if self.loop is not None:
-            for rows, Q, ol, u, need in self._groups(s, o, self.P_loop):
+            for rows, Q, ol, u, need in self._groups(s, o, self.P_loop, False):
                 out[rows[need]] = _compiled.count_by_fingers(
                     self.depth, Q, ol[need], u[need], loop=self.loop
                 )
@@ -175,7 +179,7 @@ class _Fingers:
         out = np.zeros((len(s), len(self.P), self.nf), dtype=bool)
         if self.loop is not None:
             counts = np.zeros((len(s), self.nf), dtype=np.int64)
-            for rows, Q, ol, u, need in self._groups(s, o, self.P_loop):
+            for rows, Q, ol, u, need in self._groups(s, o, self.P_loop, False):
                 dest = rows[need]
                 counts[dest] = _compiled.count_by_fingers(
                     self.depth, Q, ol[need], u[need], self.loop, self.perm, out, dest

@@ -136,50 +136,64 @@ def _bounds(
     # searchsorted answers every (orientation, target) pair
     span = float(np.ptp(heights) + np.ptp(M[:, 2]) + abs(table.center[2]) + 1.0)
     flat = (sorted_h + span * np.arange(n_or)[:, None]).ravel()  # (O * h,)
-    lowest = P[np.arange(n_or), order[:, 0]]  # (O, 3) each orientation's lowest
+    # each orientation's lowest vertex, a row per axis: (3, O)
+    lowest = np.ascontiguousarray(P[np.arange(n_or), order[:, 0]].T)
     top = float(table.center[2] + table.semi_axes[2])
     ns = len(M)
-    hit = np.zeros(ns * n_or, dtype=bool)
-    unsure = np.zeros(ns * n_or, dtype=bool)
-    for a in range(0, ns * n_or, _CHUNK_CANDIDATES):
-        c = np.arange(a, min(a + _CHUNK_CANDIDATES, ns * n_or))
-        s, o = np.divmod(c, n_or)
-        shift = M[s, 2]  # (k,)
+    # (samples, orientations), as the candidates are numbered (s * O + o)
+    hit = np.zeros((ns, n_or), dtype=bool)
+    unsure = np.zeros((ns, n_or), dtype=bool)
+    # blocks of samples, every orientation: a candidate's lowest height is a
+    # broadcast sum of its orientation's part and its sample's, and the low
+    # ones come with their sample and orientation (no division of indices)
+    rows = max(1, _CHUNK_CANDIDATES // n_or)
+    for a in range(0, ns, rows):
+        Mb = M[a : a + rows]  # (b, 3)
         # a candidate whose lowest point is above the top by MARGIN has both
         # points above it (the rounding of the shifted heights keeps their
         # order): eq. (1)'s z term alone exceeds 1, so neither is inside and
         # nothing is left to compute (43 % of the Allegro's dense candidates)
-        low = np.flatnonzero(sorted_h[o, 0] + shift <= top + MARGIN)  # (l,)
-        s, o, shift = s[low], o[low], shift[low]
+        low = lowest[2] + Mb[:, 2, None] <= top + MARGIN  # (b, O)
         # the lowest vertex, then for the others the vertex nearest the slab's
         # middle height
-        inside = _vertices_inside(lowest[o] + M[s], table)
-        rest = np.flatnonzero(~inside)
-        target = table.center[2] - shift[rest] + span * o[rest]
-        j = np.clip(np.searchsorted(flat, target) - o[rest] * nv, 0, nv - 1)
-        inside[rest] = _vertices_inside(
-            P[o[rest], order[o[rest], j]] + M[s[rest]], table
-        )
+        s, o = np.nonzero(low)  # (l,) each
+        s += a
+        first = _inside(*(lowest[k][o] + M[s, k] for k in range(3)), table)
+        inside = np.zeros_like(low)
+        inside[s[first] - a, o[first]] = True
+        s, o = s[~first], o[~first]
+        shift = M[s, 2]
+        target = table.center[2] - shift + span * o
+        j = np.clip(np.searchsorted(flat, target) - o * nv, 0, nv - 1)
+        p = P[o, order[o, j]] + M[s]  # (r, 3)
+        second = _inside(p[:, 0], p[:, 1], p[:, 2], table)
+        inside[s[second] - a, o[second]] = True
         # the rest against every vertex (of the Allegro's dense candidates, 8,968
         # are left here, 8,944 of them with a vertex inside: the hand's lowest
         # vertex below the slab and the one nearest its middle beyond its edge)
-        rest = np.flatnonzero(~inside)
-        step = max(1, 500_000 // max(nv, 1))  # (k, h, 3) temporaries: 12 MB
-        for b in range(0, len(rest), step):
-            r = rest[b : b + step]
-            p = P[o[r]] + M[s[r]][:, None, :]  # (k, h, 3) table frame
-            inside[r] = _vertices_inside(p, table).any(axis=1)
-        hit[c[low]] = inside
-        unsure[c[low]] = ~inside
-    return hit, unsure
+        s, o = s[~second], o[~second]
+        step = max(1, 500_000 // max(nv, 1))  # (k, h) temporaries: 4 MB each
+        for b in range(0, len(s), step):
+            sb, ob = s[b : b + step], o[b : b + step]
+            p = P[ob]  # (k, h, 3)
+            any_in = _inside(
+                *(p[:, :, k] + M[sb, k, None] for k in range(3)), table
+            ).any(axis=1)
+            inside[sb[any_in] - a, ob[any_in]] = True
+        hit[a : a + rows] = inside
+        unsure[a : a + rows] = low & ~inside
+    return hit.reshape(-1), unsure.reshape(-1)
 
 
-def _vertices_inside(p: Array, table: TableSE) -> NDArray[np.bool_]:
-    """Points ``p`` (..., 3), table frame, inside the table superellipsoid by
-    more than ``MARGIN`` in eq. (1)'s value: (...) bool."""
-    d = np.abs(p - table.center) / table.semi_axes
-    l_ = table.exponent
-    value = _power(d[..., 0], l_) + _power(d[..., 1], l_) + d[..., 2] * d[..., 2]
+def _inside(x: Array, y: Array, z: Array, table: TableSE) -> NDArray[np.bool_]:
+    """Points with table-frame coordinates ``x``, ``y``, ``z`` (any one shape)
+    inside the table superellipsoid by more than ``MARGIN`` in eq. (1)'s value,
+    ``(|x - x0| / a)^l + (|y - y0| / b)^l + (|z - z0| / c)^2``: (...) bool."""
+    c, e, l_ = table.center, table.semi_axes, table.exponent
+    dz = np.abs(z - c[2]) / e[2]
+    value = _power(np.abs(x - c[0]) / e[0], l_)
+    value += _power(np.abs(y - c[1]) / e[1], l_)
+    value += dz * dz
     return value < 1.0 - MARGIN  # type: ignore[no-any-return]
 
 
