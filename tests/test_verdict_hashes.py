@@ -18,6 +18,8 @@ import verdict_hashes  # noqa: E402
 
 STORED = verdict_hashes.stored()
 PLANS = [n for n in verdict_hashes.case_names() if n not in verdict_hashes.DENSE]
+# the hashes hold for the environment they were stored in (verdict_hashes.py)
+pytestmark = pytest.mark.skipif(STORED is None, reason=verdict_hashes.missing_reason())
 
 
 @pytest.mark.parametrize("gripper", list(verdict_hashes.GRIPPERS))

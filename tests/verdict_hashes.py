@@ -7,6 +7,16 @@ for each gripper's default spec and the bench's dense sampling.
 verdict, write them again::
 
     .venv/bin/python tests/verdict_hashes.py --write
+
+The last bits of a plan depend on the numerical libraries and on the processor:
+the same code gave other hashes for every case after a fresh install took newer
+releases from the package index, and OpenBLAS's kernels for another processor
+change the scores' last bits. So the hashes are stored per environment
+(:func:`environment`: the processor's vector extensions and the versions of the
+libraries a plan runs through), and the test compares with the set stored for
+the environment it runs in, skipping where none is. To hold a change to them in
+a new environment, store the set from the unchanged code first (``--write`` on
+a checkout of the commit before the change), then run the test on the change.
 """
 
 from __future__ import annotations
@@ -14,7 +24,9 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import platform
 import sys
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
@@ -49,6 +61,28 @@ DENSE = {
     "franka_hand_dense": ("franka_hand", "box_upright"),
     "allegro_right_dense": ("allegro_right", "box_upright"),
 }
+
+
+#: the distributions a plan's arithmetic runs through
+LIBRARIES = ("numpy", "scipy", "open3d-cpu", "open3d", "numba", "trimesh", "yourdfpy")
+
+
+def environment() -> str:
+    """What the stored hashes depend on besides the code: the machine, its widest
+    vector extension numpy dispatches to (OpenBLAS picks its kernels by the
+    same), and the versions of :data:`LIBRARIES` installed."""
+    from numpy._core._multiarray_umath import __cpu_features__ as cpu
+
+    level = next(
+        (k for k in ("AVX512F", "AVX2", "ASIMD", "SSE42") if cpu.get(k)), "baseline"
+    )
+    libs = []
+    for name in LIBRARIES:
+        try:
+            libs.append(f"{name} {version(name)}")
+        except PackageNotFoundError:
+            continue
+    return ", ".join([f"{platform.machine()} {level}", *libs])
 
 
 def _digest(*arrays: Any) -> str:
@@ -117,8 +151,29 @@ def compute(names: list[str] | None = None) -> dict[str, dict[str, str]]:
     return out
 
 
-def stored() -> dict[str, dict[str, str]]:
-    return json.loads(STORED.read_text())["cases"]  # type: ignore[no-any-return]
+def _sets() -> list[dict[str, Any]]:
+    if not STORED.exists():
+        return []
+    return json.loads(STORED.read_text())["sets"]  # type: ignore[no-any-return]
+
+
+def stored(env: str | None = None) -> dict[str, dict[str, str]] | None:
+    """The hashes stored for environment ``env`` (this one by default), or None."""
+    env = env or environment()
+    for entry in _sets():
+        if entry["environment"] == env:
+            return entry["cases"]  # type: ignore[no-any-return]
+    return None
+
+
+def missing_reason() -> str:
+    """Why the test skips where no hashes are stored for this environment."""
+    others = "; ".join(e["environment"] for e in _sets()) or "none"
+    return (
+        f"no verdict hashes stored for this environment ({environment()}); stored "
+        f"for: {others}. Store them from the code before a change with "
+        "`python tests/verdict_hashes.py --write`, then run the test on the change"
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -136,12 +191,19 @@ def main(argv: list[str] | None = None) -> int:
             capture_output=True,
             text=True,
         ).stdout.strip()
+        env = environment()
+        sets = [e for e in _sets() if e["environment"] != env]
+        cases = {**(stored(env) or {}), **got}  # a subset updates those cases
+        sets.append({"environment": env, "commit": commit, "cases": cases})
         STORED.parent.mkdir(parents=True, exist_ok=True)
-        data = {"commit": commit, "cases": got}
+        data = {"sets": sorted(sets, key=lambda e: e["environment"])}
         STORED.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
-        print(f"wrote {len(got)} cases to {STORED}")
+        print(f"wrote {len(got)} cases for {env} to {STORED}")
         return 0
     want = stored()
+    if want is None:
+        print(missing_reason())
+        return 2
     bad = [n for n in got if got[n] != want.get(n)]
     for n in bad:
         print(f"{n}: {got[n]} != {want.get(n)}")

@@ -158,7 +158,8 @@ def _bounds(
         # middle height
         s, o = np.nonzero(low)  # (l,) each
         s += a
-        first = _inside(*(lowest[k][o] + M[s, k] for k in range(3)), table)
+        x, y, z = (lowest[k][o] + M[s, k] for k in range(3))
+        first = _inside(x, y, z, table)
         inside = np.zeros_like(low)
         inside[s[first] - a, o[first]] = True
         s, o = s[~first], o[~first]
@@ -176,9 +177,8 @@ def _bounds(
         for b in range(0, len(s), step):
             sb, ob = s[b : b + step], o[b : b + step]
             p = P[ob]  # (k, h, 3)
-            any_in = _inside(
-                *(p[:, :, k] + M[sb, k, None] for k in range(3)), table
-            ).any(axis=1)
+            x, y, z = (p[:, :, k] + M[sb, k, None] for k in range(3))
+            any_in = _inside(x, y, z, table).any(axis=1)
             inside[sb[any_in] - a, ob[any_in]] = True
         hit[a : a + rows] = inside
         unsure[a : a + rows] = low & ~inside
