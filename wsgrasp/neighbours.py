@@ -228,7 +228,14 @@ def _near_tree(
     end = np.cumsum(counts)
     for c in np.flatnonzero(counts):
         s, e = end[c] - counts[c], end[c]
-        np.matmul(points[idx[s:e]] - T[c, :3, 3], T[c, :3, :3], out=p_g[s:e])
+        rows = points[idx[s:e]] - T[c, :3, 3]  # (n, 3)
+        if e - s == 1:
+            # numpy takes one row times a matrix by another kernel than several
+            # rows (OpenBLAS's vector product), whose last bits differ on some
+            # processors: two copies of the row give :func:`_near_dense`'s bits
+            p_g[s:e] = (np.repeat(rows, 2, axis=0) @ T[c, :3, :3])[:1]
+        else:
+            np.matmul(rows, T[c, :3, :3], out=p_g[s:e])
     return cand, idx, p_g
 
 
