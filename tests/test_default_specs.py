@@ -79,6 +79,29 @@ def test_the_generic_default_validates_for_every_kind_of_gripper():
         assert spec.sampling.mode == "approach_sphere"
 
 
+@pytest.mark.parametrize("tips", [False, True])
+def test_the_written_default_is_the_generic_one_with_reach_down_fingertips_first(tips):
+    """What `gripper new` writes: the generic default naming the gripper; for a
+    hand that approaches fingertips first, with reach_down added after the
+    generic scorers and a comment that says why."""
+    from wsgrasp.default_specs import generic_spec_text
+    from wsgrasp.spec import load_spec
+
+    text = generic_spec_text("allegro_right", fingertips_first=tips)
+    data = yaml.safe_load(text)
+    generic = yaml.safe_load(GENERIC_DEFAULT.read_text())
+    assert data["gripper"] == "allegro_right"
+    extra = [{"name": "reach_down", "weight": 1.0}] if tips else []
+    assert data["scorers"] == generic["scorers"] + extra
+    assert {k: v for k, v in data.items() if k not in ("gripper", "scorers")} == {
+        k: v for k, v in generic.items() if k not in ("gripper", "scorers")
+    }
+    assert ("approaches fingertips first" in text) == tips
+    spec = load_spec(data)
+    last = "reach_down" if tips else "closing_centre"
+    assert [s.name for s in spec.scorers][-1] == last
+
+
 def test_plan_without_a_spec_uses_the_generic_default(tmp_path):
     import shutil
 

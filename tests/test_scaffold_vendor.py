@@ -278,10 +278,33 @@ def test_hand_on_a_forearm_approaches_palm_first_and_finds_grasps(tmp_path):
     report = check_gripper(yaml_path)
     assert not report.errors, report.format()
     spec, _ = default_spec(str(yaml_path))
+    assert "reach_down" not in [s["name"] for s in spec["scorers"]]  # palm first
     pipeline = Pipeline(PipelineSpec.model_validate(spec))
     cube = synth_scene("box", size=(0.05, 0.05, 0.05), seed=3)
     result = pipeline.plan(cube.points)
     assert result.found, result.hint
+
+
+def test_a_hand_scaffolded_fingertips_first_scores_by_reach_down(tmp_path, monkeypatch):
+    """Where `gripper new` keeps the fingertips-first approach, the package's
+    default spec is the generic default with reach_down added."""
+    from wsgrasp.default_specs import default_spec
+    from wsgrasp.gripper import _approach
+
+    def count(path, scenes):  # the fingertips-first guess leaves more grasps
+        alt = yaml.safe_load(Path(path).read_text())["approach_axis"]
+        return 10 if alt == sc_alt["approach_axis"] else 1
+
+    urdf = tmp_path / "hand.urdf"
+    urdf.write_text(forearm_hand_urdf())
+    sc_alt = guess_description(urdf, "hand").fingertips_first
+    monkeypatch.setattr(_approach, "feasible_on_low_objects", count)
+    yaml_path, sc = scaffold_plugin("hand", urdf, tmp_path / "out", check=False)
+    assert sc.approaches_fingertips_first
+    assert sc.data["approach_axis"] == sc_alt["approach_axis"]
+    spec, source = default_spec(str(yaml_path))
+    assert source.endswith("specs/default.yaml")
+    assert [s["name"] for s in spec["scorers"]][-1] == "reach_down"
 
 
 def test_hand_gets_a_fingertips_first_alternative_and_claws_none(tmp_path):
@@ -331,6 +354,7 @@ def test_approach_with_more_feasible_grasps_on_flat_objects_is_kept(
     assert len(seen) == 2 and not list(tmp_path.glob(".hand-*"))  # removed
     note = sc.notes["approach_axis"]
     assert f"{tips} feasible grasps fingertips first and {palm} palm first" in note
+    assert sc.approaches_fingertips_first == (first == "tips")
     if first == "tips":
         assert (sc.data["approach_axis"], sc.data["closing_axis"]) == (
             alt["approach_axis"],

@@ -18,7 +18,14 @@ from typing import Any
 
 from wsgrasp._names import gripper_ref, is_gripper_path
 
-__all__ = ["GENERIC_DEFAULT", "LABELS", "default_spec", "generic_spec_text", "spec_for"]
+__all__ = [
+    "FINGERTIPS_FIRST_SCORER",
+    "GENERIC_DEFAULT",
+    "LABELS",
+    "default_spec",
+    "generic_spec_text",
+    "spec_for",
+]
 
 #: the spec labels a gripper may ship, in ``specs/<label>.yaml`` beside its YAML
 LABELS = ("default", "paper", "followup")
@@ -73,15 +80,35 @@ def default_spec(gripper: str) -> tuple[dict[str, Any], str]:
     return spec_for("default", gripper)
 
 
-def generic_spec_text(gripper: str) -> str:
+#: the scorer a hand that approaches fingertips first gets beside the generic
+#: default's (docs/explanation/defaults.md#a-hand-that-approaches-fingertips-first)
+FINGERTIPS_FIRST_SCORER = "  - {name: reach_down, weight: 1.0}"
+
+
+def generic_spec_text(gripper: str, *, fingertips_first: bool = False) -> str:
     """:data:`GENERIC_DEFAULT` as text, naming ``gripper`` (what ``gripper new``
-    writes into a package as ``specs/default.yaml``)."""
+    writes into a package as ``specs/default.yaml``).
+
+    A hand that approaches fingertips first (its open fingers pointing at the
+    object, as ``gripper new`` may guess for a hand of four or more fingers)
+    also scores by ``reach_down``: such a hand holds a low object only when its
+    fingertips come down to the table beside it, rather than closing round the
+    object's top edge."""
     lines = GENERIC_DEFAULT.read_text().splitlines()
     out = [f"gripper: {gripper}" if ln.startswith("gripper:") else ln for ln in lines]
     out[0] = (
         f"# {gripper}'s default spec (`plan --gripper`, `eval`): wsgrasp's generic "
         "default as `gripper new` wrote it."
     )
+    if fingertips_first:
+        out[0] = out[0][:-1] + ","
+        out.insert(
+            1,
+            "# with reach_down, as for every hand that approaches fingertips first "
+            "(docs/explanation/defaults.md).",
+        )
+        last = max(i for i, ln in enumerate(out) if ln.startswith("  - {name:"))
+        out.insert(last + 1, FINGERTIPS_FIRST_SCORER)
     return "\n".join(out) + "\n"
 
 

@@ -115,6 +115,8 @@ class Scaffold:
     #: a second approach for a hand, fingertips first: ``approach_axis``,
     #: ``closing_axis`` and their notes; :func:`choose_approach` picks one
     fingertips_first: dict[str, Any] | None = None
+    #: whether :func:`choose_approach` kept the fingertips-first approach
+    approaches_fingertips_first: bool = False
 
 
 @dataclass

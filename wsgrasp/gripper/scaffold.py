@@ -283,8 +283,9 @@ pytest tests                          # builds, checks and plans a grasp
 
 Then use it in a pipeline spec: `gripper: {name}`. `wsgrasp plan --gripper {name}`
 and `wsgrasp eval --gripper {name}` use `{module}/specs/default.yaml`, wsgrasp's
-generic default spec as written here; change it there to change the gripper's
-default.
+generic default spec as written here (its first lines say whether `reach_down` was
+added, as it is for a hand that approaches fingertips first); change it there to
+change the gripper's default.
 
 The YAML's comments say what `wsgrasp gripper new` guessed and how. Read the check's
 report and its picture; fix the fields it names. To publish: `python -m build` and
@@ -424,5 +425,7 @@ def _write_package(
         _README.format(name=name, module=module, urdf=urdf.name)
     )
     (pkg / "specs").mkdir(exist_ok=True)
-    (pkg / "specs" / "default.yaml").write_text(generic_spec_text(name))
+    (pkg / "specs" / "default.yaml").write_text(
+        generic_spec_text(name, fingertips_first=scaffold.approaches_fingertips_first)
+    )
     return yaml_path, scaffold
