@@ -22,15 +22,12 @@ from wsgrasp.gripper.model import GripperModel
 from wsgrasp.planning.candidates import candidate_poses
 from wsgrasp.planning.closing import (
     BACK_OFF_STEPS,
-    GRAZE_SLACK,
-    SWEEP_SLACK,
     closing_paths,
     finger_sweep,
-    slides,
-    sweep_back_offs,
     table_back_off,
 )
 from wsgrasp.planning.result import REASONS
+from wsgrasp.planning.sweeps import GRAZE_SLACK, SWEEP_SLACK, slides, sweep_back_offs
 from wsgrasp.spec import load_spec
 
 #: hinge offset from the palm's axis and above its base; finger length; pad

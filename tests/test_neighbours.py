@@ -9,7 +9,8 @@ import pytest
 
 import wsgrasp.neighbours as nb
 from wsgrasp.gripper import load_gripper
-from wsgrasp.planning.closing import finger_sweep, reach_boxes, reach_steps
+from wsgrasp.planning.closing import finger_sweep
+from wsgrasp.planning.sweeps import reach_boxes, reach_steps
 
 
 @pytest.fixture(scope="module", params=["franka_hand", "allegro_right"])

@@ -711,7 +711,7 @@ def test_sweeps_group_rotations_as_numpy_unique_does(seed, distinct, C):
     """The closing sweeps take each distinct rotation once: the same rotations,
     in the same order, and the same index per candidate as ``np.unique`` over
     rows, also where rows differ only in the sign of a zero."""
-    from wsgrasp.planning.closing import _distinct_rotations
+    from wsgrasp.planning.sweeps import _distinct_rotations
 
     rng = np.random.default_rng(seed)
     R = Rotation.random(distinct, random_state=seed).as_matrix().reshape(-1, 3, 3)
@@ -739,15 +739,15 @@ def test_sweeps_lowest_heights_do_not_depend_on_blocking(seed, nf, H, U, block):
     """The fingers' lowest sweep heights per rotation: the same bits whatever
     block of directions is computed at once, and each the least of the
     corners' heights."""
-    from wsgrasp.planning import closing
+    from wsgrasp.planning import sweeps
 
     rng = np.random.default_rng(seed)
     hull = rng.normal(0.0, 0.05, (nf, 4, H, 3))
     u = rng.normal(size=(U, 3))
-    whole = closing._lowest(hull, u)
+    whole = sweeps._lowest(hull, u)
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(closing, "_LOWEST_ENTRIES", block)
-        blocked = closing._lowest(hull, u)
+        mp.setattr(sweeps, "_LOWEST_ENTRIES", block)
+        blocked = sweeps._lowest(hull, u)
     np.testing.assert_array_equal(blocked.view(np.uint64), whole.view(np.uint64))
     heights = np.einsum("fkhi,ui->fkuh", hull, u)  # (nf, 4, U, H)
     np.testing.assert_allclose(whole, heights.min(axis=3), rtol=0, atol=1e-15)

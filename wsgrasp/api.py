@@ -961,8 +961,8 @@ def _taken_pose(
     candidates for which that backed-off pose passes every check), as the
     search's best (whose pose the candidate set already holds as moved; None
     for its holdings then)."""
-    from wsgrasp.planning.closing import sweep_back_offs
     from wsgrasp.planning.evaluate import evaluate_candidates
+    from wsgrasp.planning.sweeps import sweep_back_offs
 
     T = out.candidates.T_world_ee[index]
     if index == out.best:
@@ -989,7 +989,7 @@ def _sweeps_cleared(
 
     Every feasible candidate, at its pose as generated, gets the least back-off
     along its approach that keeps its fingers' sweeps above the table until
-    they reach the object (:func:`~wsgrasp.planning.closing.sweep_back_offs`);
+    they reach the object (:func:`~wsgrasp.planning.sweeps.sweep_back_offs`);
     one that no back-off clears, or whose backed-off pose fails a check of the
     search (its fingers no longer hold the object, say), is rejected as
     ``finger_sweeps_table``. The best of the rest is the choice, at its pose
@@ -1004,10 +1004,10 @@ def _sweeps_cleared(
     from dataclasses import replace
 
     from wsgrasp.planning.candidates import candidate_poses
-    from wsgrasp.planning.closing import sweep_back_offs
     from wsgrasp.planning.evaluate import evaluate_candidates
     from wsgrasp.planning.result import REASONS, Alternative
     from wsgrasp.planning.search import _contacts
+    from wsgrasp.planning.sweeps import sweep_back_offs
 
     t0 = time.perf_counter()
     cands = out.candidates

@@ -1,6 +1,6 @@
 """Which neighbour blocks a candidate: the obstacle whose points lie inside the
 gripper's body superellipsoids, or in a finger's closing path: the finger's
-sweep (``wsgrasp.planning.closing``: its links' points from the pre-grasp
+sweep (``wsgrasp.planning.sweeps``: its links' points from the pre-grasp
 posture to the closed one) reaches the neighbour no later than it reaches the
 target, so the neighbour stops the finger or is squeezed along with the
 target. A model without finger configurations has no sweeps: its fingers'
@@ -59,7 +59,7 @@ def blocked_in_closing(
     With the target's ``object_points`` ``(n, 3)`` (world) and a model whose
     fingers have configurations, a point is in finger ``f``'s path when the
     finger's sweep reaches it (the reach grid of
-    ``wsgrasp.planning.closing``) at a posture no later than the first at which
+    ``wsgrasp.planning.sweeps``) at a posture no later than the first at which
     it reaches a target point (a finger whose sweep never meets the target is
     not judged); otherwise, when it lies strictly inside one of the fingers'
     workspace spheres."""
@@ -246,12 +246,8 @@ def _blocked_in_sweeps(
     object_points: Array,
 ) -> NDArray[np.int64]:
     """:func:`blocked_in_closing` by the fingers' sweeps (see there)."""
-    from wsgrasp.planning.closing import (
-        REACH_VOXEL,
-        finger_sweep,
-        reach_boxes,
-        reach_steps,
-    )
+    from wsgrasp.planning.closing import finger_sweep
+    from wsgrasp.planning.sweeps import REACH_VOXEL, reach_boxes, reach_steps
 
     sweep = finger_sweep(g)  # (nf, K, P, 3) gripper frame
     K = sweep.shape[1]

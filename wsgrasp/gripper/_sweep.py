@@ -7,7 +7,7 @@ ramp); its moving geometry is the collision geometry of every link that the
 finger's own joints move (the links below its first joint on the way to its pad,
 and the links of a linkage that the same joints drive, given to the finger whose
 pad they lie nearest). The planner keeps these sweeps clear of the table up to
-where the finger meets the object (``wsgrasp.planning.closing``): the pad centre
+where the finger meets the object (``wsgrasp.planning.sweeps``): the pad centre
 alone misses the fingertip beyond it and the knuckles of a finger that closes
 downwards.
 """

@@ -212,7 +212,7 @@ def _on_table(model: GripperModel) -> list[dict[str, Any]]:
     """Per finger, whether the search takes its tip to slide along the table or
     to stick there (``on_table``), and whether the description says so or it is
     guessed (``on_table_given``)."""
-    from wsgrasp.planning.closing import declared_on_table, slides
+    from wsgrasp.planning.sweeps import declared_on_table, slides
 
     if not model.has_configurations:
         return [{} for _ in model.finger_names]

@@ -341,9 +341,9 @@ def pad_positions(g: GripperModel, finger: int, q: Array) -> Array:
 def prepare(g: GripperModel) -> None:
     """Build the per-finger lookups the joint targets use (pad KD-trees,
     interpolators and the spheres' configuration bits) and those that keep the
-    fingers' closing sweeps off the table (``wsgrasp.planning.closing``), so
+    fingers' closing sweeps off the table (``wsgrasp.planning.sweeps``), so
     that the first plan does not pay for them."""
-    from wsgrasp.planning.closing import prepare_sweeps
+    from wsgrasp.planning.sweeps import prepare_sweeps
 
     if g.has_configurations:
         for f in range(g.num_fingers):
