@@ -105,5 +105,4 @@ def choose_approach(scaffold: Scaffold, base_dir: Path) -> None:
     chosen: dict[str, Any] = fingers.data if tips > palm else scaffold.data
     notes = fingers.notes if tips > palm else scaffold.notes
     scaffold.data = chosen
-    scaffold.approaches_fingertips_first = tips > palm
     scaffold.notes = {**notes, "approach_axis": notes["approach_axis"] + what}

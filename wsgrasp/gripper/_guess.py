@@ -115,8 +115,13 @@ class Scaffold:
     #: a second approach for a hand, fingertips first: ``approach_axis``,
     #: ``closing_axis`` and their notes; :func:`choose_approach` picks one
     fingertips_first: dict[str, Any] | None = None
-    #: whether :func:`choose_approach` kept the fingertips-first approach
-    approaches_fingertips_first: bool = False
+
+    @property
+    def approaches_fingertips_first(self) -> bool:
+        """Whether the guess approaches fingertips first: its approach axis is
+        the fingertips-first one (which :func:`choose_approach` kept)."""
+        alt = self.fingertips_first
+        return alt is not None and self.data["approach_axis"] == alt["approach_axis"]
 
 
 @dataclass
