@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from scipy.spatial import ConvexHull
+from scipy.spatial import ConvexHull, QhullError
 
 from wsgrasp.geometry import plane_basis
 from wsgrasp.perception.footprint import Footprint
@@ -40,7 +40,11 @@ def test_outline_is_the_hull_of_every_point(kind: str, n: int, seed: int) -> Non
     points = _cloud(kind, n, seed)
     normal = np.array([0.0, 0.0, 1.0])
     outline = Footprint.from_points(normal, 0.0, points)
-    full = ConvexHull(points @ plane_basis(normal)).equations
+    try:
+        full = ConvexHull(points @ plane_basis(normal)).equations
+    except QhullError:  # a few grid points on one line or one node: no area
+        assert not outline.bounded and len(outline.equations) == 0
+        return
     # the same edges, bit for bit (their order may differ)
     np.testing.assert_array_equal(_rows(outline.equations), _rows(full))
 
