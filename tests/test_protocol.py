@@ -335,6 +335,32 @@ def test_report_pairs_the_choice_with_random_candidates_per_scene():
     assert "| franka_hand | default | 3 × 2 random | 67 % | 17 % | +50.0 pts" in md
 
 
+def test_report_pairs_each_spec_with_the_primary_over_the_same_scenes():
+    outcomes = {  # object: (default, other)
+        "a": ("success", "success"),
+        "b": ("success", "slipped_in_grip"),
+        "c": ("no_grasp", "success"),
+        "d": ("dropped_disturbed", "success"),
+        "e": ("success", "success"),
+    }
+    records = [_rec("default", o, a) for o, (a, _) in outcomes.items()]
+    records += [_rec("other", o, b) for o, (_, b) in outcomes.items() if o != "e"]
+    records.append(_rec("other", "a", "no_grasp", "random", 0))  # not a scene's plan
+    report = build_report(records)
+    (p,) = report["specs_paired"]
+    assert (p["spec"], p["against"], p["scenes"]) == ("other", "default", 4)
+    assert (p["gained"], p["lost"]) == (2, 1)
+    assert p["rate"] == pytest.approx(3 / 4)
+    assert p["against_rate"] == pytest.approx(2 / 4)
+    mean, low, high = paired_difference([0.0, -1.0, 1.0, 1.0])
+    assert p["difference"] == pytest.approx(mean) == pytest.approx(0.25)
+    assert p["ci95"] == pytest.approx([low, high])
+    md = report_markdown(report)
+    assert "| franka_hand | other | default | 4 | 75 % vs 50 % | 2 | 1 | +25.0 pts" in md
+    # one spec: nothing to pair
+    assert "specs_paired" not in build_report(records[:5])
+
+
 def test_random_candidates_are_finished_and_executed_as_the_choice():
     """Each random candidate of ``--baseline random`` is the plan
     ``Pipeline.plan(scene, choose=i)`` gives (its pose, pre-grasp pose and joint

@@ -11,6 +11,7 @@ from pydantic import ValidationError
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
+from wsgrasp.perception.synth import synth_scene
 from wsgrasp.planning.candidates import orientation_set
 from wsgrasp.spec import Sampling
 
@@ -154,3 +155,77 @@ def test_depths_move_the_gwc_along_the_approach_over_the_workspace():
     # each rotation is repeated at every depth
     R = o.R_object_gwc.reshape(10, 3, 3, 3)
     np.testing.assert_array_equal(R[:, 0], R[:, 2])
+
+
+def test_far_side_is_the_side_the_body_reaches_farther_along():
+    from wsgrasp.planning.candidates import FAR_SIDE_MARGIN, far_side
+
+    body = np.array([[-0.03, 0.1, -0.1], [0.03, -0.1, 0.0]])  # symmetric in x
+    assert far_side(body) == 0
+    camera = np.array([[-0.08, 0.0, -0.12]])  # a wrist camera on -x
+    assert far_side(np.vstack([body, camera])) == -1
+    assert far_side(np.vstack([body, -camera])) == 1
+    lean = np.array([[0.03 + 0.9 * FAR_SIDE_MARGIN, 0.0, 0.0]])
+    assert far_side(np.vstack([body, lean])) == 0  # within the margin
+    assert far_side(np.zeros((0, 3))) == 0
+
+
+@pytest.mark.parametrize("side", [-1, 1])
+def test_major_axis_keeps_the_far_side_off_the_table(side):
+    s = Sampling(points=10, orientations=4)
+    for T in (np.eye(4), _frame([0.4, 0.0, 0.0]), _frame([np.pi - 0.4, 0.0, 0.0])):
+        plain = orientation_set(s, T, UP)
+        o = orientation_set(s, T, UP, side=side)
+        assert len(o) == len(plain)
+        # the far side, along GWC x, in the world: never down out of the plane
+        far = side * (o.R_object_gwc[:, :, 0] @ T[:3, :3].T)  # (O, 3)
+        assert far[:, 2].min() >= -np.sin(np.deg2rad(10.0))
+        # the same approaches, turned half a turn about them where needed
+        np.testing.assert_allclose(o.R_object_gwc[:, :, 2], plain.R_object_gwc[:, :, 2])
+        turned = bool(o.flipped.all())
+        assert turned == (side * (T[:3, 2] @ UP) < -np.sin(np.deg2rad(10.0)))
+        assert o.flipped.all() or not o.flipped.any()
+        if turned:
+            np.testing.assert_allclose(
+                o.R_object_gwc[:, :, :2], -plain.R_object_gwc[:, :, :2]
+            )
+
+
+def test_major_axis_level_or_flipped_is_left_as_the_paper_has_it():
+    # a major axis in the table's plane: the far side faces neither way
+    T = _frame([np.pi / 2, 0.0, 0.0])
+    s = Sampling(points=10, orientations=4)
+    np.testing.assert_array_equal(
+        orientation_set(s, T, UP, side=-1).R_object_gwc,
+        orientation_set(s, T, UP).R_object_gwc,
+    )
+    # with flip both halves are tried anyway
+    f = Sampling(points=10, orientations=4, flip=True)
+    for T in (np.eye(4), _frame([np.pi, 0.0, 0.0])):
+        np.testing.assert_array_equal(
+            orientation_set(f, T, UP, side=-1).R_object_gwc,
+            orientation_set(f, T, UP).R_object_gwc,
+        )
+
+
+def test_franka_side_grasp_keeps_its_wrist_camera_off_the_table():
+    # upright cones: the object frame's major axis points up (towards the tip),
+    # where the paper's poses put the wrist camera between the hand and the table
+    from wsgrasp.api import Pipeline
+    from wsgrasp.default_specs import spec_for
+    from wsgrasp.spec import load_spec
+
+    data, _ = spec_for("default", "franka_hand")
+    pipe = Pipeline(load_spec(data))
+    assert pipe._side == -1  # the camera reaches 8 cm to -x, the hand 4 cm to +x
+    camera = np.array([-0.07, 0.0, -0.03, 1.0])  # franka_hand.urdf, panda_hand frame
+    side_grasps = 0
+    for seed in range(4):
+        syn = synth_scene("cone", seed=seed)
+        result = pipe.plan(syn.points)
+        assert result.found
+        T = result.T_world_ee
+        if abs(T[:3, 2] @ syn.table.normal) < 0.5:  # approaching from the side
+            side_grasps += 1
+            assert (T @ camera)[:3] @ syn.table.normal > T[:3, 3] @ syn.table.normal
+    assert side_grasps == 4

@@ -27,7 +27,7 @@ from wsgrasp.errors import InputError, PluginError, WsgraspError
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.perception.footprint import Footprint
 from wsgrasp.perception.types import Plane, Scene
-from wsgrasp.planning.candidates import orientation_set
+from wsgrasp.planning.candidates import far_side, orientation_set
 from wsgrasp.planning.evaluate import FingerSpheres, TableSE
 from wsgrasp.planning.observer import PlanObserver
 from wsgrasp.planning.result import PlanResult
@@ -104,6 +104,9 @@ class Pipeline:
             gripper.T_gripper_gwc[:3, 2]
         )
         self._reach = (float(z.min()), float(z.max())) if len(z) else (0.0, 0.0)
+        # the side of its approach axis the body reaches farther along, GWC x
+        T = gripper.T_gripper_gwc
+        self._side = far_side((gripper.cloud - T[:3, 3]) @ T[:3, :3])
         # the joint targets' lookups, and open3d's first calls (~1 s once per
         # process): paid here, not in the first plan's timings
         from wsgrasp.planning.targets import prepare
@@ -236,7 +239,11 @@ class Pipeline:
         se_center, se_axes, se_exp = table_superellipsoid(spec.table)
         table = TableSE(T_world_table, se_center, se_axes, se_exp)
         orientations = orientation_set(
-            spec.sampling, frame.T_world_object, T_world_table[:3, 2], self._reach
+            spec.sampling,
+            frame.T_world_object,
+            T_world_table[:3, 2],
+            self._reach,
+            self._side,
         )
         # (O, 3) the direction each orientation's fingers close along, world
         closing = orientations.R_object_gwc[:, :, 1] @ frame.T_world_object[:3, :3].T

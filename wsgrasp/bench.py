@@ -60,6 +60,7 @@ TABLE_I = {
     "directions": None,
     "steps": None,
     "depths": 1,
+    "angles_from": "object",
 }
 
 #: the follow-up's densities: Panda 10 × 10 × 10 positions × 512 orientations,

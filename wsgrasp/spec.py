@@ -362,6 +362,13 @@ class Sampling(_Model):
         "approach axis (for grippers not symmetric about it, e.g. hands with a "
         "thumb)",
     )
+    angles_from: Literal["table", "object"] = Field(
+        "table",
+        description="major_axis: the middle angle approaches from straight above "
+        "the table, and a gripper reaching farther on one side of its approach "
+        "keeps that side off the table (table); or the angles start at the object "
+        "frame's x axis, as the paper (object)",
+    )
     steps: tuple[int, int, int] | None = Field(
         None,
         description="xyz: angles about the object's x, y and z axes, each over a "

@@ -412,10 +412,26 @@ def _per_object(results: list[dict[str, Any]]) -> str:
 
 def _runs_in(folder: str) -> str:
     """One row per gripper and run for every eval summary in
-    ``docs/results/<folder>/``: its objects, setting, trials and success."""
+    ``docs/results/<folder>/``: its objects, setting, trials and success; then,
+    for the runs that compared specs, each against the run's primary spec over
+    the same scenes."""
     rows = []
+    paired = []
     for path in sorted((RESULTS / folder).glob("*.json")):
         r = json.loads(path.read_text())
+        for c in r.get("specs_paired", []):
+            paired.append(
+                [
+                    f"`{path.name}`",
+                    f"`{short(c['gripper'])}`",
+                    f"`{c['spec']}` against `{c['against']}`",
+                    c["scenes"],
+                    f"{100 * c['rate']:.1f} % vs {100 * c['against_rate']:.1f} %",
+                    f"{c['gained']} / {c['lost']}",
+                    f"{100 * c['difference']:+.1f} [{100 * c['ci95'][0]:+.1f}, "
+                    f"{100 * c['ci95'][1]:+.1f}]",
+                ]
+            )
         for res in r.get("results", []):
             rows.append(
                 [
@@ -429,7 +445,16 @@ def _runs_in(folder: str) -> str:
             )
     if not rows:
         return f"No runs under `docs/results/{folder}/`.\n"
-    return table(["file", "objects", "gripper", "setting", "trials", "success"], rows)
+    out = table(["file", "objects", "gripper", "setting", "trials", "success"], rows)
+    if paired:
+        header = ["file", "gripper", "specs", "scenes", "held", "gained / lost"]
+        out += "\n" + table([*header, "difference, points (95 %)"], paired)
+    return out
+
+
+def render_angles_from_runs() -> str:
+    """The runs that measured the major-axis angles set from the table."""
+    return _runs_in("angles-from")
 
 
 def render_default_spec_runs() -> str:

@@ -33,6 +33,7 @@ from docs_results import (
     chart_eval,
     chart_grippers,
     eval_files,
+    render_angles_from_runs,
     render_chart_grippers,
     render_default_spec_runs,
     render_defaults_effect,
@@ -66,6 +67,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "default-spec-runs": render_default_spec_runs,
     "on-table-runs": render_on_table_runs,
     "reach-down-runs": render_reach_down_runs,
+    "angles-from-runs": render_angles_from_runs,
     "results-scorers": render_results_scorers,
 }
 

@@ -17,6 +17,18 @@ With ``flip``, each pose is also tried turned half a turn about its approach axi
 (``x_gwc = -z_obj``): the same grasp for a gripper that is symmetric about its
 approach axis, a different one for a hand with a thumb on one side.
 
+The paper measures θ from the object frame's x axis and leaves the half turn to
+the sign of the major axis; both follow the object's shape, not the table. With
+``sampling.angles_from: table`` (the default; ``object`` is the paper's) the
+angles are turned so that the middle one approaches from straight above the
+table (:func:`from_above`; four angles over a full turn: a top grasp and two side
+grasps, where the paper's could give two approaches 45° down and two from under
+the table), and a gripper whose body reaches farther on one side of its approach
+axis (:func:`far_side`: a wrist camera, a thumb's base) is turned where that side
+would face the table (the major axis more than ``LEVEL_DEG`` out of the table's
+plane): a side grasp on a short upright object keeps the camera above the hand,
+not between the hand and the table.
+
 ``xyz`` (the authors' follow-up): ``R_object_gwc = Rz(γ) Ry(β) Rx(α)``, rotations
 about the object frame's fixed x, y and z axes over a full turn each; the grid
 reaches some rotations twice (Euler angles cover them twice), which are kept once.
@@ -57,6 +69,8 @@ __all__ = [
     "approach_sphere_orientations",
     "candidate_poses",
     "depth_offsets",
+    "far_side",
+    "from_above",
 ]
 
 Array = NDArray[np.float64]
@@ -115,6 +129,39 @@ class Orientations:
         out = self.select(np.repeat(np.arange(len(self)), len(offsets)))
         out.depth = out.depth + np.tile(np.asarray(offsets, np.float64), len(self))
         return out
+
+
+#: a major axis within this angle of the table's plane is level (no side of the
+#: gripper faces the table), one within this angle of its normal upright (no
+#: ``major_axis`` angle approaches from above)
+LEVEL_DEG = 10.0
+#: a gripper reaching this much (m) farther on one side of its approach axis than
+#: on the other has a far side (:func:`far_side`)
+FAR_SIDE_MARGIN = 0.01
+
+
+def far_side(points_gwc: Array) -> int:
+    """The side (+1 or -1) of the GWC x axis that ``points_gwc`` (the gripper's
+    body cloud, GWC frame) reach farther along by ``FAR_SIDE_MARGIN`` or more,
+    else 0 (about as far both ways)."""
+    x = np.asarray(points_gwc, dtype=np.float64).reshape(-1, 3)[:, 0]
+    if not len(x):
+        return 0
+    lean = float(x.max() + x.min())  # how much farther +x reaches than -x
+    return 0 if abs(lean) < FAR_SIDE_MARGIN else (1 if lean > 0 else -1)
+
+
+def from_above(normal_object: Array, thetas: Array) -> float:
+    """The turn (rad) to add to the ``major_axis`` angles ``thetas`` so that the
+    middle one approaches from straight above the table (along ``-normal``
+    projected into the object's xy plane), or 0 where the major axis stands
+    within ``LEVEL_DEG`` of the table's normal (every angle is then a side
+    approach). ``normal_object``: the table's unit normal in the object frame."""
+    nx, ny = float(normal_object[0]), float(normal_object[1])
+    if np.hypot(nx, ny) <= np.sin(np.deg2rad(LEVEL_DEG)) or not len(thetas):
+        return 0.0
+    # z_gwc = -(cos θ, sin θ, 0) is -normal's direction at θ = atan2(ny, nx)
+    return float(np.arctan2(ny, nx) - thetas[len(thetas) // 2])
 
 
 def major_axis_orientations(thetas: Array, flip: bool = False) -> Orientations:
@@ -266,6 +313,7 @@ def orientation_set(
     T_world_object: Array,
     table_normal: Array,
     reach: tuple[float, float] = (0.0, 0.0),
+    side: int = 0,
 ) -> Orientations:
     """The orientations a spec's ``sampling`` asks for, none from under the table.
 
@@ -279,6 +327,10 @@ def orientation_set(
     reach : (float, float)
         Lowest and highest workspace sphere centre along the approach axis, GWC
         frame (m); the span ``sampling.depths`` offsets cover.
+    side : int
+        The gripper's far side along GWC x (:func:`far_side`): ``major_axis``
+        without ``flip`` turns its poses so that side does not face the table
+        (see the module docstring). 0 leaves them as the paper gives them.
     """
     mode = getattr(sampling, "mode", "major_axis")
     tol = float(getattr(sampling, "upward_tolerance_deg", 5.0))
@@ -294,10 +346,20 @@ def orientation_set(
             tol,
         )
     else:
-        o = major_axis_orientations(
-            orientation_angles(sampling.orientations, sampling.angle_range_deg),
-            bool(sampling.flip),
-        )
+        flip = bool(sampling.flip)
+        thetas = orientation_angles(sampling.orientations, sampling.angle_range_deg)
+        table = getattr(sampling, "angles_from", "object") == "table"
+        R_world_object = np.asarray(T_world_object, dtype=np.float64)[:3, :3]
+        n = np.asarray(table_normal, dtype=np.float64)
+        level = np.sin(np.deg2rad(LEVEL_DEG))
+        if table:
+            thetas = thetas + from_above(R_world_object.T @ n, thetas)
+        o = major_axis_orientations(thetas, flip)
+        # x_gwc is the major axis: the far side faces the table where it points
+        # down out of the table's plane
+        if table and not flip and -side * float(n @ R_world_object[:, 2]) > level:
+            o.R_object_gwc[:, :, :2] *= -1.0  # half a turn about the approach
+            o.flipped[:] = True
     approach = np.asarray(T_world_object)[:3, :3] @ o.R_object_gwc[:, :, 2].T
     up = np.asarray(table_normal, dtype=np.float64) @ approach  # (O,)
     o = o.select(up <= np.sin(np.deg2rad(tol)) + 1e-12)

@@ -9,7 +9,9 @@ With a random baseline (``eval --baseline random``) the report's ``baseline``
 has, per gripper and spec, the plan's choice beside chance on the same scenes:
 the success rate of the choice, that of the random feasible candidates executed
 beside it (each scene's share of them held, averaged over the scenes) and the
-paired difference with a 95 % interval (:func:`paired_difference`).
+paired difference with a 95 % interval (:func:`paired_difference`). With several
+specs per gripper, ``specs_paired`` sets each against the primary spec over the
+scenes both ran (:func:`spec_pairs`).
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ __all__ = [
     "baseline_rows",
     "build_report",
     "paired_difference",
+    "spec_pairs",
     "report_markdown",
     "report_table",
 ]
@@ -110,6 +113,9 @@ def build_report(
     baseline = baseline_rows(records)
     if baseline:
         out["baseline"] = baseline
+    paired = spec_pairs(records, primary)
+    if paired:
+        out["specs_paired"] = paired
     return out
 
 
@@ -176,6 +182,68 @@ def baseline_rows(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
             }
         )
     return rows
+
+
+def spec_pairs(records: Sequence[dict[str, Any]], primary: str) -> list[dict[str, Any]]:
+    """Per gripper, each other spec against ``primary`` over the scenes both
+    ran (the same objects, trials and drops): a scene is one (object, trial),
+    scoring 1 where the choice held. ``gained`` counts the scenes the other
+    spec held and ``primary`` did not, ``lost`` the reverse; ``difference``
+    (other less primary) and ``ci95`` as :func:`paired_difference` gives them."""
+    held: dict[tuple[str, str], dict[tuple[str, int], bool]] = {}
+    for r in records:
+        if r.get("pick", "plan") == "plan":
+            key = (r["gripper"], r["spec"])
+            held.setdefault(key, {})[(r["object"], r["trial"])] = (
+                r["outcome"] == "success"
+            )
+    rows = []
+    for (gripper, spec), other in held.items():
+        base = held.get((gripper, primary))
+        if spec == primary or base is None:
+            continue
+        scenes = [k for k in base if k in other]
+        diff, low, high = paired_difference(
+            [float(other[k]) - float(base[k]) for k in scenes]
+        )
+        n = len(scenes)
+        rows.append(
+            {
+                "gripper": gripper,
+                "spec": spec,
+                "against": primary,
+                "scenes": n,
+                "rate": sum(other[k] for k in scenes) / n if n else 0.0,
+                "against_rate": sum(base[k] for k in scenes) / n if n else 0.0,
+                "gained": sum(other[k] and not base[k] for k in scenes),
+                "lost": sum(base[k] and not other[k] for k in scenes),
+                "difference": diff,
+                "ci95": [low, high],
+                "interval": INTERVAL,
+            }
+        )
+    return rows
+
+
+def _pairs_table(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
+    """Each spec against the primary one, paired over the same scenes."""
+    header = ["gripper", "spec", "against", "scenes", "held", "gained", "lost"]
+    header.append("difference")
+    rows = [
+        [
+            p["gripper"],
+            p["spec"],
+            p["against"],
+            str(p["scenes"]),
+            f"{_pct(p['rate'])} vs {_pct(p['against_rate'])}",
+            str(p["gained"]),
+            str(p["lost"]),
+            f"{100 * p['difference']:+.1f} pts "
+            f"[{100 * p['ci95'][0]:+.1f}, {100 * p['ci95'][1]:+.1f}]",
+        ]
+        for p in report["specs_paired"]
+    ]
+    return header, rows
 
 
 # --------------------------------------------------------------------------------
@@ -369,6 +437,14 @@ def report_table(report: dict[str, Any]) -> list[Any]:
         for row in brows:
             b.add_row(*row)
         out.append(b)
+    if report.get("specs_paired"):
+        header, prows = _pairs_table(report)
+        c = Table(title="Each spec against the primary one, over the same scenes")
+        for i, h in enumerate(header):
+            c.add_column(h, justify="left" if i < 3 else "right")
+        for row in prows:
+            c.add_row(*row)
+        out.append(c)
     fh, frows = _failure_rows(report)
     f = Table(title="Outcomes")
     for i, h in enumerate(fh):
@@ -403,6 +479,16 @@ def report_markdown(report: dict[str, Any]) -> str:
             "|" + "|".join(["---", "---"] + ["---:"] * (len(header) - 2)) + "|",
         ]
         lines += ["| " + " | ".join(r) + " |" for r in brows]
+        lines += ["", f"Interval: {INTERVAL}.", ""]
+    if report.get("specs_paired"):
+        header, prows = _pairs_table(report)
+        lines += [
+            "**Each spec against the primary one, over the same scenes**",
+            "",
+            "| " + " | ".join(header) + " |",
+            "|" + "|".join(["---"] * 3 + ["---:"] * (len(header) - 3)) + "|",
+        ]
+        lines += ["| " + " | ".join(r) + " |" for r in prows]
         lines += ["", f"Interval: {INTERVAL}.", ""]
     fh, frows = _failure_rows(report)
     lines += [
