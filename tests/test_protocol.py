@@ -356,7 +356,9 @@ def test_report_pairs_each_spec_with_the_primary_over_the_same_scenes():
     assert p["difference"] == pytest.approx(mean) == pytest.approx(0.25)
     assert p["ci95"] == pytest.approx([low, high])
     md = report_markdown(report)
-    assert "| franka_hand | other | default | 4 | 75 % vs 50 % | 2 | 1 | +25.0 pts" in md
+    assert (
+        "| franka_hand | other | default | 4 | 75 % vs 50 % | 2 | 1 | +25.0 pts" in md
+    )
     # one spec: nothing to pair
     assert "specs_paired" not in build_report(records[:5])
 
