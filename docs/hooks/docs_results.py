@@ -417,8 +417,22 @@ def _runs_in(folder: str) -> str:
     the same scenes."""
     rows = []
     paired = []
+    chance = []
     for path in sorted((RESULTS / folder).glob("*.json")):
         r = json.loads(path.read_text())
+        for b in r.get("baseline", []):
+            chance.append(
+                [
+                    f"`{path.name}`",
+                    f"`{short(b['gripper'])}`",
+                    f"`{b['spec']}`",
+                    f"{b['scenes']} × {b['random_per_scene']}",
+                    f"{100 * b['chosen_rate']:.1f} %",
+                    f"{100 * b['random_rate']:.1f} %",
+                    f"{100 * b['difference']:+.1f} [{100 * b['ci95'][0]:+.1f}, "
+                    f"{100 * b['ci95'][1]:+.1f}]",
+                ]
+            )
         for c in r.get("specs_paired", []):
             paired.append(
                 [
@@ -449,6 +463,9 @@ def _runs_in(folder: str) -> str:
     if paired:
         header = ["file", "gripper", "specs", "scenes", "held", "gained / lost"]
         out += "\n" + table([*header, "difference, points (95 %)"], paired)
+    if chance:
+        header = ["file", "gripper", "spec", "scenes × random", "chosen", "random"]
+        out += "\n" + table([*header, "difference, points (95 %)"], chance)
     return out
 
 
