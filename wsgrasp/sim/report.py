@@ -238,12 +238,17 @@ def _pairs_table(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
             f"{_pct(p['rate'])} vs {_pct(p['against_rate'])}",
             str(p["gained"]),
             str(p["lost"]),
-            f"{100 * p['difference']:+.1f} pts "
-            f"[{100 * p['ci95'][0]:+.1f}, {100 * p['ci95'][1]:+.1f}]",
+            _difference(p),
         ]
         for p in report["specs_paired"]
     ]
     return header, rows
+
+
+def _difference(row: dict[str, Any]) -> str:
+    """A paired difference and its interval, in points."""
+    low, high = row["ci95"]
+    return f"{100 * row['difference']:+.1f} pts [{100 * low:+.1f}, {100 * high:+.1f}]"
 
 
 # --------------------------------------------------------------------------------
@@ -334,12 +339,28 @@ def _baseline_table(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]
             f"{b['scenes']} × {b['random_per_scene']} random",
             _pct(b["chosen_rate"]),
             _pct(b["random_rate"]),
-            f"{100 * b['difference']:+.1f} pts "
-            f"[{100 * b['ci95'][0]:+.1f}, {100 * b['ci95'][1]:+.1f}]",
+            _difference(b),
         ]
         for b in report["baseline"]
     ]
     return header, rows
+
+
+#: the report's comparisons, each as (key, title, table builder, columns on the left)
+_COMPARISONS = (
+    (
+        "baseline",
+        "The plan's choice against random feasible candidates of the same plan",
+        _baseline_table,
+        2,
+    ),
+    (
+        "specs_paired",
+        "Each spec against the primary one, over the same scenes",
+        _pairs_table,
+        3,
+    ),
+)
 
 
 def _repair_counts(report: dict[str, Any]) -> list[str]:
@@ -429,22 +450,15 @@ def report_table(report: dict[str, Any]) -> list[Any]:
         for i, row in enumerate(rows):
             t.add_row(*row, end_section=i == len(rows) - 2)
         out.append(t)
-    if report.get("baseline"):
-        header, brows = _baseline_table(report)
-        b = Table(title="The plan's choice against random feasible candidates")
-        for i, h in enumerate(header):
-            b.add_column(h, justify="left" if i < 2 else "right")
-        for row in brows:
-            b.add_row(*row)
-        out.append(b)
-    if report.get("specs_paired"):
-        header, prows = _pairs_table(report)
-        c = Table(title="Each spec against the primary one, over the same scenes")
-        for i, h in enumerate(header):
-            c.add_column(h, justify="left" if i < 3 else "right")
-        for row in prows:
-            c.add_row(*row)
-        out.append(c)
+    for key, title, build, left in _COMPARISONS:
+        if report.get(key):
+            header, crows = build(report)
+            c = Table(title=title)
+            for i, h in enumerate(header):
+                c.add_column(h, justify="left" if i < left else "right")
+            for row in crows:
+                c.add_row(*row)
+            out.append(c)
     fh, frows = _failure_rows(report)
     f = Table(title="Outcomes")
     for i, h in enumerate(fh):
@@ -470,26 +484,17 @@ def report_markdown(report: dict[str, Any]) -> str:
             cells = [f"**{c}**" for c in row] if i == len(rows) - 1 else row
             lines.append("| " + " | ".join(cells) + " |")
         lines.append("")
-    if report.get("baseline"):
-        header, brows = _baseline_table(report)
-        lines += [
-            "**The plan's choice against random feasible candidates of the same plan**",
-            "",
-            "| " + " | ".join(header) + " |",
-            "|" + "|".join(["---", "---"] + ["---:"] * (len(header) - 2)) + "|",
-        ]
-        lines += ["| " + " | ".join(r) + " |" for r in brows]
-        lines += ["", f"Interval: {INTERVAL}.", ""]
-    if report.get("specs_paired"):
-        header, prows = _pairs_table(report)
-        lines += [
-            "**Each spec against the primary one, over the same scenes**",
-            "",
-            "| " + " | ".join(header) + " |",
-            "|" + "|".join(["---"] * 3 + ["---:"] * (len(header) - 3)) + "|",
-        ]
-        lines += ["| " + " | ".join(r) + " |" for r in prows]
-        lines += ["", f"Interval: {INTERVAL}.", ""]
+    for key, title, build, left in _COMPARISONS:
+        if report.get(key):
+            header, crows = build(report)
+            lines += [
+                f"**{title}**",
+                "",
+                "| " + " | ".join(header) + " |",
+                "|" + "|".join(["---"] * left + ["---:"] * (len(header) - left)) + "|",
+            ]
+            lines += ["| " + " | ".join(r) + " |" for r in crows]
+            lines += ["", f"Interval: {INTERVAL}.", ""]
     fh, frows = _failure_rows(report)
     lines += [
         "| " + " | ".join(fh) + " |",
