@@ -343,19 +343,13 @@ def render_results_eval() -> str:
             for b in base if isinstance(base, list) else base.values():
                 if not isinstance(b, dict) or "gripper" not in b:
                     continue
-                lo, hi = b.get("ci95") or [None, None]
                 brow.append(
                     [
                         short(b["gripper"]),
                         b.get("spec", ""),
                         f"{100 * b.get('chosen_rate', 0):.1f} %",
                         f"{100 * b.get('random_rate', 0):.1f} %",
-                        f"{100 * b.get('difference', 0):+.1f}"
-                        + (
-                            f" [{100 * lo:+.1f}, {100 * hi:+.1f}]"
-                            if lo is not None
-                            else ""
-                        ),
+                        _difference(b),
                     ]
                 )
             if brow:
@@ -410,6 +404,14 @@ def _per_object(results: list[dict[str, Any]]) -> str:
     return "\n".join(out)
 
 
+def _difference(row: dict[str, Any]) -> str:
+    """A report row's paired difference in points, with its 95 % interval where
+    the row has one."""
+    lo, hi = row.get("ci95") or [None, None]
+    interval = f" [{100 * lo:+.1f}, {100 * hi:+.1f}]" if lo is not None else ""
+    return f"{100 * row.get('difference', 0):+.1f}{interval}"
+
+
 def _runs_in(folder: str) -> str:
     """One row per gripper and run for every eval summary in
     ``docs/results/<folder>/``: its objects, setting, trials and success; then,
@@ -429,8 +431,7 @@ def _runs_in(folder: str) -> str:
                     f"{b['scenes']} × {b['random_per_scene']}",
                     f"{100 * b['chosen_rate']:.1f} %",
                     f"{100 * b['random_rate']:.1f} %",
-                    f"{100 * b['difference']:+.1f} [{100 * b['ci95'][0]:+.1f}, "
-                    f"{100 * b['ci95'][1]:+.1f}]",
+                    _difference(b),
                 ]
             )
         for c in r.get("specs_paired", []):
@@ -442,8 +443,7 @@ def _runs_in(folder: str) -> str:
                     c["scenes"],
                     f"{100 * c['rate']:.1f} % vs {100 * c['against_rate']:.1f} %",
                     f"{c['gained']} / {c['lost']}",
-                    f"{100 * c['difference']:+.1f} [{100 * c['ci95'][0]:+.1f}, "
-                    f"{100 * c['ci95'][1]:+.1f}]",
+                    _difference(c),
                 ]
             )
         for res in r.get("results", []):
