@@ -106,8 +106,6 @@ class _SweepIndex:
     reach: list[NDArray[np.uint8]]
 
 
-#: odd multipliers mixing a rotation's nine float64s into one key
-_MIX = np.random.default_rng(0).integers(0, 2**62, 9, dtype=np.uint64) * 4 + 1
 #: at most this many (corner, direction) heights at once in :func:`_lowest`
 #: (its temporaries stay in cache: 2,000,000 took twice as long)
 _LOWEST_ENTRIES = 262_144
@@ -438,14 +436,13 @@ def _distinct_rotations(
     """The distinct rotations of ``R`` (C, 3, 3), in ``np.unique``'s order (rows
     compared as numbers, lexicographically), and each one's index: (U, 3, 3),
     (C,). Rows are grouped by ``groups`` (C,) (nonnegative labels, a rotation
-    per label: a row of each label stands for it, checked), or else by one sort
-    of a 64-bit mix of their bits (checked; ``+ 0.0`` makes ``-0.0`` one with
-    ``0.0``), then only the groups' first rows are sorted (``np.lexsort``): a
-    lexsort of every row took 37 ms of the Allegro's dense sweeps (87,417 rows,
-    4,670 distinct), the mix 23 ms, the labels (the candidates' orientations)
-    3 ms."""
+    per label: a row of each label stands for it, checked), then only the
+    groups' first rows are sorted (``np.lexsort``): a lexsort of every row took
+    37 ms of the Allegro's dense sweeps (87,417 rows, 4,670 distinct), the
+    labels (the candidates' orientations) 3 ms. Without labels (a search's
+    callers give them; a pose checked alone has one row), every row is sorted."""
     rows = np.ascontiguousarray(R, dtype=np.float64).reshape(-1, 9)  # (C, 9)
-    first: NDArray[np.int64] | None = None
+    first = of = np.arange(len(rows))
     if groups is not None and len(rows):
         label = np.asarray(groups, dtype=np.int64).reshape(-1)
         # a row of each label (whichever the assignment keeps), labels renumbered
@@ -454,23 +451,15 @@ def _distinct_rotations(
         used = np.flatnonzero(some >= 0)
         renumber = np.zeros(len(some), dtype=np.int64)
         renumber[used] = np.arange(len(used))
-        first, of = some[used], renumber[label]
-        if not np.array_equal(rows[first][of], rows):  # labels sharing rotations
-            first = None
-    if first is None:
-        z = (rows + 0.0).view(np.uint64) * _MIX  # (C, 9), wrapping around
-        z ^= z >> np.uint64(31)  # (a linear mix: two sign flips cancel)
-        key = (z * _MIX[::-1]).sum(axis=1)  # (C,)
-        _, first, of = np.unique(key, return_index=True, return_inverse=True)
-        if not np.array_equal(rows[first][of.reshape(-1)], rows):  # a shared key
-            first = of = np.arange(len(rows))
+        if np.array_equal(rows[some[used]][renumber[label]], rows):  # one per label
+            first, of = some[used], renumber[label]
     order = np.lexsort(rows[first].T[::-1])  # first column most significant
     s = rows[first][order]
     new = np.ones(len(s), dtype=bool)
     new[1:] = np.any(s[1:] != s[:-1], axis=1)
     rank = np.empty(len(s), dtype=np.int64)
     rank[order] = np.cumsum(new) - 1
-    return s[new].reshape(-1, 3, 3), rank[of.reshape(-1)]
+    return s[new].reshape(-1, 3, 3), rank[of]
 
 
 def _reached_first(
