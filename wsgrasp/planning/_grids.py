@@ -125,8 +125,8 @@ class FingerDepth:
             raise ValueError(
                 f"FingerDepth needs at least one finger, got {num_fingers}"
             )
-        lo0 = (centers - radii[:, None]).min(axis=0)
-        hi0 = (centers + radii[:, None]).max(axis=0)
+        lo_s, hi_s = centers - radii[:, None], centers + radii[:, None]  # (s, 3)
+        lo0, hi0 = lo_s.min(axis=0), hi_s.max(axis=0)
         h = cell if cell is not None else float(np.clip(radii.min() / 4, 1e-3, 2e-3))
         while np.prod((hi0 - lo0) / h + 8) > 8e6:
             h *= 1.25
@@ -137,12 +137,8 @@ class FingerDepth:
         self.radii = np.asarray(radii, dtype=np.float64)
         self.finger = np.asarray(finger, dtype=np.int64)
         #: each finger's box of spheres, gripper frame: (nf, 3) each
-        self.box_lo = np.stack(
-            [(centers - radii[:, None])[finger == f].min(0) for f in range(nf)]
-        )
-        self.box_hi = np.stack(
-            [(centers + radii[:, None])[finger == f].max(0) for f in range(nf)]
-        )
+        self.box_lo = np.stack([lo_s[finger == f].min(0) for f in range(nf)])
+        self.box_hi = np.stack([hi_s[finger == f].max(0) for f in range(nf)])
         self._lists: tuple[NDArray[np.int32], NDArray[np.int32], Array, Array] | None
         self._lists = None
         self._compact: _Compact | None = None
@@ -181,13 +177,7 @@ class FingerDepth:
                 code, states = _renumber(code, states, digits)
                 digits, span = 0, len(states)
             # the narrowest integers that hold the next digit (bandwidth)
-            wide = (
-                np.uint8
-                if 3 * span <= 2**8
-                else np.uint16
-                if 3 * span <= 2**16
-                else np.int32
-            )
+            wide = _narrowest(3 * span)
             if code.dtype != wide:
                 code = code.astype(wide)
             code *= 3
@@ -202,39 +192,19 @@ class FingerDepth:
         self.codes: NDArray[np.integer] = code  # (nodes,) uint8 to K = 256
         #: per code, each finger's state (NEITHER, HELD, UNSURE): (K, nf) uint8
         self.states: NDArray[np.uint8] = states
-        self._held: NDArray[np.bool_] = states == self.HELD  # (K, nf)
-        self._unsure_f: NDArray[np.bool_] = states == self.UNSURE  # (K, nf)
-        self._unsure: NDArray[np.bool_] = np.asarray(self._unsure_f.any(axis=1))
-        # per code, finger f's held bit at bit 16 (f % 4) of word f // 4: one
-        # sum of a word over a row's points counts four fingers at once
-        words = -(-nf // 4)
-        packed = np.zeros((K, words), dtype=np.uint64)  # (K, W)
+        #: per code, the fingers it proves to hold a point: (K, nf) bool
+        self.held_fingers: NDArray[np.bool_] = states == self.HELD
+        #: per code, the fingers it leaves undecided: (K, nf) bool
+        self.unsure_fingers: NDArray[np.bool_] = states == self.UNSURE
+        #: per code, whether it leaves some finger undecided: (K,) bool
+        self.unsure_codes: NDArray[np.bool_] = self.unsure_fingers.any(axis=1)
+        #: per code, finger ``f``'s held bit at bit ``16 (f % 4)`` of word
+        #: ``f // 4``: (K, ceil(nf / 4)) int64; one sum of a word over a row's
+        #: points counts four fingers at once
+        self.packed_held = np.zeros((K, -(-nf // 4)), dtype=np.int64)
         for f in range(nf):
-            packed[:, f // 4] |= self._held[:, f].astype(np.uint64) << np.uint64(
-                16 * (f % 4)
-            )
-        self._packed = packed
-
-    @property
-    def packed_held(self) -> NDArray[np.int64]:
-        """Per code, finger ``f``'s held bit at bit ``16 (f % 4)`` of word
-        ``f // 4``: (K, ceil(nf / 4)) int64."""
-        return self._packed.astype(np.int64)
-
-    @property
-    def held_fingers(self) -> NDArray[np.bool_]:
-        """Per code, the fingers it proves to hold a point: (K, nf) bool."""
-        return self._held
-
-    @property
-    def unsure_fingers(self) -> NDArray[np.bool_]:
-        """Per code, the fingers it leaves undecided: (K, nf) bool."""
-        return self._unsure_f
-
-    @property
-    def unsure_codes(self) -> NDArray[np.bool_]:
-        """Per code, whether it leaves some finger undecided: (K,) bool."""
-        return self._unsure
+            bit = self.held_fingers[:, f].astype(np.int64) << (16 * (f % 4))
+            self.packed_held[:, f // 4] |= bit
 
     def sphere_lists(
         self,
@@ -260,8 +230,8 @@ class FingerDepth:
         """
         if self._lists is not None:
             return self._lists
-        nf = self._held.shape[1]
-        unsure_any = self._unsure[self.codes]  # (nodes,)
+        nf = self.num_fingers
+        unsure_any = self.unsure_codes[self.codes]  # (nodes,)
         nodes = np.flatnonzero(unsure_any)
         node_id = np.full(len(self.codes), -1, dtype=np.int32)
         node_id[nodes] = np.arange(len(nodes), dtype=np.int32)
@@ -273,7 +243,7 @@ class FingerDepth:
         tree = cKDTree(pos) if len(pos) else None
         for f in range(nf):
             mine = np.flatnonzero(self.finger == f)
-            open_f = np.flatnonzero(self._unsure_f[self.codes[nodes], f])  # (v,)
+            open_f = np.flatnonzero(self.unsure_fingers[self.codes[nodes], f])  # (v,)
             if tree is None or mine.size == 0 or open_f.size == 0:
                 continue
             # every (node, sphere) pair closer than r + lim, then r - |n - c| > -lim
@@ -281,7 +251,7 @@ class FingerDepth:
                 tree, float(self.radii[mine].max()) + self.lim, output_type="ndarray"
             )
             k, n, d = pairs["i"], pairs["j"], pairs["v"]
-            keep = (self.radii[mine][k] - d > -self.lim) & self._unsure_f[
+            keep = (self.radii[mine][k] - d > -self.lim) & self.unsure_fingers[
                 self.codes[nodes[n]], f
             ]
             k, n = mine[k[keep]], n[keep]
@@ -336,18 +306,24 @@ class FingerDepth:
         rows = key.view(np.dtype((np.void, 4 * key.shape[1]))).ravel()
         _, first, rank = np.unique(rows, return_index=True, return_inverse=True)
         total = K + len(first)
-        wide = np.uint8 if total <= 2**8 else np.uint16 if total <= 2**16 else np.int32
+        wide = _narrowest(total)
         codes: NDArray[np.integer] = self.codes.astype(wide)
         codes[nodes] = K + rank.ravel()
         of: NDArray[np.int64] = np.concatenate([np.arange(K), self.codes[nodes[first]]])
         U = L[first]  # (L - K, nf, w) each combination's lists
-        real = (U != pad) & self._unsure_f[of[K:]][:, :, None]
+        real = (U != pad) & self.unsure_fingers[of[K:]][:, :, None]
         c_i, f_i, k_i = np.nonzero(real)  # entries by combination, finger, rank
         start = np.zeros(total + 1, dtype=np.int32)
         start[K + 1 :] = np.cumsum(np.bincount(c_i, minlength=len(first)))
         listed = U[c_i, f_i, k_i].astype(np.int32)
         self._compact = (codes, of, start, listed, f_i.astype(np.int32))
         return self._compact
+
+
+def _narrowest(count: int) -> type[np.integer]:
+    """The narrowest integers that number ``count`` codes from 0: unsigned 8 or
+    16 bits, else int32."""
+    return np.uint8 if count <= 2**8 else np.uint16 if count <= 2**16 else np.int32
 
 
 def _renumber(
@@ -374,7 +350,7 @@ def _renumber(
     occurs = np.bincount(code)  # (span,)
     present = np.flatnonzero(occurs)  # (K',) ascending
     K = len(present)
-    wide = np.uint8 if K <= 2**8 else np.uint16 if K <= 2**16 else np.int32
+    wide = _narrowest(K)
     renumber = np.zeros(len(occurs), dtype=wide)
     renumber[present] = np.arange(K)
     base = 3 ** np.arange(digits - 1, -1, -1)  # (digits,) the digits' weights
