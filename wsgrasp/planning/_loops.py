@@ -326,17 +326,10 @@ def _body_loop(
                 if jb == 0:  # a new body: how many points lie in its box
                     in_box = 0
                     for jj in range(n):
-                        in_box += (
-                            (abs((Q[r, 0, jj] - ux) - centers[e, 0]) < semi_axes[e, 0])
-                            & (
-                                abs((Q[r, 1, jj] - uy) - centers[e, 1])
-                                < semi_axes[e, 1]
-                            )
-                            & (
-                                abs((Q[r, 2, jj] - uz) - centers[e, 2])
-                                < semi_axes[e, 2]
-                            )
-                        )
+                        bx = abs((Q[r, 0, jj] - ux) - centers[e, 0]) < semi_axes[e, 0]
+                        by = abs((Q[r, 1, jj] - uy) - centers[e, 1]) < semi_axes[e, 1]
+                        bz = abs((Q[r, 2, jj] - uz) - centers[e, 2]) < semi_axes[e, 2]
+                        in_box += bx & by & bz
                     if in_box == 0:
                         tb += 1
                         continue
