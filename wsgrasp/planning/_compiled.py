@@ -122,7 +122,7 @@ def count_by_fingers(
         np.ascontiguousarray(dest, dtype=np.int64),
         Q.min(axis=2) if n else np.zeros((len(Q), 3)),  # each row's object box
         Q.max(axis=2) if n else np.zeros((len(Q), 3)),
-        # the fingers' boxes as ``poses.separated`` widens them
+        # the fingers' boxes as ``poses.clear_of_boxes`` widens them
         np.asarray(depth.box_lo, dtype=np.float64) - MARGIN,
         np.asarray(depth.box_hi, dtype=np.float64) + MARGIN,
     )

@@ -29,10 +29,10 @@ from wsgrasp.planning.kernels import SLAB_FROM, Kernels
 from wsgrasp.planning.poses import (
     Slabs,
     StructuredPoses,
+    clear_of_boxes,
     grouped,
     in_axes,
     orientation_spans,
-    separated,
 )
 
 __all__ = ["body_verdicts"]
@@ -90,7 +90,7 @@ def body_verdicts(
         alive = np.flatnonzero(~hit)
         if len(X) and alive.size:
             QX = in_axes(X, R)  # (q, 3, nx)
-            xclear = _box_clear(
+            xclear = clear_of_boxes(
                 QX.min(axis=2)[ol[alive]],
                 QX.max(axis=2)[ol[alive]],
                 u[alive],
@@ -105,16 +105,6 @@ def body_verdicts(
     return reason
 
 
-def _box_clear(
-    Q_lo: Array, Q_hi: Array, u: Array, box_lo: Array, box_hi: Array
-) -> NDArray[np.bool_]:
-    """Candidates whose points' box (gripper axes: ``[Q_lo - u, Q_hi - u]``,
-    (m, 3)) is apart from every box ``[box_lo, box_hi]`` (e, 3): (m,) bool."""
-    lo = (Q_lo - u)[:, None, :]  # (m, 1, 3)
-    hi = (Q_hi - u)[:, None, :]
-    return np.all(separated(lo, hi, box_lo[None], box_hi[None]), axis=1)
-
-
 def _numpy_hits(
     Q: Array,
     ol: NDArray[np.int64],
@@ -127,7 +117,7 @@ def _numpy_hits(
     ``StructuredPoses.chunk`` gives them): (m,) bool."""
     no = Q.shape[2]
     Q_lo, Q_hi = Q.min(axis=2)[ol], Q.max(axis=2)[ol]  # (m, 3)
-    clear = _box_clear(Q_lo, Q_hi, u, se_lo, se_hi)  # (m,)
+    clear = clear_of_boxes(Q_lo, Q_hi, u, se_lo, se_hi)  # (m,)
     hit = np.zeros(len(ol), dtype=bool)
     todo = np.flatnonzero(~clear)
     if todo.size:

@@ -33,7 +33,7 @@ from wsgrasp.gripper.model import GripperModel
 from wsgrasp.planning import _compiled
 from wsgrasp.planning._grids import FingerDepth, finger_depth
 from wsgrasp.planning.kernels import SLAB_FROM, SLAB_MOST, Kernels
-from wsgrasp.planning.poses import Slabs, StructuredPoses, grouped, separated
+from wsgrasp.planning.poses import Slabs, StructuredPoses, clear_of_boxes, grouped
 from wsgrasp.planning.spheres import FingerSpheres
 
 __all__ = ["FingerVerdicts", "finger_verdicts", "count_held"]
@@ -95,16 +95,13 @@ def finger_verdicts(
     depth = finger_depth(spheres, g.sphere_centers, g.sphere_radii, g.sphere_finger, nf)
     fingers = _Fingers(poses, P, spheres, depth, kernels)
     s, o = np.divmod(np.asarray(index, dtype=np.int64), len(poses.R))
-    held: NDArray[np.bool_] | None = None
-    if len(s) * len(P) * nf <= _KEEP_ENTRIES:
-        held, counts = fingers.holding_and_counts(s, o)
-    else:
-        counts = fingers.counts(s, o)
+    keep = len(s) * len(P) * nf <= _KEEP_ENTRIES
+    held, counts = fingers.holding_and_counts(s, o, keep)
 
     def rows(i: NDArray[np.int64]) -> NDArray[np.bool_]:
         return fingers.holding_and_counts(s[i], o[i])[0]
 
-    return FingerVerdicts(counts, held, rows, len(P))
+    return FingerVerdicts(counts, held if keep else None, rows, len(P))
 
 
 class _Fingers:
@@ -151,43 +148,30 @@ class _Fingers:
             if not box:
                 yield rows, Q, ol, u, slice(None)
                 continue
-            lo = (Q.min(axis=2)[ol] - u)[:, None, :]  # (m, 1, 3)
-            hi = (Q.max(axis=2)[ol] - u)[:, None, :]
-            apart = separated(lo, hi, self.f_lo[None], self.f_hi[None])  # (m, nf)
-            need = np.flatnonzero(~apart.all(axis=1))
+            lo, hi = Q.min(axis=2)[ol], Q.max(axis=2)[ol]  # (m, 3) each
+            need = np.flatnonzero(~clear_of_boxes(lo, hi, u, self.f_lo, self.f_hi))
             if need.size:
                 yield rows, Q, ol, u, need
 
-    def counts(self, s: NDArray[np.int64], o: NDArray[np.int64]) -> NDArray[np.int64]:
-        """Points held per candidate and finger: (k, nf) int."""
-        out = np.zeros((len(s), self.nf), dtype=np.int64)
-        if self.loop is not None:
-            for rows, Q, ol, u, need in self._groups(s, o, self.P_loop, False):
-                out[rows[need]] = _compiled.count_by_fingers(
-                    self.depth, Q, ol[need], u[need], loop=self.loop
-                )
-            return out
-        for rows, Q, ol, u, need in self._groups(s, o, self.P):
-            out[rows[need]] = count_held(self._numpy_held(Q, ol, u, need))
-        return out
-
     def holding_and_counts(
-        self, s: NDArray[np.int64], o: NDArray[np.int64]
+        self, s: NDArray[np.int64], o: NDArray[np.int64], keep: bool = True
     ) -> tuple[NDArray[np.bool_], NDArray[np.int64]]:
-        """Which object points each finger holds, (k, no, nf) bool, and how
-        many, (k, nf) int."""
-        out = np.zeros((len(s), len(self.P), self.nf), dtype=bool)
+        """Which object points each finger holds, (k, no, nf) bool (with
+        ``keep``; else no rows), and how many, (k, nf) int."""
+        out = np.zeros((len(s) if keep else 0, len(self.P), self.nf), dtype=bool)
+        counts = np.zeros((len(s), self.nf), dtype=np.int64)
         if self.loop is not None:
-            counts = np.zeros((len(s), self.nf), dtype=np.int64)
-            for rows, Q, ol, u, need in self._groups(s, o, self.P_loop, False):
-                dest = rows[need]
-                counts[dest] = _compiled.count_by_fingers(
-                    self.depth, Q, ol[need], u[need], self.loop, self.perm, out, dest
+            for rows, Q, ol, u, _ in self._groups(s, o, self.P_loop, False):
+                counts[rows] = _compiled.count_by_fingers(
+                    self.depth, Q, ol, u, self.loop, self.perm, out, rows
                 )
             return out, counts
         for rows, Q, ol, u, need in self._groups(s, o, self.P):
-            out[rows[need]] = self._numpy_held(Q, ol, u, need)
-        return out, count_held(out)
+            held = self._numpy_held(Q, ol, u, need)
+            counts[rows[need]] = count_held(held)
+            if keep:
+                out[rows[need]] = held
+        return out, counts
 
     def _numpy_held(
         self, Q: Array, ol: NDArray[np.int64], u: Array, cand: NDArray[np.int64]

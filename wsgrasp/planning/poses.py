@@ -112,11 +112,8 @@ class StructuredPoses:
         R = R_wgwc @ T_gwc_gripper[:3, :3]  # (O, 3, 3)
         B = R_wgwc @ T_gwc_gripper[:3, 3]  # (O, 3)
         if structure.depth is not None:
-            B = (
-                B
-                + np.asarray(structure.depth, dtype=np.float64)[:, None]
-                * (R_wgwc[:, :, 2])
-            )
+            depth = np.asarray(structure.depth, dtype=np.float64)  # (O,)
+            B = B + depth[:, None] * R_wgwc[:, :, 2]
         A = s @ R_wo.T + t_wo  # (ns, 3)
         return cls(R, A, B)
 
@@ -223,10 +220,16 @@ def hull_vertices(cloud: Array) -> Array:
         return p
 
 
-def separated(lo_a: Array, hi_a: Array, lo_b: Array, hi_b: Array) -> NDArray[np.bool_]:
-    """Boxes ``[lo_a, hi_a]`` and ``[lo_b, hi_b]`` (..., 3) apart by more than
-    ``MARGIN`` along some axis: (...) bool."""
-    return np.any((lo_a > hi_b + MARGIN) | (hi_a < lo_b - MARGIN), axis=-1)
+def clear_of_boxes(
+    Q_lo: Array, Q_hi: Array, u: Array, box_lo: Array, box_hi: Array
+) -> NDArray[np.bool_]:
+    """Candidates whose points' box (gripper axes: ``[Q_lo - u, Q_hi - u]``,
+    (m, 3)) is apart from every box ``[box_lo, box_hi]`` (e, 3) by more than
+    ``MARGIN`` along some axis: (m,) bool."""
+    lo = (Q_lo - u)[:, None, :]  # (m, 1, 3)
+    hi = (Q_hi - u)[:, None, :]
+    apart = (lo > box_hi[None] + MARGIN) | (hi < box_lo[None] - MARGIN)  # (m, e, 3)
+    return np.all(np.any(apart, axis=-1), axis=1)
 
 
 def grouped(o: NDArray[np.int64]) -> NDArray[np.int64]:
