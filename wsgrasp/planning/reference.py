@@ -47,6 +47,15 @@ def _inv(T: Array) -> Array:
     return out
 
 
+def _in_body(g: GripperModel, p: Array) -> bool:
+    """Whether some point of ``p`` (gripper frame) lies inside some body
+    superellipsoid, one superellipsoid at a time."""
+    for e in range(len(g.se_centers)):
+        if np.any(_se_value(p, g.se_centers[e], g.se_semi_axes[e], g.se_exponent) < 1):
+            return True
+    return False
+
+
 def paper_orientation(theta: float, turned: bool = False) -> Array:
     """``R_object_gwc`` (3, 3) of Algorithm 1, lines 2–6: x along the major axis,
     approaching it from the direction ``theta``; ``turned`` half a turn about the
@@ -102,28 +111,12 @@ def reference_search(
             continue
         T_gripper_world = _inv(T_world_gripper)
         obj = _rt(T_gripper_world, object_points)
-        hit = False
-        for e in range(len(g.se_centers)):
-            if np.any(
-                _se_value(obj, g.se_centers[e], g.se_semi_axes[e], g.se_exponent) < 1.0
-            ):
-                hit = True
-                break
-        if hit:
+        if _in_body(g, obj):
             reason[k] = 2
             continue
-        if len(obstacle_points):
-            obs = _rt(T_gripper_world, obstacle_points)
-            for e in range(len(g.se_centers)):
-                if np.any(
-                    _se_value(obs, g.se_centers[e], g.se_semi_axes[e], g.se_exponent)
-                    < 1.0
-                ):
-                    hit = True
-                    break
-            if hit:
-                reason[k] = 3
-                continue
+        if len(obstacle_points) and _in_body(g, _rt(T_gripper_world, obstacle_points)):
+            reason[k] = 3
+            continue
         d = float(np.linalg.norm(T_world_gwc[:3, 3] - centroid))
         held = np.zeros((len(obj), nf), dtype=bool)
         for i_sphere in range(len(g.sphere_centers)):
