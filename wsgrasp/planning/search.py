@@ -10,6 +10,7 @@ them and a ``PlanResult`` out of what this returns.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -84,7 +85,6 @@ def run_search(
     spheres: FingerSpheres | None = None,
     normals_fn: Callable[[Array], Array] | None = None,
     normals_of: Callable[[Array, NDArray[np.int64]], Array] | None = None,
-    clock: Callable[[], float] | None = None,
 ) -> SearchOutput:
     """Generate, evaluate and score all candidates; pick the best.
 
@@ -92,11 +92,8 @@ def run_search(
     ``normals_of(points, rows)``, when given, the normals of some of them alone,
     bit for bit those of ``normals_fn`` (see ``CandidateBatch``).
     """
-    import time
-
-    now = clock or time.perf_counter
     g = inp.gripper
-    t0 = now()
+    t0 = time.perf_counter()
     o = inp.orientations
     T_world_gwc, T_world_gripper, sample, orientation = candidate_poses(
         inp.T_world_object, inp.samples_object, o.R_object_gwc, g.T_gripper_gwc, o.depth
@@ -114,7 +111,7 @@ def run_search(
             inp.T_world_object, inp.samples_object, o.R_object_gwc, o.depth
         ),
     )
-    t1 = now()
+    t1 = time.perf_counter()
     C = len(sample)
     score = np.full(C, np.nan)
     terms_all: dict[str, Array] = {}
@@ -166,7 +163,7 @@ def run_search(
             T_world_gripper[best], holding = backed
             T_world_gwc[best] = T_world_gripper[best] @ g.T_gripper_gwc
         contacts = _contacts(g, T_world_gripper[best], inp.object_points, holding)
-    t2 = now()
+    t2 = time.perf_counter()
     cands = CandidateSet(
         T_world_gwc=T_world_gwc,
         T_world_ee=T_world_gripper,
