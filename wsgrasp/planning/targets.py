@@ -159,19 +159,15 @@ def grasp_targets(
 
 def _within_limits(g: GripperModel, posture: dict[str, float]) -> dict[str, float]:
     """``posture`` with each finger joint clipped to its limits."""
-    limits = _limits(g)
+    limits = {
+        j: (float(lo), float(hi))
+        for joints, lim in zip(g.finger_joints, g.finger_limits, strict=True)
+        for j, (lo, hi) in zip(joints, np.asarray(lim), strict=True)
+    }
     return {
         j: float(np.clip(v, *limits[j])) if j in limits else float(v)
         for j, v in posture.items()
     }
-
-
-def _limits(g: GripperModel) -> dict[str, tuple[float, float]]:
-    out: dict[str, tuple[float, float]] = {}
-    for joints, lim in zip(g.finger_joints, g.finger_limits, strict=True):
-        for j, (lo, hi) in zip(joints, np.asarray(lim), strict=True):
-            out[j] = (float(lo), float(hi))
-    return out
 
 
 def _closure(g: GripperModel, joint: str, value: float) -> float:
