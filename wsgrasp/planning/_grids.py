@@ -98,16 +98,15 @@ class FingerDepth:
     to 5 fingers, where ``3 ** nf <= 243``, and in practice more: a node is
     held or unsure for few fingers at once), wider where more do. The tables
     derived from :attr:`states` (held, unsure, the packed held counts) are
-    read by code, so a node's verdict for every finger is one lookup.
+    read by code, so a node's verdict for every finger is one lookup. The nodes
+    lie a quarter of the smallest radius apart within 1-2 mm, farther where the
+    grid would exceed 8 million nodes.
 
     Parameters
     ----------
     centers, radii, finger : (s, 3), (s,), (s,)
         The gripper's spheres and the finger of each.
     num_fingers : int
-    cell : float, optional
-        Node spacing (m); by default a quarter of the smallest radius within
-        1-2 mm, coarser where the grid would exceed 8 million nodes.
     """
 
     #: a finger's state at a node, as kept in :attr:`states`
@@ -119,7 +118,6 @@ class FingerDepth:
         radii: Array,
         finger: NDArray[np.int64],
         num_fingers: int,
-        cell: float | None = None,
     ) -> None:
         if num_fingers < 1:
             raise ValueError(
@@ -127,7 +125,7 @@ class FingerDepth:
             )
         lo_s, hi_s = centers - radii[:, None], centers + radii[:, None]  # (s, 3)
         lo0, hi0 = lo_s.min(axis=0), hi_s.max(axis=0)
-        h = cell if cell is not None else float(np.clip(radii.min() / 4, 1e-3, 2e-3))
+        h = float(np.clip(radii.min() / 4, 1e-3, 2e-3))
         while np.prod((hi0 - lo0) / h + 8) > 8e6:
             h *= 1.25
         self.cell = h
