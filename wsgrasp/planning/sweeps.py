@@ -119,17 +119,14 @@ def _sweep_index(g: GripperModel) -> _SweepIndex:
     nf, K = sweep.shape[:2]
     hulls = [[hull_vertices(sweep[f, k]) for k in range(K)] for f in range(nf)]
     H = max((len(h) for row in hulls for h in row), default=1)
-    hull = np.zeros((nf, K, H, 3))
+    # each posture's corners padded with its own: (nf, K, H, 3)
+    hull = np.reshape(
+        [np.resize(h, (H, 3)) for row in hulls for h in row], (nf, K, H, 3)
+    )
     outline = [_outline(np.unique(np.concatenate(row), axis=0)) for row in hulls]
-    for f, row in enumerate(hulls):
-        for k, h in enumerate(row):
-            hull[f, k] = np.resize(h, (H, 3))  # padded with its own corners
-    origin = np.zeros((nf, 3))
-    reach: list[NDArray[np.uint8]] = []
-    for f in range(nf):
-        origin[f], grid = _reach_grid(sweep[f])
-        reach.append(grid)
-    index = _SweepIndex(hull, outline, origin, reach)
+    grids = [_reach_grid(sweep[f]) for f in range(nf)]  # (origin, grid) each
+    origin = np.reshape([o for o, _ in grids], (nf, 3))
+    index = _SweepIndex(hull, outline, origin, [grid for _, grid in grids])
     g.__dict__["_sweep_index"] = index
     return index
 
@@ -278,9 +275,7 @@ def sweep_back_offs(
     a_n = u[of] @ g.approach_axis  # (C,) how the approach moves along the normal
     pts = np.asarray(object_points, dtype=np.float64).reshape(-1, 3)
     t_g = np.einsum("cji,cj->ci", R[of], T[:, :3, 3])  # (C, 3) R^T t
-    slack = np.array([GRAZE_SLACK if s else SWEEP_SLACK for s in slides(g)])[
-        :, None
-    ]  # (nf, 1)
+    slack = np.where(slides(g), GRAZE_SLACK, SWEEP_SLACK)[:, None]  # (nf, 1)
     todo = np.arange(C)  # candidates not yet settled
     for d in BACK_OFF_STEPS:
         c = todo
