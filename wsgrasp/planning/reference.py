@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from wsgrasp.geometry import transform_points
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.planning.poses import TableSE
 
@@ -34,10 +35,6 @@ class ReferenceResult:
 def _se_value(p: Array, center: Array, axes: Array, exponent: float) -> Array:
     d = np.abs(p - center) / axes
     return d[:, 0] ** exponent + d[:, 1] ** exponent + d[:, 2] ** 2
-
-
-def _rt(T: Array, p: Array) -> Array:
-    return p @ T[:3, :3].T + T[:3, 3]
 
 
 def _inv(T: Array) -> Array:
@@ -103,18 +100,20 @@ def reference_search(
         T_world_gwc = T_world_object @ T_object_gwc
         T_world_gripper = T_world_gwc @ T_gwc_gripper
         # table: gripper cloud in the table frame
-        cloud_table = _rt(T_table_world @ T_world_gripper, g.cloud)
+        cloud_table = transform_points(T_table_world @ T_world_gripper, g.cloud)
         if np.any(
             _se_value(cloud_table, table.center, table.semi_axes, table.exponent) < 1.0
         ):
             reason[k] = 1
             continue
         T_gripper_world = _inv(T_world_gripper)
-        obj = _rt(T_gripper_world, object_points)
+        obj = transform_points(T_gripper_world, object_points)
         if _in_body(g, obj):
             reason[k] = 2
             continue
-        if len(obstacle_points) and _in_body(g, _rt(T_gripper_world, obstacle_points)):
+        if len(obstacle_points) and _in_body(
+            g, transform_points(T_gripper_world, obstacle_points)
+        ):
             reason[k] = 3
             continue
         d = float(np.linalg.norm(T_world_gwc[:3, 3] - centroid))
