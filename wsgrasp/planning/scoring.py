@@ -81,8 +81,7 @@ class CandidateBatch:
     def holdings(self) -> Holdings:
         """``holding`` as :class:`~wsgrasp.planning.holdings.Holdings` (counts,
         blocks of rows, sums over the held points), without building the mask."""
-        field_ = type(self).__dict__["holding"]
-        return field_.holdings_of(self)  # type: ignore[no-any-return]
+        return type(self).__dict__["holding"].holdings_of(self)  # type: ignore[no-any-return]
 
     @cached_property
     def contacts(self) -> NDArray[np.int64]:
