@@ -57,9 +57,16 @@ def machine() -> str:
 
 
 def publish(
-    report: dict[str, Any], *, commit: str, command: str, date: str | None = None
+    report: dict[str, Any],
+    *,
+    commit: str,
+    command: str,
+    date: str | None = None,
+    note: str = "",
 ) -> dict[str, Any]:
-    """``report`` less its bulky per-trial parts, with its provenance first."""
+    """``report`` less its bulky per-trial parts, with its provenance first
+    (and ``note``, what the figures alone do not say about the run, where
+    given)."""
     out: dict[str, Any] = {
         "commit": commit,
         "machine": machine(),
@@ -68,6 +75,8 @@ def publish(
         # how busy the machine was as the run ended (1, 5 and 15 minutes)
         "load_average": [round(x, 2) for x in os.getloadavg()],
     }
+    if note:
+        out["note"] = note
     out.update({k: v for k, v in report.items() if k not in BULKY and k not in out})
     return out
 
@@ -93,6 +102,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("dest", type=Path, help="where to write it under docs/results/")
     ap.add_argument("--commit", default="", help="the commit the run started from")
     ap.add_argument("--command", default="", help="what was run")
+    ap.add_argument(
+        "--note",
+        default="",
+        help="what the figures alone do not say about the run (e.g. other work "
+        "that shared the machine); the results pages print it with the run",
+    )
     args = ap.parse_args(argv)
     text = sys.stdin.read() if args.source == "-" else Path(args.source).read_text()
     report = json.loads(text)
@@ -101,7 +116,10 @@ def main(argv: list[str] | None = None) -> int:
         scaling = report.pop("scaling")
         report = {"rows": report, "scaling": scaling}
     out = publish(
-        report, commit=args.commit or head_commit(), command=args.command or ""
+        report,
+        commit=args.commit or head_commit(),
+        command=args.command or "",
+        note=args.note,
     )
     args.dest.parent.mkdir(parents=True, exist_ok=True)
     args.dest.write_text(json.dumps(out, indent=1) + "\n")

@@ -24,7 +24,8 @@ def _provenance(report: dict[str, Any], what: str) -> str:
     date = report.get("date") or "not recorded"
     load = report.get("load_average")
     busy = f", load average {load[0]:.1f} as it ended" if load else ""
-    return f"From {what} at commit `{commit}` on {machine} ({date}{busy})."
+    note = f" {report['note'].rstrip('.')}." if report.get("note") else ""
+    return f"From {what} at commit `{commit}` on {machine} ({date}{busy}).{note}"
 
 
 def _eval_grippers_markdown(report: dict[str, Any]) -> str:

@@ -1,0 +1,77 @@
+"""``benchmarks/publish_result.py``: a run's result file with its provenance, and
+the note a run can carry (other work on the machine, say), which the results
+pages print beside the run (docs/hooks/docs_results.py)."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from types import ModuleType
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _import(folder: Path, name: str) -> ModuleType:
+    sys.path.insert(0, str(folder))
+    try:
+        return __import__(name)
+    finally:
+        sys.path.remove(str(folder))
+
+
+@pytest.fixture
+def publish_result() -> ModuleType:
+    return _import(ROOT / "benchmarks", "publish_result")
+
+
+@pytest.fixture
+def docs_results() -> ModuleType:
+    return _import(ROOT / "docs" / "hooks", "docs_results")
+
+
+REPORT = {"success_rate": 0.9, "trial_records": [{"outcome": "success"}]}
+
+
+def test_provenance_first_and_the_note_only_where_given(
+    publish_result: ModuleType,
+) -> None:
+    plain = publish_result.publish(REPORT, commit="abc1234", command="make eval")
+    assert list(plain)[:5] == ["commit", "machine", "date", "command", "load_average"]
+    assert "note" not in plain
+    assert "trial_records" not in plain  # bulky per-trial parts stay out
+    assert plain["success_rate"] == 0.9
+    noted = publish_result.publish(
+        REPORT, commit="abc1234", command="make eval", note="the tests ran beside it"
+    )
+    assert noted["note"] == "the tests ran beside it"
+
+
+def test_the_command_line_writes_the_note(
+    publish_result: ModuleType, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    src, dest = tmp_path / "run.json", tmp_path / "results" / "run.json"
+    src.write_text(json.dumps(REPORT))
+    argv = [str(src), str(dest), "--commit", "abc1234", "--note", "shared machine"]
+    assert publish_result.main(argv) == 0
+    out = json.loads(dest.read_text())
+    assert (out["commit"], out["note"]) == ("abc1234", "shared machine")
+    assert "wrote" in capsys.readouterr().out
+
+
+def test_the_pages_print_the_note_with_the_run(docs_results: ModuleType) -> None:
+    report = {
+        "commit": "abc1234",
+        "machine": "x86_64, 2 cores",
+        "date": "2026-12-04 18:43 UTC",
+        "load_average": [0.19, 1.19, 1.96],
+    }
+    line = docs_results._provenance(report, "`make eval-heldout`")
+    assert line.endswith("load average 0.2 as it ended).")
+    report["note"] = "The test suite shared the machine for half of the run."
+    line = docs_results._provenance(report, "`make eval-heldout`")
+    assert line.endswith(
+        "as it ended). The test suite shared the machine for half of the run."
+    )
