@@ -124,3 +124,26 @@ def test_record_replay_identical_for_the_real_grippers(
     monkeypatch.setattr(g, "load_gripper", no_plugin)
     report = replay_run(path)
     assert report.identical, report.differences
+
+
+def test_a_run_recorded_before_angles_from_replays_with_the_papers_angles(
+    tmp_path: Path,
+) -> None:
+    """Recorded specs hold every field; one recorded before
+    ``sampling.angles_from`` existed was planned with the object frame's angles,
+    and replays with them, not with today's default (``table``)."""
+    sampling = {"points": 147, "orientations": 4, "angle_range_deg": 360}
+    path = tmp_path / "old.mcap"
+    plan_recorded(path, spec=fake_spec(sampling={**sampling, "angles_from": "object"}))
+    run = open_run(path)
+    assert run.spec_data is not None
+    assert run.spec_data["sampling"]["angles_from"] == "object"
+    old = {k: v for k, v in run.spec_data["sampling"].items() if k != "angles_from"}
+    run.__dict__["spec_data"] = {**run.spec_data, "sampling": old}  # as recorded then
+    assert run.spec.sampling.angles_from == "object"
+    assert replay_run(run).identical
+    # a field the run did record is kept as recorded
+    new = open_run(path)
+    assert new.spec_data is not None
+    new.spec_data["sampling"]["angles_from"] = "table"  # the cached data
+    assert new.spec.sampling.angles_from == "table"

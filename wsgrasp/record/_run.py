@@ -34,6 +34,22 @@ PARTS = (
 )
 
 
+#: spec fields added after runs were recorded without them, each with the value
+#: that plans as those runs were planned (a recorded spec holds every field, so
+#: a missing one was not there yet); new specs get the field's default
+_RECORDED_BEFORE: dict[tuple[str, str], Any] = {("sampling", "angles_from"): "object"}
+
+
+def _as_planned(data: dict[str, Any]) -> dict[str, Any]:
+    """A recorded spec's data with the fields it predates set as it planned."""
+    out = dict(data)
+    for (section, key), value in _RECORDED_BEFORE.items():
+        part = out.get(section)
+        if isinstance(part, dict) and key not in part:
+            out[section] = {**part, key: value}
+    return out
+
+
 @dataclass
 class RawMessage:
     """One message as stored, with its channel's schema."""
@@ -97,7 +113,7 @@ class Run:
                 hint="replay needs a run recorded at least up to its inputs",
             )
         try:
-            return load_spec(self.spec_data, check_plugins=False)
+            return load_spec(_as_planned(self.spec_data), check_plugins=False)
         except SpecError as exc:
             raise RecordingError(
                 f"{self.path}: the recorded spec does not validate with this "
