@@ -221,3 +221,75 @@ def test_a_neighbour_the_finger_sweeps_before_the_target_blocks_it(franka):
     T = np.eye(4)[None]
     assert blocked_in_closing(g, T, [behind, on_the_way], target).tolist() == [1]
     assert blocked_in_closing(g, T, [behind], target).tolist() == [-1]
+
+
+def _grouped(groups):
+    seg = _segmentation(unsegmented=_blob([0.5, 0.0, 0.02], 10, seed=3))
+    seg.info["groups"] = groups
+    return seg
+
+
+def test_rule_cluster_plans_the_instances_split_from_one_cluster_as_one_object():
+    seg = _grouped([0, 0, 1])  # instances 0 and 1 were split from one cluster
+    target, obstacles = select_target(seg, TargetRule(rule="cluster", id=1))
+    assert np.array_equal(target, np.concatenate(seg.clusters[:2]))
+    assert [len(o) for o in obstacles] == [80, 10]  # instance 2, unsegmented
+    target, obstacles = select_target(seg, TargetRule(rule="cluster", id=2))
+    assert target is seg.clusters[2]
+    assert len(obstacles) == 3
+
+
+def test_rule_cluster_without_groups_is_the_instance_alone():
+    seg = _segmentation()  # a segmenter that splits nothing
+    target, obstacles = select_target(seg, TargetRule(rule="cluster", id=0))
+    assert np.array_equal(target, seg.clusters[0])
+    assert len(obstacles) == 2
+    with pytest.raises(ValidationError, match="'cluster' needs target.id"):
+        TargetRule(rule="cluster")
+
+
+def test_a_stack_planned_as_one_cluster_lists_both_instances_as_the_target():
+    items = [
+        ("box", (0.06, 0.06, 0.05), (0.0, 0.0, 0.0), 0.0),
+        ("box", (0.04, 0.04, 0.04), (0.0, 0.0, 0.05), 20.0),
+        ("cylinder", (0.03, 0.06), (0.2, 0.0, 0.0), 0.0),
+    ]
+    scene = pile(items).scene
+    first = _franka("highest").plan(scene)  # the box on top
+    segs = first.info["segments"]
+    top = next(s for s in segs if s["target"])
+    stack = [s["id"] for s in segs if s["cluster"] == top["cluster"]]
+    assert len(stack) == 2 and len(segs) == 3
+    whole = _franka("cluster", id=top["id"]).plan(scene)  # not refused as two
+    assert [s["id"] for s in whole.info["segments"] if s["target"]] == stack
+    assert whole.info["object_points"] > first.info["object_points"]
+
+
+def test_a_no_grasp_hint_names_the_rule_where_its_own_cluster_blocked_it():
+    from types import SimpleNamespace
+
+    from wsgrasp.api import _siblings
+
+    segs = [
+        {"id": 0, "cluster": 0, "target": False},
+        {"id": 1, "cluster": 0, "target": True},
+        {"id": 2, "cluster": 1, "target": False},
+    ]
+    blocked = {"object 0": {"body": 5, "closing": 0}}
+    hint = _siblings(SimpleNamespace(segments=segs, blocked_by=blocked))
+    assert "object 0 and the target were split from one cluster" in hint
+    assert "`target: {rule: cluster, id: 1}`" in hint
+    other = {"object 2": {"body": 5, "closing": 0}}
+    assert _siblings(SimpleNamespace(segments=segs, blocked_by=other)) == ""
+
+
+def test_a_clutter_step_tries_the_other_instances_then_each_split_cluster():
+    from wsgrasp.sim.clutter import _other_targets
+
+    segs = [
+        {"id": 0, "cluster": 0, "top": 0.05, "target": True},
+        {"id": 1, "cluster": 0, "top": 0.09, "target": False},
+        {"id": 2, "cluster": 1, "top": 0.12, "target": False},
+    ]
+    order = [(t.rule, t.id) for t in _other_targets(segs)]
+    assert order == [("id", 2), ("id", 1), ("cluster", 1)]

@@ -211,7 +211,7 @@ class Pipeline:
         object_points, obstacles = _one_object(
             segmentation, object_points, obstacles, spec
         )
-        names, segments = _instances(segmentation, object_points, obstacles)
+        names, segments = _instances(segmentation, object_points, obstacles, spec)
         # farthest-point thinning keeps the object's shape
         object_points = thin(
             object_points, spec.preprocess.max_object_points, spec.seed
@@ -448,7 +448,7 @@ class Pipeline:
         elif not hint:  # a chosen candidate's hint says why already
             hint = _no_grasp(prep, out, hist, g, distance)
             if prep.blocked_by:
-                hint += "; " + _blockers(prep.blocked_by)
+                hint += "; " + _blockers(prep.blocked_by) + _siblings(prep)
         timing["total"] = shared_ms + (time.perf_counter() - t_start) * 1e3
         return PlanResult(
             found=found,
@@ -511,19 +511,20 @@ class Prepared:
 
 
 def _instances(
-    segmentation: Any, object_points: Array, obstacles: list[Array]
+    segmentation: Any, object_points: Array, obstacles: list[Array], spec: PipelineSpec
 ) -> tuple[list[str], list[dict[str, Any]]]:
     """The obstacles' names and the instances' summaries, where the scene has
     several instances or unsegmented points (empty lists for one object
     alone)."""
-    from wsgrasp.perception.pile import obstacle_names, segments
+    from wsgrasp.perception.pile import cluster_members, obstacle_names, segments
 
     if not obstacles:
         return [], []
-    ids = [k for k, c in enumerate(segmentation.clusters) if c is object_points]
-    return obstacle_names(segmentation, obstacles), segments(
-        segmentation, ids[0] if ids else None
-    )
+    if spec.target.rule == "cluster":
+        ids = cluster_members(segmentation, spec.target)
+    else:
+        ids = [k for k, c in enumerate(segmentation.clusters) if c is object_points]
+    return obstacle_names(segmentation, obstacles), segments(segmentation, ids)
 
 
 def _clear_of_neighbours(
@@ -616,6 +617,31 @@ def _blockers(blocked_by: dict[str, dict[str, int]]) -> str:
     return "candidates blocked by neighbours: " + ", ".join(parts)
 
 
+def _siblings(prep: Prepared) -> str:
+    """Where neighbours split from the target's own cluster blocked candidates:
+    the clause that says how to plan on them as one object."""
+    segs = prep.segments
+    target = [s["id"] for s in segs if s["target"]]
+    if not target:
+        return ""
+    group = {s["cluster"] for s in segs if s["target"]}
+    near = [
+        s["id"]
+        for s in segs
+        if not s["target"]
+        and s["cluster"] in group
+        and f"object {s['id']}" in prep.blocked_by
+    ]
+    if not near:
+        return ""
+    names = ", ".join(f"object {k}" for k in near)
+    return (
+        f"; {names} and the target were split from one cluster: if they are one "
+        "object (split at a concave seam of its own), plan on them together with "
+        f"`target: {{rule: cluster, id: {target[0]}}}`"
+    )
+
+
 def _accepts(method: Any, name: str) -> bool:
     """Whether a callable takes keyword ``name`` (or any keyword)."""
     import inspect
@@ -696,6 +722,8 @@ def _one_object(
     from wsgrasp.perception.process import select_target
     from wsgrasp.perception.touching import find_touching, split_touching
 
+    if spec.target.rule == "cluster":  # planned as one object on purpose
+        return object_points, obstacles
     touching = find_touching(object_points, segmentation.table)
     if touching is None:
         return object_points, obstacles

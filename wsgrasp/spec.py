@@ -275,15 +275,26 @@ class TargetRule(_Model):
     """Which cluster is the object when the segmenter finds several."""
 
     rule: Literal[
-        "largest", "nearest", "inside_box", "only", "highest", "most_isolated", "id"
+        "largest",
+        "nearest",
+        "inside_box",
+        "only",
+        "highest",
+        "most_isolated",
+        "id",
+        "cluster",
     ] = Field(
         "largest",
         description="largest cluster, nearest to `point`, the one inside `box`, "
         "`only` (several clusters are an error); for piles: `highest` (top "
-        "highest above the table), `most_isolated` (farthest from the others) or "
-        "`id` (an instance id from a plan's result.info['segments'], same scene)",
+        "highest above the table), `most_isolated` (farthest from the others), "
+        "`id` (an instance id from a plan's result.info['segments'], same scene) "
+        "or `cluster` (instance `id` with every instance split from the same "
+        "cluster, as one object)",
     )
-    id: int | None = Field(None, ge=0, description="for rule id: the instance id")
+    id: int | None = Field(
+        None, ge=0, description="for rules id and cluster: the instance id"
+    )
     point: Vec3 | None = Field(None, description="for rule nearest, world frame (m)")
     box_min: Vec3 | None = Field(None, description="for rule inside_box (m)")
     box_max: Vec3 | None = Field(None, description="for rule inside_box (m)")
@@ -297,8 +308,8 @@ class TargetRule(_Model):
             raise ValueError("target.rule 'nearest' needs target.point")
         if self.rule == "inside_box" and (self.box_min is None or self.box_max is None):
             raise ValueError("target.rule 'inside_box' needs box_min and box_max")
-        if self.rule == "id" and self.id is None:
-            raise ValueError("target.rule 'id' needs target.id")
+        if self.rule in ("id", "cluster") and self.id is None:
+            raise ValueError(f"target.rule {self.rule!r} needs target.id")
         return self
 
 

@@ -16,9 +16,17 @@ from scipy.spatial import cKDTree
 from wsgrasp.errors import InputError
 from wsgrasp.perception.types import Array, Plane, Segmentation
 
-__all__ = ["PILE_RULES", "UNSEGMENTED", "obstacle_names", "pile_target", "segments"]
+__all__ = [
+    "PILE_RULES",
+    "UNSEGMENTED",
+    "cluster_members",
+    "groups",
+    "obstacle_names",
+    "pile_target",
+    "segments",
+]
 
-#: the target rules this module decides
+#: the target rules this module decides (``cluster``: :func:`cluster_members`)
 PILE_RULES = ("highest", "most_isolated", "id")
 #: what the points above the table that no instance holds are called
 UNSEGMENTED = "unsegmented points"
@@ -41,7 +49,7 @@ def pile_target(segmentation: Segmentation, rule: Any) -> int:
         return int(np.argmax(tops))
     if name == "most_isolated":
         return int(np.argmax(_clearances(clusters, unsegmented(segmentation))))
-    if name == "id":
+    if name in ("id", "cluster"):
         k = int(rule.id)
         if not 0 <= k < len(clusters):
             raise InputError(
@@ -52,6 +60,27 @@ def pile_target(segmentation: Segmentation, rule: Any) -> int:
             )
         return k
     raise ValueError(f"{name!r} is not a pile rule")  # the spec allows no other
+
+
+def groups(segmentation: Segmentation) -> list[int]:
+    """Per instance, the index of the connected cluster it was split from
+    (``segmentation.info["groups"]``); each instance its own where the segmenter
+    splits nothing."""
+    g = segmentation.info.get("groups")
+    n = len(segmentation.clusters)
+    if g is None or len(g) != n:
+        return list(range(n))
+    return [int(x) for x in g]
+
+
+def cluster_members(segmentation: Segmentation, rule: Any) -> list[int]:
+    """For rule ``cluster``: instance ``rule.id`` and every instance split from
+    the same connected cluster, in id order. Planned as one object, they undo a
+    split at a concave seam of the object's own (a mug's handle, a bottle's
+    neck, a shape made of several convex parts)."""
+    k = pile_target(segmentation, rule)  # checks the id
+    g = groups(segmentation)
+    return [i for i in range(len(g)) if g[i] == g[k]]
 
 
 def unsegmented(segmentation: Segmentation) -> Array:
@@ -86,14 +115,18 @@ def _clearances(clusters: list[Array], stray: Array) -> Array:
     return gap[:k].min(axis=1) if len(clouds) > 1 else np.full(k, np.inf)
 
 
-def segments(segmentation: Segmentation, target: int | None) -> list[dict[str, Any]]:
+def segments(
+    segmentation: Segmentation, target: list[int] | tuple[int, ...]
+) -> list[dict[str, Any]]:
     """Each instance as a plan reports it: ``id``, ``points``, ``centroid``
     (m, world), ``top`` (height of its highest point above the table, m),
-    ``clearance`` (m to the nearest other instance or unsegmented point) and
-    whether it is the ``target``."""
+    ``clearance`` (m to the nearest other instance or unsegmented point),
+    ``cluster`` (the connected cluster it was split from: :func:`groups`) and
+    whether it is (part of) the ``target`` (ids)."""
     clusters = segmentation.clusters
     clear = _clearances(clusters, unsegmented(segmentation))
     table: Plane = segmentation.table
+    group = groups(segmentation)
     return [
         {
             "id": k,
@@ -101,7 +134,8 @@ def segments(segmentation: Segmentation, target: int | None) -> list[dict[str, A
             "centroid": [round(float(x), 5) for x in c.mean(axis=0)],
             "top": round(float(table.signed_distance(c).max()), 5),
             "clearance": None if np.isinf(clear[k]) else round(float(clear[k]), 5),
-            "target": k == target,
+            "cluster": group[k],
+            "target": k in target,
         }
         for k, c in enumerate(clusters)
     ]

@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from wsgrasp.errors import InputError
-from wsgrasp.perception.pile import PILE_RULES, pile_target
+from wsgrasp.perception.pile import PILE_RULES, cluster_members, pile_target
 from wsgrasp.perception.types import Array, Segmentation
 
 __all__ = [
@@ -276,8 +276,10 @@ def select_target(segmentation: Segmentation, rule: Any) -> tuple[Array, list[Ar
     rule
         ``TargetRule``: ``largest``, ``nearest`` (to ``point``), ``inside_box``
         (cluster centroid within ``box_min``..``box_max``; the largest such),
-        ``only`` (several clusters are an error), or a pile's ``highest``,
-        ``most_isolated`` or ``id`` (:func:`wsgrasp.perception.pile.pile_target`).
+        ``only`` (several clusters are an error), a pile's ``highest``,
+        ``most_isolated`` or ``id`` (:func:`wsgrasp.perception.pile.pile_target`),
+        or ``cluster``: instance ``id`` with every instance split from the same
+        cluster, as one object (:func:`wsgrasp.perception.pile.cluster_members`).
 
     Returns
     -------
@@ -311,6 +313,12 @@ def select_target(segmentation: Segmentation, rule: Any) -> tuple[Array, list[Ar
         q = np.asarray(rule.point, dtype=np.float64)
         dists = np.array([np.sqrt(((c - q) ** 2).sum(axis=1).min()) for c in clusters])
         k = int(np.argmin(dists))
+    elif name == "cluster":
+        members = cluster_members(segmentation, rule)
+        if len(members) > 1:
+            target = np.concatenate([clusters[i] for i in members])
+            return target, _obstacles(segmentation, clusters, members, rule)
+        k = members[0]
     elif name in PILE_RULES:
         k = pile_target(segmentation, rule)
     elif name == "inside_box":
@@ -330,11 +338,21 @@ def select_target(segmentation: Segmentation, rule: Any) -> tuple[Array, list[Ar
     else:
         raise InputError(
             f"unknown target rule {name!r}, expected largest, nearest, inside_box, "
-            "only, highest, most_isolated or id",
+            "only, highest, most_isolated, id or cluster",
             hint="set target.rule in the spec",
         )
-    obstacles = [c for i, c in enumerate(clusters) if i != k]
+    return clusters[k], _obstacles(segmentation, clusters, [k], rule)
+
+
+def _obstacles(
+    segmentation: Segmentation, clusters: list[Array], target: list[int], rule: Any
+) -> list[Array]:
+    """The clusters not in ``target`` (ids), then the unsegmented points; none
+    when ``rule.obstacles`` is false."""
+    if not getattr(rule, "obstacles", True):
+        return []
+    obstacles = [c for i, c in enumerate(clusters) if i not in target]
     stray = segmentation.info.get("unsegmented")
     if stray is not None and len(stray):
         obstacles.append(stray)
-    return clusters[k], (obstacles if getattr(rule, "obstacles", True) else [])
+    return obstacles

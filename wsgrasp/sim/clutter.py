@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import json
 import time
+from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -514,17 +515,16 @@ def _plan_step(
     pipeline: Any, scene: Any, step: Step, out_dir: Path | None
 ) -> tuple[Any, _Capture]:
     """Plan a step: the pipeline's own target first; where it finds no grasp,
-    the other instances, highest first (``target: {rule: id}`` with the ids the
-    first plan listed), until one has a grasp. Each plan is recorded in
+    the other targets the first plan's instances give (:func:`_other_targets`),
+    until one has a grasp. Each plan is recorded in
     ``out_dir`` (``step-NN-T.mcap``, try ``T``) and listed in ``step.records``;
     ``step.tries`` counts them. Returns the last plan (None where it raised)
     and what it segmented."""
     from copy import copy
 
     from wsgrasp.errors import WsgraspError
-    from wsgrasp.spec import TargetRule
 
-    order: list[int] | None = None
+    order: list[Any] | None = None
     current = pipeline
     result: Any = None
     capture = _Capture()
@@ -555,19 +555,32 @@ def _plan_step(
                 step.first_plan_ms = ms
         if result is not None and result.found:
             return result, capture
-        if order is None:  # the other instances, highest first
-            segs = [] if result is None else result.info.get("segments", [])
-            order = [
-                s["id"]
-                for s in sorted(segs, key=lambda s: -s["top"])
-                if not s["target"]
-            ]
+        if order is None:
+            order = _other_targets(
+                [] if result is None else result.info.get("segments", [])
+            )
         if not order:
             return result, capture
         current = copy(pipeline)
-        current.spec = pipeline.spec.model_copy(
-            update={"target": TargetRule(rule="id", id=order.pop(0))}
-        )
+        current.spec = pipeline.spec.model_copy(update={"target": order.pop(0)})
+
+
+def _other_targets(segs: list[dict[str, Any]]) -> list[Any]:
+    """What to plan for where the first target has no grasp: the other
+    instances, highest first (rule ``id``), then each cluster the segmenter
+    split into several instances, as one object, highest first (rule
+    ``cluster``: an object split at a concave seam of its own)."""
+    from wsgrasp.spec import TargetRule
+
+    high = sorted(segs, key=lambda s: -s["top"])
+    order = [TargetRule(rule="id", id=s["id"]) for s in high if not s["target"]]
+    size = Counter(s["cluster"] for s in segs)
+    seen: set[int] = set()
+    for s in high:
+        if size[s["cluster"]] > 1 and s["cluster"] not in seen:
+            seen.add(s["cluster"])
+            order.append(TargetRule(rule="cluster", id=s["id"]))
+    return order
 
 
 def _target(

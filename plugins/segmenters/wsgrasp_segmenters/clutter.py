@@ -104,8 +104,11 @@ class Clutter:
         -------
         Segmentation
             ``clusters`` are the instances, largest first; ``info`` has
-            ``unsegmented`` (points above the table in no instance, ``(k, 3)``)
-            and ``splits`` (per cluster, the instances it was split into and how).
+            ``unsegmented`` (points above the table in no instance, ``(k, 3)``),
+            ``splits`` (per cluster, the instances it was split into and how) and
+            ``groups`` (per instance, the index of the cluster it was split from:
+            instances of one group touch, and may be one object split at a
+            concave seam of its own).
 
         Raises
         ------
@@ -117,14 +120,18 @@ class Clutter:
         table = base.table
         vp = None if viewpoints is None or not len(viewpoints) else viewpoints
         instances: list[Array] = []
+        groups: list[int] = []
         splits: list[dict[str, Any]] = []
-        for cluster in base.clusters:
+        for g, cluster in enumerate(base.clusters):
             parts, how = split_instances(cluster, table, options, vp)
             instances.extend(parts)
+            groups.extend([g] * len(parts))
             splits.append({"points": int(len(cluster)), "instances": len(parts), **how})
-        instances.sort(key=lambda c: -c.shape[0])
+        order = sorted(range(len(instances)), key=lambda k: -instances[k].shape[0])
+        instances = [instances[k] for k in order]
         info = dict(base.info)
         info["splits"] = splits
+        info["groups"] = [groups[k] for k in order]
         info["unsegmented"] = _unsegmented(p, table, base.clusters, options)
         return Segmentation(
             table=table,
