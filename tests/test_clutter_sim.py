@@ -190,3 +190,17 @@ def test_a_target_lifted_but_slipping_in_the_grip_counts_as_lifted_not_held():
     # the other object that came up with the last attempt is not its target
     assert s["target_lifted"] == 2 and s["lift_rate"] == 0.5
     assert s["failure_kinds"] == {"slip": 2, "neighbour_collision": 1}
+
+
+def test_a_scene_ends_after_two_steps_in_a_row_that_lifted_nothing():
+    from wsgrasp.sim.clutter import Step, _two_failures
+
+    held = Step(step=0, objects_left=3, found=True, success=True, lifted=["a"])
+    slipped = Step(step=1, objects_left=2, found=True, lifted=["b"])  # came up
+    missed = Step(step=2, objects_left=1, found=True, lifted=[])
+    none = Step(step=3, objects_left=1, found=False)
+    assert not _two_failures([held, slipped])
+    assert not _two_failures([slipped, slipped])  # each cleared an object
+    assert not _two_failures([missed])
+    assert not _two_failures([missed, slipped])
+    assert _two_failures([slipped, missed, none])
