@@ -89,3 +89,22 @@ def test_a_point_outside_a_fingers_box_is_never_reached_by_it(gripper):
         inside = nb._in_box(p.T, lo[f], hi[f])
         assert (steps < K).any() and (~inside).any()
         assert (steps[~inside] == K).all()
+
+
+@pytest.mark.parametrize("compiled", [False, True], ids=["plain loop", "compiled"])
+def test_the_one_pass_closing_test_answers_as_the_per_finger_passes(
+    gripper, compiled, monkeypatch
+):
+    from types import SimpleNamespace
+
+    rng = np.random.default_rng(7)
+    obstacles, target = _scene(gripper, rng)
+    T = _poses(rng, 40)
+    monkeypatch.setattr(nb, "_compiled", SimpleNamespace(loaded=lambda: False))
+    want = nb.blocked_in_closing(gripper, T, obstacles, target)
+    assert (want >= 0).any() and (want < 0).any()  # some blocked, some clear
+    monkeypatch.setattr(nb, "_compiled", SimpleNamespace(loaded=lambda: True))
+    if not compiled:  # the loop as written, run by Python
+        monkeypatch.setattr(nb, "_compiled_sweep_loop", lambda: nb._sweep_loop)
+    got = nb.blocked_in_closing(gripper, T, obstacles, target)
+    assert got.tolist() == want.tolist()

@@ -18,6 +18,10 @@ function, cached or not, another 0.3-0.4 s). So:
   that plans a scene or two never loads them and one that plans many pays once;
 - ``WSGRASP_NUMBA=0`` (or numba missing) leaves numpy's kernels everywhere.
 
+The clutter pipeline's test of the fingers' closing paths against neighbours
+(``wsgrasp.neighbours``) runs compiled in a process whose searches have loaded
+the loops, and with numpy's passes otherwise: the same answers either way.
+
 From ``COMPILED_FROM`` pairs on the compiled body loop also reads the object's
 nearest-point grid (3.4 ms to build for 800 points) and the finger loop reads the
 points in space order (the Allegro's dense counts 20 % faster; sorting costs

@@ -185,6 +185,14 @@ def reach_boxes(g: GripperModel) -> tuple[list[Array], list[Array]]:
     return lo, hi
 
 
+def reach_grids(g: GripperModel) -> tuple[list[Array], list[NDArray[np.uint8]]]:
+    """Per finger, the origin (gripper frame) and the reach grid that
+    :func:`reach_steps` looks points up in: voxel ``(i, j, k)`` at ``origin +
+    REACH_VOXEL (i, j, k)`` holds the first posture reaching it."""
+    index = _sweep_index(g)
+    return list(index.origin), list(index.reach)
+
+
 def reach_steps(
     g: GripperModel, points: Array, finger: int | None = None
 ) -> NDArray[np.int64]:
