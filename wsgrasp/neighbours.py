@@ -18,7 +18,6 @@ finger's sweep looks up only the points in the box around its reach grid.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -264,13 +263,13 @@ def _blocked_in_sweeps(
     # (C, nf) the first posture at which each finger reaches the target
     first = np.full((len(T), g.num_fingers), K, dtype=np.int64)
     step = max(1, _CHUNK // max(len(pts), 1))
-    grids = _Grids.of(g) if _compiled.loaded() else None  # a search loaded them
+    grids = _Grids.of(g, K) if _compiled.loaded() else None  # a search loaded them
     for a in range(0, len(T), step):
         Tc = T[a : a + step]
         # (c n, 3) the target's points in each candidate's gripper frame
         p_g = np.matmul(pts[None] - Tc[:, None, :3, 3], Tc[:, :3, :3]).reshape(-1, 3)
         if grids is not None:
-            grids.first(p_g, len(pts), lo, hi, K, first[a : a + step])
+            grids.first(p_g, len(pts), first[a : a + step])
             continue
         for f in range(g.num_fingers):
             steps = np.full(len(p_g), K, dtype=np.int64)
@@ -280,7 +279,7 @@ def _blocked_in_sweeps(
 
     def inside(p: Array, cand: NDArray[np.int64]) -> NDArray[np.bool_]:
         if grids is not None:
-            return grids.hits(p, cand, first, lo, hi, K)
+            return grids.hits(p, cand, first)
         hit = np.zeros(len(p), dtype=bool)
         xyz = np.ascontiguousarray(p.T)  # (3, m) for the box tests
         for f in range(g.num_fingers):
@@ -299,78 +298,55 @@ def _blocked_in_sweeps(
 
 
 class _Grids:
-    """The fingers' reach grids as the compiled passes read them (one flat
-    array, each finger's start and shape), and the two passes of
+    """The fingers' reach grids and boxes as the compiled passes read them (one
+    flat array, each finger's start and shape), and the two passes of
     :func:`_blocked_in_sweeps` over them: the first posture at which each
     finger reaches the target (:meth:`first`), and whether it reaches a
     neighbour's point no later (:meth:`hits`). Both answer point for point as
     the per-finger numpy passes they stand in for (``reach_steps``' lookups);
     on five simulated piles of ``random:000-299`` objects with the Allegro
-    hand, the closing-path test took 21.8 ms with them against 35.3 ms with
+    hand, the closing-path test took 18.9 ms with them against 27.4 ms with
     numpy's passes (medians; ``benchmarks/neighbours.py``)."""
 
-    def __init__(self, g: GripperModel, loop: Callable[..., None]):
-        from wsgrasp.planning.sweeps import REACH_VOXEL, reach_grids
+    def __init__(self, g: GripperModel, K: int, loop: Callable[..., None]):
+        from wsgrasp.planning.sweeps import REACH_VOXEL, reach_boxes, reach_grids
 
         origins, grids = reach_grids(g)
-        self.origins = np.asarray(origins, dtype=np.float64)  # (nf, 3)
-        self.voxel = float(REACH_VOXEL)
-        self.shapes = np.array([r.shape for r in grids], dtype=np.int64)  # (nf, 3)
-        sizes = self.shapes.prod(axis=1)
-        self.start = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
-        self.flat = np.concatenate([r.reshape(-1) for r in grids])  # uint8
-        self.loop = loop
-
-    @classmethod
-    def of(cls, g: GripperModel, loop: Callable[..., None] | None = None) -> _Grids:
-        """The grids of ``g`` with the compiled loop (or ``loop``, the tests'
-        plain :func:`_sweep_loop`)."""
-        return cls(g, loop or _compiled_sweep_loop())
-
-    def _common(self, lo: list[Array], hi: list[Array], K: int) -> tuple[Any, ...]:
-        return (
-            self.origins,
-            self.voxel,
-            self.shapes,
-            self.start,
-            self.flat,
+        lo, hi = reach_boxes(g)
+        shapes = np.array([r.shape for r in grids], dtype=np.int64)  # (nf, 3)
+        start = np.concatenate([[0], np.cumsum(shapes.prod(axis=1))[:-1]])
+        # what both passes read after their own arguments (see _sweep_loop)
+        self.grids = (
+            np.asarray(origins, dtype=np.float64),
+            float(REACH_VOXEL),
+            shapes,
+            start.astype(np.int64),
+            np.concatenate([r.reshape(-1) for r in grids]),  # uint8
             np.asarray(lo, dtype=np.float64),
             np.asarray(hi, dtype=np.float64),
             int(K),
         )
+        self.loop = loop
 
-    def first(
-        self,
-        p: Array,
-        n: int,
-        lo: list[Array],
-        hi: list[Array],
-        K: int,
-        out: NDArray[np.int64],
-    ) -> None:
-        """Into ``out`` ``(c, nf)``: per candidate (``n`` rows of ``p`` each)
-        and finger, the first posture reaching one of its points, ``K`` for
-        none."""
-        res = np.full(out.shape, K, dtype=np.int64)
+    @classmethod
+    def of(
+        cls, g: GripperModel, K: int, loop: Callable[..., None] | None = None
+    ) -> _Grids:
+        """The grids of ``g``, whose closing paths have ``K`` steps, with the
+        compiled loop (or ``loop``, the tests' plain :func:`_sweep_loop`)."""
+        return cls(g, K, loop or _compiled_sweep_loop())
+
+    def first(self, p: Array, n: int, out: NDArray[np.int64]) -> None:
+        """Lower ``out`` ``(c, nf)`` (C-contiguous, ``K`` where nothing is
+        reached yet) to the first posture at which each finger reaches one of
+        its candidate's points (``n`` rows of ``p`` per candidate)."""
         none = np.zeros(0, dtype=np.int64)
         self.loop(
-            np.ascontiguousarray(p),
-            int(n),
-            none,
-            res,
-            *self._common(lo, hi, K),
-            np.zeros(0, dtype=bool),
+            np.ascontiguousarray(p), int(n), none, out, *self.grids, np.zeros(0, bool)
         )
-        out[:] = res
 
     def hits(
-        self,
-        p: Array,
-        cand: NDArray[np.int64],
-        first: NDArray[np.int64],
-        lo: list[Array],
-        hi: list[Array],
-        K: int,
+        self, p: Array, cand: NDArray[np.int64], first: NDArray[np.int64]
     ) -> NDArray[np.bool_]:
         """Per point (of candidate ``cand``): whether a finger whose sweep
         meets the target reaches it no later than the target."""
@@ -380,7 +356,7 @@ class _Grids:
             0,
             np.ascontiguousarray(cand, dtype=np.int64),
             np.ascontiguousarray(first, dtype=np.int64),
-            *self._common(lo, hi, K),
+            *self.grids,
             hit,
         )
         return hit
