@@ -73,12 +73,12 @@ def _grasp(jaw_dir: Path, obj: SimObject, depth: float, p: SimParams, **kw):
 # the protocol
 # --------------------------------------------------------------------------------
 def test_a_shallow_pinch_that_lift_holds_fails_under_strict(jaw_dir: Path):
-    """A 0.6 kg box pinched by the top centimetre hangs still in the jaw for the
+    """A 1.2 kg box pinched by the top centimetre hangs still in the jaw for the
     lift protocol's 10 s hold, and is wrenched out by the strict protocol's first
     tug (its weight, sideways, 5 cm under the pads), with the lift protocol's
     friction too: the disturbance fails it, not the lower friction. Pinched by
     5 cm it holds through all six."""
-    box = _tall_box(0.6)
+    box = _tall_box(1.2)
     lift = _grasp(jaw_dir, box, 0.01, SimParams.for_protocol("lift"))
     assert lift.outcome == "success", lift.metrics
     assert lift.metrics["slip_distance"] < 1e-3  # it hung still
@@ -98,7 +98,7 @@ def test_a_shallow_pinch_that_lift_holds_fails_under_strict(jaw_dir: Path):
 def test_slip_in_the_grip_fails_a_strict_trial(jaw_dir: Path):
     """A grasp that stays held but moves in the grip past the limits is
     ``slipped_in_grip``; with the limits off (the lift protocol's) it holds."""
-    box = _tall_box(0.3)
+    box = _tall_box(0.6)
     tight = SimParams(slip_distance=1e-5, slip_angle_deg=0.01)
     ex = _grasp(jaw_dir, box, 0.03, tight)
     assert ex.outcome == "slipped_in_grip", ex.metrics

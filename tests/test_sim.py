@@ -314,13 +314,13 @@ def test_grip_inside_its_friction_cone_does_not_creep(jaw_dir: Path):
         return need, m["rise_after_lift"] - m["rise_after_hold"], ex.outcome
 
     assert SimParams().noslip_iterations == 10
-    need, slid, outcome = hold(1.5, 10)
+    need, slid, outcome = hold(2.4, 10)
     assert 0.5 < need < 0.7 and outcome == "success"
     assert abs(slid) < 0.2e-3
-    need, slid, outcome = hold(1.5, 0)
+    need, slid, outcome = hold(2.4, 0)
     assert 0.5 < need < 0.7 and outcome == "success"
     assert slid > 0.5e-3  # the creep the pass removes
-    need, _, outcome = hold(3.0, 10)
+    need, _, outcome = hold(4.8, 10)
     assert need > 1.1 and outcome == "slipped_lifting"
 
 
@@ -399,3 +399,29 @@ def test_eval_records_how_high_the_object_settled():
     lying = np.eye(4)
     lying[:3, :3] = [[1, 0, 0], [0, 0, -1], [0, 1, 0]]  # its 8 cm side along y
     assert _height(box, lying) == pytest.approx(0.06)
+
+
+def test_closing_push_is_how_far_the_fingers_moved_the_object(
+    jaw_dir: Path, box_object: SimObject
+):
+    """A jaw centred on the box closes on it where it stands, its mimic finger in
+    step with its master under the grip's load (a linkage does not give way);
+    one set 15 mm off centre along its closing direction reaches the box with
+    one finger first and pushes (and tips) it until the other arrives:
+    ``closing_push`` measures that, most of the offset."""
+    p = SimParams(hold_time=0.2)
+    scene = build_scene(
+        box_object, sim_gripper_from_files(jaw_description(), jaw_dir, p), p
+    )
+    pushes = {}
+    for offset in (0.0, 0.015):
+        T_world_base = _T((offset, 0.0, 0.08 + 0.10 - 0.02), R_DOWN)
+        ex = execute_grasp(scene, _T(), T_world_base, p, joints_grasp={"j_left": 0.01})
+        pushes[offset] = ex.metrics["closing_push"]
+        if offset == 0.0:
+            assert ex.outcome == "success", ex.metrics
+            q = scene.data.qpos
+            step = q[scene.joint_qpos["j_left"]] - q[scene.joint_qpos["j_right"]]
+            assert abs(step) < 1e-3  # still gripping at the end of the hold
+    assert pushes[0.0] < 1e-3
+    assert 0.005 < pushes[0.015] < 0.015

@@ -301,6 +301,8 @@ def sim_gripper_from_files(
             joint1=PREFIX + j.name,
             joint2=PREFIX + j.mimic[0],
             polycoef=fmt((j.mimic[2], j.mimic[1], 0, 0, 0)),
+            solref=(p.mimic_timeconst, 1.0),
+            solimp=(p.mimic_impedance, p.mimic_impedance, 0.001, 0.5, 2.0),
         )
         + "/>"
         for j in movable

@@ -90,19 +90,25 @@ Finger drive
     surface: the plan's ``joints_grasp`` drives each pad ``approach.squeeze``
     (10 mm by default) through its contact, and the grip is the gain times the
     part of that margin left when the fingers have sunk into MuJoCo's soft
-    contacts and in the mimic coupling (in series with the actuator: the jaw of
-    ``tests/test_sim.py``, sent 10 mm past the faces of a 4 cm box, stops 4.4 mm
-    in and presses 28 N at 5000 N/m; its contacts sink 0.1 mm, 0.8 mm with a
-    20 ms ``contact_timeconst``, and the rest is its mimic finger falling out of
-    step, as MuJoCo's default equality stiffness lets it; a mimic pair shares
-    its master's force). With
-    ``kp_prismatic`` 2000 N/m a 10 mm squeeze held the Franka hand's paper13
-    grasps with a median 18 N (sum of normal forces over both fingers), half of
-    what closing towards ``closed`` gave (39 N); 5000 N/m gives 34 N (all 26
-    held either way). Raising ``kp_revolute`` does not help the Allegro hand
-    (13, 13, 14, 12 and 10 of 26 held at 0.7, 2, 5, 10 and 20 N·m/rad): its
-    misses are fingers whose targets leave the pad off the object's surface,
-    which no gain changes.
+    contacts (the jaw of ``tests/test_sim.py``, sent 10 mm past the faces of a
+    4 cm box, stops 0.3 mm in and presses 49 N at 5000 N/m; a mimic pair shares
+    its master's force).
+
+    A mimic joint follows its master through a joint equality as stiff as the
+    contacts: ``solref`` (``mimic_timeconst`` 5 ms, damping ratio 1) and a
+    constant impedance ``mimic_impedance`` 0.99. A linkage does not give way
+    under the grip: the jaw's mimic finger stays within 0.3 mm of its master
+    while it presses 49 N. With MuJoCo's default equality (20 ms, impedance 0.9
+    to 0.95) the same jaw's mimic finger fell 8.6 mm out of step and the jaw
+    pressed 28 N, and a finger whose distal joint mimics its proximal one (the
+    Ability hand's) was bent open at the tip by the object it pressed.
+
+    The Franka hand's ``kp_prismatic`` 5000 N/m: with 2000 N/m a 10 mm squeeze
+    held its paper13 grasps with half the force of closing towards ``closed``
+    (all 26 held either way; measured with MuJoCo's default equality). Raising
+    ``kp_revolute`` does not help the Allegro hand (13, 13, 14, 12 and 10 of 26
+    held at 0.7, 2, 5, 10 and 20 N·m/rad): its misses are fingers whose targets
+    leave the pad off the object's surface, which no gain changes.
 
 Protocol
     The object is dropped from ``drop_height`` above the table at a random
@@ -204,6 +210,8 @@ class SimParams:
     torsional_friction: float = 0.005
     rolling_friction: float = 0.0001
     contact_timeconst: float = 0.005
+    mimic_timeconst: float = 0.005
+    mimic_impedance: float = 0.99
     table_friction: float = 0.8
     #: forced mass of every object (kg); None: the set's, else density x volume
     object_mass: float | None = None
@@ -303,6 +311,8 @@ POSITIVE = frozenset(
         "kp_revolute",
         "table_size",
         "contact_timeconst",
+        "mimic_timeconst",
+        "mimic_impedance",
         "approach_speed",
         "lift_speed",
         "views",

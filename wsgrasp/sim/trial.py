@@ -273,7 +273,9 @@ class Execution:
         pose), ``rise_after_lift`` and ``rise_after_hold`` (m, object height gain),
         ``contact_after_lift``/``contact_after_hold`` (object touching the
         gripper), ``grip_force`` (N, sum of the normal forces between gripper and
-        object once closed), ``joints_closed`` (actuated joint name to position
+        object once closed), ``closing_push`` (m, how far the object's centre
+        of mass moved while the fingers closed: a finger that arrives first and pushes it
+        along the table), ``joints_closed`` (actuated joint name to position
         once closed), ``sim_s`` (simulated seconds); what MuJoCo was given:
         ``object_mass`` (kg), ``object_friction``, ``disturbance_force`` (N, 0
         without disturbances), ``execution_offset`` (m) and
@@ -431,6 +433,7 @@ def execute_grasp(
         or blocked > p.blocked_distance
     )
     # 5. close: ramp the targets, then let the grip build up
+    p_approached = d.xipos[obj].copy()  # centre of mass
     n = max(1, int(round(p.close_time / dt)))
     for i in range(1, n + 1):
         d.ctrl[6:] = ctrl_pre + (ctrl_grasp - ctrl_pre) * (i / n)
@@ -440,6 +443,7 @@ def execute_grasp(
         jn: float(d.qpos[scene.joint_qpos[jn]]) for jn in g.actuated
     }  # where the fingers stopped
     grip_force = _grip_force(scene)
+    pushed = float(np.linalg.norm(d.xipos[obj] - p_approached))
     c_closed, R_closed = in_grip()
     # 6. lift, then hold
     top = T_goal[:3, 3] + np.array([0.0, 0.0, p.lift_height])
@@ -505,6 +509,7 @@ def execute_grasp(
             "contact_after_lift": bool(grip),
             "contact_after_hold": bool(grip2),
             "grip_force": grip_force,
+            "closing_push": pushed,
             "joints_closed": joints_closed,
             "sim_s": float(d.time),
             "object_mass": float(m.body_mass[obj]),
