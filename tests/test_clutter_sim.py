@@ -204,3 +204,113 @@ def test_a_scene_ends_after_two_steps_in_a_row_that_lifted_nothing():
     assert not _two_failures([missed])
     assert not _two_failures([missed, slipped])
     assert _two_failures([slipped, missed, none])
+
+
+def test_chance_clears_the_same_scene_with_random_feasible_candidates(franka_clutter):
+    """``pick="random"`` plans each step as the pipeline does and executes a
+    random feasible candidate of the plan, finished as the choice is: the
+    step names it, the plan that takes it (``plan_choices``) is the one
+    executed, and a seed gives the same draws; the choice's run names none.
+    An unknown pick is refused."""
+    from wsgrasp.errors import InputError
+    from wsgrasp.sim import clutter
+
+    pipeline, gripper, p = franka_clutter
+    taken = []
+    real = clutter._random_choice
+
+    def spy(pipe, scene, result, draws, step):
+        plan = real(pipe, scene, result, draws, step)
+        taken.append((step.candidate, result.candidates.reason, plan))
+        return plan
+
+    clutter._random_choice = spy
+    try:
+        runs = [
+            run_clutter_scene(
+                _boxes(2), "packed", pipeline, gripper, p, 1, pick="random"
+            )
+            for _ in range(2)
+        ]
+    finally:
+        clutter._random_choice = real
+    assert runs[0]["pick"] == "random"
+    assert [s["candidate"] for s in runs[0]["steps"]] == [
+        s["candidate"] for s in runs[1]["steps"]
+    ]
+    found = [s for s in runs[0]["steps"] if s["found"]]
+    assert found and all(isinstance(s["candidate"], int) for s in found)
+    for index, reason, plan in taken:
+        if index is not None:
+            assert reason[index] == 0 and plan.found  # a feasible candidate
+    chosen = run_clutter_scene(_boxes(2), "packed", pipeline, gripper, p, 1)
+    assert chosen["pick"] == "plan"
+    assert all(s["candidate"] is None for s in chosen["steps"])
+    with pytest.raises(InputError, match="clutter pick 'best' is unknown"):
+        run_clutter_scene(_boxes(2), "packed", pipeline, gripper, p, 1, pick="best")
+
+
+def test_the_choice_is_compared_with_chance_over_the_same_scenes():
+    from wsgrasp.cli._clutter import baseline_pairs
+
+    def scene(successes, attempts, removed, objects=2):
+        steps = [_step("a", "success", ["a"])] * successes + [
+            _step("b", "slipped_lifting", [], "slip")
+        ] * (attempts - successes)
+        return {
+            "objects": ["a", "b"][:objects],
+            "attempts": attempts,
+            "successes": successes,
+            "removed": removed,
+            "steps": steps,
+        }
+
+    chosen = [scene(2, 2, 2), scene(1, 2, 1), scene(0, 0, 0)]
+    random = [scene(1, 2, 1), scene(1, 2, 1), scene(1, 1, 1)]
+    out = baseline_pairs(chosen, random)
+    g = out["grasp_success"]
+    assert g["scenes"] == 2  # the scene without an attempt of the choice is left out
+    assert g["chosen"] == pytest.approx(0.75) and g["random"] == pytest.approx(0.5)
+    assert g["difference"] == pytest.approx(0.25)
+    lo, hi = g["ci95"]
+    assert lo < 0.25 < hi
+    assert out["target_lifted"]["difference"] == pytest.approx(0.25)
+    d = out["declutter"]
+    assert d["scenes"] == 3 and d["difference"] == pytest.approx((0.5 + 0 - 0.5) / 3)
+
+
+def test_eval_clutter_with_a_random_baseline_reports_both(tmp_path, capsys):
+    from wsgrasp.cli import main
+
+    out = tmp_path / "clutter.json"
+    rc = main(
+        [
+            "eval",
+            "--scene",
+            "packed",
+            "--objects",
+            "realsense_box",
+            "--objects",
+            "cookies_package",
+            "--objects-per-scene",
+            "2",
+            "--scenes",
+            "1",
+            "--protocol",
+            "lift",
+            "--baseline",
+            "random",
+            "--json-out",
+            str(out),
+            "--quiet",
+        ]
+    )
+    assert rc == 0
+    report = json.loads(out.read_text())
+    assert report["baseline"] == "random"
+    r = report["grippers"]["franka_hand"]
+    assert r["baseline"]["summary"]["scenes"] == 1
+    assert r["baseline"]["scenes"][0]["pick"] == "random"
+    assert set(r["baseline"]["paired"]) >= {"grasp_success", "declutter", "interval"}
+    text = capsys.readouterr().out
+    assert "choice less random feasible" in text

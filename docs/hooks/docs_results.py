@@ -646,7 +646,12 @@ def _clutter_run(name: str, r: dict[str, Any]) -> list[str]:
         f"`{params.get('protocol', 'not recorded')}`, {limit}.{took}\n",
     ]
     rows = []
+    runs = []
     for gripper, g in (r.get("grippers") or {}).items():
+        runs.append((f"`{short(gripper)}`", g))
+        if g.get("baseline"):
+            runs.append((f"`{short(gripper)}`, random feasible", g["baseline"]))
+    for label, g in runs:
         s = g.get("summary") or {}
         kinds = dict(s.get("failure_kinds") or {})
         order = [k for k in _CLUTTER_KINDS if k in kinds] + sorted(
@@ -665,7 +670,7 @@ def _clutter_run(name: str, r: dict[str, Any]) -> list[str]:
         attempts = s.get("attempts", 0)
         rows.append(
             [
-                f"`{short(gripper)}`",
+                label,
                 attempts,
                 _share(s.get("grasp_success_rate"), s.get("successes"), attempts),
                 _share(s.get("lift_rate"), s.get("target_lifted"), attempts),
@@ -696,4 +701,35 @@ def _clutter_run(name: str, r: dict[str, Any]) -> list[str]:
             rows,
         )
     )
+    paired = [
+        (gripper, g["baseline"]["paired"])
+        for gripper, g in (r.get("grippers") or {}).items()
+        if (g.get("baseline") or {}).get("paired")
+    ]
+    if paired:
+        out.append(
+            "\nThe choice less chance (a random feasible candidate of each step's "
+            "plan), mean over the scenes both runs have the rate for, with its "
+            "95 % interval (paired normal):\n"
+        )
+        rows = []
+        for gripper, d in paired:
+            row = [f"`{short(gripper)}`"]
+            for key in ("grasp_success", "target_lifted", "declutter"):
+                v = d.get(key) or {}
+                if v.get("difference") is None:
+                    row.append("–")
+                    continue
+                lo, hi = v["ci95"]
+                row.append(
+                    f"{100 * v['difference']:+.1f} [{100 * lo:+.1f}, {100 * hi:+.1f}]"
+                    f" over {v['scenes']}"
+                )
+            rows.append(row)
+        out.append(
+            table(
+                ["gripper", "grasp success", "target lifted", "declutter"],
+                rows,
+            )
+        )
     return out

@@ -10,7 +10,7 @@ from typing import Any
 
 from wsgrasp.cli._common import console, err_console, print_json
 
-__all__ = ["clutter_eval", "clutter_spec"]
+__all__ = ["baseline_pairs", "clutter_eval", "clutter_spec"]
 
 
 def clutter_spec(gripper: str, spec_file: str | None = None) -> dict[str, Any]:
@@ -56,10 +56,14 @@ def clutter_eval(
     as_json: bool,
     json_out: Path | None,
     quiet: bool,
+    baseline: bool = False,
 ) -> dict[str, Any]:
     """Run ``scenes`` clutter scenes of ``objects_per_scene`` objects drawn from
     ``objects`` for each gripper (the same objects and seeds for every
-    gripper), print the table (or the JSON) and write the report."""
+    gripper), print the table (or the JSON) and write the report. With
+    ``baseline``, each scene is cleared a second time by random feasible
+    candidates (``run_clutter_scene(pick="random")``), reported beside the
+    choice with the paired differences over scenes (:func:`baseline_pairs`)."""
     import numpy as np
 
     from wsgrasp.api import Pipeline
@@ -101,6 +105,7 @@ def clutter_eval(
         "scenes": scenes,
         "max_steps": max_steps,
         "seed": seed,
+        "baseline": "random" if baseline else None,
         "params": params.to_json(),
         "grippers": {},
     }
@@ -109,33 +114,44 @@ def clutter_eval(
         data = clutter_spec(g, specs[0] if specs else None)
         pipeline = Pipeline(load_spec(data))
         sim_gripper = load_sim_gripper(g, params)
-        results = []
+        results: dict[str, list[dict[str, Any]]] = {"plan": [], "random": []}
         for i, draw in enumerate(draws):
-            folder = None
-            if record_dir is not None:
-                folder = record_dir / g.replace("/", "_") / f"{scene}-{i:03d}"
-            r = run_clutter_scene(
-                [pool[k] for k in draw],
-                scene,
-                pipeline,
-                sim_gripper,
-                params,
-                seed + i,
-                max_steps=max_steps,
-                record_dir=folder,
-            )
-            results.append(r)
-            if not quiet and not as_json:
-                err_console.print(
-                    f"{g} {scene} {i + 1}/{scenes}: {r['successes']}/{r['attempts']} "
-                    f"grasps, {r['removed']}/{len(r['objects'])} removed ({r['end']})",
-                    highlight=False,
+            for pick in ("plan", "random") if baseline else ("plan",):
+                folder = None
+                if record_dir is not None:
+                    sub = f"{scene}-{i:03d}" + ("-random" if pick == "random" else "")
+                    folder = record_dir / g.replace("/", "_") / sub
+                r = run_clutter_scene(
+                    [pool[k] for k in draw],
+                    scene,
+                    pipeline,
+                    sim_gripper,
+                    params,
+                    seed + i,
+                    max_steps=max_steps,
+                    record_dir=folder,
+                    pick=pick,
                 )
+                results[pick].append(r)
+                if not quiet and not as_json:
+                    err_console.print(
+                        f"{g} {scene} {i + 1}/{scenes}"
+                        + (" (random feasible)" if pick == "random" else "")
+                        + f": {r['successes']}/{r['attempts']} grasps, "
+                        f"{r['removed']}/{len(r['objects'])} removed ({r['end']})",
+                        highlight=False,
+                    )
         report["grippers"][g] = {
             "spec": {k: v for k, v in data.items() if k != "record"},
-            "summary": clutter_summary(results),
-            "scenes": results,
+            "summary": clutter_summary(results["plan"]),
+            "scenes": results["plan"],
         }
+        if baseline:
+            report["grippers"][g]["baseline"] = {
+                "summary": clutter_summary(results["random"]),
+                "paired": baseline_pairs(results["plan"], results["random"]),
+                "scenes": results["random"],
+            }
     report["wall_s"] = round(time.perf_counter() - t_all, 1)
     if json_out is not None:
         json_out.parent.mkdir(parents=True, exist_ok=True)
@@ -147,6 +163,64 @@ def clutter_eval(
         if json_out is not None:
             err_console.print(f"wrote {json_out}")
     return report
+
+
+def _success_rate(s: dict[str, Any]) -> float | None:
+    return s["successes"] / s["attempts"] if s["attempts"] else None
+
+
+def _lift_rate(s: dict[str, Any]) -> float | None:
+    if not s["attempts"]:
+        return None
+    steps = s["steps"]
+    return (
+        sum(bool(t.get("target")) and t["target"] in t["lifted"] for t in steps)
+        / (s["attempts"])
+    )
+
+
+def _declutter_rate(s: dict[str, Any]) -> float | None:
+    return s["removed"] / len(s["objects"]) if s["objects"] else None
+
+
+#: the rates of one scene (None where it had no attempt, or no object) that a
+#: clutter run compares with chance, by their key in the paired report
+_SCENE_RATES = {
+    "grasp_success": _success_rate,
+    "target_lifted": _lift_rate,
+    "declutter": _declutter_rate,
+}
+
+
+def baseline_pairs(
+    chosen: list[dict[str, Any]], random: list[dict[str, Any]]
+) -> dict[str, Any]:
+    """The choice against chance over the same scenes: per rate (grasp
+    success, target lifted, declutter; each a scene's own), the mean over the
+    scenes where both runs have it, of the choice's, of chance's and of their
+    difference, with the difference's 95 % interval
+    (:func:`wsgrasp.sim.report.paired_difference`)."""
+    from wsgrasp.sim.report import INTERVAL, paired_difference
+
+    out: dict[str, Any] = {"interval": INTERVAL}
+    for key, rate in _SCENE_RATES.items():
+        pairs = [
+            (a, b)
+            for a, b in (
+                (rate(c), rate(r)) for c, r in zip(chosen, random, strict=True)
+            )
+            if a is not None and b is not None
+        ]
+        n = len(pairs)
+        diff, low, high = paired_difference([a - b for a, b in pairs])
+        out[key] = {
+            "scenes": n,
+            "chosen": sum(a for a, _ in pairs) / n if n else None,
+            "random": sum(b for _, b in pairs) / n if n else None,
+            "difference": diff if n else None,
+            "ci95": [low, high] if n else None,
+        }
+    return out
 
 
 def _print_table(report: dict[str, Any]) -> None:
@@ -167,8 +241,12 @@ def _print_table(report: dict[str, Any]) -> None:
         "failures",
     ):
         table.add_column(col)
+    rows = []
     for g, r in report["grippers"].items():
-        s = r["summary"]
+        rows.append((g, r["summary"]))
+        if "baseline" in r:
+            rows.append((f"{g} (random feasible)", r["baseline"]["summary"]))
+    for g, s in rows:
         gs, dr = s["grasp_success_rate"], s["declutter_rate"]
         lr = s.get("lift_rate")
         table.add_row(
@@ -183,3 +261,24 @@ def _print_table(report: dict[str, Any]) -> None:
             ", ".join(f"{k} {v}" for k, v in sorted(s["failure_kinds"].items())),
         )
     console.print(table)
+    for g, r in report["grippers"].items():
+        if "baseline" not in r:
+            continue
+        parts = []
+        for key, label in (
+            ("grasp_success", "grasp success"),
+            ("target_lifted", "target lifted"),
+            ("declutter", "declutter"),
+        ):
+            d = r["baseline"]["paired"][key]
+            if d["difference"] is not None:
+                lo, hi = d["ci95"]
+                parts.append(
+                    f"{label} {100 * d['difference']:+.1f} points "
+                    f"[{100 * lo:+.1f}, {100 * hi:+.1f}]"
+                )
+        console.print(
+            f"{g}: choice less random feasible, mean over scenes (95 % interval): "
+            + "; ".join(parts),
+            highlight=False,
+        )

@@ -95,13 +95,16 @@ def eval_command(
         "--baseline",
         help="random: beside each plan's choice, execute uniformly random feasible "
         "candidates of the same plan, finished as the choice is; the report "
-        "gives chosen, random and their paired difference.",
+        "gives chosen, random and their paired difference. With --scene "
+        "pile/packed: each scene is cleared a second time, every step executing "
+        "a random feasible candidate of its plan.",
     ),
     baseline_n: int = typer.Option(
         3,
         "--baseline-n",
         min=1,
-        help="With --baseline random: random candidates per plan.",
+        help="With --baseline random: random candidates per plan (single "
+        "objects; a clutter scene is cleared once by random candidates).",
     ),
     drop: str = typer.Option(
         "natural",
@@ -206,6 +209,7 @@ def eval_command(
             as_json=as_json,
             json_out=json_out,
             quiet=quiet,
+            baseline=baseline == "random",
         )
         return
     resolved = resolve_objects(

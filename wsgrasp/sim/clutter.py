@@ -18,6 +18,15 @@ package's simulator:
 3. **End.** The table is clear, two steps in a row lifted nothing (no grasp,
    or the grasp did not take an object off the table), or ``max_steps``.
 
+**Chance.** With ``pick="random"`` (``eval --scene pile --baseline random``) a
+scene is cleared a second time by a policy that plans every step exactly as the
+pipeline does (the same targets, in the same order) and executes, instead of
+the plan's choice, a uniformly random feasible candidate of the same plan,
+finished exactly as the choice is (``Pipeline.plan_choices``); a target none of
+whose drawn candidates' plans finds a grasp counts as one without a grasp. The
+scene, its cameras and the execution errors come from the scene's seed as
+before; the draws from a stream of their own.
+
 Grasp success rate = successful grasps / attempts (a plan that finds no grasp
 is an attempt that failed); declutter rate = objects removed (lifted off the
 table by a grasp; one pushed or knocked off the table is gone but not removed)
@@ -51,6 +60,7 @@ from wsgrasp.sim.params import SimParams
 
 __all__ = [
     "CLUTTER_SCENES",
+    "PICKS",
     "ClutterWorld",
     "Step",
     "clutter_summary",
@@ -71,6 +81,11 @@ PACKED_GAP = 0.003
 _PARK = np.array([5.0, 0.0, 1.0])
 #: share of the target's points that must lie on a second object for a wrong split
 _WRONG_SPLIT_SHARE = 0.2
+#: what executes a step's grasp: the plan's choice, or a random feasible
+#: candidate of the plan (the chance a clutter run is compared with)
+PICKS: tuple[str, ...] = ("plan", "random")
+#: seeds the random policy's draws apart from the scene's own stream
+BASELINE_STREAM = 0x7A2D
 
 
 # --------------------------------------------------------------------------------
@@ -330,6 +345,9 @@ class Step:
     lifted: list[str] = field(default_factory=list)
     #: wall-clock time of the step's plans (ms), recording included
     plan_ms: float = 0.0
+    #: the candidate executed (index into the plan's candidates) where the
+    #: scene is cleared by random feasible candidates; None for the choice
+    candidate: int | None = None
     #: the plans' own time (ms, their ``timing_ms["total"]``: segmentation to
     #: joint targets), and the first plan's alone
     pipeline_ms: float = 0.0
@@ -391,11 +409,14 @@ def run_clutter_scene(
     *,
     max_steps: int | None = None,
     record_dir: str | Path | None = None,
+    pick: str = "plan",
 ) -> dict[str, Any]:
     """Clear one ``pile`` or ``packed`` scene of ``objects`` with ``pipeline``
     (see the module docstring); with ``record_dir``, every step's plan is
     recorded there (``step-NN.mcap``) and ``clutter.json`` lists the steps with
-    their outcomes.
+    their outcomes. ``pick`` ``"random"`` executes a random feasible candidate
+    of each step's plan instead of its choice (the module docstring's
+    *Chance*).
 
     Returns
     -------
@@ -409,7 +430,17 @@ def run_clutter_scene(
     """
     from wsgrasp.sim.trial import execution_error
 
+    if pick not in PICKS:
+        from wsgrasp.errors import InputError
+
+        raise InputError(
+            f"clutter pick {pick!r} is unknown, expected one of {', '.join(PICKS)}",
+            hint="pick the plan's choice (plan) or random feasible candidates",
+        )
     rng = np.random.default_rng(seed)
+    # the random policy's draws: a stream of their own, so the scene, the
+    # cameras and the execution errors are the seed's whatever is drawn
+    draws = np.random.default_rng([seed, BASELINE_STREAM]) if pick == "random" else None
     settle = ClutterWorld.build(objects, p)
     place_objects(settle, kind, rng, p)
     present = settle.present.copy()
@@ -431,7 +462,7 @@ def run_clutter_scene(
         scene, shown, meshes = render_world(settle, rng, p)
         step = Step(step=i, objects_left=int(present.sum()), found=False)
         t0 = time.perf_counter()
-        result, capture = _plan_step(pipeline, scene, step, out_dir)
+        result, capture = _plan_step(pipeline, scene, step, out_dir, draws)
         step.plan_ms = (time.perf_counter() - t0) * 1e3
         step.segments = capture.segments
         if result is None or not result.found:
@@ -497,6 +528,7 @@ def run_clutter_scene(
     summary = {
         "scene": kind,
         "seed": seed,
+        "pick": pick,
         "objects": start,
         "attempts": len(steps),
         "successes": sum(s.success for s in steps),
@@ -520,14 +552,19 @@ def _two_failures(steps: list[Step]) -> bool:
 
 
 def _plan_step(
-    pipeline: Any, scene: Any, step: Step, out_dir: Path | None
+    pipeline: Any,
+    scene: Any,
+    step: Step,
+    out_dir: Path | None,
+    draws: np.random.Generator | None = None,
 ) -> tuple[Any, _Capture]:
     """Plan a step: the pipeline's own target first; where it finds no grasp,
     the other targets the first plan's instances give (:func:`_other_targets`),
     until one has a grasp. Each plan is recorded in
     ``out_dir`` (``step-NN-T.mcap``, try ``T``) and listed in ``step.records``;
-    ``step.tries`` counts them. Returns the last plan (None where it raised)
-    and what it segmented."""
+    ``step.tries`` counts them. With ``draws``, a plan's grasp is a random
+    feasible candidate of it (:func:`_random_choice`) instead of its choice.
+    Returns the last plan (None where it raised) and what it segmented."""
     from copy import copy
 
     from wsgrasp.errors import WsgraspError
@@ -561,6 +598,8 @@ def _plan_step(
             step.pipeline_ms += ms
             if step.tries == 1:
                 step.first_plan_ms = ms
+        if result is not None and result.found and draws is not None:
+            result = _random_choice(current, scene, result, draws, step)
         if result is not None and result.found:
             return result, capture
         if order is None:
@@ -571,6 +610,33 @@ def _plan_step(
             return result, capture
         current = copy(pipeline)
         current.spec = pipeline.spec.model_copy(update={"target": order.pop(0)})
+
+
+def _random_choice(
+    pipeline: Any, scene: Any, result: Any, draws: np.random.Generator, step: Step
+) -> Any:
+    """The plan that takes a random feasible candidate of ``result`` instead
+    of its choice: the first of :data:`~wsgrasp.sim.runner.BASELINE_DRAWS`
+    uniform draws whose plan finds a grasp (a drawn candidate's pre-grasp pose
+    can lie in the table), finished as the choice is; where none does, a plan
+    without a grasp (``found`` false) that says so. The executed candidate's
+    index goes to ``step.candidate``."""
+    from dataclasses import replace
+
+    from wsgrasp.sim.runner import random_candidates
+
+    drawn = random_candidates(result, draws, 1)
+    unique = list(dict.fromkeys(drawn))
+    for index, plan in zip(unique, pipeline.plan_choices(scene, unique), strict=True):
+        if plan.found and plan.T_world_ee is not None:
+            step.candidate = index
+            return plan
+    return replace(
+        result,
+        found=False,
+        hint=f"none of the {len(unique)} random feasible candidates drawn has a "
+        "grasp (each one's pre-grasp pose lies in the table)",
+    )
 
 
 def _other_targets(segs: list[dict[str, Any]]) -> list[Any]:

@@ -274,8 +274,9 @@ class Execution:
         ``contact_after_lift``/``contact_after_hold`` (object touching the
         gripper), ``grip_force`` (N, sum of the normal forces between gripper and
         object once closed), ``closing_push`` (m, how far the object's centre
-        of mass moved while the fingers closed: a finger that arrives first and pushes it
-        along the table), ``joints_closed`` (actuated joint name to position
+        of mass moved while the fingers closed: a finger that arrives first
+        pushes it along the table, a hand that wraps it draws it in),
+        ``joints_closed`` (actuated joint name to position
         once closed), ``sim_s`` (simulated seconds); what MuJoCo was given:
         ``object_mass`` (kg), ``object_friction``, ``disturbance_force`` (N, 0
         without disturbances), ``execution_offset`` (m) and
