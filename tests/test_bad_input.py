@@ -581,6 +581,30 @@ def test_too_large_is_decided_from_the_spheres_for_jaws_and_hands(noise):
         assert _too_large(ell, g, noise=noise) == ""
 
 
+@pytest.mark.parametrize("noise", [0.0, 0.002])
+def test_a_flat_object_concave_seen_from_above_is_left_to_the_search(noise):
+    """A hammer lying flat (a 30 cm handle, a 14 cm head across its end, 3 cm
+    thick) is wider than the Franka hand opens along every horizontal
+    direction, yet its handle fits: seen from above it is concave, though no
+    point lies deeper than half its thickness inside its hull in space. A flat
+    plate as wide is convex from above too, and too large."""
+    from wsgrasp.api import _too_large
+    from wsgrasp.gripper import load_gripper
+
+    rng = np.random.default_rng(11)
+    g = load_gripper("franka_hand")
+    handle = noisy_box(rng, (0.30, 0.03, 0.025), table=0.0, step=0.005, noise=noise)
+    head = noisy_box(rng, (0.03, 0.14, 0.03), table=0.0, step=0.005, noise=noise)
+    hammer = np.concatenate([handle, head + [0.15, 0.0, 0.0]])
+    a = np.linspace(0.0, np.pi, 8, endpoint=False)
+    closing = np.column_stack([np.cos(a), np.sin(a), np.zeros(8)])  # horizontal
+    up = np.array([0.0, 0.0, 1.0])
+    assert "too large" in _too_large(hammer, g, closing, noise=noise)  # in space
+    assert _too_large(hammer, g, closing, noise=noise, up=up) == ""
+    plate = noisy_box(rng, (0.16, 0.16, 0.025), table=0.0, step=0.005, noise=noise)
+    assert "too large" in _too_large(plate, g, closing, noise=noise, up=up)
+
+
 def test_a_hollow_object_wider_than_the_opening_is_left_to_the_search():
     from wsgrasp.api import _too_large
 

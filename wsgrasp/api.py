@@ -24,6 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from wsgrasp._names import gripper_ref
 from wsgrasp.errors import InputError, PluginError, WsgraspError
+from wsgrasp.geometry import plane_basis
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.perception.footprint import Footprint
 from wsgrasp.perception.types import Plane, Scene
@@ -252,6 +253,7 @@ class Pipeline:
             self.gripper,
             closing,
             lambda: _depth_noise(points, segmentation.table, object_points),
+            up=up,
         )
         if too_large:
             # no pose can span the object: no candidates, and the result says so
@@ -757,6 +759,11 @@ _WIDTH_ROUNDING = 1e-9
 _CONCAVE_DEPTH = 0.01
 #: fraction of points deeper than that which makes an object hollow
 _CONCAVE_SHARE = 0.02
+#: fraction of its outline's hull (seen from above) that must lie that deep in
+#: empty space for an object to be concave seen from above
+_OUTLINE_SHARE = 0.1
+#: the outline's hull is sampled on a grid of at most this many cells a side
+_OUTLINE_CELLS = 100
 #: the hull of a noisy convex cloud lies up to about 4 noise deviations outside
 #: its surface; a concavity must reach this many deviations deeper as well
 _NOISE_DEVIATIONS = 5.0
@@ -774,13 +781,18 @@ def _too_large(
     g: GripperModel,
     closing: Array | None = None,
     noise: float | Callable[[], float] = 0.0,
+    up: Array | None = None,
 ) -> str:
     """Why no pose can hold the object, or ``""``: a convex object wider than the
     gripper encloses (:attr:`GripperModel.enclosure`) along every direction
     ``closing`` ``(k, 3)`` that a candidate's fingers close along (every
-    direction, when None) cannot be spanned by any candidate. A hollow one may
-    still be held by a wall or a handle, so it is left to the search; hollow
-    means concave deeper than the depth ``noise`` (m; or a function that
+    direction, when None) cannot be spanned by any candidate. A concave one may
+    still be held by a part narrower than the whole (a wall, a handle), so it is
+    left to the search: concave in space (a mug's inside), or, seen from above
+    along the table's normal ``up`` ``(3,)``, in its footprint (a hammer lying
+    flat, whose handle lies deep inside its outline's hull, but never farther
+    than half its thickness from the top or the bottom of its hull in space);
+    concave means deeper than the depth ``noise`` (m; or a function that
     measures it, called only for an object that is wide enough to ask) makes a
     convex cloud look."""
     from scipy.spatial import ConvexHull, QhullError
@@ -810,13 +822,11 @@ def _too_large(
     width = float((proj.max(axis=1) - proj.min(axis=1)).min())
     if width <= enclosure + _WIDTH_SLACK:
         return ""
-    depth = -(object_points @ hull.equations[:, :3].T + hull.equations[:, 3]).max(
-        axis=1
-    )  # (n,) how far inside the hull
     sigma = noise() if callable(noise) else float(noise)
-    if float(np.mean(depth > _CONCAVE_DEPTH + _NOISE_DEVIATIONS * sigma)) >= (
-        _CONCAVE_SHARE
-    ):
+    deep = _CONCAVE_DEPTH + _NOISE_DEVIATIONS * sigma
+    if _concave_share(object_points, hull.equations, deep) >= _CONCAVE_SHARE:
+        return ""
+    if up is not None and _concave_outline(object_points, up, deep):
         return ""
     along = (
         "in every direction"
@@ -828,6 +838,44 @@ def _too_large(
         f"narrowest {along}, and its fingers' workspaces span at most "
         f"{enclosure:.3f} m"
     )
+
+
+def _concave_outline(points: Array, up: Array, deep: float) -> bool:
+    """Whether the object's outline seen along ``up`` ``(3,)`` (its points
+    ``(n, 3)`` projected on the table) leaves ``_OUTLINE_SHARE`` of its convex
+    hull's area empty farther than ``deep`` (m) from every point, beyond the
+    points' own spacing (their median distance to their nearest neighbour on
+    the surface, which the projection of a sparse cloud of a convex object
+    leaves empty between them at most; the projection's own spacing is far
+    smaller along a side face seen edge-on): the area between a hammer's
+    handle and its head's ends."""
+    from scipy.spatial import ConvexHull, QhullError, cKDTree
+
+    uv = points @ plane_basis(np.asarray(up, np.float64))  # (n, 2)
+    try:
+        hull = ConvexHull(uv)
+    except QhullError:  # a line seen from above
+        return False
+    spacing = float(np.median(cKDTree(points).query(points, k=2)[0][:, 1]))
+    reach = deep + spacing
+    tree = cKDTree(uv)
+    lo, hi = uv.min(axis=0), uv.max(axis=0)
+    cell = max(reach / 4.0, float(np.max(hi - lo)) / _OUTLINE_CELLS)
+    axes = [np.arange(lo[k] + cell / 2.0, hi[k], cell) for k in range(2)]
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 2)
+    inside = (grid @ hull.equations[:, :2].T + hull.equations[:, 2] <= 0.0).all(axis=1)
+    if not inside.any():
+        return False
+    far = tree.query(grid[inside], distance_upper_bound=reach)[0] > reach  # inf: far
+    return float(np.mean(far)) >= _OUTLINE_SHARE
+
+
+def _concave_share(points: Array, equations: Array, deep: float) -> float:
+    """The fraction of ``points`` ``(n, d)`` deeper than ``deep`` (m) inside the
+    convex hull whose facets are ``equations`` ``(f, d + 1)`` (qhull's: unit
+    outward normals and offsets)."""
+    depth = -(points @ equations[:, :-1].T + equations[:, -1]).max(axis=1)  # (n,)
+    return float(np.mean(depth > deep))
 
 
 def _depth_noise(points: Array, table: Plane, object_points: Array) -> float:
