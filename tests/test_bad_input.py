@@ -810,6 +810,38 @@ def test_one_object_is_never_split():
         assert find_touching(downsample(points, 0.005), plane) is None
 
 
+def test_a_hammer_lying_flat_is_one_object_with_a_handle():
+    """A head and a thick grip end, each wider than the handle between them and
+    as tall: a waist as two touching objects make, but a long one (the
+    handle, 26 cm), so one object; with a handle rule that never fires it is
+    split, as two cans that touch still are."""
+    from wsgrasp.perception import touching
+    from wsgrasp.perception.process import downsample
+    from wsgrasp.perception.types import Plane
+
+    rng = np.random.default_rng(12)
+    plane = Plane(normal=np.array([0.0, 0.0, 1.0]), offset=0.0)
+    hammer = np.concatenate(
+        [
+            _box(rng, [0.15, 0.0, 0.0175], [0.04, 0.13, 0.035], 3000),  # head
+            _box(rng, [0.0, 0.0, 0.015], [0.26, 0.024, 0.03], 3000),  # handle
+            _box(rng, [-0.15, 0.0, 0.0175], [0.06, 0.045, 0.035], 2000),  # grip
+        ]
+    )
+    points = downsample(hammer, 0.005)
+    assert touching.find_touching(points, plane) is None
+    cans = _two_cans()
+    cans = downsample(cans[cans[:, 2] > 0.01], 0.005)
+    assert touching.find_touching(cans, plane) is not None
+    never = pytest.MonkeyPatch()
+    never.setattr(touching, "HANDLE_LENGTH", np.inf)
+    try:
+        split = touching.find_touching(points, plane)
+    finally:
+        never.undo()
+    assert split is not None and split.neck < 0.03
+
+
 @pytest.mark.parametrize(
     "setting",
     [

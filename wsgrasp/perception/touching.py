@@ -3,14 +3,18 @@
 Clustering joins objects that touch. Seen from above, two touching objects make a
 footprint with a waist: two wide parts joined by a narrow neck, at the objects'
 full height (a bar of a dumbbell or the handle of a pan is lower than what it
-joins, so it is no such neck). Two boxes flush side by side make no waist and are
-not "clearly two": they stay one object.
+joins, so it is no such neck), and where they meet the objects touch: the neck
+is short. A narrow stretch as tall as the parts and long, farther from both
+parts than either is wide, is a handle joining two ends of one object (a hammer
+lying flat: its head, the thick end of its grip). Two boxes flush side by side
+make no waist and are not "clearly two": they stay one object.
 
 The footprint is the object's points projected on the table, on a grid; the
 distance transform gives each cell its distance to the footprint's edge. The two
 widest parts are the two highest maxima whose disks do not overlap; the neck is
 the bottleneck of the best path between them (the highest level at which both
-stay connected).
+stay connected); the handle's length is how far the cells that connect them at
+that level reach from both parts' cores.
 """
 
 from __future__ import annotations
@@ -34,6 +38,11 @@ MIN_PART_WIDTH = 0.03
 NECK_FRACTION = 0.65
 #: the neck stands at least this fraction of the lower part's height
 NECK_HEIGHT = 0.8
+#: a stretch narrower than this fraction of the narrower part's width ...
+HANDLE_WIDTH = 0.8
+#: ... longer than this many times the wider part's width, on the widest path
+#: between the parts, is a handle of one object, not where two objects touch
+HANDLE_LENGTH = 2.0
 
 
 @dataclass
@@ -103,6 +112,8 @@ def find_touching(points: Array, table: Plane) -> Touching | None:
         cores = labels
     if cores is None or neck >= NECK_FRACTION * min(ra, rb):
         return None
+    if _handle_length(dist, neck, a, b) > HANDLE_LENGTH * 2 * max(ra, rb):
+        return None  # a handle joins two ends of one object
     # every footprint cell belongs to the nearer core
     seeds = np.zeros(shape, dtype=np.int64)
     seeds[cores == cores[tuple(a)]] = 1
@@ -135,6 +146,46 @@ def find_touching(points: Array, table: Plane) -> Touching | None:
         neck=2 * neck,
         labels=labels_pts,
     )
+
+
+def _handle_length(
+    dist: Array, neck: float, a: NDArray[np.int64], b: NDArray[np.int64]
+) -> float:
+    """How long (m) the path between cells ``a`` and ``b`` runs narrower than
+    ``HANDLE_WIDTH`` of the narrower one's inscribed radius: the shortest path
+    (8-connected, in cells) through the footprint cells at least ``neck`` from
+    its edge (``dist`` ``(h, w)``, m), the widest way between them."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import dijkstra
+
+    inside = dist >= neck
+    index = np.full(dist.shape, -1, dtype=np.int64)
+    cells = np.argwhere(inside)  # (k, 2)
+    index[inside] = np.arange(len(cells))
+    rows, cols, weights = [], [], []
+    for di, dj in ((0, 1), (1, 0), (1, 1), (1, -1)):
+        j = cells + (di, dj)
+        ok = (j[:, 0] < dist.shape[0]) & (j[:, 1] >= 0) & (j[:, 1] < dist.shape[1])
+        k = np.flatnonzero(ok)
+        other = index[j[k, 0], j[k, 1]]
+        keep = other >= 0
+        rows.append(k[keep])
+        cols.append(other[keep])
+        weights.append(np.full(int(keep.sum()), np.hypot(di, dj)))
+    r, c, w = np.concatenate(rows), np.concatenate(cols), np.concatenate(weights)
+    graph = coo_matrix((w, (r, c)), shape=(len(cells), len(cells))).tocsr()
+    start, goal = int(index[tuple(a)]), int(index[tuple(b)])
+    _, pred = dijkstra(graph, directed=False, indices=start, return_predecessors=True)
+    if pred[goal] < 0:
+        return 0.0
+    narrow = HANDLE_WIDTH * min(float(dist[tuple(a)]), float(dist[tuple(b)]))
+    length, node = 0.0, goal
+    while node != start:
+        prev = int(pred[node])
+        if dist[tuple(cells[node])] < narrow:
+            length += float(np.hypot(*(cells[node] - cells[prev])))
+        node = prev
+    return length * CELL
 
 
 def split_touching(points: Array, touching: Touching) -> list[Array]:
