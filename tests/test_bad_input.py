@@ -858,3 +858,23 @@ def test_synthetic_scene_settings_are_checked_by_the_api(setting):
 
     with pytest.raises(InputError, match=next(iter(setting))):
         synth_scene("box", **setting)
+
+
+def test_a_table_bound_search_says_what_rejected_the_other_poses():
+    from wsgrasp.planning.search import no_grasp_hint
+
+    hist = {
+        "feasible": 0,
+        "table_collision": 3840,
+        "object_collision": 900,
+        "obstacle_collision": 0,
+        "finger_without_contact": 60,
+        "finger_sweeps_table": 0,
+    }
+    hint = no_grasp_hint(hist, np.array([0.13, 0.07, 0.055]), fake_gripper(), 0.057)
+    assert hint.startswith("the gripper hits the table at 3840 of 4800 poses")
+    assert "(the object stands 0.057 m tall)" in hint
+    assert "of the other 960, 900 with the body in the object, 60 with a finger" in hint
+    assert "sampling.directions" in hint
+    only = dict(hist, object_collision=0, finger_without_contact=0)
+    assert "of the other" not in no_grasp_hint(only, np.ones(3), fake_gripper(), 0.1)

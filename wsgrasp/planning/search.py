@@ -262,6 +262,15 @@ def _beyond_box(
     return gap > g.sphere_radii[spheres] + _BOX_MARGIN  # type: ignore[no-any-return]
 
 
+#: each rejection reason as the hint for a table-bound search words it
+_REJECTED = {
+    "object_collision": "with the body in the object",
+    "obstacle_collision": "blocked by neighbouring objects",
+    "finger_without_contact": "with a finger that touches nothing",
+    "finger_sweeps_table": "with fingers that sweep through the table",
+}
+
+
 def no_grasp_hint(
     histogram: dict[str, int], extents: Array, gripper: GripperModel, height: float
 ) -> str:
@@ -277,10 +286,24 @@ def no_grasp_hint(
             f"gripper opening ({gripper.max_opening:.3f} m)"
         )
     if worst == "table_collision":
+        rest = total - histogram[worst]
+        others = sorted(
+            (r for r in REASONS if r not in ("feasible", worst) and histogram[r]),
+            key=lambda r: -histogram[r],
+        )
+        why = (
+            "; of the other "
+            + str(rest)
+            + ", "
+            + ", ".join(f"{histogram[r]} {_REJECTED[r]}" for r in others)
+            if others
+            else ""
+        )
         return (
-            f"the gripper hits the table at {histogram[worst]} of {total} poses; the "
-            f"object stands {height:.3f} m tall; try more orientations or a lower "
-            "table.clearance"
+            f"the gripper hits the table at {histogram[worst]} of {total} poses "
+            f"(the object stands {height:.3f} m tall){why}; sample approach "
+            "directions from the side (sampling.directions) or more orientations, "
+            "or lower table.clearance"
         )
     if worst == "object_collision":
         return (
