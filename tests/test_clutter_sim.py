@@ -83,32 +83,21 @@ def test_a_packed_scene_is_cleared_and_every_step_recorded(franka_clutter, tmp_p
     assert s["declutter_rate"] == out["removed"] / 2
 
 
-def test_eval_scene_packed_writes_rates_per_gripper(tmp_path, capsys):
+def _eval_packed(tmp_path, *extra: str) -> dict:
+    """``wsgrasp eval --scene packed`` on one scene of two paper13 boxes under
+    the lift protocol, with ``extra`` options; its JSON report."""
     from wsgrasp.cli import main
 
     out = tmp_path / "clutter.json"
-    rc = main(
-        [
-            "eval",
-            "--scene",
-            "packed",
-            "--objects",
-            "realsense_box",
-            "--objects",
-            "cookies_package",
-            "--objects-per-scene",
-            "2",
-            "--scenes",
-            "1",
-            "--protocol",
-            "lift",
-            "--json-out",
-            str(out),
-            "--quiet",
-        ]
-    )
-    assert rc == 0
-    report = json.loads(out.read_text())
+    args = ["eval", "--scene", "packed", "--objects", "realsense_box"]
+    args += ["--objects", "cookies_package", "--objects-per-scene", "2"]
+    args += ["--scenes", "1", "--protocol", "lift", *extra]
+    assert main([*args, "--json-out", str(out), "--quiet"]) == 0
+    return json.loads(out.read_text())
+
+
+def test_eval_scene_packed_writes_rates_per_gripper(tmp_path, capsys):
+    report = _eval_packed(tmp_path)
     s = report["grippers"]["franka_hand"]["summary"]
     assert report["scene"] == "packed" and s["scenes"] == 1 and s["objects"] == 2
     assert s["attempts"] >= 1 and 0.0 <= s["declutter_rate"] <= 1.0
@@ -280,33 +269,7 @@ def test_the_choice_is_compared_with_chance_over_the_same_scenes():
 
 
 def test_eval_clutter_with_a_random_baseline_reports_both(tmp_path, capsys):
-    from wsgrasp.cli import main
-
-    out = tmp_path / "clutter.json"
-    rc = main(
-        [
-            "eval",
-            "--scene",
-            "packed",
-            "--objects",
-            "realsense_box",
-            "--objects",
-            "cookies_package",
-            "--objects-per-scene",
-            "2",
-            "--scenes",
-            "1",
-            "--protocol",
-            "lift",
-            "--baseline",
-            "random",
-            "--json-out",
-            str(out),
-            "--quiet",
-        ]
-    )
-    assert rc == 0
-    report = json.loads(out.read_text())
+    report = _eval_packed(tmp_path, "--baseline", "random")
     assert report["baseline"] == "random"
     r = report["grippers"]["franka_hand"]
     assert r["baseline"]["summary"]["scenes"] == 1
