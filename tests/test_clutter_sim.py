@@ -277,3 +277,20 @@ def test_eval_clutter_with_a_random_baseline_reports_both(tmp_path, capsys):
     assert set(r["baseline"]["paired"]) >= {"grasp_success", "declutter", "interval"}
     text = capsys.readouterr().out
     assert "choice less random feasible" in text
+
+
+def test_a_replayed_step_names_the_random_candidate_it_executed():
+    from wsgrasp.record._sequence import SequenceStep
+
+    info = {
+        "step": 1,
+        "objects_left": 2,
+        "segments": 2,
+        "tries": 1,
+        "target": "box0",
+        "outcome": "success",
+        "lifted": ["box0"],
+    }
+    assert "candidate" not in SequenceStep(info, []).line()
+    line = SequenceStep({**info, "candidate": 7}, []).line()
+    assert "target box0 (random feasible candidate 7): success" in line

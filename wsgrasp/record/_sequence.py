@@ -33,10 +33,15 @@ class SequenceStep:
         target = i.get("target") or "no target"
         what = i.get("outcome", "?") + (f" ({i['kind']})" if i.get("kind") else "")
         lifted = ", ".join(i.get("lifted") or []) or "nothing"
+        took = (
+            ""
+            if i.get("candidate") is None
+            else f" (random feasible candidate {i['candidate']})"
+        )
         return (
             f"step {i.get('step')}: {i.get('objects_left')} objects left, "
             f"{i.get('segments')} instances seen, {i.get('tries')} plan(s), "
-            f"target {target}: {what}; lifted {lifted}"
+            f"target {target}{took}: {what}; lifted {lifted}"
         )
 
 
