@@ -201,6 +201,8 @@ def test_sim_settings_reach_the_model_and_bad_ones_are_named():
         ("kp_revolute=nan", "out of range", "the default is 2.0"),
         ("hold_time=-1", "zero or more", "the default"),
         ("timestep=0", "above zero", "the default"),
+        ("mimic_impedance=1.5", "must be below 1", "the default is 0.99"),
+        ("mimic_timeconst=0", "above zero", "the default is 0.005"),
     ]:
         with pytest.raises(InputError, match=message) as info:
             parse_overrides([item])

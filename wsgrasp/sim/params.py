@@ -319,6 +319,9 @@ POSITIVE = frozenset(
     }
 )
 
+#: parameters that must be below 1 (an impedance)
+BELOW_ONE = frozenset({"mimic_impedance"})
+
 
 def parse_overrides(items: Sequence[str]) -> dict[str, Any]:
     """``KEY=VALUE`` settings (``wsgrasp eval --sim``) as overrides for
@@ -363,6 +366,12 @@ def parse_overrides(items: Sequence[str]) -> dict[str, Any]:
             raise InputError(
                 f"--sim {key}={text} is out of range: {key} must be finite and {low}",
                 hint=f"the default is {getattr(SimParams(), key)} (strict protocol)",
+            )
+        if key in BELOW_ONE and value >= 1.0:
+            raise InputError(
+                f"--sim {key}={text} is out of range: {key} must be below 1",
+                hint=f"the default is {getattr(SimParams(), key)} (MuJoCo's solimp "
+                "impedance lies between 0 and 1)",
             )
         out[key] = value
     return out
