@@ -165,30 +165,13 @@ def clutter_eval(
     return report
 
 
-def _success_rate(s: dict[str, Any]) -> float | None:
-    return s["successes"] / s["attempts"] if s["attempts"] else None
-
-
-def _lift_rate(s: dict[str, Any]) -> float | None:
-    if not s["attempts"]:
-        return None
-    steps = s["steps"]
-    return (
-        sum(bool(t.get("target")) and t["target"] in t["lifted"] for t in steps)
-        / (s["attempts"])
-    )
-
-
-def _declutter_rate(s: dict[str, Any]) -> float | None:
-    return s["removed"] / len(s["objects"]) if s["objects"] else None
-
-
-#: the rates of one scene (None where it had no attempt, or no object) that a
-#: clutter run compares with chance, by their key in the paired report
+#: the rates of one scene that a clutter run compares with chance: key in the
+#: paired report, and the key of :func:`~wsgrasp.sim.clutter.clutter_summary`
+#: that gives it (None where the scene had no attempt, or no object)
 _SCENE_RATES = {
-    "grasp_success": _success_rate,
-    "target_lifted": _lift_rate,
-    "declutter": _declutter_rate,
+    "grasp_success": "grasp_success_rate",
+    "target_lifted": "lift_rate",
+    "declutter": "declutter_rate",
 }
 
 
@@ -200,16 +183,19 @@ def baseline_pairs(
     scenes where both runs have it, of the choice's, of chance's and of their
     difference, with the difference's 95 % interval
     (:func:`wsgrasp.sim.report.paired_difference`)."""
+    from wsgrasp.sim.clutter import clutter_summary
     from wsgrasp.sim.report import INTERVAL, paired_difference
 
+    each = [
+        (clutter_summary([c]), clutter_summary([r]))
+        for c, r in zip(chosen, random, strict=True)
+    ]
     out: dict[str, Any] = {"interval": INTERVAL}
     for key, rate in _SCENE_RATES.items():
         pairs = [
-            (a, b)
-            for a, b in (
-                (rate(c), rate(r)) for c, r in zip(chosen, random, strict=True)
-            )
-            if a is not None and b is not None
+            (c[rate], r[rate])
+            for c, r in each
+            if c[rate] is not None and r[rate] is not None
         ]
         n = len(pairs)
         diff, low, high = paired_difference([a - b for a, b in pairs])
