@@ -159,6 +159,46 @@ def test_plan_and_choices_gives_the_plan_and_its_picks_from_one_search(
         pipe.plan_and_choices(SCENE, lambda res: [len(res.candidates)])
 
 
+class _Stages:
+    """An observer that keeps what it is told, in order."""
+
+    def __init__(self) -> None:
+        self.seen: list[str] = []
+
+    def on_start(self, spec, gripper, scene):  # type: ignore[no-untyped-def]
+        self.seen.append("start")
+
+    def on_stage(self, stage, data):  # type: ignore[no-untyped-def]
+        self.seen.append(stage)
+
+    def on_result(self, result):  # type: ignore[no-untyped-def]
+        self.seen.append(f"result {result.best_index}")
+
+    def on_error(self, error):  # type: ignore[no-untyped-def]
+        self.seen.append("error")
+
+
+def test_observed_plan_and_choices_searches_once_and_tells_what_plan_tells(
+    planned, monkeypatch
+):
+    """With observers, ``plan_and_choices`` still searches once; the observers
+    hear the first plan exactly as ``plan`` tells it, and nothing of the picks."""
+    pipe, result = planned
+    alone = _Stages()
+    pipe.plan(SCENE, observers=[alone])
+    searches = []
+    search = pipe.search
+    monkeypatch.setattr(pipe, "search", lambda prep: searches.append(1) or search(prep))
+    both = _Stages()
+    picks = [a.index for a in result.alternatives[:2]]
+    own, many = pipe.plan_and_choices(SCENE, lambda res: picks, observers=[both])
+    assert len(searches) == 1
+    assert both.seen == alone.seen
+    assert both.seen[-1] == f"result {result.best_index}"
+    _assert_same_plan(own, result)
+    assert [r.best_index for r in many] == picks
+
+
 def test_a_best_whose_pregrasp_hits_the_table_gives_way_to_the_first_clear_one(
     planned, monkeypatch
 ):

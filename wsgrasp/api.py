@@ -150,18 +150,9 @@ class Pipeline:
         names the same candidate in the next. An index out of range or naming a
         rejected candidate raises :class:`~wsgrasp.errors.InputError`.
         """
-        scene = as_scene(scene, icp=self.spec.preprocess.icp)
-        for o in observers:
-            o.on_start(self.spec, self.gripper, scene)
-        try:
-            result = self._plan(scene, observers, choose)
-        except BaseException as exc:
-            for o in observers:
-                o.on_error(exc)
-            raise
-        for o in observers:
-            o.on_result(result)
-        return result
+        return self.plan_and_choices(
+            scene, lambda _result: [], observers=observers, choose=choose
+        )[0]
 
     def prepare(self, scene: Scene, observers: Sequence[PlanObserver] = ()) -> Prepared:
         """Run the stages before the search: cropping (``preprocess.crop_radius``)
@@ -312,17 +303,6 @@ class Pipeline:
             out, prepared, self.gripper, self._spheres, self.spec.top_k
         )
 
-    def _plan(
-        self, scene: Scene, observers: Sequence[PlanObserver], choose: int | None
-    ) -> PlanResult:
-        t_start = time.perf_counter()
-        prep = self.prepare(scene, observers)
-        out = self.search(prep)
-        for o in observers:
-            o.on_stage("candidates", {"candidates": out.candidates})
-        shared_ms = (time.perf_counter() - t_start) * 1e3
-        return self._finish(scene, prep, out, choose, observers, shared_ms)
-
     def plan_choices(
         self,
         scene: Scene | ArrayLike | str | Path | Sequence[str | Path],
@@ -339,15 +319,33 @@ class Pipeline:
         self,
         scene: Scene | ArrayLike | str | Path | Sequence[str | Path],
         pick: Callable[[PlanResult], Sequence[int]],
+        *,
+        observers: Sequence[PlanObserver] = (),
+        choose: int | None = None,
     ) -> tuple[PlanResult, list[PlanResult]]:
-        """The plan ``plan(scene)`` gives, and one plan per candidate index that
-        ``pick`` names from it, each the one ``plan(scene, choose=i)`` gives, all
-        from one preparation and search of the scene (nothing is recorded): for
-        labelling a plan's alternatives without searching the scene twice.
-        Raises as ``plan`` does for an index that is out of range or names a
-        rejected candidate."""
-        scene, prep, out, shared_ms = self._searched(scene)
-        result = self._finish(scene, prep, out, None, (), shared_ms)
+        """The plan ``plan(scene, observers=observers, choose=choose)`` gives,
+        and one plan per candidate index that ``pick`` names from it, each the
+        one ``plan(scene, choose=i)`` gives, all from one preparation and search
+        of the scene: for labelling a plan's alternatives without searching the
+        scene twice. ``observers`` see the first plan only. Raises as ``plan``
+        does for an index that is out of range or names a rejected candidate."""
+        scene = as_scene(scene, icp=self.spec.preprocess.icp)
+        for o in observers:
+            o.on_start(self.spec, self.gripper, scene)
+        try:
+            t_start = time.perf_counter()
+            prep = self.prepare(scene, observers)
+            out = self.search(prep)
+            for o in observers:
+                o.on_stage("candidates", {"candidates": out.candidates})
+            shared_ms = (time.perf_counter() - t_start) * 1e3
+            result = self._finish(scene, prep, out, choose, observers, shared_ms)
+        except BaseException as exc:
+            for o in observers:
+                o.on_error(exc)
+            raise
+        for o in observers:
+            o.on_result(result)
         chosen = [
             self._finish(scene, prep, out, int(i), (), shared_ms) for i in pick(result)
         ]

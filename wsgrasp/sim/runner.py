@@ -199,11 +199,7 @@ def _plans(
         drawn.extend(random_candidates(result, rng, task.baseline))
         return list(dict.fromkeys(drawn))  # each distinct candidate once
 
-    if observers:  # the recorded plan, then the draws' plans from a second search
-        result = pipeline.plan(scene, observers=observers)
-        taken = pipeline.plan_choices(scene, pick(result))
-    else:
-        result, taken = pipeline.plan_and_choices(scene, pick)
+    result, taken = pipeline.plan_and_choices(scene, pick, observers=observers)
     by_index = dict(zip(dict.fromkeys(drawn), taken, strict=True))
     return result, [(i, by_index[i]) for i in drawn]
 
