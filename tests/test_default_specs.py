@@ -102,6 +102,49 @@ def test_the_written_default_is_the_generic_one_with_reach_down_fingertips_first
     assert [s.name for s in spec.scorers][-1] == last
 
 
+@pytest.mark.parametrize("tips", [False, True])
+@pytest.mark.parametrize("fingers", [3, 5])
+def test_a_hand_gets_the_generic_default_without_the_jaw_scorers(tips, fingers):
+    """For a hand of three or more fingers, `gripper new` writes the generic
+    default without ``antipodal`` and ``closing_centre`` (reach_down still
+    added fingertips first), and says so in the header."""
+    from wsgrasp.default_specs import JAW_SCORERS, generic_spec_text
+    from wsgrasp.spec import load_spec
+
+    text = generic_spec_text("hand", fingertips_first=tips, fingers=fingers)
+    data = yaml.safe_load(text)
+    generic = yaml.safe_load(GENERIC_DEFAULT.read_text())
+    kept = [s for s in generic["scorers"] if s["name"] not in JAW_SCORERS]
+    assert kept and len(kept) < len(generic["scorers"])
+    extra = [{"name": "reach_down", "weight": 1.0}] if tips else []
+    assert data["scorers"] == kept + extra
+    head = [ln for ln in text.splitlines() if ln.startswith("#")]
+    assert f"a hand of {fingers} fingers" in head[1]
+    assert ("approaches fingertips first" in text) == tips
+    assert load_spec({**data, "gripper": "allegro_right"}).scorers
+
+
+def test_a_hand_without_a_spec_plans_with_the_hand_default(tmp_path):
+    """A gripper YAML with no specs folder: a hand (the Allegro's four fingers)
+    gets the generic default without the jaw scorers, a jaw (the Franka hand)
+    gets it whole."""
+    import shutil
+
+    from wsgrasp.default_specs import JAW_SCORERS
+
+    generic = yaml.safe_load(GENERIC_DEFAULT.read_text())
+    for key, yaml_name, jaw in (
+        ("allegro", "allegro_right.yaml", False),
+        ("franka", "franka_hand.yaml", True),
+    ):
+        folder = tmp_path / key
+        shutil.copytree(SHIPPED[key], folder, ignore=shutil.ignore_patterns("specs"))
+        data, source = spec_for("default", str(folder / yaml_name))
+        assert source == str(GENERIC_DEFAULT)
+        want = [s for s in generic["scorers"] if jaw or s["name"] not in JAW_SCORERS]
+        assert data["scorers"] == want
+
+
 def test_plan_without_a_spec_uses_the_generic_default(tmp_path):
     import shutil
 

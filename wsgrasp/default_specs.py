@@ -6,7 +6,8 @@ authors' follow-up sampling).
 A gripper ships them beside its YAML as ``specs/<label>.yaml`` (the built-in
 grippers, the example plugins and every package ``wsgrasp gripper new`` writes
 do). A gripper that ships no ``default`` gets :data:`GENERIC_DEFAULT`, the
-setting that measures best across grippers of every kind; one without
+setting that measures best across grippers of every kind (a hand of three or
+more fingers without the scorers in :data:`JAW_SCORERS`); one without
 ``paper`` or ``followup`` gets the Franka hand's with its gripper replaced.
 Nothing here reads the repository's ``examples/``.
 """
@@ -21,11 +22,17 @@ from wsgrasp._names import gripper_ref, is_gripper_path
 __all__ = [
     "FINGERTIPS_FIRST_SCORER",
     "GENERIC_DEFAULT",
+    "JAW_SCORERS",
     "LABELS",
     "default_spec",
     "generic_spec_text",
     "spec_for",
 ]
+
+#: the generic default's scorers that only a two-finger gripper keeps: a hand of
+#: three or more fingers scores by the rest alone
+#: (docs/explanation/defaults.md#the-generic-default)
+JAW_SCORERS = frozenset({"antipodal", "closing_centre"})
 
 #: the spec labels a gripper may ship, in ``specs/<label>.yaml`` beside its YAML
 LABELS = ("default", "paper", "followup")
@@ -71,7 +78,12 @@ def spec_for(label: str, gripper: str) -> tuple[dict[str, Any], str]:
     for path in paths:
         if path.is_file():
             data, _ = load_document(path)
-            return {**dict(data), "gripper": gripper}, str(path)
+            data = {**dict(data), "gripper": gripper}
+            if path == GENERIC_DEFAULT and (_finger_count(gripper) or 2) >= 3:
+                data["scorers"] = [
+                    s for s in data["scorers"] if s["name"] not in JAW_SCORERS
+                ]
+            return data, str(path)
     return {**_BUILT_IN[label], "gripper": gripper}, f"built-in {label}"
 
 
@@ -85,9 +97,17 @@ def default_spec(gripper: str) -> tuple[dict[str, Any], str]:
 FINGERTIPS_FIRST_SCORER = "  - {name: reach_down, weight: 1.0}"
 
 
-def generic_spec_text(gripper: str, *, fingertips_first: bool = False) -> str:
+def generic_spec_text(
+    gripper: str, *, fingertips_first: bool = False, fingers: int = 2
+) -> str:
     """:data:`GENERIC_DEFAULT` as text, naming ``gripper`` (what ``gripper new``
     writes into a package as ``specs/default.yaml``).
+
+    A hand of three or more ``fingers`` scores without :data:`JAW_SCORERS`:
+    ``antipodal`` rewards contact normals that line up along one closing axis,
+    which a jaw's two pads do and a thumb against several fingers cannot, and
+    without it ``closing_centre`` chose no better than ``centroid_distance``
+    alone (measured on the vendor hands: docs/explanation/defaults.md).
 
     A hand that approaches fingertips first (its open fingers pointing at the
     object, as ``gripper new`` may guess for a hand of four or more fingers)
@@ -95,21 +115,64 @@ def generic_spec_text(gripper: str, *, fingertips_first: bool = False) -> str:
     fingertips come down to the table beside it, rather than closing round the
     object's top edge."""
     lines = GENERIC_DEFAULT.read_text().splitlines()
+    while lines and lines[0].startswith("#"):  # its own header, replaced below
+        lines.pop(0)
     out = [f"gripper: {gripper}" if ln.startswith("gripper:") else ln for ln in lines]
-    out[0] = (
+    out.insert(
+        0,
         f"# {gripper}'s default spec (`plan --gripper`, `eval`): wsgrasp's generic "
-        "default as `gripper new` wrote it."
+        "default as `gripper new` wrote it.",
     )
-    if fingertips_first:
+    if fingers >= 3:
+        out = [ln for ln in out if _scorer_name(ln) not in JAW_SCORERS]
         out[0] = out[0][:-1] + ","
         out.insert(
             1,
+            f"# for a hand of {fingers} fingers: without "
+            + " and ".join(sorted(JAW_SCORERS))
+            + " (docs/explanation/defaults.md).",
+        )
+    if fingertips_first:
+        if fingers < 3:
+            out[0] = out[0][:-1] + ","
+        out.insert(
+            2 if fingers >= 3 else 1,
             "# with reach_down, as for every hand that approaches fingertips first "
             "(docs/explanation/defaults.md).",
         )
         last = max(i for i, ln in enumerate(out) if ln.startswith("  - {name:"))
         out.insert(last + 1, FINGERTIPS_FIRST_SCORER)
     return "\n".join(out) + "\n"
+
+
+def _scorer_name(line: str) -> str | None:
+    """The scorer a spec line ``  - {name: NAME, ...}`` names, else None."""
+    head = "  - {name: "
+    if not line.startswith(head):
+        return None
+    return line[len(head) :].split(",")[0].split("}")[0].strip()
+
+
+def _finger_count(gripper: str) -> int | None:
+    """The number of fingers in a gripper's YAML (a path or a registered name),
+    read without building the model; None where there is no YAML to read."""
+    from wsgrasp._loading import load_document
+
+    folder = _gripper_folder(gripper)
+    if folder is None:
+        return None
+    if is_gripper_path(gripper):
+        path = Path(gripper_ref(gripper, Path.cwd()))
+    else:
+        from wsgrasp.plugins import get_registry
+
+        path = Path(get_registry().get("grippers", gripper).obj)
+    try:
+        data, _ = load_document(path)
+    except Exception:  # noqa: BLE001 - unreadable here: the model's build says why
+        return None
+    fingers = dict(data).get("fingers") if isinstance(data, dict) else None
+    return len(fingers) if isinstance(fingers, list) else None
 
 
 def _gripper_folder(gripper: str) -> Path | None:

@@ -485,6 +485,11 @@ def render_on_table_runs() -> str:
     return _runs_in("on-table")
 
 
+def render_generic_scorers_runs() -> str:
+    """The runs that measured the generic default's scorers on hands and jaws."""
+    return _runs_in("generic-scorers")
+
+
 def render_reach_down_runs() -> str:
     """The runs that measured the reach_down scorer in the generic default."""
     return _runs_in("reach-down")

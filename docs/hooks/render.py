@@ -38,6 +38,7 @@ from docs_results import (
     render_default_spec_runs,
     render_defaults_effect,
     render_defaults_success,
+    render_generic_scorers_runs,
     render_on_table_runs,
     render_reach_down_runs,
     render_results_bench,
@@ -67,6 +68,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "default-spec-runs": render_default_spec_runs,
     "on-table-runs": render_on_table_runs,
     "reach-down-runs": render_reach_down_runs,
+    "generic-scorers-runs": render_generic_scorers_runs,
     "angles-from-runs": render_angles_from_runs,
     "results-scorers": render_results_scorers,
 }

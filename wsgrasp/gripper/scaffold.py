@@ -426,6 +426,10 @@ def _write_package(
     )
     (pkg / "specs").mkdir(exist_ok=True)
     (pkg / "specs" / "default.yaml").write_text(
-        generic_spec_text(name, fingertips_first=scaffold.approaches_fingertips_first)
+        generic_spec_text(
+            name,
+            fingertips_first=scaffold.approaches_fingertips_first,
+            fingers=len(scaffold.data["fingers"]),
+        )
     )
     return yaml_path, scaffold
