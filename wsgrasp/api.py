@@ -312,7 +312,8 @@ class Pipeline:
         ``plan(scene, choose=i)`` gives, from one preparation and search of the
         scene (nothing is recorded). Raises as ``plan`` does for an index that
         is out of range or names a rejected candidate."""
-        scene, prep, out, shared_ms = self._searched(scene)
+        scene = as_scene(scene, icp=self.spec.preprocess.icp)
+        prep, out, shared_ms = self._searched(scene)
         return [self._finish(scene, prep, out, i, (), shared_ms) for i in choices]
 
     def plan_and_choices(
@@ -333,12 +334,7 @@ class Pipeline:
         for o in observers:
             o.on_start(self.spec, self.gripper, scene)
         try:
-            t_start = time.perf_counter()
-            prep = self.prepare(scene, observers)
-            out = self.search(prep)
-            for o in observers:
-                o.on_stage("candidates", {"candidates": out.candidates})
-            shared_ms = (time.perf_counter() - t_start) * 1e3
+            prep, out, shared_ms = self._searched(scene, observers)
             result = self._finish(scene, prep, out, choose, observers, shared_ms)
         except BaseException as exc:
             for o in observers:
@@ -352,15 +348,17 @@ class Pipeline:
         return result, chosen
 
     def _searched(
-        self, scene: Scene | ArrayLike | str | Path | Sequence[str | Path]
-    ) -> tuple[Scene, Prepared, SearchOutput, float]:
-        """The scene, prepared and searched (nothing recorded), and the time
-        (ms) the two took, for the plans finished from them."""
-        scene = as_scene(scene, icp=self.spec.preprocess.icp)
+        self, scene: Scene, observers: Sequence[PlanObserver] = ()
+    ) -> tuple[Prepared, SearchOutput, float]:
+        """The scene prepared and searched, each stage and the candidates told
+        to ``observers``, and the time (ms) the two took, for the plans
+        finished from them."""
         t_start = time.perf_counter()
-        prep = self.prepare(scene)
+        prep = self.prepare(scene, observers)
         out = self.search(prep)
-        return scene, prep, out, (time.perf_counter() - t_start) * 1e3
+        for o in observers:
+            o.on_stage("candidates", {"candidates": out.candidates})
+        return prep, out, (time.perf_counter() - t_start) * 1e3
 
     def _finish(
         self,

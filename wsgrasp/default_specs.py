@@ -118,28 +118,25 @@ def generic_spec_text(
     while lines and lines[0].startswith("#"):  # its own header, replaced below
         lines.pop(0)
     out = [f"gripper: {gripper}" if ln.startswith("gripper:") else ln for ln in lines]
-    out.insert(
-        0,
-        f"# {gripper}'s default spec (`plan --gripper`, `eval`): wsgrasp's generic "
-        "default as `gripper new` wrote it.",
-    )
+    notes = []  # the header's lines after the first
     if fingers >= 3:
         out = [ln for ln in out if _scorer_name(ln) not in JAW_SCORERS]
-        out[0] = out[0][:-1] + ","
-        out.insert(
-            1,
+        notes.append(
             f"# for a hand of {fingers} fingers: without "
             + " and ".join(sorted(JAW_SCORERS))
-            + " (docs/explanation/defaults.md).",
+            + " (docs/explanation/defaults.md)."
         )
     if fingertips_first:
-        if fingers < 3:
-            out[0] = out[0][:-1] + ","
-        out.insert(
-            2 if fingers >= 3 else 1,
+        notes.append(
             "# with reach_down, as for every hand that approaches fingertips first "
-            "(docs/explanation/defaults.md).",
+            "(docs/explanation/defaults.md)."
         )
+    out[:0] = [
+        f"# {gripper}'s default spec (`plan --gripper`, `eval`): wsgrasp's generic "
+        "default as `gripper new` wrote it" + ("," if notes else "."),
+        *notes,
+    ]
+    if fingertips_first:
         last = max(i for i, ln in enumerate(out) if ln.startswith("  - {name:"))
         out.insert(last + 1, FINGERTIPS_FIRST_SCORER)
     return "\n".join(out) + "\n"
@@ -158,15 +155,9 @@ def _finger_count(gripper: str) -> int | None:
     read without building the model; None where there is no YAML to read."""
     from wsgrasp._loading import load_document
 
-    folder = _gripper_folder(gripper)
-    if folder is None:
+    path = _gripper_yaml(gripper)
+    if path is None:
         return None
-    if is_gripper_path(gripper):
-        path = Path(gripper_ref(gripper, Path.cwd()))
-    else:
-        from wsgrasp.plugins import get_registry
-
-        path = Path(get_registry().get("grippers", gripper).obj)
     try:
         data, _ = load_document(path)
     except Exception:  # noqa: BLE001 - unreadable here: the model's build says why
@@ -176,11 +167,18 @@ def _finger_count(gripper: str) -> int | None:
 
 
 def _gripper_folder(gripper: str) -> Path | None:
-    """The folder of a gripper's YAML, for a YAML path or a registered name
-    (None for a name no plugin registers, or a model registered without one)."""
+    """The folder of a gripper's YAML (see :func:`_gripper_yaml`)."""
+    path = _gripper_yaml(gripper)
+    return None if path is None else path.parent
+
+
+def _gripper_yaml(gripper: str) -> Path | None:
+    """A gripper's YAML, for a YAML path or a registered name (None for a path
+    that does not exist, a name no plugin registers, or a model registered
+    without one)."""
     if is_gripper_path(gripper):
         path = Path(gripper_ref(gripper, Path.cwd()))
-        return path.parent if path.exists() else None
+        return path if path.exists() else None
     from wsgrasp.errors import PluginError
     from wsgrasp.plugins import get_registry
 
@@ -188,4 +186,4 @@ def _gripper_folder(gripper: str) -> Path | None:
         obj = get_registry().get("grippers", gripper).obj
     except PluginError:
         return None
-    return Path(obj).parent if isinstance(obj, (str, Path)) else None
+    return Path(obj) if isinstance(obj, (str, Path)) else None
