@@ -5,6 +5,7 @@ record and draw end to end; a one-finger description is refused."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -253,3 +254,156 @@ def test_plan_records_and_draws(hands, tmp_path: Path, n: int) -> None:
     picture = render_gripper(g, tmp_path / "hand.png")
     assert Path(picture).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert len({finger_colour(f) for f in range(max(n, 12))}) == max(n, 12)
+
+
+#: per hand, the fingers a grasp needs in the tests of ``contact_fingers``
+CONTACT = {5: ["f0", "f2", "f3"], 6: ["f0", "f3"]}
+
+
+@pytest.fixture(scope="module")
+def tripods(
+    tmp_path_factory: pytest.TempPathFactory,
+) -> dict[int, tuple[Path, GripperModel]]:
+    """The five- and six-finger hands with ``contact_fingers`` (:data:`CONTACT`)."""
+    root = tmp_path_factory.mktemp("tripods")
+    out = {}
+    for n, names in CONTACT.items():
+        path = write_hand(root / f"hand{n}", n, name=f"tripod{n}")
+        path.write_text(path.read_text() + f"contact_fingers: [{', '.join(names)}]\n")
+        out[n] = (path, load_gripper(path, cache_dir=root / "cache"))
+    return out
+
+
+@pytest.mark.parametrize("kernel", KERNELS)
+@pytest.mark.parametrize("n", sorted(CONTACT), ids=lambda n: f"{n}fingers")
+def test_contact_fingers_verdicts_equal_the_reference(
+    hands, tripods, monkeypatch: pytest.MonkeyPatch, n: int, kernel: str
+) -> None:
+    """With ``contact_fingers``, a candidate is feasible when those fingers hold
+    object points, whatever the others hold: every kernel gives the reference's
+    verdicts and choice; the feasible set holds every candidate the hand that
+    needs all its fingers finds, and more, some with a finger holding none."""
+    g, g_all = tripods[n][1], hands[n][1]
+    np.testing.assert_array_equal(
+        g.contact_fingers, [f in CONTACT[n] for f in g.finger_names]
+    )
+    obj = _cylinder(0.022, 0.15, 200, seed=n)
+    T_world_object = np.eye(4)
+    T_world_object[:3, 3] = obj.mean(axis=0)
+    table = TableSE(
+        np.eye(4), np.array([0, 0, -0.05]), np.array([0.35] * 2 + [0.05]), 10.0
+    )
+    rng = np.random.default_rng(n)
+    samples = rng.uniform([-0.02, -0.02, -0.07], [0.02, 0.02, 0.07], (40, 3))
+    o = orientation_set(
+        Sampling(**SAMPLINGS["dense"]),
+        T_world_object,
+        np.array([0, 0, 1.0]),
+        (-0.03, 0.02),
+    )
+    _, T_wg, _, _ = candidate_poses(
+        T_world_object, samples, o.R_object_gwc, g.T_gripper_gwc, o.depth
+    )
+    obs = np.zeros((0, 3))
+    ref = reference_search(
+        g, T_world_object, samples, o.R_object_gwc, obj, obs, table, o.depth
+    )
+    ref_all = reference_search(
+        g_all, T_world_object, samples, o.R_object_gwc, obj, obs, table, o.depth
+    )
+    np.testing.assert_array_equal(ref.contacts, ref_all.contacts)
+    feasible, feasible_all = ref.reason == 0, ref_all.reason == 0
+    assert feasible_all.any() and not (feasible_all & ~feasible).any()
+    extra = feasible & ~feasible_all
+    assert extra.any(), "a scene where the rule decides"
+    assert (ref.contacts[extra] == 0).any(axis=1).all()
+    assert (ref.contacts[feasible][:, g.contact_fingers] > 0).all()
+    force(monkeypatch, kernel)
+    structure = CandidateStructure(T_world_object, samples, o.R_object_gwc, o.depth)
+    ev = evaluate_candidates(T_wg, g, obj, obs, table, structure=structure)
+    np.testing.assert_array_equal(ev.reason, ref.reason)
+    np.testing.assert_array_equal(ev.contacts, ref.contacts)
+    np.testing.assert_array_equal(ev.holding, _held_truth(g, T_wg[ev.feasible], obj))
+    out = run_search(
+        SearchInput(
+            g, T_world_object, np.ptp(obj, axis=0), samples, o, obj, obs, table
+        ),
+        [("centroid_distance", CentroidDistanceScorer(), None, 1.0)],
+    )
+    assert out.best == ref.best
+
+
+def test_a_finger_that_holds_nothing_closes_to_closed(tripods) -> None:
+    """A plan whose chosen grasp leaves a finger outside ``contact_fingers``
+    without a contact: every scorer gives finite scores in [0, 1] (the
+    contact terms over the fingers that hold points), that finger's target has
+    no contact posture and closes to its ``closed`` posture, the others have
+    theirs; the result's JSON carries it."""
+    path, g = tripods[5]
+    scorers = [
+        "centroid_distance",
+        "contact_balance",
+        "antipodal",
+        "joint_margin",
+        "mass_center",
+        "wrench_balance",
+        "contact_depth",
+        "squeeze_inward",
+    ]
+    spec = load_spec(
+        {
+            "gripper": str(path),
+            "segmenter": {"name": "ransac_dbscan"},
+            "sampling": {
+                "mode": "approach_sphere",
+                "grid": [3, 3, 3],
+                "directions": 6,
+                "orientations": 4,
+            },
+            "approach": {"close_to": "contacts"},
+            "scorers": [{"name": "centroid_distance", "weight": 1.0}]
+            + [{"name": s, "weight": 0.0} for s in scorers[1:]],
+        }
+    )
+    pipe = Pipeline(spec, gripper=g)
+    result = pipe.plan(_scene())
+    assert result.found, result.hint
+    cands = result.candidates
+    feasible = cands.reason == 0
+    for name in scorers:
+        v = cands.terms[name][feasible]
+        assert np.isfinite(v).all() and (v >= 0).all() and (v <= 1).all(), name
+    # a grasp with a free finger: plan it
+    free = np.flatnonzero(feasible & (cands.contacts == 0).any(axis=1))
+    assert len(free), "a scene with grasps that leave a finger free"
+    choice = pipe.plan(_scene(), choose=int(free[0]))
+    targets = {t["finger"]: t for t in choice.finger_targets}
+    missing = [c.finger for c in choice.contacts if len(c.points) == 0]
+    assert missing and not set(missing) & set(CONTACT[5])
+    for name in missing:
+        t = targets[name]
+        assert t["contact"] == {} and t["gap"] is None
+        f = g.finger_names.index(name)
+        for j in g.finger_joints[f]:
+            assert t["grasp"][j] == pytest.approx(g.closed[j])
+            assert choice.joints_grasp[j] == pytest.approx(g.closed[j])
+    for name in CONTACT[5]:
+        assert targets[name]["contact"] and targets[name]["gap"] is not None
+    assert json.loads(json.dumps(choice.to_json()))["finger_targets"]
+
+
+def test_contact_fingers_must_name_fingers(tmp_path: Path) -> None:
+    """``contact_fingers`` naming no finger, one twice, or fewer than two is
+    refused with the field and the fingers."""
+    path = write_hand(tmp_path, 5)
+    base = yaml.safe_load(path.read_text())
+    for value, words in (
+        (["f0", "thumb"], "thumb"),
+        (["f0", "f0"], "twice"),
+        (["f0"], "at least 2"),
+    ):
+        bad = tmp_path / "bad.yaml"
+        bad.write_text(yaml.safe_dump({**base, "contact_fingers": value}))
+        with pytest.raises(SpecError) as err:
+            load_gripper_description(bad)
+        assert "contact_fingers" in str(err.value) and words in str(err.value)

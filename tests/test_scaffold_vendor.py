@@ -524,3 +524,29 @@ def test_vendor_gripper_scaffolds_and_checks(tmp_path, name):
         assert "closing all joints together" in sc.notes["closed"]
     if name == "robotiq_3f":
         assert sum("visual mesh" in w for w in sc.warnings) == 5
+
+
+def test_hand_with_a_thumb_needs_a_tripod(tmp_path):
+    """A hand of four fingers grasps between its thumb and the two fingers
+    nearest it in the open hand: the guess names them in ``contact_fingers``
+    (finger order), says why in a comment, and round-trips through the YAML.
+    A three-finger hand needs every finger: no field."""
+    urdf = tmp_path / "hand.urdf"
+    urdf.write_text(forearm_hand_urdf())
+    sc = guess_description(urdf, "hand")
+    names = [f["name"] for f in sc.data["fingers"]]
+    links = {f["name"]: f["pad"]["link"] for f in sc.data["fingers"]}
+    chosen = sc.data["contact_fingers"]
+    assert len(chosen) == 3 and chosen == [n for n in names if n in chosen]
+    assert "th_distal" in {links[n] for n in chosen}
+    # the two fingers beside the thumb's side of the palm (+x): f1 and f2
+    assert {links[n] for n in chosen} == {"th_distal", "f1_distal", "f2_distal"}
+    assert "thumb" in sc.notes["contact_fingers"]
+    text = render_yaml(sc)
+    assert "contact_fingers: [" in text
+    desc = GripperDescription.model_validate(yaml.safe_load(text))
+    assert desc.contact_fingers == chosen
+    (tmp_path / "claw.urdf").write_text(hand_urdf())
+    assert (
+        "contact_fingers" not in guess_description(tmp_path / "claw.urdf", "claw").data
+    )

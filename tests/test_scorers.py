@@ -321,10 +321,11 @@ def test_squeeze_inward_prefers_a_push_towards_the_palm():
     np.testing.assert_allclose(
         scorer.score(batch, opts), [0.5 - 0.5 * s, 0.5, 0.5 + 0.5 * s], atol=1e-12
     )
-    # a finger holding nothing pushes nothing: half the push of one edge
+    # a finger holding nothing (one outside the gripper's contact_fingers) is
+    # left out: the other's push alone, the same share as both edges'
     holding[0, 1, 1] = False
     batch = _jaw_batch(T, holding, points, normals, np.zeros(3))
-    assert scorer.score(batch, opts)[0] == pytest.approx(0.5 - 0.25 * s)
+    assert scorer.score(batch, opts)[0] == pytest.approx(0.5 - 0.5 * s)
 
 
 def test_reach_down_prefers_a_gripper_down_at_the_table():

@@ -85,6 +85,12 @@ def test_contact_posture_equals_the_plain_definition(name):
     rng = np.random.default_rng(0)
     for f, held, spheres, centre in _cases(g, rng, 150):
         got = targets._finger_target(g, f, held, spheres, 0.01, {}, centre)
+        if len(held) == 0:  # a finger that holds nothing has no contact
+            assert got.contact == {} and got.gap is None and got.squeeze == 0.0
+            for j, v in got.grasp.items():
+                lo, hi = g.finger_limits[f][g.finger_joints[f].index(j)]
+                assert v == min(max(g.closed[j], lo), hi)
+            continue
         local, pad, gap = _plain_contact(g, f, held, spheres, centre)
         q = g.finger_configurations(f)[local]
         np.testing.assert_array_equal(list(got.contact.values()), q)

@@ -192,6 +192,14 @@ class GripperDescription(_Model):
         "(a claw's tips before they cross, a hand's fingertips at its thumb's), "
         "or the limits of a jaw whose pads meet only there"
     )
+    contact_fingers: list[str] | None = Field(
+        None,
+        min_length=2,
+        description="the fingers that must hold object points for a candidate to "
+        "be feasible; the others close with them and may miss the object. Left "
+        "out: every finger (Algorithm 1). A hand of four or five fingers grasps "
+        "small objects between its thumb and the two fingers that meet it",
+    )
     drive: DriveSettings = Field(
         default_factory=DriveSettings,
         description="the fingers' position gains in simulation, where the hand's "
@@ -234,6 +242,17 @@ class GripperDescription(_Model):
         names = [f.name for f in self.fingers]
         if len(set(names)) != len(names):
             raise ValueError(f"finger names must be unique, found {names}")
+        if self.contact_fingers is not None:
+            unknown = [n for n in self.contact_fingers if n not in names]
+            if unknown:
+                raise ValueError(
+                    f"contact_fingers names {unknown}, which are not fingers; "
+                    f"the fingers are {names}"
+                )
+            if len(set(self.contact_fingers)) != len(self.contact_fingers):
+                raise ValueError(
+                    f"contact_fingers names a finger twice: {self.contact_fingers}"
+                )
         return self
 
 

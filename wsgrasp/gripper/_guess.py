@@ -1252,6 +1252,57 @@ def _closing_axis(
     return closing, note, moves
 
 
+#: a hand of this many fingers or more grasps between its thumb and the fingers
+#: that meet it (``contact_fingers``); fewer: every finger holds the object
+_TRIPOD_FROM = 4
+
+
+def _contact_fingers(
+    u: _Urdf,
+    pads: list[dict[str, Any]],
+    names: list[str],
+    pregrasp: dict[str, float],
+    closed: dict[str, float],
+    closing: Array,
+) -> list[str] | None:
+    """For a hand of ``_TRIPOD_FROM`` fingers or more, the fingers a grasp
+    needs (``contact_fingers``): its thumb, the one finger whose pad moves the
+    other way along ``closing`` from all the others' as the hand closes, and
+    the two fingers whose pads lie nearest the thumb's in the open hand (a
+    tripod; the other fingers close with them and may miss a small object).
+    None, every finger, for fewer fingers or without one finger alone on its
+    side. The note says which and why."""
+    if len(names) < _TRIPOD_FROM:
+        return None
+    p_open = _pad_centres(u, pads, pregrasp)  # (F, 3)
+    p_closed = _pad_centres(u, pads, closed)
+    along = (p_closed - p_open) @ closing  # (F,) each pad's way along closing
+    side = np.sign(np.where(np.abs(along) > 1e-4, along, 0.0))
+    lone = [
+        f for f in range(len(names)) if side[f] != 0 and (side == side[f]).sum() == 1
+    ]
+    others = [f for f in range(len(names)) if side[f] == -side[lone[0]]] if lone else []
+    if len(lone) != 1 or len(others) < 2:
+        u.notes["contact_fingers"] = (
+            "left out: every finger must hold the object (no one finger's pad "
+            "moves against all the others' along the closing axis, as a thumb's)"
+        )
+        return None
+    thumb = lone[0]
+    gap = np.linalg.norm(p_open[others] - p_open[thumb], axis=1)
+    pair = [others[i] for i in np.argsort(gap, kind="stable")[:2]]
+    chosen = sorted([thumb, *pair])
+    u.notes["contact_fingers"] = (
+        f"a grasp needs the thumb ({names[thumb]}: its pad alone moves the "
+        "other way along the closing axis) and the two fingers whose pads lie "
+        f"nearest it at `pregrasp` ({names[pair[0]]}, {names[pair[1]]}: "
+        f"{gap.min() * 1000:.0f} and {np.sort(gap)[1] * 1000:.0f} mm); the "
+        "others close with them and may miss a small object. Remove the field "
+        "to need every finger"
+    )
+    return [names[f] for f in chosen]
+
+
 def _finger_direction(
     u: _Urdf, distal: list[str], pregrasp: dict[str, float]
 ) -> Array | None:
@@ -1363,6 +1414,7 @@ def guess_description(
     pads = _pads(u, distal, names, pregrasp, closed, targets)
     _stop_where_pads_meet(u, fingers, pads, pregrasp, closed)
     approach, closing, tcp, alternative = _axes(u, pads, pregrasp, closed)
+    contact = _contact_fingers(u, pads, names, pregrasp, closed, np.asarray(closing))
     data: dict[str, Any] = {
         "version": 1,
         "name": name,
@@ -1382,6 +1434,8 @@ def guess_description(
         "pregrasp": {k: float(v) for k, v in pregrasp.items()},
         "closed": {k: float(v) for k, v in closed.items()},
     }
+    if contact is not None:
+        data["contact_fingers"] = contact
     return Scaffold(
         data,
         u.notes,

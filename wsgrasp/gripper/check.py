@@ -129,6 +129,15 @@ class CheckReport:
                 f" cm3, {f['spheres']} spheres cover {f['covered_fraction']:.0%}"
                 f"{closes}{facing}{table}"
             )
+        needed = [
+            n for n, c in zip(m.finger_names, m.contact_fingers, strict=True) if c
+        ]
+        if len(needed) < m.num_fingers:
+            free = [n for n in m.finger_names if n not in needed]
+            lines.append(
+                f"  a grasp needs {', '.join(needed)} on the object "
+                f"(contact_fingers); {', '.join(free)} may miss it"
+            )
         lines.append(
             f"  cloud inside the body superellipsoids: {self.cloud_inside_se:.1%}"
         )

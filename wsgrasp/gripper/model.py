@@ -148,6 +148,21 @@ class GripperModel:
         return len(self.finger_names)
 
     @property
+    def contact_fingers(self) -> NDArray[np.bool_]:
+        """``(nf,)``: the fingers that must hold object points for a candidate
+        to be feasible (the description's ``contact_fingers``; every finger
+        when it names none, as in Algorithm 1)."""
+        names = self.description.get("contact_fingers") if self.description else None
+        if not names:
+            return np.ones(self.num_fingers, dtype=bool)
+        return np.isin(np.asarray(self.finger_names, dtype=object), list(names))
+
+    def feasible_contacts(self, counts: NDArray[np.int64]) -> NDArray[np.bool_]:
+        """``(..., nf)`` points held per finger -> ``(...)``: whether every
+        finger of :attr:`contact_fingers` holds some."""
+        return np.all(np.asarray(counts)[..., self.contact_fingers] > 0, axis=-1)  # type: ignore[no-any-return]
+
+    @property
     def spheres_per_finger(self) -> list[int]:
         counts = np.bincount(self.sphere_finger, minlength=self.num_fingers)
         return [int(c) for c in counts]

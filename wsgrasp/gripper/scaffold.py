@@ -94,6 +94,10 @@ def render_yaml(scaffold: Scaffold, header: list[str] | None = None) -> str:
         out.append(f"  - name: {_flow(f['name'])}\n")
         out.append(f"    joints: {_flow(f['joints'])}\n")
         out.append(f"    pad: {_flow(f['pad'])}\n")
+    if "contact_fingers" in n:
+        out.append(_comment(n["contact_fingers"]))
+        if "contact_fingers" in d:
+            out.append(f"contact_fingers: {_flow(d['contact_fingers'])}\n")
     for key in (
         "joint_samples",
         "spheres_per_finger",

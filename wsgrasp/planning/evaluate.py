@@ -7,7 +7,8 @@ Each candidate gets the first rejection reason that applies, in Algorithm 1's
 order: table collision (``table``: gripper cloud inside the table
 superellipsoid), object collision and obstacle collision (``body``: points of
 the object, or of other objects, inside a body superellipsoid), and a finger
-with no object point inside any of its workspace spheres (``fingers``). The
+with no object point inside any of its workspace spheres (``fingers``; of the
+gripper's ``contact_fingers``, every finger unless its description names them). The
 feasible candidates' holdings (``holdings``) are what the scorers read
 (``scoring``, the search's last stage, in ``search``). Which kernel runs behind
 the body and finger stages is decided once per evaluation (``kernels``); the
@@ -131,8 +132,9 @@ def evaluate_candidates(
     live = alive[reason[alive] == 0]
     fingers = finger_verdicts(poses, live, gripper, spheres, object_points, kernels)
     contacts[live] = fingers.counts
-    ok = np.flatnonzero(np.all(fingers.counts > 0, axis=1))  # positions in live
-    reason[live] = np.where(np.all(fingers.counts > 0, axis=1), 0, 4)
+    holds = gripper.feasible_contacts(fingers.counts)  # (k,) the contact fingers
+    ok = np.flatnonzero(holds)  # positions in live
+    reason[live] = np.where(holds, 0, 4)
     feasible = live[ok]
     # 4. holdings, of the feasible candidates (built when read)
     holdings = feasible_holdings(fingers, ok)

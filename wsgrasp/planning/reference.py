@@ -81,6 +81,9 @@ def reference_search(
     ``depth`` (O,) offset along its approach axis)."""
     g = gripper
     nf = g.num_fingers
+    # the fingers that must hold a point: those the description names, else all
+    named = (g.description or {}).get("contact_fingers") or g.finger_names
+    required = [name in named for name in g.finger_names]
     C = len(samples_object) * len(R_object_gwc)
     reason = np.zeros(C, dtype=np.int64)
     contacts = np.zeros((C, nf), dtype=np.int64)
@@ -124,7 +127,7 @@ def reference_search(
             inside = np.sum((obj - g.sphere_centers[i_sphere]) ** 2, axis=-1) < r * r
             held[:, f] |= inside
         contacts[k] = held.sum(axis=0)
-        if np.all(contacts[k] > 0):
+        if all(contacts[k, f] > 0 for f in range(nf) if required[f]):
             if d < best_d:
                 best, best_d = k, d
         else:

@@ -141,7 +141,8 @@ class CandidateBatch:
     def contact_configurations(self) -> NDArray[np.int64]:
         """Per candidate and finger, the finger configuration (index into the
         model's ``config_pad``) whose pad centre lies nearest the points the
-        finger holds, ``(F, nf)``; -1 where the model keeps no configurations."""
+        finger holds, ``(F, nf)``; -1 where the model keeps no configurations
+        or the finger holds nothing (one outside ``contact_fingers``)."""
         g = self.gripper
         out = np.full(self.contacts.shape, -1, dtype=np.int64)
         if not g.has_configurations:
@@ -150,8 +151,9 @@ class CandidateBatch:
 
         offsets = g.config_offsets
         for f in range(g.num_fingers):
-            _, k = config_tree(g, f).query(self.contact_centroids_gripper[:, f])
-            out[:, f] = offsets[f] + np.asarray(k, dtype=np.int64)
+            rows = np.flatnonzero(self.contacts[:, f] > 0)
+            _, k = config_tree(g, f).query(self.contact_centroids_gripper[rows, f])
+            out[rows, f] = offsets[f] + np.asarray(k, dtype=np.int64)
         return out
 
     @cached_property

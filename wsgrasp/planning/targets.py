@@ -53,13 +53,17 @@ class FingerTarget:
     ----------
     finger : str
     contact : dict of str to float
-        The finger's joints at the contact posture.
+        The finger's joints at the contact posture; empty for a finger that
+        holds no object point (one outside the gripper's ``contact_fingers``).
     grasp : dict of str to float
-        The same joints driven ``squeeze`` through the contact.
+        The same joints driven ``squeeze`` through the contact (a finger
+        without a contact: its ``closed`` posture).
     pad_world : (3,) float
-        The pad centre at the contact posture, world frame.
-    gap : float
-        Distance (m) from that pad centre to the nearest point the finger holds.
+        The pad centre at the contact posture (without one: at the grasp
+        posture), world frame.
+    gap : float or None
+        Distance (m) from that pad centre to the nearest point the finger holds;
+        None where it holds none.
     squeeze : float
         How far (m) the pad travels from the contact to the grasp posture.
     """
@@ -68,7 +72,7 @@ class FingerTarget:
     contact: dict[str, float]
     grasp: dict[str, float]
     pad_world: Array
-    gap: float
+    gap: float | None
     squeeze: float
 
 
@@ -196,6 +200,8 @@ def _finger_target(
     configuration does, the nearest of all.
     """
     joints = g.finger_joints[f]
+    if len(held) == 0:
+        return _free_finger_target(g, f, pre)
     start = int(g.config_offsets[f])
     q_grid = g.finger_configurations(f)  # (K, d)
     is_allowed = _allowed_mask(g, f, spheres)  # (K,)
@@ -260,6 +266,26 @@ def _finger_target(
         pad_world=pad,
         gap=gap,
         squeeze=float(travel[k]),
+    )
+
+
+def _free_finger_target(g: GripperModel, f: int, pre: dict[str, float]) -> FingerTarget:
+    """The target of finger ``f`` where it holds no object point (a finger
+    outside the gripper's ``contact_fingers``): no contact posture; it closes
+    with the others to its ``closed`` posture, and where it meets the object
+    on the way, it holds it there too. ``pad_world`` is its pad at that
+    posture, gripper frame (as a contact's is before the caller moves it)."""
+    joints = g.finger_joints[f]
+    lim = np.asarray(g.finger_limits[f], dtype=np.float64)
+    q = np.array([g.closed.get(j, pre.get(j, 0.0)) for j in joints], dtype=np.float64)
+    q = np.clip(q, lim[:, 0], lim[:, 1])
+    return FingerTarget(
+        finger=g.finger_names[f],
+        contact={},
+        grasp={j: float(v) for j, v in zip(joints, q, strict=True)},
+        pad_world=pad_positions(g, f, q[None])[0],
+        gap=None,
+        squeeze=0.0,
     )
 
 

@@ -32,6 +32,14 @@ class _Options(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
+def _touching(batch: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Which fingers hold object points, ``(F, nf)`` bool, and how many per
+    candidate, ``(F,)`` (at least 1): every finger, unless the gripper names
+    its ``contact_fingers`` and the others miss the object."""
+    touching = batch.contacts > 0
+    return touching, np.maximum(touching.sum(axis=1), 1)
+
+
 def _nearness(d: np.ndarray, batch: Any) -> np.ndarray:
     """``1 / (1 + d / d_ref)`` for distances ``d`` (m), ``d_ref`` half the
     object's diagonal: 1 at no distance, monotone decreasing."""
@@ -83,42 +91,47 @@ class ClosingCentreScorer:
 
 class ContactBalanceScorer:
     """Every finger holding a similar share of the object: ``min / max`` of the
-    object points held per finger."""
+    object points held per finger, over the fingers that hold some."""
 
     class Options(_Options):
         pass
 
     def score(self, batch: Any, options: Options) -> np.ndarray:
         counts = batch.contacts.astype(np.float64)  # (F, nf)
-        return counts.min(axis=1) / np.maximum(counts.max(axis=1), 1.0)
+        touching, _ = _touching(batch)
+        least = np.where(touching, counts, np.inf).min(axis=1)
+        least = np.where(np.isfinite(least), least, 0.0)
+        return least / np.maximum(counts.max(axis=1), 1.0)
 
 
 class AntipodalScorer:
     """Contact normals that oppose each other and line up with the closing axis.
 
     Half of the term is the opposition of the fingers' mean contact normals,
-    ``1 - |Σ n_f| / nf`` (1 when they cancel), half is their alignment with the
-    closing axis, ``mean |n_f · closing|``.
+    ``1 - |Σ n_f| / m`` (1 when they cancel), half is their alignment with the
+    closing axis, ``mean |n_f · closing|``, over the ``m`` fingers that hold
+    object points.
     """
 
     class Options(_Options):
         pass
 
     def score(self, batch: Any, options: Options) -> np.ndarray:
-        n = batch.contact_normals  # (F, nf, 3)
-        nf = n.shape[1]
-        opposition = 1.0 - np.linalg.norm(n.sum(axis=1), axis=-1) / nf
-        alignment = np.abs(np.einsum("fnj,fj->fn", n, batch.closing)).mean(axis=1)
+        n = batch.contact_normals  # (F, nf, 3), zero for a finger holding none
+        _, m = _touching(batch)
+        opposition = 1.0 - np.linalg.norm(n.sum(axis=1), axis=-1) / m
+        alignment = np.abs(np.einsum("fnj,fj->fn", n, batch.closing)).sum(axis=1) / m
         return 0.5 * np.clip(opposition, 0.0, 1.0) + 0.5 * alignment
 
 
 class WrenchBalanceScorer:
     """Equal pushes at the contacts that cancel: no net force and no net torque.
 
-    Each finger pushes with a unit force against the mean outward normal ``n_f``
-    of the points it holds, at their centroid ``c_f``. The net force
-    ``|sum n_f| / nf`` and the net torque about the contacts' middle ``c``,
-    ``|sum (c_f - c) x n_f| / (nf r)`` with ``r`` half the object's diagonal,
+    Each finger that holds object points (``m`` of them) pushes with a unit
+    force against the mean outward normal ``n_f`` of those points, at their
+    centroid ``c_f``. The net force ``|sum n_f| / m`` and the net torque about
+    the contacts' middle ``c``, ``|sum (c_f - c) x n_f| / (m r)`` with ``r``
+    half the object's diagonal,
     are 0 for fingers that squeeze the object in place and grow as the squeeze
     pushes or twists it out of the hand (two fingers of a three-finger hand on
     one side, a jaw's pads offset along a face); the score is
@@ -131,12 +144,13 @@ class WrenchBalanceScorer:
 
     def score(self, batch: Any, options: Options) -> np.ndarray:
         n = batch.contact_normals  # (F, nf, 3), zero for a finger holding none
-        c = np.nan_to_num(batch.contact_centroids)  # (F, nf, 3)
-        nf = n.shape[1]
-        force = np.linalg.norm(n.sum(axis=1), axis=-1) / nf  # (F,)
-        r = c - c.mean(axis=1, keepdims=True)  # (F, nf, 3)
+        touching, m = _touching(batch)
+        c = np.where(touching[..., None], batch.contact_centroids, 0.0)  # (F, nf, 3)
+        force = np.linalg.norm(n.sum(axis=1), axis=-1) / m  # (F,)
+        middle = c.sum(axis=1, keepdims=True) / m[:, None, None]  # (F, 1, 3)
+        r = np.where(touching[..., None], c - middle, 0.0)  # (F, nf, 3)
         r_ref = max(0.5 * float(np.linalg.norm(batch.extents)), 1e-6)
-        torque = np.linalg.norm(np.cross(r, n).sum(axis=1), axis=-1) / (nf * r_ref)
+        torque = np.linalg.norm(np.cross(r, n).sum(axis=1), axis=-1) / (m * r_ref)
         return np.clip(1.0 - 0.5 * (force + torque), 0.0, 1.0)
 
 
@@ -226,10 +240,11 @@ class JointMarginScorer:
             moving = span > 0
             if not moving.any():
                 continue
-            q = g.finger_configurations(f)[k[:, f] - offsets[f]]  # (F, d)
+            rows = np.flatnonzero(k[:, f] >= 0)  # the candidates it holds in
+            q = g.finger_configurations(f)[k[rows, f] - offsets[f]]  # (r, d)
             u = (q[:, moving] - lim[moving, 0]) / span[moving]
-            margin = (2.0 * np.minimum(u, 1.0 - u)).min(axis=1)  # (F,)
-            out = np.minimum(out, np.clip(margin, 0.0, 1.0))
+            margin = (2.0 * np.minimum(u, 1.0 - u)).min(axis=1)  # (r,)
+            out[rows] = np.minimum(out[rows], np.clip(margin, 0.0, 1.0))
         return out
 
 
@@ -288,9 +303,10 @@ class ReachDownScorer:
 class SqueezeInwardScorer:
     """A squeeze that presses the object towards the palm, not out of the hand.
 
-    Each finger pushes against the mean outward normal ``n_f`` of the points it
-    holds. The share of the fingers' summed push along the approach direction
-    ``a`` (from the hand into the object), ``e = -(sum n_f) . a / nf``, is
+    Each finger that holds object points (``m`` of them) pushes against the
+    mean outward normal ``n_f`` of those points. The share of the fingers' summed
+    push along the approach direction ``a`` (from the hand into the object),
+    ``e = -(sum n_f) . a / m``, is
     positive where the fingers grip a face that turns back towards the hand (a
     rounded top, the upper edge of a flat object, a cone from above): squeezing
     there pushes the object away from the palm, out through the fingertips,
@@ -304,7 +320,8 @@ class SqueezeInwardScorer:
 
     def score(self, batch: Any, options: Options) -> np.ndarray:
         n = batch.contact_normals  # (F, nf, 3), zero for a finger holding none
-        e = -np.einsum("fj,fj->f", n.sum(axis=1), batch.approach) / n.shape[1]
+        _, m = _touching(batch)
+        e = -np.einsum("fj,fj->f", n.sum(axis=1), batch.approach) / m
         return np.clip(0.5 * (1.0 - e), 0.0, 1.0)
 
 
