@@ -490,6 +490,12 @@ def render_generic_scorers_runs() -> str:
     return _runs_in("generic-scorers")
 
 
+def render_contact_fingers_runs() -> str:
+    """The runs that measured hands needing their thumb and two fingers on the
+    object against hands needing every finger."""
+    return _runs_in("contact-fingers")
+
+
 def render_reach_down_runs() -> str:
     """The runs that measured the reach_down scorer in the generic default."""
     return _runs_in("reach-down")

@@ -35,6 +35,7 @@ from docs_results import (
     eval_files,
     render_angles_from_runs,
     render_chart_grippers,
+    render_contact_fingers_runs,
     render_default_spec_runs,
     render_defaults_effect,
     render_defaults_success,
@@ -69,6 +70,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "on-table-runs": render_on_table_runs,
     "reach-down-runs": render_reach_down_runs,
     "generic-scorers-runs": render_generic_scorers_runs,
+    "contact-fingers-runs": render_contact_fingers_runs,
     "angles-from-runs": render_angles_from_runs,
     "results-scorers": render_results_scorers,
 }
