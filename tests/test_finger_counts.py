@@ -190,11 +190,12 @@ def test_one_finger_is_refused(tmp_path: Path) -> None:
         load_gripper_description(tmp_path / "none.yaml")
 
 
-def _scene(seed: int = 0) -> Scene:
-    """A 4.4 cm x 15 cm upright cylinder on a 40 cm table, one camera's view."""
+def _scene(seed: int = 0, radius: float = 0.022, height: float = 0.15) -> Scene:
+    """An upright cylinder (4.4 cm x 15 cm unless given) on a 40 cm table, one
+    camera's view."""
     rng = np.random.default_rng(seed)
     table = np.c_[rng.uniform(-0.2, 0.2, (3000, 2)), np.zeros(3000)]
-    points = np.vstack([table, _cylinder(0.022, 0.15, 1800, seed)])
+    points = np.vstack([table, _cylinder(radius, height, 1800, seed)])
     points += rng.normal(0.0, 0.0005, points.shape)
     return Scene(
         views=[View(points=points, T_world_camera=np.eye(4), name="cam")],
@@ -333,12 +334,13 @@ def test_contact_fingers_verdicts_equal_the_reference(
     assert out.best == ref.best
 
 
-def test_a_finger_that_holds_nothing_closes_to_closed(tripods) -> None:
+def test_a_finger_that_holds_nothing_closes_to_closed(tripods, tmp_path) -> None:
     """A plan whose chosen grasp leaves a finger outside ``contact_fingers``
     without a contact: every scorer gives finite scores in [0, 1] (the
     contact terms over the fingers that hold points), that finger's target has
     no contact posture and closes to its ``closed`` posture, the others have
-    theirs; the result's JSON carries it."""
+    theirs; the result's JSON carries it, and its recording reads back the
+    same result and draws."""
     path, g = tripods[5]
     scorers = [
         "centroid_distance",
@@ -366,7 +368,8 @@ def test_a_finger_that_holds_nothing_closes_to_closed(tripods) -> None:
         }
     )
     pipe = Pipeline(spec, gripper=g)
-    result = pipe.plan(_scene())
+    thin = _scene(radius=0.012, height=0.06)  # narrower than the hand's fingers
+    result = pipe.plan(thin)
     assert result.found, result.hint
     cands = result.candidates
     feasible = cands.reason == 0
@@ -376,7 +379,14 @@ def test_a_finger_that_holds_nothing_closes_to_closed(tripods) -> None:
     # a grasp with a free finger: plan it
     free = np.flatnonzero(feasible & (cands.contacts == 0).any(axis=1))
     assert len(free), "a scene with grasps that leave a finger free"
-    choice = pipe.plan(_scene(), choose=int(free[0]))
+    run = tmp_path / "free.mcap"
+    choice = pipe.plan(thin, choose=int(free[0]), observers=[RunRecorder(run)])
+    back = open_run(run)
+    assert back.status == "ok" and back.result is not None
+    assert compare_results(choice, back.result) == []
+    png = tmp_path / "free.png"
+    res = CliRunner().invoke(app, ["view", str(run), "-o", str(png)])
+    assert res.exit_code == 0, res.stdout
     targets = {t["finger"]: t for t in choice.finger_targets}
     missing = [c.finger for c in choice.contacts if len(c.points) == 0]
     assert missing and not set(missing) & set(CONTACT[5])
