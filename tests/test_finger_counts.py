@@ -87,21 +87,11 @@ def _held_truth(g: GripperModel, T_world_gripper: np.ndarray, points: np.ndarray
     return out
 
 
-@pytest.mark.parametrize("kernel", KERNELS)
-@pytest.mark.parametrize("sampling", list(SAMPLINGS))
-@pytest.mark.parametrize("n", FINGERS, ids=lambda n: f"{n}fingers")
-def test_search_verdicts_equal_the_reference(
-    hands, monkeypatch: pytest.MonkeyPatch, n: int, sampling: str, kernel: str
-) -> None:
-    """Rejection reasons, contacts, the feasible set, the holdings and the
-    chosen candidate are the loop-by-loop reference's, for every kernel."""
-    g = hands[n][1]
+def _cylinder_case(g: GripperModel, n: int, sampling: str):
+    """A search of ``g`` around a 4.4 cm x 15 cm cylinder: its points, frame,
+    the table, 40 random samples, the orientations of ``SAMPLINGS[sampling]``
+    and the candidates' poses."""
     obj = _cylinder(0.022, 0.15, 200, seed=n)
-    obs = (
-        _cylinder(0.02, 0.1, 80, seed=n + 1) + [0.075, 0.0, 0.0]
-        if sampling == "dense"
-        else np.zeros((0, 3))
-    )
     T_world_object = np.eye(4)
     T_world_object[:3, 3] = obj.mean(axis=0)
     table = TableSE(
@@ -118,10 +108,14 @@ def test_search_verdicts_equal_the_reference(
     _, T_wg, _, _ = candidate_poses(
         T_world_object, samples, o.R_object_gwc, g.T_gripper_gwc, o.depth
     )
-    ref = reference_search(
-        g, T_world_object, samples, o.R_object_gwc, obj, obs, table, o.depth
-    )
-    assert (ref.reason == 0).any() and (ref.reason == 2).any(), "a scene that decides"
+    return obj, T_world_object, table, samples, o, T_wg
+
+
+def _check_kernel(g, case, obs, ref, monkeypatch: pytest.MonkeyPatch, kernel: str):
+    """``kernel``'s verdicts on ``case`` (:func:`_cylinder_case`) with obstacle
+    points ``obs``: the reference's ``ref`` reasons, contacts, feasible set and
+    choice, and the holdings every point against every sphere gives."""
+    obj, T_world_object, table, samples, o, T_wg = case
     force(monkeypatch, kernel)
     structure = CandidateStructure(T_world_object, samples, o.R_object_gwc, o.depth)
     ev = evaluate_candidates(T_wg, g, obj, obs, table, structure=structure)
@@ -136,6 +130,29 @@ def test_search_verdicts_equal_the_reference(
         [("centroid_distance", CentroidDistanceScorer(), None, 1.0)],
     )
     assert out.best == ref.best
+
+
+@pytest.mark.parametrize("kernel", KERNELS)
+@pytest.mark.parametrize("sampling", list(SAMPLINGS))
+@pytest.mark.parametrize("n", FINGERS, ids=lambda n: f"{n}fingers")
+def test_search_verdicts_equal_the_reference(
+    hands, monkeypatch: pytest.MonkeyPatch, n: int, sampling: str, kernel: str
+) -> None:
+    """Rejection reasons, contacts, the feasible set, the holdings and the
+    chosen candidate are the loop-by-loop reference's, for every kernel."""
+    g = hands[n][1]
+    case = _cylinder_case(g, n, sampling)
+    obj, T_world_object, table, samples, o, _ = case
+    obs = (
+        _cylinder(0.02, 0.1, 80, seed=n + 1) + [0.075, 0.0, 0.0]
+        if sampling == "dense"
+        else np.zeros((0, 3))
+    )
+    ref = reference_search(
+        g, T_world_object, samples, o.R_object_gwc, obj, obs, table, o.depth
+    )
+    assert (ref.reason == 0).any() and (ref.reason == 2).any(), "a scene that decides"
+    _check_kernel(g, case, obs, ref, monkeypatch, kernel)
 
 
 @pytest.mark.parametrize("nf", [1, 5, 6, 12])
@@ -204,6 +221,37 @@ def _scene(seed: int = 0, radius: float = 0.022, height: float = 0.15) -> Scene:
     )
 
 
+#: the built-in scorers that read the fingers' contacts
+CONTACT_SCORERS = [
+    "contact_balance",
+    "antipodal",
+    "joint_margin",
+    "mass_center",
+    "wrench_balance",
+    "contact_depth",
+    "squeeze_inward",
+]
+
+
+def _hand_spec(path: Path, weights: dict[str, float], **fields: object):
+    """A spec for the hand at ``path``: approach directions over the
+    half-sphere on a 3 x 3 x 3 grid, the scorers ``weights``, and ``fields``."""
+    return load_spec(
+        {
+            "gripper": str(path),
+            "segmenter": {"name": "ransac_dbscan"},
+            "sampling": {
+                "mode": "approach_sphere",
+                "grid": [3, 3, 3],
+                "directions": 6,
+                "orientations": 4,
+            },
+            "scorers": [{"name": s, "weight": w} for s, w in weights.items()],
+            **fields,
+        }
+    )
+
+
 @pytest.mark.parametrize("n", [5, 6], ids=lambda n: f"{n}fingers")
 def test_plan_records_and_draws(hands, tmp_path: Path, n: int) -> None:
     """A five- or six-finger hand plans a grasp (approach directions over the
@@ -211,31 +259,8 @@ def test_plan_records_and_draws(hands, tmp_path: Path, n: int) -> None:
     finger; the run's recording reads back the same result and draws as a PNG,
     and the hand's own picture gives each finger a colour of its own."""
     path, g = hands[n]
-    scorers = [
-        "centroid_distance",
-        "contact_balance",
-        "antipodal",
-        "table_clearance",
-        "approach_direction",
-        "joint_margin",
-        "mass_center",
-        "wrench_balance",
-        "contact_depth",
-    ]
-    spec = load_spec(
-        {
-            "gripper": str(path),
-            "segmenter": {"name": "ransac_dbscan"},
-            "sampling": {
-                "mode": "approach_sphere",
-                "points": 27,
-                "grid": [3, 3, 3],
-                "directions": 6,
-                "orientations": 4,
-            },
-            "scorers": [{"name": s, "weight": 1.0} for s in scorers],
-        }
-    )
+    scorers = ["centroid_distance", *CONTACT_SCORERS, "table_clearance"]
+    spec = _hand_spec(path, {s: 1.0 for s in [*scorers, "approach_direction"]})
     run = tmp_path / "run.mcap"
     result = Pipeline(spec, gripper=g).plan(_scene(), observers=[RunRecorder(run)])
     assert result.found, result.hint
@@ -288,23 +313,8 @@ def test_contact_fingers_verdicts_equal_the_reference(
     np.testing.assert_array_equal(
         g.contact_fingers, [f in CONTACT[n] for f in g.finger_names]
     )
-    obj = _cylinder(0.022, 0.15, 200, seed=n)
-    T_world_object = np.eye(4)
-    T_world_object[:3, 3] = obj.mean(axis=0)
-    table = TableSE(
-        np.eye(4), np.array([0, 0, -0.05]), np.array([0.35] * 2 + [0.05]), 10.0
-    )
-    rng = np.random.default_rng(n)
-    samples = rng.uniform([-0.02, -0.02, -0.07], [0.02, 0.02, 0.07], (40, 3))
-    o = orientation_set(
-        Sampling(**SAMPLINGS["dense"]),
-        T_world_object,
-        np.array([0, 0, 1.0]),
-        (-0.03, 0.02),
-    )
-    _, T_wg, _, _ = candidate_poses(
-        T_world_object, samples, o.R_object_gwc, g.T_gripper_gwc, o.depth
-    )
+    case = _cylinder_case(g, n, "dense")
+    obj, T_world_object, table, samples, o, _ = case
     obs = np.zeros((0, 3))
     ref = reference_search(
         g, T_world_object, samples, o.R_object_gwc, obj, obs, table, o.depth
@@ -319,19 +329,7 @@ def test_contact_fingers_verdicts_equal_the_reference(
     assert extra.any(), "a scene where the rule decides"
     assert (ref.contacts[extra] == 0).any(axis=1).all()
     assert (ref.contacts[feasible][:, g.contact_fingers] > 0).all()
-    force(monkeypatch, kernel)
-    structure = CandidateStructure(T_world_object, samples, o.R_object_gwc, o.depth)
-    ev = evaluate_candidates(T_wg, g, obj, obs, table, structure=structure)
-    np.testing.assert_array_equal(ev.reason, ref.reason)
-    np.testing.assert_array_equal(ev.contacts, ref.contacts)
-    np.testing.assert_array_equal(ev.holding, _held_truth(g, T_wg[ev.feasible], obj))
-    out = run_search(
-        SearchInput(
-            g, T_world_object, np.ptp(obj, axis=0), samples, o, obj, obs, table
-        ),
-        [("centroid_distance", CentroidDistanceScorer(), None, 1.0)],
-    )
-    assert out.best == ref.best
+    _check_kernel(g, case, obs, ref, monkeypatch, kernel)
 
 
 def test_a_finger_that_holds_nothing_closes_to_closed(tripods, tmp_path) -> None:
@@ -342,31 +340,9 @@ def test_a_finger_that_holds_nothing_closes_to_closed(tripods, tmp_path) -> None
     theirs; the result's JSON carries it, and its recording reads back the
     same result and draws."""
     path, g = tripods[5]
-    scorers = [
-        "centroid_distance",
-        "contact_balance",
-        "antipodal",
-        "joint_margin",
-        "mass_center",
-        "wrench_balance",
-        "contact_depth",
-        "squeeze_inward",
-    ]
-    spec = load_spec(
-        {
-            "gripper": str(path),
-            "segmenter": {"name": "ransac_dbscan"},
-            "sampling": {
-                "mode": "approach_sphere",
-                "grid": [3, 3, 3],
-                "directions": 6,
-                "orientations": 4,
-            },
-            "approach": {"close_to": "contacts"},
-            "scorers": [{"name": "centroid_distance", "weight": 1.0}]
-            + [{"name": s, "weight": 0.0} for s in scorers[1:]],
-        }
-    )
+    scorers = ["centroid_distance", *CONTACT_SCORERS]
+    weights = {"centroid_distance": 1.0, **{s: 0.0 for s in CONTACT_SCORERS}}
+    spec = _hand_spec(path, weights, approach={"close_to": "contacts"})
     pipe = Pipeline(spec, gripper=g)
     thin = _scene(radius=0.012, height=0.06)  # narrower than the hand's fingers
     result = pipe.plan(thin)
