@@ -205,7 +205,7 @@ def _finger_target(
     start = int(g.config_offsets[f])
     q_grid = g.finger_configurations(f)  # (K, d)
     is_allowed = _allowed_mask(g, f, spheres)  # (K,)
-    if not is_allowed.any() or len(held) == 0:
+    if not is_allowed.any():
         is_allowed[:] = True
     allowed = np.flatnonzero(is_allowed)  # (c,) into the finger's grid
     # first the few configurations nearest each held point (the finger's pad tree,
@@ -218,10 +218,8 @@ def _finger_target(
     is_near[near.reshape(-1)] = True
     first = np.flatnonzero(is_near & is_allowed)
     local, best, gap = allowed, 0, np.inf
-    if len(held) == 0:
-        gap = 0.0
     for candidates in (first, allowed):
-        if len(held) == 0 or len(candidates) == 0:
+        if len(candidates) == 0:
             continue
         outside = _outside(g.config_pad[start + candidates], held, centre)  # (c,)
         if not outside.any():
