@@ -274,14 +274,12 @@ def _free_finger_target(g: GripperModel, f: int, pre: dict[str, float]) -> Finge
     on the way, it holds it there too. ``pad_world`` is its pad at that
     posture, gripper frame (as a contact's is before the caller moves it)."""
     joints = g.finger_joints[f]
-    lim = np.asarray(g.finger_limits[f], dtype=np.float64)
-    q = np.array([g.closed.get(j, pre.get(j, 0.0)) for j in joints], dtype=np.float64)
-    q = np.clip(q, lim[:, 0], lim[:, 1])
+    grasp = _within_limits(g, {j: g.closed.get(j, pre.get(j, 0.0)) for j in joints})
     return FingerTarget(
         finger=g.finger_names[f],
         contact={},
-        grasp={j: float(v) for j, v in zip(joints, q, strict=True)},
-        pad_world=pad_positions(g, f, q[None])[0],
+        grasp=grasp,
+        pad_world=pad_positions(g, f, np.array([[grasp[j] for j in joints]]))[0],
         gap=None,
         squeeze=0.0,
     )
