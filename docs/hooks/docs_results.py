@@ -496,6 +496,11 @@ def render_contact_fingers_runs() -> str:
     return _runs_in("contact-fingers")
 
 
+def render_approach_direction_runs() -> str:
+    """The runs that measured approach_direction in the generic default."""
+    return _runs_in("approach-direction")
+
+
 def render_reach_down_runs() -> str:
     """The runs that measured the reach_down scorer in the generic default."""
     return _runs_in("reach-down")
