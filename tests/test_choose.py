@@ -10,7 +10,8 @@ import pytest
 
 from wsgrasp.api import Pipeline, as_scene
 from wsgrasp.errors import InputError
-from wsgrasp.planning.closing import table_back_off
+from wsgrasp.planning.sweeps import sweep_back_offs
+from wsgrasp.planning.targets import pregrasp_pose
 from wsgrasp.spec import load_spec
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -48,12 +49,12 @@ def test_an_alternative_taken_is_finished_as_a_choice(planned):
     assert taken.score == pytest.approx(cands.score[index])
     g = pipe.gripper
     T = cands.T_world_ee[index]  # the candidate's pose before any back-off
-    table = pipe.prepare(as_scene(SCENE)).search_input.table.T_world_table
-    moved = table_back_off(g, T, table)
-    # backed off where its fingers' closing paths would pass below the table
-    # (unless the backed-off pose fails a check), never moved otherwise
-    allowed = [T] if moved is None else [T, moved[1]]
-    assert any(np.allclose(taken.T_world_ee, A, atol=1e-12) for A in allowed)
+    inp = pipe.prepare(as_scene(SCENE)).search_input
+    d = sweep_back_offs(g, T[None], inp.table.T_world_table, inp.object_points)[0]
+    # backed off where its fingers' closing sweeps would pass through the table
+    # before they reach the object, never moved otherwise
+    want = pregrasp_pose(g, T, d) if d > 0.0 else T
+    np.testing.assert_allclose(taken.T_world_ee, want, atol=1e-12)
     # its contacts are its own: every finger holds points, and targets exist
     assert all(len(c.points) for c in taken.contacts)
     assert set(taken.joints_grasp) == set(g.actuated_joints)

@@ -1072,17 +1072,16 @@ def _sweeps_cleared(
     one that no back-off clears, or whose backed-off pose fails a check of the
     search (its fingers no longer hold the object, say), is rejected as
     ``finger_sweeps_table``. The best of the rest is the choice, at its pose
-    backed off (the candidate set holds it so, as the search holds its own
-    best); the others stay as generated and are backed off when taken
-    (:func:`_taken_pose`). Without rejections and with the search's own
-    choice at the same pose, ``out`` is returned as it is; else its candidate
+    backed off (the candidate set holds it so); the others stay as generated
+    and are backed off when taken (:func:`_taken_pose`). Where nothing is
+    rejected and the search's own choice needs no back-off, ``out`` is
+    returned as it is; else its candidate
     arrays are updated in place (the search's own, which nothing else holds:
     copies of the two (C, 4, 4) pose arrays took a third of this step on the
     Allegro hand's dense search).
     """
     from dataclasses import replace
 
-    from wsgrasp.planning.candidates import candidate_poses
     from wsgrasp.planning.evaluate import evaluate_candidates
     from wsgrasp.planning.result import REASONS, Alternative
     from wsgrasp.planning.search import _contacts
@@ -1095,18 +1094,6 @@ def _sweeps_cleared(
         return out
     T = cands.T_world_ee[feasible]  # (F, 4, 4) a copy
     best = out.best
-    if best is not None:
-        # the search moved its best back by its own rule: the pose as generated
-        o = inp.orientations
-        s, k = int(cands.sample[best]), int(cands.orientation[best])  # type: ignore[index]
-        gwc_gen, T_gen, _, _ = candidate_poses(
-            inp.T_world_object,
-            inp.samples_object[s : s + 1],
-            o.R_object_gwc[k : k + 1],
-            g.T_gripper_gwc,
-            None if o.depth is None else o.depth[k : k + 1],
-        )
-        T[np.searchsorted(feasible, best)] = T_gen[0]
     # the candidates of one orientation share their rotation
     groups = cands.orientation[feasible] if cands.orientation is not None else None
     d = sweep_back_offs(g, T, inp.table.T_world_table, inp.object_points, groups)
@@ -1140,9 +1127,6 @@ def _sweeps_cleared(
     for v in terms.values():
         v[feasible[rejected]] = np.nan
     T_ee, T_gwc = cands.T_world_ee, cands.T_world_gwc
-    if best is not None:  # back to its pose as generated
-        T_ee[best] = T_gen[0]
-        T_gwc[best] = gwc_gen[0]
     contacts = []
     score_terms: dict[str, float] = {}
     alternatives = []

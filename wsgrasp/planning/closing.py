@@ -7,10 +7,6 @@ gripper model keeps points on the collision geometry of every link the finger's
 joints move at postures along it (``GripperModel.finger_sweep``;
 :func:`finger_sweep`). :mod:`wsgrasp.planning.sweeps` keeps those sweeps off the
 table for every candidate at once.
-
-:func:`table_back_off` is the older rule for one pose: the pad centres' whole
-paths kept above the table, what the search applies to its best before the
-finishing step judges every feasible candidate by the sweeps.
 """
 
 from __future__ import annotations
@@ -25,7 +21,6 @@ __all__ = [
     "closing_centre",
     "closing_paths",
     "finger_sweep",
-    "table_back_off",
 ]
 
 Array = NDArray[np.float64]
@@ -83,46 +78,6 @@ def closing_centre(g: GripperModel) -> Array:
     if len(paths) == 0:
         return np.asarray(g.T_gripper_tcp[:3, 3], dtype=np.float64)
     return np.asarray(paths[:, -1].mean(axis=0), dtype=np.float64)
-
-
-def table_back_off(
-    g: GripperModel, T_world_gripper: Array, T_world_table: Array
-) -> tuple[float, Array] | None:
-    """The least back-off along the approach axis that keeps every finger's
-    closing path above the table.
-
-    Parameters
-    ----------
-    g : GripperModel
-    T_world_gripper : (4, 4) float
-        The chosen grasp.
-    T_world_table : (4, 4) float
-        Table frame: origin on the surface, z its normal towards the object.
-
-    Returns
-    -------
-    (distance, T_world_gripper) or None
-        The back-off (m, > 0, at most 3 cm in 5 mm steps) and the pose moved back
-        by it; None when the paths already stay above the table, or stay below
-        it even 3 cm back, or the model has no paths.
-    """
-    paths = closing_paths(g)
-    if len(paths) == 0:
-        return None
-    T = np.asarray(T_world_gripper, dtype=np.float64)
-    a = T[:3, :3] @ g.approach_axis  # (3,) world
-    n = T_world_table[:3, 2]
-    # pad heights above the table at the grasp, then moved back along -a
-    p = paths.reshape(-1, 3) @ T[:3, :3].T + T[:3, 3]  # (nf K, 3) world
-    low = float(((p - T_world_table[:3, 3]) @ n).min())
-    heights = low - BACK_OFF_STEPS * float(a @ n)  # (k,)
-    ok = np.flatnonzero(heights >= 0.0)
-    if len(ok) == 0 or ok[0] == 0:
-        return None
-    d = float(BACK_OFF_STEPS[ok[0]])
-    T_back = T.copy()
-    T_back[:3, 3] -= d * a
-    return d, T_back
 
 
 def finger_sweep(g: GripperModel) -> Array:

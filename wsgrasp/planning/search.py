@@ -1,8 +1,8 @@
 """The search: candidates → evaluation → scores → the chosen grasp.
 
-The chosen grasp is then backed off along its approach axis where its fingers'
-closing paths would pass below the table (``wsgrasp.planning.closing``); the
-candidate set holds the pose as moved.
+Every pose stays as generated: where the fingers' closing sweeps would pass
+through the table, ``wsgrasp.api`` backs the feasible candidates off afterwards
+(``wsgrasp.planning.sweeps``) and chooses again among those it clears.
 
 This module works on arrays in the world frame; ``wsgrasp.api`` turns a scene into
 them and a ``PlanResult`` out of what this returns.
@@ -21,7 +21,6 @@ from numpy.typing import NDArray
 from wsgrasp.geometry import invert_transforms, points_in_spheres, transform_points
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.planning.candidates import Orientations, candidate_poses
-from wsgrasp.planning.closing import table_back_off
 from wsgrasp.planning.evaluate import (
     CandidateStructure,
     FingerSpheres,
@@ -158,10 +157,6 @@ def run_search(
                 )
             )
         holding = ev.holdings.rows([best_local])[0]  # (no, nf)
-        backed = _back_off(g, T_world_gripper[best], inp, spheres)
-        if backed is not None:  # the chosen candidate's pose, moved back
-            T_world_gripper[best], holding = backed
-            T_world_gwc[best] = T_world_gripper[best] @ g.T_gripper_gwc
         contacts = _contacts(g, T_world_gripper[best], inp.object_points, holding)
     t2 = time.perf_counter()
     cands = CandidateSet(
@@ -184,28 +179,6 @@ def run_search(
         score_terms=best_terms,
         timing_ms={"search": (t1 - t0) * 1e3, "scoring": (t2 - t1) * 1e3},
     )
-
-
-def _back_off(
-    g: GripperModel,
-    T_world_gripper: Array,
-    inp: SearchInput,
-    spheres: FingerSpheres | None,
-) -> tuple[Array, NDArray[np.bool_]] | None:
-    """The chosen pose backed off along its approach until the fingers' closing
-    paths stay above the table (:func:`~wsgrasp.planning.closing.table_back_off`),
-    with what its fingers hold there; None when it needs no back-off or the
-    backed-off pose fails any of the search's checks."""
-    moved = table_back_off(g, T_world_gripper, inp.table.T_world_table)
-    if moved is None:
-        return None
-    T = moved[1][None]  # (1, 4, 4)
-    ev = evaluate_candidates(
-        T, g, inp.object_points, inp.obstacle_points, inp.table, spheres
-    )
-    if ev.reason[0] != 0:
-        return None
-    return moved[1], ev.holding[0]
 
 
 def _contacts(
