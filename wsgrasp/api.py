@@ -1133,7 +1133,7 @@ def _sweeps_cleared(
     if new_best is not None:
         i = int(np.searchsorted(feasible, new_best))
         T_best = taken(i)
-        if d[i] > 0.0:  # moved back, as the search moves its own best
+        if d[i] > 0.0:  # moved back: the candidate set holds the choice as taken
             T_ee[new_best] = T_best
             T_gwc[new_best] = T_best @ g.T_gripper_gwc
         ev = evaluate_candidates(
