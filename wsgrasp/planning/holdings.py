@@ -72,9 +72,6 @@ class Holdings:
         F, nf = self.counts.shape
         return F, self.num_points, nf
 
-    def __len__(self) -> int:
-        return int(self.counts.shape[0])
-
     @property
     def is_dense(self) -> bool:
         """Whether the whole mask is held (no work to read it)."""

@@ -179,13 +179,12 @@ class StructuredPoses:
         each candidate's row ``ol`` (m,) and translation ``u`` (m, 3) (its points
         are ``Q[ol] - u``)."""
         o = np.asarray(o, dtype=np.int64)
+        # a row per run of one orientation: one per orientation where they come
+        # grouped (the callers' order, :func:`grouped`)
         change = o[1:] != o[:-1]
-        if len(o) and np.all(o[1:] >= o[:-1]):  # grouped (the callers' order)
-            used = np.concatenate((o[:1], o[1:][change]))
-            ol = np.zeros(len(o), dtype=np.int64)
-            np.cumsum(change, out=ol[1:])
-        else:
-            used, ol = np.unique(o, return_inverse=True)
+        used = np.concatenate((o[:1], o[1:][change]))
+        ol = np.zeros(len(o), dtype=np.int64)
+        np.cumsum(change, out=ol[1:])
         R = self.R[used]  # (q, 3, 3)
         Q = in_axes(P, R)  # (q, 3, n) gripper axes, untranslated
         # u = w R[ol] with w = A[s] + B[o] the gripper origins (world frame), one

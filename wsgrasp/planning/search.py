@@ -264,14 +264,8 @@ def no_grasp_hint(
             (r for r in REASONS if r not in ("feasible", worst) and histogram[r]),
             key=lambda r: -histogram[r],
         )
-        why = (
-            "; of the other "
-            + str(rest)
-            + ", "
-            + ", ".join(f"{histogram[r]} {_REJECTED[r]}" for r in others)
-            if others
-            else ""
-        )
+        listed = ", ".join(f"{histogram[r]} {_REJECTED[r]}" for r in others)
+        why = f"; of the other {rest}, {listed}" if others else ""
         return (
             f"the gripper hits the table at {histogram[worst]} of {total} poses "
             f"(the object stands {height:.3f} m tall){why}; sample approach "

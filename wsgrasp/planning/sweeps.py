@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial import ConvexHull, QhullError
+from scipy.spatial import ConvexHull, QhullError, cKDTree
 
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.planning.closing import BACK_OFF_STEPS, _pre_closed, finger_sweep
@@ -147,8 +147,6 @@ def _reach_grid(points: Array) -> tuple[Array, NDArray[np.uint8]]:
     voxel holds the first step at which a sweep point lies within the reach
     radius of its centre (``K`` where none does). Returns the grid's origin
     (the centre of voxel ``(0, 0, 0)``) and the grid."""
-    from scipy.spatial import cKDTree
-
     K, P = points.shape[:2]
     if P > 1:
         d, _ = cKDTree(points[0]).query(points[0], k=2)  # (P, 2)
@@ -440,10 +438,10 @@ def _distinct_rotations(
     compared as numbers, lexicographically), and each one's index: (U, 3, 3),
     (C,). Rows are grouped by ``groups`` (C,) (nonnegative labels, a rotation
     per label: a row of each label stands for it, checked), then only the
-    groups' first rows are sorted (``np.lexsort``): a lexsort of every row took
-    37 ms of the Allegro's dense sweeps (87,417 rows, 4,670 distinct), the
-    labels (the candidates' orientations) 3 ms. Without labels (a search's
-    callers give them; a pose checked alone has one row), every row is sorted."""
+    groups' first rows are sorted: sorting every row took 99 ms of the Allegro's
+    dense sweeps (87,417 rows, 4,670 distinct), the labels (the candidates'
+    orientations) 4 ms. Without labels (a search's callers give them; a pose
+    checked alone has one row), every row is sorted."""
     rows = np.ascontiguousarray(R, dtype=np.float64).reshape(-1, 9)  # (C, 9)
     first = of = np.arange(len(rows))
     if groups is not None and len(rows):
@@ -456,13 +454,10 @@ def _distinct_rotations(
         renumber[used] = np.arange(len(used))
         if np.array_equal(rows[some[used]][renumber[label]], rows):  # one per label
             first, of = some[used], renumber[label]
-    order = np.lexsort(rows[first].T[::-1])  # first column most significant
-    s = rows[first][order]
-    new = np.ones(len(s), dtype=bool)
-    new[1:] = np.any(s[1:] != s[:-1], axis=1)
-    rank = np.empty(len(s), dtype=np.int64)
-    rank[order] = np.cumsum(new) - 1
-    return s[new].reshape(-1, 3, 3), rank[of]
+    # a stable sort (``return_index``): of rows equal as numbers (0.0 and -0.0),
+    # the first stands for them
+    s, _, rank = np.unique(rows[first], axis=0, return_index=True, return_inverse=True)
+    return s.reshape(-1, 3, 3), rank.reshape(-1)[of]
 
 
 def _reached_first(
