@@ -1,4 +1,5 @@
-"""The two-level sphere index answers exactly what a brute-force test answers."""
+"""The sphere index (the depth grid and its sphere lists) answers exactly what a
+brute-force test answers."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from wsgrasp.geometry import points_in_spheres
-from wsgrasp.planning.spheres import FingerSpheres
+from wsgrasp.planning.evaluate import FingerSpheres
 
 
 def _brute(g, points):
@@ -42,10 +43,11 @@ def test_grid_lookup_matches_brute_force(seed, fingers, per_finger, cell):
     surface = g.sphere_centers[k] + dirs * g.sphere_radii[k, None]
     points = np.concatenate([points, surface, g.sphere_centers])
     index = FingerSpheres(g, cell)
-    np.testing.assert_array_equal(index.holding(points), _brute(g, points))
+    got = index.holding_coordinates(*points.T)
+    np.testing.assert_array_equal(got, _brute(g, points))
 
 
 def test_points_far_outside_the_grid(jaw_gripper):
     index = FingerSpheres(jaw_gripper)
     far = np.array([[1e3, 0, 0], [-1e3, -1e3, -1e3], [0, 0, 1e6]])
-    assert not index.holding(far).any()
+    assert not index.holding_coordinates(*far.T).any()

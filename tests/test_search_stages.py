@@ -413,9 +413,8 @@ def test_numpy_slab_kernels_match_every_point(seed, q, n, spheres, fingers):
         _slab_hits(Slabs(few), ol, u, cand, *se), every.any(axis=1)
     )
     sp = FingerSpheres(g)
-    depth = FingerDepth(g.sphere_centers, g.sphere_radii, g.sphere_finger, fingers)
     dummy = StructuredPoses(np.eye(3)[None], np.zeros((1, 3)), np.zeros((1, 3)))
-    f = _Fingers(dummy, np.zeros((n, 3)), sp, depth, Kernels(False, False))
+    f = _Fingers(dummy, np.zeros((n, 3)), sp, Kernels(False, False))
     truth = sp.holding_coordinates(*xyz)
     np.testing.assert_array_equal(f._numpy_held(Q, ol, u, cand), truth)
 

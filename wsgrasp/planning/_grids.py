@@ -1,4 +1,4 @@
-"""The grids the compiled body and finger loops read (``_compiled``).
+"""The grids the body and finger tests read, compiled (``_compiled``) or numpy's.
 
 ``FingerDepth``
     Per finger, ``D(y) = max_k (r_k - |y - c_k|)`` at the nodes of a grid in the
@@ -10,6 +10,9 @@
     point nearest the node decides (``FingerDepth.sphere_lists``). Its bounds
     keep ``MARGIN`` (m) on the safe side, far above rounding in the coordinates
     and in the float32 grid, so a verdict decided there is the exact test's.
+``FingerSpheres``
+    A gripper's ``FingerDepth`` with its sphere lists, built once: the index
+    every finger test of a pipeline's searches reads.
 ``NearestPoint``
     Per voxel around the object, an object point near it: where the body loop
     looks first (a hint; the verdict is the exact test's).
@@ -17,16 +20,14 @@
 
 from __future__ import annotations
 
-import weakref
-
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
-from wsgrasp.planning.spheres import FingerSpheres
+from wsgrasp.gripper.model import GripperModel
 
-__all__ = ["NearestPoint", "FingerDepth", "finger_depth"]
+__all__ = ["NearestPoint", "FingerDepth", "FingerSpheres"]
 
 Array = NDArray[np.float64]
 
@@ -99,14 +100,16 @@ class FingerDepth:
     held or unsure for few fingers at once), wider where more do. The tables
     derived from :attr:`states` (held, unsure, the packed held counts) are
     read by code, so a node's verdict for every finger is one lookup. The nodes
-    lie a quarter of the smallest radius apart within 1-2 mm, farther where the
-    grid would exceed 8 million nodes.
+    lie a quarter of the smallest radius apart within 1-2 mm (or ``cell``),
+    farther where the grid would exceed 8 million nodes.
 
     Parameters
     ----------
     centers, radii, finger : (s, 3), (s,), (s,)
         The gripper's spheres and the finger of each.
     num_fingers : int
+    cell : float, optional
+        The nodes' spacing (m).
     """
 
     #: a finger's state at a node, as kept in :attr:`states`
@@ -118,6 +121,7 @@ class FingerDepth:
         radii: Array,
         finger: NDArray[np.int64],
         num_fingers: int,
+        cell: float | None = None,
     ) -> None:
         if num_fingers < 1:
             raise ValueError(
@@ -125,7 +129,7 @@ class FingerDepth:
             )
         lo_s, hi_s = centers - radii[:, None], centers + radii[:, None]  # (s, 3)
         lo0, hi0 = lo_s.min(axis=0), hi_s.max(axis=0)
-        h = float(np.clip(radii.min() / 4, 1e-3, 2e-3))
+        h = float(cell) if cell else float(np.clip(radii.min() / 4, 1e-3, 2e-3))
         while np.prod((hi0 - lo0) / h + 8) > 8e6:
             h *= 1.25
         self.cell = h
@@ -317,6 +321,59 @@ class FingerDepth:
         self._compact = (codes, of, start, listed, f_i.astype(np.int32))
         return self._compact
 
+    def holding_coordinates(self, x: Array, y: Array, z: Array) -> NDArray[np.bool_]:
+        """Which fingers' spheres hold each point, given as coordinate arrays
+        ``x, y, z`` (gripper frame, all of one shape): (..., nf) bool. numpy's
+        form of the count loop's test (``_loops._count_loop``): the states at
+        the point's nearest node, and for a finger they leave unsure, the
+        spheres its lists name, ``dx * dx + dy * dy + dz * dz < r * r``. A
+        point outside the grid reads a border node, where no finger is held."""
+        codes, of, start, listed, owner = self.compact_lists()
+        _, _, centers, radii = self.sphere_lists()
+        shape = np.shape(x)
+        # the nearest node's flat index, in floats (exact below 2**53)
+        flat = np.zeros(shape)
+        for axis, c in enumerate((x, y, z)):
+            q = np.floor((c - self.origin[axis]) * (1.0 / self.cell) + 0.5)
+            np.clip(q, 0.0, float(self.shape[axis] - 1), out=q)
+            q *= float(self.strides[axis])
+            flat += q
+        code = codes[flat.astype(np.int64).ravel()]  # (n,) list codes
+        out = self.held_fingers[of[code]]  # (n, nf)
+        # one row per (point, listed sphere): the entries of each point's code
+        count = start[code + 1] - start[code]  # (n,) none where no finger is unsure
+        point = np.repeat(np.arange(len(code)), count)  # (e,)
+        first = np.repeat(start[code] - (np.cumsum(count) - count), count)
+        entry = first + np.arange(len(point))
+        s = listed[entry]
+        d = [np.ravel(c)[point] - centers[s, k] for k, c in enumerate((x, y, z))]
+        inside = d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < radii[s] * radii[s]
+        out[point[inside], owner[entry[inside]]] = True
+        return out.reshape(*shape, self.num_fingers)
+
+
+class FingerSpheres(FingerDepth):
+    """The :class:`FingerDepth` of ``gripper``'s workspace spheres, its sphere
+    lists built here rather than in the first search: the index the finger
+    tests of a pipeline's searches read, compiled or numpy's.
+
+    Parameters
+    ----------
+    gripper : GripperModel
+    cell : float, optional
+        The nodes' spacing (m); by default as :class:`FingerDepth` sets it.
+    """
+
+    def __init__(self, gripper: GripperModel, cell: float | None = None) -> None:
+        super().__init__(
+            gripper.sphere_centers,
+            gripper.sphere_radii,
+            gripper.sphere_finger,
+            gripper.num_fingers,
+            cell,
+        )
+        self.compact_lists()
+
 
 def _narrowest(count: int) -> type[np.integer]:
     """The narrowest integers that number ``count`` codes from 0: unsigned 8 or
@@ -355,23 +412,3 @@ def _renumber(
     new = (present[:, None] // base[None, :]) % 3  # (K', digits)
     rows = states[present // 3**digits]  # (K', f)
     return np.take(renumber, code), np.concatenate([rows, new.astype(np.uint8)], axis=1)
-
-
-_CACHE: weakref.WeakKeyDictionary[FingerSpheres, FingerDepth] = (
-    weakref.WeakKeyDictionary()
-)
-
-
-def finger_depth(
-    spheres: FingerSpheres,
-    centers: Array,
-    radii: Array,
-    finger: NDArray[np.int64],
-    num_fingers: int,
-) -> FingerDepth:
-    """The :class:`FingerDepth` of a gripper, built once per ``spheres`` index."""
-    got = _CACHE.get(spheres)
-    if got is None:
-        got = FingerDepth(centers, radii, finger, num_fingers)
-        _CACHE[spheres] = got
-    return got

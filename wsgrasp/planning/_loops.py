@@ -2,7 +2,7 @@
 (:mod:`wsgrasp.planning._compiled` loads them): ``_count_loop``, per candidate
 and object point, the depth grid's verdict at the nearest node
 (``_grids.FingerDepth``) and, for a finger it leaves unsure, the spheres listed
-at that node, with the arithmetic of ``FingerSpheres.holding_coordinates``;
+at that node, with the arithmetic of ``FingerDepth.holding_coordinates``;
 ``_body_loop``, per candidate, whether some object point lies inside a body
 superellipsoid, with the arithmetic of ``coordinates_in_superellipsoids``.
 Plain Python functions, so tests hold their logic to the reference with or
@@ -57,7 +57,7 @@ def _count_loop(
     ``held_f`` (L, nf) the fingers it proves to hold the point, ``unsure_any``
     (L,) whether it leaves some open. For those, the entries ``start[code]``
     to ``start[code + 1]`` (a sphere ``listed`` of finger ``owner`` each)
-    decide, with the arithmetic of ``FingerSpheres.holding_coordinates``:
+    decide, with the arithmetic of ``FingerDepth.holding_coordinates``:
     their bits go to the same words (a finger is never both held and unsure
     at a node, so a lane still counts below 2**16).
 

@@ -24,12 +24,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wsgrasp.gripper.model import GripperModel
+from wsgrasp.planning._grids import FingerSpheres
 from wsgrasp.planning.body import body_verdicts
 from wsgrasp.planning.fingers import finger_verdicts
 from wsgrasp.planning.holdings import HoldingField, Holdings, feasible_holdings
 from wsgrasp.planning.kernels import choose_kernels
 from wsgrasp.planning.poses import CandidateStructure, StructuredPoses, TableSE
-from wsgrasp.planning.spheres import FingerSpheres
 from wsgrasp.planning.table import table_verdicts
 
 __all__ = [

@@ -4,13 +4,12 @@ finger).
 
 Per orientation with the samples as translations (``wsgrasp.planning.poses``), a
 finger whose box of spheres is apart from the object's box holds none. The rest
-get the exact test (a point strictly inside a sphere, with the arithmetic of
-``FingerSpheres.holding_coordinates``), by one of two kernels
-(``wsgrasp.planning.kernels`` picks): the compiled loop (``_compiled``), which
-reads each point's verdict from the depth grid (``_grids.FingerDepth``) and tests
-the points it leaves unsure against the few spheres listed at their node; or
-numpy's, which tests only the points in the slab of the fingers' sphere box along
-its thinnest axis against the sphere grid of ``FingerSpheres`` (every point,
+get the exact test (a point strictly inside a sphere), by one of two kernels
+(``wsgrasp.planning.kernels`` picks), both reading each point's verdict from the
+depth grid (``_grids.FingerSpheres``) and testing the points it leaves unsure
+against the few spheres listed at their node: the compiled loop (``_compiled``),
+or numpy's (``FingerDepth.holding_coordinates``), which looks up only the points
+in the slab of the fingers' sphere box along its thinnest axis (every point,
 where the slab holds most of them). Any number of fingers: arrays are per finger
 with the count as a dimension.
 
@@ -31,10 +30,9 @@ from numpy.typing import NDArray
 
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.planning import _compiled
-from wsgrasp.planning._grids import FingerDepth, finger_depth
+from wsgrasp.planning._grids import FingerDepth
 from wsgrasp.planning.kernels import SLAB_FROM, SLAB_MOST, Kernels
 from wsgrasp.planning.poses import Slabs, StructuredPoses, clear_of_boxes, grouped
-from wsgrasp.planning.spheres import FingerSpheres
 
 __all__ = ["FingerVerdicts", "finger_verdicts", "count_held"]
 
@@ -83,17 +81,16 @@ def finger_verdicts(
     poses: StructuredPoses,
     index: NDArray[np.int64],
     gripper: GripperModel,
-    spheres: FingerSpheres,
+    spheres: FingerDepth,
     object_points: Array,
     kernels: Kernels,
 ) -> FingerVerdicts:
     """The finger test of the candidates ``index`` (k,) of ``poses`` (those
-    clear of the table and of every body)."""
-    g = gripper
-    nf = int(g.num_fingers)
+    clear of the table and of every body), through ``gripper``'s sphere index
+    ``spheres`` (``_grids.FingerSpheres``)."""
+    nf = int(gripper.num_fingers)
     P = np.asarray(object_points, dtype=np.float64).reshape(-1, 3)
-    depth = finger_depth(spheres, g.sphere_centers, g.sphere_radii, g.sphere_finger, nf)
-    fingers = _Fingers(poses, P, spheres, depth, kernels)
+    fingers = _Fingers(poses, P, spheres, kernels)
     s, o = np.divmod(np.asarray(index, dtype=np.int64), len(poses.R))
     keep = len(s) * len(P) * nf <= _KEEP_ENTRIES
     held, counts = fingers.holding_and_counts(s, o, keep)
@@ -113,11 +110,10 @@ class _Fingers:
         self,
         poses: StructuredPoses,
         P: Array,
-        spheres: FingerSpheres,
         depth: FingerDepth,
         kernels: Kernels,
     ) -> None:
-        self.poses, self.P, self.sp, self.depth = poses, P, spheres, depth
+        self.poses, self.P, self.depth = poses, P, depth
         # each finger's box of spheres, gripper frame: (nf, 3) each
         self.f_lo, self.f_hi = depth.box_lo, depth.box_hi
         self.step = max(1, _CHUNK_POINTS // max(len(P), 1))
@@ -196,7 +192,7 @@ class _Fingers:
             for a in range(0, len(cand), step):
                 cb = cand[a : a + step]
                 rb = ol[cb]
-                held[a : a + step] = self.sp.holding_coordinates(
+                held[a : a + step] = self.depth.holding_coordinates(
                     *(Q[rb, i] - u[cb, i, None] for i in range(3))
                 )
             return held
@@ -207,7 +203,7 @@ class _Fingers:
         for a in range(0, len(pair), _CHUNK_PAIRS):  # bounds the sphere lists
             b = slice(a, a + _CHUNK_PAIRS)
             base = r[b] * (3 * n) + j[b]  # Q[r, 0, j], flat
-            held[pair[b], j[b]] = self.sp.holding_coordinates(
+            held[pair[b], j[b]] = self.depth.holding_coordinates(
                 Qf[base] - uT[0, c[b]],
                 Qf[base + n] - uT[1, c[b]],
                 Qf[base + 2 * n] - uT[2, c[b]],
