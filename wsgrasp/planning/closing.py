@@ -11,8 +11,11 @@ table for every candidate at once.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numpy.typing import NDArray
+from scipy.interpolate import RegularGridInterpolator
 
 from wsgrasp.gripper.model import GripperModel
 
@@ -21,6 +24,7 @@ __all__ = [
     "closing_centre",
     "closing_paths",
     "finger_sweep",
+    "pad_positions",
 ]
 
 Array = NDArray[np.float64]
@@ -44,8 +48,6 @@ def closing_paths(g: GripperModel) -> Array:
     cached = g.__dict__.get("_closing_paths")
     if cached is not None:
         return cached  # type: ignore[no-any-return]
-    from wsgrasp.planning.targets import pad_positions
-
     paths = np.zeros((0, _PATH_STEPS, 3))
     if g.has_configurations:
         t = np.linspace(0.0, 1.0, _PATH_STEPS)[:, None]  # (K, 1)
@@ -93,3 +95,38 @@ def finger_sweep(g: GripperModel) -> Array:
     if g.has_sweeps:
         return g.finger_sweep
     return closing_paths(g)[:, :, None, :]
+
+
+def pad_positions(g: GripperModel, finger: int, q: Array) -> Array:
+    """The pad centre of ``finger`` at joint values ``q`` ``(n, d)``, gripper frame,
+    ``(n, 3)``: multilinear between the model's joint-grid samples."""
+    return _interpolator(g, finger)(np.asarray(q, dtype=np.float64))
+
+
+def _interpolator(g: GripperModel, finger: int) -> Callable[[Array], Array]:
+    """Multilinear interpolation of one finger's pad centre over its joint grid,
+    the joints clipped to their limits; one per model and finger, kept on the
+    model (built once)."""
+    cache: dict[int, Callable[[Array], Array]] = g.__dict__.setdefault(
+        "_pad_interp", {}
+    )
+    if finger in cache:
+        return cache[finger]
+    lim = np.asarray(g.finger_limits[finger], dtype=np.float64)  # (d, 2)
+    n = g.joint_samples
+    start, stop = g.config_offsets[finger], g.config_offsets[finger + 1]
+    grid = g.config_pad[start:stop].reshape((n,) * len(lim) + (3,))  # (n, ..., n, 3)
+    # a joint whose limits coincide has one distinct grid value: drop its axis
+    moving = lim[:, 1] > lim[:, 0]
+    axes = [np.linspace(lo, hi, n) for lo, hi in lim[moving]]
+    index = tuple(slice(None) if m else 0 for m in moving)
+    fn = RegularGridInterpolator(axes, grid[index], method="linear") if axes else None
+
+    def pads(q: Array) -> Array:
+        q = np.clip(q, lim[:, 0], lim[:, 1])  # (n, d)
+        if fn is None:  # no joint moves: one pad position
+            return np.broadcast_to(grid.reshape(-1, 3)[0], (len(q), 3)).copy()
+        return np.asarray(fn(q[:, moving]), dtype=np.float64)
+
+    cache[finger] = pads
+    return pads

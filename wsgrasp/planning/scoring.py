@@ -15,6 +15,7 @@ from wsgrasp.errors import PluginError
 from wsgrasp.geometry import invert_transforms, transform_points
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.planning.holdings import HoldingField, Holdings
+from wsgrasp.planning.targets import config_tree
 
 __all__ = ["CandidateBatch", "Scorer", "combine_scores"]
 
@@ -147,8 +148,6 @@ class CandidateBatch:
         out = np.full(self.contacts.shape, -1, dtype=np.int64)
         if not g.has_configurations:
             return out
-        from wsgrasp.planning.targets import config_tree
-
         offsets = g.config_offsets
         for f in range(g.num_fingers):
             rows = np.flatnonzero(self.contacts[:, f] > 0)

@@ -26,7 +26,12 @@ from numpy.typing import NDArray
 from scipy.spatial import ConvexHull, QhullError, cKDTree
 
 from wsgrasp.gripper.model import GripperModel
-from wsgrasp.planning.closing import BACK_OFF_STEPS, _pre_closed, finger_sweep
+from wsgrasp.planning.closing import (
+    BACK_OFF_STEPS,
+    _pre_closed,
+    finger_sweep,
+    pad_positions,
+)
 from wsgrasp.planning.poses import MARGIN, hull_vertices
 
 __all__ = [
@@ -370,8 +375,6 @@ def _presses_into_table(g: GripperModel, f: int) -> bool:
     the table or away from it lets the tip slide (the Allegro's, the Shadow
     hand's). The finger sticks where at least ``_STICK_SHARE`` of those
     postures press it in."""
-    from wsgrasp.planning.targets import pad_positions
-
     if not g.has_configurations:
         return False
     joints = g.finger_joints[f]

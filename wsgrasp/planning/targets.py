@@ -20,12 +20,13 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.interpolate import RegularGridInterpolator
 from scipy.spatial import cKDTree
 
 from wsgrasp.geometry import invert_transforms, transform_points
 from wsgrasp.gripper.model import GripperModel
+from wsgrasp.planning.closing import _interpolator, pad_positions
 from wsgrasp.planning.result import Contact
+from wsgrasp.planning.sweeps import prepare_sweeps
 
 __all__ = [
     "FingerTarget",
@@ -350,65 +351,14 @@ def config_tree(g: GripperModel, finger: int) -> cKDTree:
     return trees[finger]
 
 
-def pad_positions(g: GripperModel, finger: int, q: Array) -> Array:
-    """The pad centre of ``finger`` at joint values ``q`` ``(n, d)``, gripper frame,
-    ``(n, 3)``: multilinear between the model's joint-grid samples."""
-    return _interpolator(g, finger)(np.asarray(q, dtype=np.float64))
-
-
 def prepare(g: GripperModel) -> None:
     """Build the per-finger lookups the joint targets use (pad KD-trees,
     interpolators and the spheres' configuration bits) and those that keep the
     fingers' closing sweeps off the table (``wsgrasp.planning.sweeps``), so
     that the first plan does not pay for them."""
-    from wsgrasp.planning.sweeps import prepare_sweeps
-
     if g.has_configurations:
         for f in range(g.num_fingers):
             config_tree(g, f)
             _interpolator(g, f)
         sphere_config_bits(g)
     prepare_sweeps(g)
-
-
-def _interpolator(g: GripperModel, finger: int) -> _PadInterpolator:
-    """One interpolator per model and finger, kept on the model (built once)."""
-    cache: dict[int, _PadInterpolator] = g.__dict__.setdefault("_pad_interp", {})
-    if finger not in cache:
-        cache[finger] = _PadInterpolator(g, finger)
-    return cache[finger]
-
-
-class _PadInterpolator:
-    """Multilinear interpolation of one finger's pad centre over its joint grid."""
-
-    def __init__(self, g: GripperModel, finger: int) -> None:
-        lim = np.asarray(g.finger_limits[finger], dtype=np.float64)  # (d, 2)
-        n = g.joint_samples
-        d = len(lim)
-        start, stop = g.config_offsets[finger], g.config_offsets[finger + 1]
-        grid = g.config_pad[start:stop].reshape((n,) * d + (3,))  # (n, ..., n, 3)
-        # a joint whose limits coincide has one distinct grid value: drop its axis
-        self.moving = lim[:, 1] > lim[:, 0]
-        index = tuple(slice(None) if m else 0 for m in self.moving)
-        axes = [
-            np.linspace(lo, hi, n)
-            for (lo, hi), m in zip(lim, self.moving, strict=True)
-            if m
-        ]
-        self.lim = lim
-        if axes:
-            self.fn: RegularGridInterpolator | None = RegularGridInterpolator(
-                axes, grid[index], method="linear"
-            )
-            self.const: Array | None = None
-        else:
-            self.fn = None
-            self.const = grid.reshape(-1, 3)[0]
-
-    def __call__(self, q: Array) -> Array:
-        q = np.clip(q, self.lim[:, 0], self.lim[:, 1])  # (n, d)
-        if self.fn is None:
-            assert self.const is not None
-            return np.broadcast_to(self.const, (len(q), 3)).copy()
-        return np.asarray(self.fn(q[:, self.moving]), dtype=np.float64)
