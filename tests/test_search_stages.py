@@ -540,7 +540,7 @@ def test_sphere_lists_hold_every_sphere_that_can_hold_a_point(seed, fingers, sph
     every sphere of that finger holding the point is in the node's list."""
     g = _hand(seed, fingers, spheres)
     depth = FingerDepth(g.sphere_centers, g.sphere_radii, g.sphere_finger, fingers)
-    node_id, lists, centers, radii = depth.sphere_lists()
+    node_id, lists, centers, radii = depth.sphere_lists
     rng = np.random.default_rng(seed)
     # points near the spheres' surfaces, where nodes are unsure
     s = rng.integers(0, len(g.sphere_radii), 4000)

@@ -89,8 +89,8 @@ def count_by_fingers(
     counts : (m, nf) int
     """
     run = loop or _compiled_count or load()[0]
-    _, _, centers, radii = depth.sphere_lists()
-    codes, of, start, listed, owner = depth.compact_lists()
+    _, _, centers, radii = depth.sphere_lists
+    codes, of, start, listed, owner = depth.compact_lists
     n = Q.shape[2]
     if n >= 2**16:
         raise ValueError(f"count_by_fingers counts below 2**16 points, got {n}")

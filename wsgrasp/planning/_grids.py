@@ -20,6 +20,8 @@
 
 from __future__ import annotations
 
+from functools import cached_property
+
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
@@ -141,9 +143,6 @@ class FingerDepth:
         #: each finger's box of spheres, gripper frame: (nf, 3) each
         self.box_lo = np.stack([lo_s[finger == f].min(0) for f in range(nf)])
         self.box_hi = np.stack([hi_s[finger == f].max(0) for f in range(nf)])
-        self._lists: tuple[NDArray[np.int32], NDArray[np.int32], Array, Array] | None
-        self._lists = None
-        self._compact: _Compact | None = None
         reach = 2.0 * lim  # nodes farther than this from every sphere: D < -lim
         lo, hi = lo0 - reach - h, hi0 + reach + h
         shape = np.ceil((hi - lo) / h).astype(np.int64) + 1
@@ -208,9 +207,8 @@ class FingerDepth:
             bit = self.held_fingers[:, f].astype(np.int64) << (16 * (f % 4))
             self.packed_held[:, f // 4] |= bit
 
-    def sphere_lists(
-        self,
-    ) -> tuple[NDArray[np.int32], NDArray[np.int32], Array, Array]:
+    @cached_property
+    def sphere_lists(self) -> tuple[NDArray[np.int32], NDArray[np.int32], Array, Array]:
         """Per node left unsure for some finger, the spheres a point nearest it
         can lie in (built on first use, then kept).
 
@@ -230,8 +228,6 @@ class FingerDepth:
         centers : (s + 1, 3) float
         radii : (s + 1,) float
         """
-        if self._lists is not None:
-            return self._lists
         nf = self.num_fingers
         unsure_any = self.unsure_codes[self.codes]  # (nodes,)
         nodes = np.flatnonzero(unsure_any)
@@ -269,11 +265,11 @@ class FingerDepth:
             lists[n, f, rank] = k
         centers = np.vstack([self.centers, np.zeros((1, 3))])
         radii = np.append(self.radii, 0.0)
-        self._lists = (node_id, lists, centers, radii)
-        return self._lists
+        return node_id, lists, centers, radii
 
+    @cached_property
     def compact_lists(self) -> _Compact:
-        """:meth:`sphere_lists` as the compiled count loop reads them: one code
+        """:attr:`sphere_lists` as the compiled count loop reads them: one code
         per node that names its lists too, so that a point's code says both
         its fingers' states and where its spheres are listed (built on first
         use, then kept).
@@ -293,12 +289,10 @@ class FingerDepth:
         start : (L + 1,) int32
             List code ``c``'s entries are ``start[c]`` to ``start[c + 1]``.
         listed, owner : (e,) int32
-            Per entry, a sphere (into :meth:`sphere_lists`' ``centers``,
+            Per entry, a sphere (into :attr:`sphere_lists`' ``centers``,
             ``radii``) and its finger, one that the code leaves unsure.
         """
-        if self._compact is not None:
-            return self._compact
-        node_id, lists, _, radii = self.sphere_lists()
+        node_id, lists, _, radii = self.sphere_lists
         K, pad = len(self.states), len(radii) - 1
         nodes = np.flatnonzero(node_id >= 0)
         L = lists[node_id[nodes]]  # (u, nf, w)
@@ -318,8 +312,7 @@ class FingerDepth:
         start = np.zeros(total + 1, dtype=np.int32)
         start[K + 1 :] = np.cumsum(np.bincount(c_i, minlength=len(first)))
         listed = U[c_i, f_i, k_i].astype(np.int32)
-        self._compact = (codes, of, start, listed, f_i.astype(np.int32))
-        return self._compact
+        return codes, of, start, listed, f_i.astype(np.int32)
 
     def holding_coordinates(self, x: Array, y: Array, z: Array) -> NDArray[np.bool_]:
         """Which fingers' spheres hold each point, given as coordinate arrays
@@ -328,8 +321,8 @@ class FingerDepth:
         the point's nearest node, and for a finger they leave unsure, the
         spheres its lists name, ``dx * dx + dy * dy + dz * dz < r * r``. A
         point outside the grid reads a border node, where no finger is held."""
-        codes, of, start, listed, owner = self.compact_lists()
-        _, _, centers, radii = self.sphere_lists()
+        codes, of, start, listed, owner = self.compact_lists
+        _, _, centers, radii = self.sphere_lists
         shape = np.shape(x)
         # the nearest node's flat index, in floats (exact below 2**53)
         flat = np.zeros(shape)
@@ -372,7 +365,7 @@ class FingerSpheres(FingerDepth):
             gripper.num_fingers,
             cell,
         )
-        self.compact_lists()
+        _ = self.compact_lists  # built here, not in the first search
 
 
 def _narrowest(count: int) -> type[np.integer]:

@@ -22,6 +22,7 @@ rotation and translation per pose (:meth:`StructuredPoses.of_transforms`).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import NDArray
@@ -152,14 +153,11 @@ class StructuredPoses:
     def num_candidates(self) -> int:
         return len(self.A) * len(self.R)
 
+    @cached_property
     def columns(self) -> tuple[Array, Array]:
         """``A.T`` (3, ns) and ``B.T`` (3, O), contiguous (built once, then
         kept): one coordinate's gather is a 1-D ``take``."""
-        got = self.__dict__.get("_columns")
-        if got is None:
-            got = (np.ascontiguousarray(self.A.T), np.ascontiguousarray(self.B.T))
-            object.__setattr__(self, "_columns", got)
-        return got  # type: ignore[no-any-return]
+        return np.ascontiguousarray(self.A.T), np.ascontiguousarray(self.B.T)
 
     def transforms(self, index: NDArray[np.int64]) -> Array:
         """``T_world_gripper`` of the candidates ``index`` (k,): (k, 4, 4)."""
@@ -190,7 +188,7 @@ class StructuredPoses:
         # u = w R[ol] with w = A[s] + B[o] the gripper origins (world frame), one
         # coordinate at a time from 1-D gathers (row gathers of (m, 3) arrays and
         # a batched (1, 3) @ (3, 3) product per candidate are several times slower)
-        A, B = self.columns()
+        A, B = self.columns
         w = [np.take(A[i], s) + np.take(B[i], o) for i in range(3)]  # 3 × (m,)
         u = np.empty((len(o), 3))
         Rt = np.ascontiguousarray(R.transpose(1, 2, 0))  # (3, 3, q): Rt[i, k] per row
