@@ -456,11 +456,14 @@ def main(argv: list[str] | None = None) -> int:
             highlight=False,
         )
         rows.append(row)
+    from wsgrasp._version import library_versions
+
     report = {
         "version": 1,
         "commit": commit,
         "machine": f"{platform.machine()}, {__import__('os').cpu_count()} cores",
         "date": time.strftime("%Y-%m-%d"),
+        "libraries": library_versions(),
         "objects": args.objects,
         "trials": args.trials,
         "seed": args.seed,

@@ -114,7 +114,10 @@ def main(argv: list[str] | None = None) -> int:
     if "scaling" in report and "rows" not in report:
         # `wsgrasp bench --json` prints its entries at the top level
         scaling = report.pop("scaling")
+        libraries = report.pop("libraries", None)
         report = {"rows": report, "scaling": scaling}
+        if libraries is not None:
+            report["libraries"] = libraries
     out = publish(
         report,
         commit=args.commit or head_commit(),

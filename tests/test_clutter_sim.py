@@ -102,6 +102,7 @@ def test_eval_scene_packed_writes_rates_per_gripper(tmp_path, capsys):
     assert report["scene"] == "packed" and s["scenes"] == 1 and s["objects"] == 2
     assert s["attempts"] >= 1 and 0.0 <= s["declutter_rate"] <= 1.0
     assert report["grippers"]["franka_hand"]["spec"]["segmenter"]["name"] == "clutter"
+    assert report["libraries"]["mujoco"] == __import__("mujoco").__version__
     assert "clutter removal: packed" in capsys.readouterr().out
 
 

@@ -144,3 +144,14 @@ def test_spec_entries_followup_sampling():
             assert e.source.endswith("specs/followup.yaml")
         else:
             assert e.spec["sampling"].get("mode", "major_axis") != "xyz"
+
+
+def test_report_records_the_libraries_it_ran_with():
+    from importlib import metadata
+
+    report = build_report([_rec("franka_hand", "default", "mug", "success", 100.0)])
+    libs = report["libraries"]
+    # the simulator's version as installed, and None for what is not installed
+    assert libs["numpy"] == metadata.version("numpy")
+    assert set(libs) >= {"python", "wsgrasp", "mujoco", "coacd", "open3d", "numba"}
+    assert all(v is None or isinstance(v, str) for v in libs.values())

@@ -75,3 +75,32 @@ def test_the_pages_print_the_note_with_the_run(docs_results: ModuleType) -> None
     assert line.endswith(
         "as it ended). The test suite shared the machine for half of the run."
     )
+
+
+def test_the_pages_name_the_libraries_a_run_recorded(docs_results: ModuleType) -> None:
+    report = {
+        "commit": "abc1234",
+        "machine": "x86_64, 2 cores",
+        "date": "2026-12-05",
+        "libraries": {"python": "3.11.7", "mujoco": "4.0.1", "numpy": "2.4.6"},
+    }
+    line = docs_results._provenance(report, "`make eval`")
+    assert line.endswith("(2026-12-05). With mujoco 4.0.1, numpy 2.4.6.")
+    del report["libraries"]
+    assert "With" not in docs_results._provenance(report, "`make eval`")
+
+
+def test_a_bench_report_keeps_its_libraries_beside_its_rows(
+    publish_result: ModuleType, tmp_path: Path
+) -> None:
+    src, dest = tmp_path / "bench.json", tmp_path / "results" / "bench.json"
+    bench = {
+        "franka_hand": {"plan_ms": 18.0, "search_ms": 2.0, "speedup": 27.0},
+        "scaling": [],
+        "libraries": {"numba": "0.68.1"},
+    }
+    src.write_text(json.dumps(bench))
+    assert publish_result.main([str(src), str(dest), "--commit", "abc1234"]) == 0
+    out = json.loads(dest.read_text())
+    assert list(out["rows"]) == ["franka_hand"]
+    assert out["libraries"] == {"numba": "0.68.1"}

@@ -25,7 +25,23 @@ def _provenance(report: dict[str, Any], what: str) -> str:
     load = report.get("load_average")
     busy = f", load average {load[0]:.1f} as it ended" if load else ""
     note = f" {report['note'].rstrip('.')}." if report.get("note") else ""
-    return f"From {what} at commit `{commit}` on {machine} ({date}{busy}).{note}"
+    return (
+        f"From {what} at commit `{commit}` on {machine} ({date}{busy})."
+        f"{_libraries(report)}{note}"
+    )
+
+
+#: the libraries a results page names beside a run, where its file records them
+_SHOWN = ("mujoco", "coacd", "numpy", "open3d", "numba")
+
+
+def _libraries(report: dict[str, Any]) -> str:
+    """The sentence naming the versions a run recorded (``libraries``) of the
+    libraries that decide its figures, e.g. ``" With mujoco 4.0.1, numpy
+    2.4.6."``; empty for a file that records none."""
+    libs = report.get("libraries") or {}
+    shown = [f"{k} {libs[k]}" for k in _SHOWN if libs.get(k)]
+    return f" With {', '.join(shown)}." if shown else ""
 
 
 def _eval_grippers_markdown(report: dict[str, Any]) -> str:

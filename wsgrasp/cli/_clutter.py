@@ -66,6 +66,7 @@ def clutter_eval(
     choice with the paired differences over scenes (:func:`baseline_pairs`)."""
     import numpy as np
 
+    from wsgrasp._version import library_versions
     from wsgrasp.api import Pipeline
     from wsgrasp.errors import InputError
     from wsgrasp.sim import load_sim_gripper
@@ -99,6 +100,7 @@ def clutter_eval(
     ]
     report: dict[str, Any] = {
         "kind": "clutter",
+        "libraries": library_versions(),
         "scene": scene,
         "objects": ", ".join(objects),
         "objects_per_scene": objects_per_scene,

@@ -299,7 +299,11 @@ def bench(
             repeat=repeat, scaling=scaling, progress=lambda m: status.update(m)
         )
     if as_json:
-        print_json({**res.rows, "scaling": res.scaling})
+        from wsgrasp._version import library_versions
+
+        print_json(
+            {**res.rows, "scaling": res.scaling, "libraries": library_versions()}
+        )
         return
     t = Table(title="wsgrasp bench (medians, ms)")
     cols = [

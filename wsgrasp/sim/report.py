@@ -21,6 +21,7 @@ import statistics
 from collections.abc import Sequence
 from typing import Any
 
+from wsgrasp._version import library_versions
 from wsgrasp.sim.trial import OUTCOMES
 
 __all__ = [
@@ -104,6 +105,7 @@ def build_report(
     main = [r for r in chosen if r["spec"] == primary] or list(chosen)
     out = {
         "version": 1,
+        "libraries": library_versions(),
         **(meta or {}),
         "primary_spec": primary,
         **_summary(main),
