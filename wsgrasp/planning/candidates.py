@@ -363,8 +363,7 @@ def orientation_set(
     approach = np.asarray(T_world_object)[:3, :3] @ o.R_object_gwc[:, :, 2].T
     up = np.asarray(table_normal, dtype=np.float64) @ approach  # (O,)
     o = o.select(up <= np.sin(np.deg2rad(tol)) + 1e-12)
-    depths = int(getattr(sampling, "depths", 1))
-    return o.with_depths(depth_offsets(depths, reach)) if depths > 1 else o
+    return o.with_depths(depth_offsets(int(getattr(sampling, "depths", 1)), reach))
 
 
 def candidate_poses(

@@ -29,7 +29,6 @@ class ReferenceResult:
     reason: NDArray[np.int64]  # (C,) codes into REASONS
     contacts: NDArray[np.int64]  # (C, nf)
     best: int | None  # index of the paper's choice, or None
-    best_distance: float
 
 
 def _se_value(p: Array, center: Array, axes: Array, exponent: float) -> Array:
@@ -91,12 +90,9 @@ def reference_search(
     T_gwc_gripper = _inv(g.T_gripper_gwc)
     centroid = T_world_object[:3, 3]
     best, best_d = None, np.inf
-    k = -1
     depths = np.zeros(len(R_object_gwc)) if depth is None else depth
-    for s, (R, dz) in itertools.product(
-        samples_object, zip(R_object_gwc, depths, strict=True)
-    ):
-        k += 1
+    pairs = itertools.product(samples_object, zip(R_object_gwc, depths, strict=True))
+    for k, (s, (R, dz)) in enumerate(pairs):
         T_object_gwc = np.eye(4)
         T_object_gwc[:3, :3] = R
         T_object_gwc[:3, 3] = s + dz * R[:, 2]
@@ -132,4 +128,4 @@ def reference_search(
                 best, best_d = k, d
         else:
             reason[k] = 4
-    return ReferenceResult(reason, contacts, best, float(best_d))
+    return ReferenceResult(reason, contacts, best)

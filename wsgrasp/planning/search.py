@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from wsgrasp.geometry import invert_transforms, points_in_spheres, transform_points
+from wsgrasp.geometry import invert_transforms, spheres_hit_by_points, transform_points
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.planning.candidates import Orientations, candidate_poses
 from wsgrasp.planning.evaluate import (
@@ -200,14 +200,12 @@ def _contacts(
         held = p[held_points]  # (k, 3)
         if len(held):
             mine = mine[~_beyond_box(held, mine, g)]
-        inside = points_in_spheres(
-            held, g.sphere_centers[mine], g.sphere_radii[mine]
-        )  # (k, nsp)
+        hit = spheres_hit_by_points(held, g.sphere_centers[mine], g.sphere_radii[mine])
         out.append(
             Contact(
                 finger=name,
                 points=object_points[held_points],
-                spheres=mine[inside.any(axis=0)].astype(np.int64),
+                spheres=mine[hit].astype(np.int64),
             )
         )
     return out

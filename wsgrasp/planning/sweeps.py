@@ -265,10 +265,9 @@ def sweep_back_offs(
     """
     T = np.asarray(T_world_gripper, dtype=np.float64).reshape(-1, 4, 4)
     C = len(T)
-    out = np.full(C, np.nan)
     if g.num_fingers == 0 or not (g.has_sweeps or g.has_configurations):
-        out[:] = 0.0
-        return out
+        return np.zeros(C)
+    out = np.full(C, np.nan)
     index = _sweep_index(g)
     nf, K = index.hull.shape[:2]
     n = np.asarray(T_world_table, dtype=np.float64)[:3, 2]
@@ -377,7 +376,6 @@ def _presses_into_table(g: GripperModel, f: int) -> bool:
     postures press it in."""
     if not g.has_configurations:
         return False
-    joints = g.finger_joints[f]
     index = _sweep_index(g)
     K = index.hull.shape[1]
     down = -np.asarray(g.approach_axis, dtype=np.float64)  # table normal, up
@@ -390,7 +388,7 @@ def _presses_into_table(g: GripperModel, f: int) -> bool:
     lim = np.asarray(g.finger_limits[f], dtype=np.float64)  # (d, 2)
     pre, closed = _pre_closed(g, f)
     q = pre + (ks / (K - 1))[:, None] * (closed - pre)  # (k, d)
-    d, eps = len(joints), 0.02
+    d, eps = len(lim), 0.02
     J = np.empty((len(ks), 3, d))
     for i in range(d):
         step = np.zeros(d)
