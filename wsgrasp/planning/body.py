@@ -10,7 +10,8 @@ is clear. The rest get the exact test (eq. (1) with the arithmetic of
 (``wsgrasp.planning.kernels`` picks): the compiled loop, which stops at the first
 point inside, or numpy's: a subset of ``_COARSE`` points first (a hit by a subset
 is a hit), then per superellipsoid only the points in its slab along its thinnest
-axis.
+axis. The other objects' points, left to the candidates clear of the object,
+get numpy's test with either kernel.
 """
 
 from __future__ import annotations
@@ -88,20 +89,10 @@ def body_verdicts(
             hit = _numpy_hits(Q, ol, u, se, se_lo, se_hi)
         reason[at[hit]] = 2
         alive = np.flatnonzero(~hit)
-        if len(X) and alive.size:
+        if len(X) and alive.size:  # the obstacles by numpy's object test
             QX = in_axes(X, R)  # (q, 3, nx)
-            xclear = clear_of_boxes(
-                QX.min(axis=2)[ol[alive]],
-                QX.max(axis=2)[ol[alive]],
-                u[alive],
-                se_lo,
-                se_hi,
-            )
-            t = alive[~xclear]
-            if t.size:
-                x, y, z = (QX[ol[t], i] - u[t, i, None] for i in range(3))
-                obs = coordinates_in_superellipsoids(x, y, z, *se).any(axis=1)
-                reason[at[t[obs]]] = 3
+            obs = _numpy_hits(QX, ol[alive], u[alive], se, se_lo, se_hi)
+            reason[at[alive[obs]]] = 3
     return reason
 
 
