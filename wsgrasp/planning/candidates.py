@@ -58,7 +58,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
-from wsgrasp.geometry import invert_transforms
+from wsgrasp.planning.poses import CandidateStructure, StructuredPoses
 
 __all__ = [
     "Orientations",
@@ -394,35 +394,12 @@ def candidate_poses(
     orientation : (C,) int
         Index into the orientations.
     """
-    # built from the structure: per orientation a rotation and an offset, per
-    # sample a shift, so that t[s, o] = A[s] + B[o] (no (C, 4, 4) products)
-    T_wo = np.asarray(T_world_object, dtype=np.float64)
-    R_og = np.asarray(R_object_gwc, dtype=np.float64).reshape(-1, 3, 3)  # (O, 3, 3)
-    s_obj = np.asarray(samples_object, dtype=np.float64).reshape(-1, 3)
-    ns, nos = len(s_obj), len(R_og)
-    T_gwc_gripper = invert_transforms(T_gripper_gwc)
-    R_wgwc = T_wo[:3, :3] @ R_og  # (O, 3, 3)
-    A = s_obj @ T_wo[:3, :3].T + T_wo[:3, 3]  # (ns, 3)
-    B_gwc = np.zeros((nos, 3))
-    if depth is not None:
-        B_gwc = np.asarray(depth, dtype=np.float64)[:, None] * R_wgwc[:, :, 2]
-    B_gripper = R_wgwc @ T_gwc_gripper[:3, 3] + B_gwc  # (O, 3)
-    T_world_gwc = _poses(R_wgwc, A, B_gwc)
-    T_world_gripper = _poses(R_wgwc @ T_gwc_gripper[:3, :3], A, B_gripper)
+    # per orientation a rotation and an offset, per sample a shift
+    # (``wsgrasp.planning.poses``)
+    structure = CandidateStructure(T_world_object, samples_object, R_object_gwc, depth)
+    gwc = StructuredPoses.build(structure)
+    gripper = StructuredPoses.build(structure, T_gripper_gwc)
+    ns, nos = len(gwc.A), len(gwc.R)
     sample = np.repeat(np.arange(ns, dtype=np.int64), nos)
     orientation = np.tile(np.arange(nos, dtype=np.int64), ns)
-    return T_world_gwc, T_world_gripper, sample, orientation
-
-
-def _poses(R: Array, A: Array, B: Array) -> Array:
-    """``T[s * O + o] = [R[o], A[s] + B[o]]``: (ns * O, 4, 4) from ``R`` (O, 3, 3),
-    ``A`` (ns, 3) and ``B`` (O, 3)."""
-    T_o = np.zeros((len(R), 4, 4))  # (O, 4, 4) each orientation's pose at A = 0
-    T_o[:, :3, :3] = R
-    T_o[:, :3, 3] = B
-    T_o[:, 3, 3] = 1.0
-    # one contiguous copy per sample, then its shift (B[o] + A[s] == A[s] + B[o])
-    T = np.empty((len(A), len(R), 4, 4))  # (ns, O, 4, 4)
-    T[...] = T_o[None]
-    T[:, :, :3, 3] += A[:, None, :]
-    return T.reshape(-1, 4, 4)  # (C, 4, 4)
+    return gwc.every(), gripper.every(), sample, orientation

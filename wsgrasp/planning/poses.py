@@ -102,19 +102,23 @@ class StructuredPoses:
 
     @classmethod
     def build(
-        cls, structure: CandidateStructure, T_gripper_gwc: Array
+        cls, structure: CandidateStructure, T_gripper_gwc: Array | None = None
     ) -> StructuredPoses:
+        """The gripper poses of the candidates ``structure`` describes, or
+        without ``T_gripper_gwc`` the poses of their GWC frames."""
         T_wo = np.asarray(structure.T_world_object, dtype=np.float64)
-        R_og = np.asarray(structure.R_object_gwc, dtype=np.float64)  # (O, 3, 3)
+        R_og = np.asarray(structure.R_object_gwc, dtype=np.float64).reshape(-1, 3, 3)
         s = np.asarray(structure.samples_object, dtype=np.float64).reshape(-1, 3)
-        T_gwc_gripper = invert_transforms(T_gripper_gwc)
         R_wo, t_wo = T_wo[:3, :3], T_wo[:3, 3]
-        R_wgwc = R_wo @ R_og  # (O, 3, 3)
-        R = R_wgwc @ T_gwc_gripper[:3, :3]  # (O, 3, 3)
-        B = R_wgwc @ T_gwc_gripper[:3, 3]  # (O, 3)
+        R = R_wgwc = R_wo @ R_og  # (O, 3, 3)
+        B = np.zeros((len(R_og), 3))  # (O, 3) the GWC's offsets along the approach
         if structure.depth is not None:
             depth = np.asarray(structure.depth, dtype=np.float64)  # (O,)
-            B = B + depth[:, None] * R_wgwc[:, :, 2]
+            B = depth[:, None] * R_wgwc[:, :, 2]
+        if T_gripper_gwc is not None:
+            T_gwc_gripper = invert_transforms(T_gripper_gwc)
+            R = R_wgwc @ T_gwc_gripper[:3, :3]  # (O, 3, 3)
+            B = R_wgwc @ T_gwc_gripper[:3, 3] + B
         A = s @ R_wo.T + t_wo  # (ns, 3)
         return cls(R, A, B)
 
@@ -158,6 +162,19 @@ class StructuredPoses:
         """``A.T`` (3, ns) and ``B.T`` (3, O), contiguous (built once, then
         kept): one coordinate's gather is a 1-D ``take``."""
         return np.ascontiguousarray(self.A.T), np.ascontiguousarray(self.B.T)
+
+    def every(self) -> Array:
+        """``T_world_gripper`` of every candidate, samples outer: (ns O, 4, 4).
+        Per orientation its pose at ``A = 0``, copied once per sample, then
+        shifted (``B[o] + A[s] == A[s] + B[o]``): no (C, 4, 4) products."""
+        T_o = np.zeros((len(self.R), 4, 4))  # (O, 4, 4)
+        T_o[:, :3, :3] = self.R
+        T_o[:, :3, 3] = self.B
+        T_o[:, 3, 3] = 1.0
+        T = np.empty((len(self.A), len(self.R), 4, 4))  # (ns, O, 4, 4)
+        T[...] = T_o[None]
+        T[:, :, :3, 3] += self.A[:, None, :]
+        return T.reshape(-1, 4, 4)
 
     def transforms(self, index: NDArray[np.int64]) -> Array:
         """``T_world_gripper`` of the candidates ``index`` (k,): (k, 4, 4)."""
