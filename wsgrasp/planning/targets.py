@@ -155,8 +155,7 @@ def grasp_targets(
                 asked.setdefault(j, []).append(v)
         for j, values in asked.items():
             # a joint several fingers share closes as far as any of them asks
-            closure = [_closure(g, j, v) for v in values]
-            grasp[j] = values[int(np.argmax(closure))]
+            grasp[j] = max(values, key=lambda v: _closure(g, j, v))
     if close_to == "closed" or not g.has_configurations:
         grasp = _within_limits(g, {j: g.closed.get(j, v) for j, v in pre.items()})
     return GraspTargets(T_pre, pre, grasp, fingers)
