@@ -150,7 +150,7 @@ class PlanResult:
     def to_json(self) -> dict[str, Any]:
         """Plain data: what ``wsgrasp plan --json`` prints."""
 
-        def m(T: NDArray[np.float64] | None) -> list[list[float]] | None:
+        def m(T: NDArray[np.float64] | None) -> list[Any] | None:
             return None if T is None else np.asarray(T).tolist()
 
         return {
@@ -181,7 +181,5 @@ class PlanResult:
             "timing_ms": self.timing_ms,
             "hint": self.hint,
             "T_world_object": m(self.T_world_object),
-            "object_extents": None
-            if self.object_extents is None
-            else np.asarray(self.object_extents).tolist(),
+            "object_extents": m(self.object_extents),
         }
