@@ -284,11 +284,18 @@ def _cell_check(row: dict[str, Any]) -> str:
     return "; ".join(parts)
 
 
+def _mujoco(report: dict[str, Any]) -> str:
+    """The MuJoCo version the run recorded, with a space before it, or ""."""
+    version = (report.get("libraries") or {}).get("mujoco")
+    return f" {version}" if version else ""
+
+
 def markdown(report: dict[str, Any]) -> str:
     """The table, with the run it came from."""
     lines = [
         f"From `make eval-grippers` at commit {report['commit']} on "
-        f"{report['machine']} ({report['date']}); success: `wsgrasp eval` "
+        f"{report['machine']} ({report['date']}); success: `wsgrasp eval`"
+        f"{_mujoco(report)} "
         f"protocol `{report['protocol']}`, objects `{report['objects']}`, "
         f"{report['trials']} trial each, seed {report['seed']}, default spec.",
         "",
@@ -325,7 +332,7 @@ def readme_table(report: dict[str, Any]) -> str:
         f"From `make eval-grippers` at commit {report['commit']}: `gripper new` with",
         f"no edit, `gripper check`, plans on the bundled scenes and {len(SHAPES)} "
         "synthetic shapes,",
-        f"grasps held in MuJoCo (protocol `{report['protocol']}`, "
+        f"grasps held in MuJoCo{_mujoco(report)} (protocol `{report['protocol']}`, "
         f"`{report['objects']}`, {report['trials']} trial",
         "each, default spec).",
         "",
