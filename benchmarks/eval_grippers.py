@@ -292,10 +292,11 @@ def _mujoco(report: dict[str, Any]) -> str:
 
 def markdown(report: dict[str, Any]) -> str:
     """The table, with the run it came from."""
+    mujoco = _mujoco(report)
     lines = [
         f"From `make eval-grippers` at commit {report['commit']} on "
         f"{report['machine']} ({report['date']}); success: `wsgrasp eval`"
-        f"{_mujoco(report)} "
+        f"{f' with MuJoCo{mujoco},' if mujoco else ''} "
         f"protocol `{report['protocol']}`, objects `{report['objects']}`, "
         f"{report['trials']} trial each, seed {report['seed']}, default spec.",
         "",

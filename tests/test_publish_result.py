@@ -104,3 +104,26 @@ def test_a_bench_report_keeps_its_libraries_beside_its_rows(
     out = json.loads(dest.read_text())
     assert list(out["rows"]) == ["franka_hand"]
     assert out["libraries"] == {"numba": "0.68.1"}
+
+
+def test_simulator_versions_table_counts_the_outcomes_that_differ(
+    docs_results: ModuleType, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    folder = tmp_path / "simulator-versions"
+    folder.mkdir()
+    held = {"3.17.0": [1, 1, 0, 0], "4.0.1": [1, 0, 1, 1]}
+    for version, successes in held.items():
+        objects = [
+            {"object": f"random_{i:03d}", "successes": s}
+            for i, s in enumerate(successes)
+        ]
+        report = {
+            "libraries": {"mujoco": version},
+            "results": [{"gripper": "a/hand.yaml", "trials": 4, "objects": objects}],
+        }
+        (folder / f"hand-{version}.json").write_text(json.dumps(report))
+    monkeypatch.setattr(docs_results, "RESULTS", tmp_path)
+    text = docs_results.render_simulator_versions_runs()
+    # the older release held random_001 alone, the newest random_002 and 003
+    assert "| `hand` | 3.17.0 | 2 of 4 | 1 / 2 | `hand-3.17.0.json` |" in text
+    assert "| `hand` | 4.0.1 | 3 of 4 |  | `hand-4.0.1.json` |" in text

@@ -517,6 +517,49 @@ def render_approach_direction_runs() -> str:
     return _runs_in("approach-direction")
 
 
+def render_simulator_versions_runs() -> str:
+    """The same trials run with several MuJoCo releases
+    (``docs/results/simulator-versions/``): per gripper and release, the objects
+    held, and per object against the newest release's run, the outcomes that
+    differ."""
+    runs: dict[str, list[tuple[str, str, dict[str, int], int]]] = {}
+    for path in sorted((RESULTS / "simulator-versions").glob("*.json")):
+        r = json.loads(path.read_text())
+        version = (r.get("libraries") or {}).get("mujoco") or "not recorded"
+        for res in r.get("results", []):
+            held = {o["object"]: o["successes"] for o in res["objects"]}
+            runs.setdefault(short(res["gripper"]), []).append(
+                (version, path.name, held, res["trials"])
+            )
+    rows = []
+    for gripper, got in runs.items():
+        got.sort(key=lambda g: tuple(int(x) for x in g[0].split(".") if x.isdigit()))
+        newest = got[-1]
+        for version, name, held, trials in got:
+            common = held.keys() & newest[2].keys()
+            only = sum(held[o] > newest[2][o] for o in common)
+            only_newest = sum(held[o] < newest[2][o] for o in common)
+            rows.append(
+                [
+                    f"`{gripper}`",
+                    version,
+                    f"{sum(held.values())} of {trials}",
+                    "" if version == newest[0] else f"{only} / {only_newest}",
+                    f"`{name}`",
+                ]
+            )
+    return table(
+        [
+            "gripper",
+            "MuJoCo",
+            "held",
+            "held only with this release / only with the newest",
+            "file",
+        ],
+        rows,
+    )
+
+
 def render_reach_down_runs() -> str:
     """The runs that measured the reach_down scorer in the generic default."""
     return _runs_in("reach-down")

@@ -48,6 +48,7 @@ from docs_results import (
     render_results_eval,
     render_results_grippers,
     render_results_scorers,
+    render_simulator_versions_runs,
 )
 
 MARKER = re.compile(r"^<!-- render: ([a-z0-9-]+) -->$", re.M)
@@ -74,6 +75,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "generic-scorers-runs": render_generic_scorers_runs,
     "contact-fingers-runs": render_contact_fingers_runs,
     "angles-from-runs": render_angles_from_runs,
+    "simulator-versions-runs": render_simulator_versions_runs,
     "results-scorers": render_results_scorers,
 }
 
