@@ -24,7 +24,13 @@ pytestmark = pytest.mark.skipif(STORED is None, reason=verdict_hashes.missing_re
 
 @pytest.mark.parametrize("gripper", list(verdict_hashes.GRIPPERS))
 def test_default_spec_plans_decide_as_stored(gripper):
-    names = [n for n in PLANS if n.startswith(gripper + "/")]
+    names = [n for n in PLANS if n.startswith(gripper + "/") and n in STORED]
+    if not names:
+        pytest.skip(
+            f"the hashes stored for this environment have no {gripper} cases: "
+            "store them from the code before a change with "
+            f"`python tests/verdict_hashes.py --write` and its {gripper} cases"
+        )
     got = verdict_hashes.compute(names)
     assert got == {n: STORED[n] for n in names}
 
