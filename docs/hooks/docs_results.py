@@ -18,7 +18,9 @@ def _load(path: Path) -> dict[str, Any] | None:
     return json.loads(path.read_text()) if path.is_file() else None
 
 
-def _provenance(report: dict[str, Any], what: str) -> str:
+def _provenance(
+    report: dict[str, Any], what: str, libraries: tuple[str, ...] | None = None
+) -> str:
     commit = report.get("commit") or "not recorded"
     machine = report.get("machine") or "not recorded"
     date = report.get("date") or "not recorded"
@@ -27,21 +29,23 @@ def _provenance(report: dict[str, Any], what: str) -> str:
     note = f" {report['note'].rstrip('.')}." if report.get("note") else ""
     return (
         f"From {what} at commit `{commit}` on {machine} ({date}{busy})."
-        f"{_libraries(report)}{note}"
+        f"{_libraries(report, libraries or _SHOWN)}{note}"
     )
 
 
-#: the libraries a results page names beside a run, where its file records them
+#: the libraries a results page names beside a run, where its file records them:
+#: a simulated run's, and a timing's (the search and perception alone)
 _SHOWN = ("mujoco", "coacd", "numpy", "open3d", "numba")
+_SHOWN_TIMING = ("numpy", "scipy", "open3d", "numba")
 
 
-def _libraries(report: dict[str, Any]) -> str:
+def _libraries(report: dict[str, Any], shown: tuple[str, ...] = _SHOWN) -> str:
     """The sentence naming the versions a run recorded (``libraries``) of the
     libraries that decide its figures, e.g. ``" With mujoco 4.0.1, numpy
     2.4.6."``; empty for a file that records none."""
     libs = report.get("libraries") or {}
-    shown = [f"{k} {libs[k]}" for k in _SHOWN if libs.get(k)]
-    return f" With {', '.join(shown)}." if shown else ""
+    named = [f"{k} {libs[k]}" for k in shown if libs.get(k)]
+    return f" With {', '.join(named)}." if named else ""
 
 
 def _eval_grippers_markdown(report: dict[str, Any]) -> str:
@@ -211,7 +215,7 @@ def render_results_bench() -> str:
     report = _load(RESULTS / "bench.json")
     if report is None:
         return "No `docs/results/bench.json` yet: `make bench` writes it.\n"
-    out = [_provenance(report, "`make bench`") + " Medians.\n"]
+    out = [_provenance(report, "`make bench`", _SHOWN_TIMING) + " Medians.\n"]
     rows, dense = [], []
     for name, r in report["rows"].items():
         if "plan_ms" in r:
