@@ -154,4 +154,6 @@ def test_report_records_the_libraries_it_ran_with():
     # the simulator's version as installed, and None for what is not installed
     assert libs["numpy"] == metadata.version("numpy")
     assert set(libs) >= {"python", "wsgrasp", "mujoco", "coacd", "open3d", "numba"}
+    # and the processor's vector extension, which the libraries' kernels follow
+    assert libs["cpu"].split()[0] == __import__("platform").machine()
     assert all(v is None or isinstance(v, str) for v in libs.values())

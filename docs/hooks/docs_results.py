@@ -35,8 +35,8 @@ def _provenance(
 
 #: the libraries a results page names beside a run, where its file records them:
 #: a simulated run's, and a timing's (the search and perception alone)
-_SHOWN = ("mujoco", "coacd", "numpy", "open3d", "numba")
-_SHOWN_TIMING = ("numpy", "scipy", "open3d", "numba")
+_SHOWN = ("cpu", "mujoco", "coacd", "numpy", "open3d", "numba")
+_SHOWN_TIMING = ("cpu", "numpy", "scipy", "open3d", "numba")
 
 
 def _libraries(report: dict[str, Any], shown: tuple[str, ...] = _SHOWN) -> str:
