@@ -24,7 +24,6 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
-import platform
 import sys
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
@@ -74,20 +73,18 @@ LIBRARIES = ("numpy", "scipy", "open3d-cpu", "open3d", "numba", "trimesh", "your
 
 def environment() -> str:
     """What the stored hashes depend on besides the code: the machine, its widest
-    vector extension numpy dispatches to (OpenBLAS picks its kernels by the
-    same), and the versions of :data:`LIBRARIES` installed."""
-    from numpy._core._multiarray_umath import __cpu_features__ as cpu
+    vector extension numpy dispatches to (``wsgrasp._version.cpu``: OpenBLAS
+    picks its kernels by the same), and the versions of :data:`LIBRARIES`
+    installed."""
+    from wsgrasp._version import cpu
 
-    level = next(
-        (k for k in ("AVX512F", "AVX2", "ASIMD", "SSE42") if cpu.get(k)), "baseline"
-    )
     libs = []
     for name in LIBRARIES:
         try:
             libs.append(f"{name} {version(name)}")
         except PackageNotFoundError:
             continue
-    return ", ".join([f"{platform.machine()} {level}", *libs])
+    return ", ".join([cpu(), *libs])
 
 
 def _digest(*arrays: Any) -> str:
