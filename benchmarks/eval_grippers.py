@@ -285,19 +285,18 @@ def _cell_check(row: dict[str, Any]) -> str:
 
 
 def _mujoco(report: dict[str, Any]) -> str:
-    """The MuJoCo version the run recorded, with a space before it, or ""."""
+    """`MuJoCo` and the version the run recorded, where it recorded one."""
     version = (report.get("libraries") or {}).get("mujoco")
-    return f" {version}" if version else ""
+    return f"MuJoCo {version}" if version else "MuJoCo"
 
 
 def markdown(report: dict[str, Any]) -> str:
     """The table, with the run it came from."""
-    mujoco = _mujoco(report)
     lines = [
         f"From `make eval-grippers` at commit {report['commit']} on "
-        f"{report['machine']} ({report['date']}); success: `wsgrasp eval`"
-        f"{f' with MuJoCo{mujoco},' if mujoco else ''} "
-        f"protocol `{report['protocol']}`, objects `{report['objects']}`, "
+        f"{report['machine']} ({report['date']}); success: `wsgrasp eval` with "
+        f"{_mujoco(report)}, protocol `{report['protocol']}`, "
+        f"objects `{report['objects']}`, "
         f"{report['trials']} trial each, seed {report['seed']}, default spec.",
         "",
         "| gripper | source | fingers | scaffolds | `gripper check` | plans found "
@@ -333,7 +332,7 @@ def readme_table(report: dict[str, Any]) -> str:
         f"From `make eval-grippers` at commit {report['commit']}: `gripper new` with",
         f"no edit, `gripper check`, plans on the bundled scenes and {len(SHAPES)} "
         "synthetic shapes,",
-        f"grasps held in MuJoCo{_mujoco(report)} (protocol `{report['protocol']}`, "
+        f"grasps held in {_mujoco(report)} (protocol `{report['protocol']}`, "
         f"`{report['objects']}`, {report['trials']} trial",
         "each, default spec).",
         "",
@@ -425,12 +424,9 @@ def main(argv: list[str] | None = None) -> int:
     entries += [(n, "built-in", ref) for n, ref in BUILT_IN.items()]
     if args.only:
         entries = [e for e in entries if e[0] in args.only]
-    commit = subprocess.run(
-        ["git", "rev-parse", "--short", "HEAD"],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-    ).stdout.strip()
+    from publish_result import head_commit  # beside this script
+
+    commit = head_commit()
     scene_set = scenes()
     rows = []
     for name, source, ref in entries:

@@ -18,8 +18,14 @@ def _load(path: Path) -> dict[str, Any] | None:
     return json.loads(path.read_text()) if path.is_file() else None
 
 
+#: the libraries a results page names beside a run, where its file records them:
+#: a simulated run's, and a timing's (the search and perception alone)
+_SHOWN = ("cpu", "mujoco", "coacd", "numpy", "open3d", "numba")
+_SHOWN_TIMING = ("cpu", "numpy", "scipy", "open3d", "numba")
+
+
 def _provenance(
-    report: dict[str, Any], what: str, libraries: tuple[str, ...] | None = None
+    report: dict[str, Any], what: str, libraries: tuple[str, ...] = _SHOWN
 ) -> str:
     commit = report.get("commit") or "not recorded"
     machine = report.get("machine") or "not recorded"
@@ -29,20 +35,14 @@ def _provenance(
     note = f" {report['note'].rstrip('.')}." if report.get("note") else ""
     return (
         f"From {what} at commit `{commit}` on {machine} ({date}{busy})."
-        f"{_libraries(report, libraries or _SHOWN)}{note}"
+        f"{_libraries(report, libraries)}{note}"
     )
 
 
-#: the libraries a results page names beside a run, where its file records them:
-#: a simulated run's, and a timing's (the search and perception alone)
-_SHOWN = ("cpu", "mujoco", "coacd", "numpy", "open3d", "numba")
-_SHOWN_TIMING = ("cpu", "numpy", "scipy", "open3d", "numba")
-
-
-def _libraries(report: dict[str, Any], shown: tuple[str, ...] = _SHOWN) -> str:
+def _libraries(report: dict[str, Any], shown: tuple[str, ...]) -> str:
     """The sentence naming the versions a run recorded (``libraries``) of the
-    libraries that decide its figures, e.g. ``" With mujoco 4.0.1, numpy
-    2.4.6."``; empty for a file that records none."""
+    libraries ``shown``, e.g. ``" With mujoco 4.0.1, numpy 2.4.6."``; empty for
+    a file that records none."""
     libs = report.get("libraries") or {}
     named = [f"{k} {libs[k]}" for k in shown if libs.get(k)]
     return f" With {', '.join(named)}." if named else ""
