@@ -189,3 +189,53 @@ def test_failed_scaffold_leaves_no_folder(tmp_path):
     with pytest.raises(GripperError, match="disconnected"):
         scaffold_plugin("jaw", urdf, tmp_path / "out")
     assert not (tmp_path / "out").exists()
+
+
+def _pad_speeds(urdf_path, d):
+    """Per finger, the sum over its joints of the squared distance from the
+    joint's axis to the pad centre, half closed, by yourdfpy's kinematics: the
+    squared speed (m²/rad²) at which each of the hand's parallel-axis revolute
+    joints moves the pad."""
+    import yourdfpy
+
+    u = yourdfpy.URDF.load(str(urdf_path), load_meshes=False)
+    mid = {
+        j: 0.5 * (d["pregrasp"].get(j, 0.0) + d["closed"].get(j, 0.0))
+        for j in u.actuated_joint_names
+    }
+    u.update_cfg(mid)
+    out = []
+    for f in d["fingers"]:
+        T = u.get_transform(f["pad"]["link"], d["base_link"])
+        p = T[:3, :3] @ np.asarray(f["pad"]["center"]) + T[:3, 3]
+        total = 0.0
+        for jn in f["joints"]:
+            joint = u.joint_map[jn]
+            Tj = u.get_transform(joint.child, d["base_link"])
+            a, o = Tj[:3, :3] @ np.asarray(joint.axis), Tj[:3, 3]
+            v = p - o
+            total += float(np.sum((v - a * (v @ a)) ** 2))
+        out.append(total)
+    return out
+
+
+def test_a_hand_gets_a_drive_for_its_size_a_jaw_none(tmp_path, monkeypatch):
+    import hand_factory
+
+    from wsgrasp.gripper._guess import PAD_STIFFNESS
+
+    path = _write(tmp_path, hand_factory.hand_urdf(3), "hand.urdf")
+    d = guess_description(path, "hand").data
+    kp = d["drive"]["kp_revolute"]
+    want = PAD_STIFFNESS * float(np.median(_pad_speeds(path, d)))
+    assert kp == pytest.approx(want, rel=0.03)  # two significant digits
+    GripperDescription.model_validate(d)
+    # the same hand twice as large: four times the gain for the same pad stiffness
+    for name in ("PALM_RADIUS", "PALM_THICKNESS", "BASE_RADIUS", "PROXIMAL", "DISTAL"):
+        monkeypatch.setattr(hand_factory, name, 2 * getattr(hand_factory, name))
+    big = _write(tmp_path, hand_factory.hand_urdf(3), "big.urdf")
+    assert guess_description(big, "big").data["drive"]["kp_revolute"] == (
+        pytest.approx(4 * kp, rel=0.06)
+    )
+    # a two-finger gripper keeps the simulator's default
+    assert "drive" not in guess_description(_write(tmp_path, jaw_urdf()), "jaw").data

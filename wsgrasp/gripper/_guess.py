@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wsgrasp.errors import GripperError
-from wsgrasp.geometry import grid_configurations
+from wsgrasp.geometry import JOINT_REVOLUTE, grid_configurations
 from wsgrasp.gripper._scaffold_urdf import unlimited_continuous
 from wsgrasp.gripper._urdf import Kinematics, load_kinematics, shape_mesh
 
@@ -86,6 +86,11 @@ TARGET_COVERAGE = 0.45
 MAX_SPHERES = 40
 #: pad depth into the distal link (m), at most
 PAD_DEPTH = 0.004
+#: a hand's guessed drive: the stiffness (N/m) of its median finger's pad, half
+#: closed, when each of the finger's joints gives way under its position actuator
+PAD_STIFFNESS = 300.0
+#: a gripper of at least this many fingers gets a drive guessed from its size
+DRIVE_MIN_FINGERS = 3
 
 
 @dataclass
@@ -1375,6 +1380,64 @@ def _settings(
     }
 
 
+def _drive(
+    u: _Urdf,
+    fingers: dict[str, list[str]],
+    pads: list[dict[str, Any]],
+    names: list[str],
+    pregrasp: dict[str, float],
+    closed: dict[str, float],
+) -> dict[str, float] | None:
+    """The revolute finger joints' position gain (N·m/rad) of a hand of
+    :data:`DRIVE_MIN_FINGERS` or more fingers, from the size of its fingers; None
+    for a gripper of fewer fingers or without revolute finger joints.
+
+    A position actuator of gain ``kp`` on each of a finger's joints lets its pad
+    give way by ``sum_j |dp/dq_j|^2 / kp`` metres per newton, where ``dp/dq_j``
+    (m/rad, mimics following their master) is how fast joint ``j`` moves the pad:
+    the same gain makes a long finger soft and a short one stiff. The guess gives
+    the median finger's pad :data:`PAD_STIFFNESS`, measured half closed.
+    """
+    if len(fingers) < DRIVE_MIN_FINGERS:
+        return None
+    mid = {
+        j: 0.5 * (pregrasp.get(j, 0.0) + closed.get(j, pregrasp.get(j, 0.0)))
+        for j in u.actuated
+    }
+    h = 1e-4
+    compliance = []  # (F,) m²/rad², each finger's sum_j |dp/dq_j|^2
+    for link, pad in zip(fingers, pads, strict=True):
+        total = 0.0
+        for j in fingers[link]:
+            if u.kin.joints[j].kind != JOINT_REVOLUTE:
+                continue
+            lo, hi = dict(mid), dict(mid)
+            lo[j], hi[j] = mid[j] - h, mid[j] + h
+            d = (_pad_points(u, pad, hi, 1)[0] - _pad_points(u, pad, lo, 1)[0]) / (
+                2 * h
+            )
+            total += float(d @ d)
+        compliance.append(total)
+    if max(compliance) <= 0.0:
+        return None
+    kp = float(f"{PAD_STIFFNESS * float(np.median(compliance)):.2g}")
+    each = ", ".join(
+        f"{n} {c * 1e4:.0f}" for n, c in zip(names, compliance, strict=True)
+    )
+    u.notes["drive"] = (
+        "the fingers' position gains in simulation (`wsgrasp eval`; planning does "
+        "not read them). A URDF carries no controller gains, so kp_revolute "
+        f"(N·m/rad) is guessed from the fingers' size: {kp:g} gives the median "
+        f"finger's pad, half closed, a stiffness of {PAD_STIFFNESS:g} N/m when each "
+        "of its joints gives way under its actuator (the sum over its joints of "
+        "the squared speed at which each moves the pad, cm²/rad²: "
+        f"{each}); the same gain on every hand would make long fingers soft and "
+        "short ones stiff. Where the hand's own controller or grip force is known, "
+        "set it to match; compare runs with `wsgrasp eval --sim kp_revolute=...`"
+    )
+    return {"kp_revolute": kp}
+
+
 def guess_description(
     urdf: str | Path,
     name: str,
@@ -1436,6 +1499,9 @@ def guess_description(
     }
     if contact is not None:
         data["contact_fingers"] = contact
+    drive = _drive(u, fingers, pads, names, pregrasp, closed)
+    if drive is not None:
+        data["drive"] = drive
     return Scaffold(
         data,
         u.notes,

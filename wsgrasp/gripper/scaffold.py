@@ -125,22 +125,27 @@ def render_yaml(scaffold: Scaffold, header: list[str] | None = None) -> str:
                 width=float("inf"),
             )
         )
-    out.append(_drive_comment())
+    if "drive" in d:
+        out.append(_comment(n.get("drive", "")))
+        out.append(f"drive: {_flow(d['drive'])}\n")
+    else:
+        out.append(_drive_comment())
     return "".join(out)
 
 
 def _drive_comment() -> str:
-    """The commented-out ``drive`` field at the end of a scaffolded YAML: a URDF
-    carries no controller gains, so the simulator's defaults are named and left
-    for the user to change."""
+    """The commented-out ``drive`` field at the end of a scaffolded YAML of a
+    gripper with no drive guessed (fewer than three fingers, or none revolute):
+    the simulator's defaults, named and left for the user to change."""
     from wsgrasp.sim.params import SimParams
 
     p = SimParams()
     gains = {"kp_revolute": p.kp_revolute, "kp_prismatic": p.kp_prismatic}
     text = (
         "the fingers' position gains in simulation (`wsgrasp eval`): kp_revolute "
-        "(N·m/rad), kp_prismatic (N/m). A URDF carries no controller gains, so none "
-        "is guessed and the simulator's defaults drive the fingers "
+        "(N·m/rad), kp_prismatic (N/m). A URDF carries no controller gains; for a "
+        "gripper of fewer than three fingers none is guessed and the simulator's "
+        "defaults drive the fingers "
         f"({gains['kp_revolute']:g} N·m/rad, {gains['kp_prismatic']:g} N/m). Where "
         "the hand's own controller or grip force is known, set them to match it; "
         "compare runs with `wsgrasp eval --sim kp_revolute=...` first"
