@@ -175,7 +175,9 @@ def trials(
         "failures": {k: v for k, v in res["failures"].items() if v},
         **by_height(report.get("trial_records", [])),
         "plan_ms_median": res["plan_ms_median"],
-        "sim_notes": report.get("sim_notes", {}),
+        # what the simulated gripper took from its URDF and YAML (gains, efforts)
+        # and what was repaired: the report's entry for this one gripper
+        "sim_notes": next(iter((report.get("sim_grippers") or {}).values()), {}),
         "eval_wall_s": report.get("wall_s"),
     }
 
@@ -301,8 +303,9 @@ def markdown(report: dict[str, Any]) -> str:
         "",
         "| gripper | source | fingers | scaffolds | `gripper check` | plans found "
         "| plan, view, batch, dataset | success (failures) "
-        f"| success, objects under {100 * LOW_OBJECT:.0f} cm high / taller |",
-        "|---|---|---:|---|---|---|---|---|---|",
+        f"| success, objects under {100 * LOW_OBJECT:.0f} cm high / taller "
+        "| finger drive |",
+        "|---|---|---:|---|---|---|---|---|---|---|",
     ]
     for r in report["rows"]:
         scaf = (
@@ -313,9 +316,26 @@ def markdown(report: dict[str, Any]) -> str:
         lines.append(
             f"| {r['name']} | {r['source']} | {r.get('fingers', '–')} | {scaf} | "
             f"{_cell_check(r)} | {_cell_plans(r)} | {_cell_commands(r)} | "
-            f"{_cell_success(r)} | {_cell_heights(r)} |"
+            f"{_cell_success(r)} | {_cell_heights(r)} | {_cell_drive(r)} |"
         )
     return "\n".join(lines) + "\n"
+
+
+def _cell_drive(r: dict[str, Any]) -> str:
+    """The finger actuators' gains the trials used and where each came from
+    (``gripper``: the YAML's ``drive``; ``params``: the simulator's default)."""
+    notes = r.get("sim_notes") or {}
+    units = {e["unit"] for e in (notes.get("efforts") or {}).values()}
+    gains = notes.get("gains") or {}
+    cells = []
+    for kind, unit, gain_unit in (
+        ("revolute", "N·m", "N·m/rad"),
+        ("prismatic", "N", "N/m"),
+    ):
+        if unit in units and kind in gains:
+            src = "YAML" if gains[kind]["source"] == "gripper" else "default"
+            cells.append(f"{gains[kind]['kp']:g} {gain_unit} ({src})")
+    return ", ".join(cells) or "–"
 
 
 #: the README's gripper table lies between these lines

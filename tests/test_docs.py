@@ -292,3 +292,22 @@ def test_gripper_table_counts_low_and_tall_objects_apart():
     assert eval_grippers._cell_heights({"by_height": split}) == "50 % of 2 / 100 % of 1"
     assert eval_grippers.by_height(records[-1:]) == {}
     assert eval_grippers._cell_heights({}) == "–"
+
+
+def test_gripper_table_names_each_grippers_finger_drive():
+    """The gripper table's drive column: the gain of each joint kind the gripper
+    has, and whether its YAML or the simulator's default gave it."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        import eval_grippers
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    gains = {
+        "revolute": {"kp": 1.4, "source": "gripper"},
+        "prismatic": {"kp": 5000.0, "source": "params"},
+    }
+    hand = {"efforts": {"a": {"unit": "N·m"}, "b": {"unit": "N·m"}}, "gains": gains}
+    jaw = {"efforts": {"a": {"unit": "N"}}, "gains": gains}
+    assert eval_grippers._cell_drive({"sim_notes": hand}) == "1.4 N·m/rad (YAML)"
+    assert eval_grippers._cell_drive({"sim_notes": jaw}) == "5000 N/m (default)"
+    assert eval_grippers._cell_drive({"sim_notes": {}}) == "–"  # an older table
