@@ -564,6 +564,96 @@ def render_simulator_versions_runs() -> str:
     )
 
 
+def render_drive_guess_runs() -> str:
+    """The runs that measured the finger drive `gripper new` guesses for a hand
+    (``docs/results/drive-guess/``): the gripper table with the simulator's
+    default gain beside the current one, then each run of a hand's YAML beside
+    the same YAML without its ``drive`` (``NAME-default-gain``), paired per
+    object."""
+    folder = RESULTS / "drive-guess"
+    out = []
+    old_path = folder / "grippers-default-gain.json"
+    new_path = RESULTS / "grippers.json"
+    if old_path.exists() and new_path.exists():
+        old = json.loads(old_path.read_text())
+        new = json.loads(new_path.read_text())
+        before = {r["name"]: r for r in old["rows"]}
+        rows = []
+        for r in new["rows"]:
+            gains = (r.get("sim_notes") or {}).get("gains") or {}
+            rev = gains.get("revolute") or {}
+            b = before.get(r["name"])
+            if rev.get("source") != "gripper" or r.get("source") == "built-in" or not b:
+                continue
+            rows.append(
+                [
+                    f"`{r['name']}`",
+                    f"{rev['kp']:g}",
+                    f"{b['successes']} of {b['trials']}",
+                    f"{r['successes']} of {r['trials']}",
+                ]
+            )
+        out.append(
+            f"`grippers-default-gain.json`: {_provenance(old, '`make eval-grippers`')} "
+            f"Beside it, `grippers.json`: {_provenance(new, '`make eval-grippers`')} "
+            f"Both: protocol `{new['protocol']}`, objects `{new['objects']}`, "
+            f"{new['trials']} trial each, seed {new['seed']}, the same drops.\n"
+        )
+        out.append(
+            table(
+                [
+                    "hand",
+                    "guessed kp_revolute (N·m/rad)",
+                    "held, default gain (2 N·m/rad)",
+                    "held, guessed drive",
+                ],
+                rows,
+            )
+        )
+    rows = []
+    for path in sorted(folder.glob("*.json")):
+        if path == old_path:
+            continue
+        r = json.loads(path.read_text())
+        by = {short(res["gripper"]): res for res in r.get("results", [])}
+        for name, res in by.items():
+            twin = by.get(f"{name}-default-gain")
+            if twin is None:
+                continue
+            mine = {o["object"]: o["successes"] for o in res["objects"]}
+            other = {o["object"]: o["successes"] for o in twin["objects"]}
+            common = mine.keys() & other.keys()
+            rows.append(
+                [
+                    f"`{path.name}`",
+                    f"`{r.get('objects')}`",
+                    f"`{r.get('params', {}).get('protocol', 'not recorded')}`",
+                    f"`{name}`",
+                    f"{res['successes']} of {res['trials']}",
+                    f"{twin['successes']} of {twin['trials']}",
+                    f"{sum(mine[o] > other[o] for o in common)} / "
+                    f"{sum(mine[o] < other[o] for o in common)}",
+                ]
+            )
+            out.append(f"`{path.name}`: {_provenance(r, '`wsgrasp eval`')}\n")
+    if rows:
+        out.append(
+            table(
+                [
+                    "file",
+                    "objects",
+                    "protocol",
+                    "hand",
+                    "held, guessed drive",
+                    "held, default gain",
+                    "objects gained / lost",
+                ],
+                rows,
+            )
+        )
+    return "\n".join(out) if out else "No runs under `docs/results/drive-guess/`.\n"
+
+
 def render_reach_down_runs() -> str:
     """The runs that measured the reach_down scorer in the generic default."""
     return _runs_in("reach-down")

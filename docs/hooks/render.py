@@ -40,6 +40,7 @@ from docs_results import (
     render_default_spec_runs,
     render_defaults_effect,
     render_defaults_success,
+    render_drive_guess_runs,
     render_generic_scorers_runs,
     render_on_table_runs,
     render_reach_down_runs,
@@ -76,6 +77,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "contact-fingers-runs": render_contact_fingers_runs,
     "angles-from-runs": render_angles_from_runs,
     "simulator-versions-runs": render_simulator_versions_runs,
+    "drive-guess-runs": render_drive_guess_runs,
     "results-scorers": render_results_scorers,
 }
 
