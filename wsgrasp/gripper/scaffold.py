@@ -144,8 +144,8 @@ def _drive_comment() -> str:
     text = (
         "the fingers' position gains in simulation (`wsgrasp eval`): kp_revolute "
         "(N·m/rad), kp_prismatic (N/m). A URDF carries no controller gains; for a "
-        "gripper of fewer than three fingers none is guessed and the simulator's "
-        "defaults drive the fingers "
+        "gripper of fewer than three fingers, or without revolute finger joints, "
+        "none is guessed and the simulator's defaults drive the fingers "
         f"({gains['kp_revolute']:g} N·m/rad, {gains['kp_prismatic']:g} N/m). Where "
         "the hand's own controller or grip force is known, set them to match it; "
         "compare runs with `wsgrasp eval --sim kp_revolute=...` first"
