@@ -610,12 +610,26 @@ def render_drive_guess_runs() -> str:
                 rows,
             )
         )
-    rows = []
+    rows, alone = [], []
     for path in sorted(folder.glob("*.json")):
         if path == old_path:
             continue
         r = json.loads(path.read_text())
         by = {short(res["gripper"]): res for res in r.get("results", [])}
+        protocol = f"`{r.get('params', {}).get('protocol', 'not recorded')}`"
+        if not any(name.endswith("-default-gain") for name in by):
+            out.append(f"`{path.name}`: {_provenance(r, '`wsgrasp eval`')}\n")
+            alone += [
+                [
+                    f"`{path.name}`",
+                    f"`{r.get('objects')}`",
+                    protocol,
+                    f"`{name}`",
+                    f"{res['successes']} of {res['trials']}",
+                ]
+                for name, res in by.items()
+            ]
+            continue
         for name, res in by.items():
             twin = by.get(f"{name}-default-gain")
             if twin is None:
@@ -627,7 +641,7 @@ def render_drive_guess_runs() -> str:
                 [
                     f"`{path.name}`",
                     f"`{r.get('objects')}`",
-                    f"`{r.get('params', {}).get('protocol', 'not recorded')}`",
+                    protocol,
                     f"`{name}`",
                     f"{res['successes']} of {res['trials']}",
                     f"{twin['successes']} of {twin['trials']}",
@@ -651,6 +665,9 @@ def render_drive_guess_runs() -> str:
                 rows,
             )
         )
+    if alone:
+        header = ["file", "objects", "protocol", "hand", "held, guessed drive"]
+        out.append(table(header, alone))
     return "\n".join(out) if out else "No runs under `docs/results/drive-guess/`.\n"
 
 
