@@ -610,11 +610,22 @@ def render_drive_guess_runs() -> str:
                 rows,
             )
         )
-    rows, alone = [], []
+    rows, alone, chance = [], [], []
     for path in sorted(folder.glob("*.json")):
         if path == old_path:
             continue
         r = json.loads(path.read_text())
+        chance += [
+            [
+                f"`{path.name}`",
+                f"`{short(b['gripper'])}`",
+                f"{b['scenes']} × {b['random_per_scene']}",
+                f"{100 * b['chosen_rate']:.1f} %",
+                f"{100 * b['random_rate']:.1f} %",
+                _difference(b),
+            ]
+            for b in r.get("baseline", [])
+        ]
         by = {short(res["gripper"]): res for res in r.get("results", [])}
         protocol = f"`{r.get('params', {}).get('protocol', 'not recorded')}`"
         if not any(name.endswith("-default-gain") for name in by):
@@ -668,6 +679,9 @@ def render_drive_guess_runs() -> str:
     if alone:
         header = ["file", "objects", "protocol", "hand", "held, guessed drive"]
         out.append(table(header, alone))
+    if chance:
+        header = ["file", "hand", "scenes × random", "chosen", "random feasible"]
+        out.append(table([*header, "difference, points (95 %)"], chance))
     return "\n".join(out) if out else "No runs under `docs/results/drive-guess/`.\n"
 
 
