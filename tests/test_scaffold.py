@@ -239,3 +239,25 @@ def test_a_hand_gets_a_drive_for_its_size_a_jaw_none(tmp_path, monkeypatch):
     )
     # a two-finger gripper keeps the simulator's default
     assert "drive" not in guess_description(_write(tmp_path, jaw_urdf()), "jaw").data
+
+
+def test_a_hands_prismatic_finger_leaves_the_drive_to_its_revolute_ones(tmp_path):
+    import re
+
+    import hand_factory
+
+    from wsgrasp.gripper._guess import PAD_STIFFNESS
+
+    text = hand_factory.hand_urdf(3)
+    for joint in ("f0_base", "f0_tip", "f1_base", "f1_tip"):  # two fingers slide
+        text = re.sub(rf'(<joint name="{joint}" type=")revolute', r"\1prismatic", text)
+    for _ in range(2):
+        text = text.replace('lower="-0.3" upper="1.0"', 'lower="0" upper="0.02"', 1)
+        text = text.replace('lower="0" upper="1.2"', 'lower="0" upper="0.02"', 1)
+    path = _write(tmp_path, text, "mixed.urdf")
+    d = guess_description(path, "mixed").data
+    revolute = [f for f in d["fingers"] if f["joints"][0].startswith("f2")]
+    assert len(revolute) == 1
+    speeds = _pad_speeds(path, {**d, "fingers": revolute})
+    want = PAD_STIFFNESS * float(np.median(speeds))
+    assert d["drive"]["kp_revolute"] == pytest.approx(want, rel=0.03)

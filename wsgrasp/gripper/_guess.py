@@ -1396,7 +1396,9 @@ def _drive(
     give way by ``sum_j |dp/dq_j|^2 / kp`` metres per newton, where ``dp/dq_j``
     (m/rad, mimics following their master) is how fast joint ``j`` moves the pad:
     the same gain makes a long finger soft and a short one stiff. The guess gives
-    the median finger's pad :data:`PAD_STIFFNESS`, measured half closed.
+    the median finger's pad :data:`PAD_STIFFNESS`, measured half closed (among
+    the fingers that have revolute joints: a prismatic finger keeps
+    ``kp_prismatic``).
     """
     if len(fingers) < DRIVE_MIN_FINGERS:
         return None
@@ -1418,9 +1420,10 @@ def _drive(
             )
             total += float(d @ d)
         compliance.append(total)
-    if max(compliance) <= 0.0:
+    revolute = [c for c in compliance if c > 0.0]  # fingers a revolute joint moves
+    if not revolute:
         return None
-    kp = float(f"{PAD_STIFFNESS * float(np.median(compliance)):.2g}")
+    kp = float(f"{PAD_STIFFNESS * float(np.median(revolute)):.2g}")
     each = ", ".join(
         f"{n} {c * 1e4:.0f}" for n, c in zip(names, compliance, strict=True)
     )
