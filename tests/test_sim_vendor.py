@@ -377,7 +377,7 @@ def test_eval_reports_the_repairs(
     claw_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture
 ):
     """``wsgrasp eval`` of the scaffolded claw: its JSON and Markdown reports
-    list the claw's repairs and force limits."""
+    list the claw's repairs, force limits and finger gains."""
     from wsgrasp.cli import main
     from wsgrasp.gripper.scaffold import scaffold_plugin
 
@@ -395,6 +395,10 @@ def test_eval_reports_the_repairs(
     }
     assert notes["efforts"]["left_knuckle_joint"]["source"] == "default"
     assert "| left_pad_joint | mimic limits |" in md.read_text()
+    # two fingers: no drive guessed, the simulator's gain, and the report says so
+    assert "claw.yaml: finger position gains 2 N·m/rad (the simulator's)" in (
+        md.read_text()
+    )
 
 
 def test_flat_mesh_collides_as_a_thin_box(tmp_path: Path):

@@ -382,8 +382,13 @@ def _repair_counts(report: dict[str, Any]) -> list[str]:
     return lines
 
 
+#: where a simulated gripper's finger gains came from, as the report says it
+_GAIN_SOURCES = {"gripper": "the gripper YAML's drive", "params": "the simulator's"}
+
+
 def _repair_markdown(report: dict[str, Any]) -> list[str]:
-    """The simulated grippers' force limits and repairs as Markdown."""
+    """The simulated grippers' force limits, finger gains and repairs as
+    Markdown."""
     grippers = report.get("sim_grippers") or {}
     if not grippers:
         return []
@@ -394,6 +399,14 @@ def _repair_markdown(report: dict[str, Any]) -> list[str]:
             for j, e in notes.get("efforts", {}).items()
         )
         lines += ["", f"{gripper}: finger force limits {efforts or '–'}"]
+        units = {e["unit"] for e in notes.get("efforts", {}).values()}
+        gains = ", ".join(
+            f"{g['kp']:g} {unit}/{per} ({_GAIN_SOURCES.get(g['source'], g['source'])})"
+            for kind, unit, per in (("revolute", "N·m", "rad"), ("prismatic", "N", "m"))
+            if unit in units and (g := notes.get("gains", {}).get(kind))
+        )
+        if gains:
+            lines += ["", f"{gripper}: finger position gains {gains}"]
         repairs = notes.get("repairs", [])
         if repairs:
             lines += [
