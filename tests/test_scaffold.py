@@ -261,3 +261,26 @@ def test_a_hands_prismatic_finger_leaves_the_drive_to_its_revolute_ones(tmp_path
     speeds = _pad_speeds(path, {**d, "fingers": revolute})
     want = PAD_STIFFNESS * float(np.median(speeds))
     assert d["drive"]["kp_revolute"] == pytest.approx(want, rel=0.03)
+
+
+def test_gripper_new_names_a_hands_guessed_drive(tmp_path, capsys):
+    """`wsgrasp gripper new` says which finger drive it guessed for a hand, and
+    says nothing of one for a jaw."""
+    import hand_factory
+
+    from wsgrasp.cli import main
+
+    hand = _write(tmp_path, hand_factory.hand_urdf(3), "hand.urdf")
+    assert (
+        main(["gripper", "new", "hand", "--urdf", str(hand), "-o", str(tmp_path / "h")])
+        == 0
+    )
+    out = " ".join(capsys.readouterr().out.split())  # unwrapped
+    kp = yaml.safe_load((tmp_path / "h" / "wsgrasp_hand" / "hand.yaml").read_text())
+    assert f"finger drive in simulation {kp['drive']['kp_revolute']:g} N·m/rad" in out
+    jaw = _write(tmp_path, jaw_urdf(), "jaw.urdf")
+    assert (
+        main(["gripper", "new", "jaw", "--urdf", str(jaw), "-o", str(tmp_path / "j")])
+        == 0
+    )
+    assert "finger drive" not in capsys.readouterr().out

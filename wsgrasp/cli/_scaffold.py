@@ -67,7 +67,13 @@ def new(
         f"[green]wrote[/] {escape(str(out))}/ : plugin package {escape(repr(name))} "
         + escape(
             f"({len(d['fingers'])} fingers: {fingers}; base {d['base_link']}, "
-            f"approach {d['approach_axis']}, closing {d['closing_axis']})"
+            f"approach {d['approach_axis']}, closing {d['closing_axis']}"
+            + (
+                f"; finger drive in simulation {d['drive']['kp_revolute']:g} N·m/rad"
+                if "kp_revolute" in (d.get("drive") or {})
+                else ""
+            )
+            + ")"
         ),
         highlight=False,
     )
