@@ -323,18 +323,13 @@ def markdown(report: dict[str, Any]) -> str:
 
 def _cell_drive(r: dict[str, Any]) -> str:
     """The finger actuators' gains the trials used and where each came from
-    (``gripper``: the YAML's ``drive``; ``params``: the simulator's default)."""
-    notes = r.get("sim_notes") or {}
-    units = {e["unit"] for e in (notes.get("efforts") or {}).values()}
-    gains = notes.get("gains") or {}
-    cells = []
-    for kind, unit, gain_unit in (
-        ("revolute", "N·m", "N·m/rad"),
-        ("prismatic", "N", "N/m"),
-    ):
-        if unit in units and kind in gains:
-            src = "YAML" if gains[kind]["source"] == "gripper" else "default"
-            cells.append(f"{gains[kind]['kp']:g} {gain_unit} ({src})")
+    (the YAML's ``drive`` or the simulator's default)."""
+    from wsgrasp.sim.report import finger_gains
+
+    cells = [
+        f"{kp:g} {unit} ({'YAML' if source == 'gripper' else 'default'})"
+        for kp, unit, source in finger_gains(r.get("sim_notes") or {})
+    ]
     return ", ".join(cells) or "–"
 
 

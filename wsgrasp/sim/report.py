@@ -28,6 +28,7 @@ __all__ = [
     "PAPER_TABLE2",
     "baseline_rows",
     "build_report",
+    "finger_gains",
     "paired_difference",
     "spec_pairs",
     "report_markdown",
@@ -386,6 +387,24 @@ def _repair_counts(report: dict[str, Any]) -> list[str]:
 _GAIN_SOURCES = {"gripper": "the gripper YAML's drive", "params": "the simulator's"}
 
 
+def finger_gains(notes: dict[str, Any]) -> list[tuple[float, str, str]]:
+    """``(gain, unit, source)`` of the finger actuators of each joint kind a
+    simulated gripper has, from its entry in a report's ``sim_grippers``
+    (:meth:`~wsgrasp.sim.gripper.SimGripper.notes_json`): revolute in N·m/rad,
+    prismatic in N/m; ``source`` ``gripper`` (its YAML's ``drive``) or
+    ``params`` (the simulator's)."""
+    units = {e["unit"] for e in (notes.get("efforts") or {}).values()}
+    gains = notes.get("gains") or {}
+    return [
+        (float(gains[kind]["kp"]), gain_unit, str(gains[kind]["source"]))
+        for kind, unit, gain_unit in (
+            ("revolute", "N·m", "N·m/rad"),
+            ("prismatic", "N", "N/m"),
+        )
+        if unit in units and kind in gains
+    ]
+
+
 def _repair_markdown(report: dict[str, Any]) -> list[str]:
     """The simulated grippers' force limits, finger gains and repairs as
     Markdown."""
@@ -399,11 +418,9 @@ def _repair_markdown(report: dict[str, Any]) -> list[str]:
             for j, e in notes.get("efforts", {}).items()
         )
         lines += ["", f"{gripper}: finger force limits {efforts or '–'}"]
-        units = {e["unit"] for e in notes.get("efforts", {}).values()}
         gains = ", ".join(
-            f"{g['kp']:g} {unit}/{per} ({_GAIN_SOURCES.get(g['source'], g['source'])})"
-            for kind, unit, per in (("revolute", "N·m", "rad"), ("prismatic", "N", "m"))
-            if unit in units and (g := notes.get("gains", {}).get(kind))
+            f"{kp:g} {unit} ({_GAIN_SOURCES.get(source, source)})"
+            for kp, unit, source in finger_gains(notes)
         )
         if gains:
             lines += ["", f"{gripper}: finger position gains {gains}"]
