@@ -433,6 +433,24 @@ def _difference(row: dict[str, Any]) -> str:
     return f"{100 * row.get('difference', 0):+.1f}{interval}"
 
 
+def _chance_rows(path: Path, r: dict[str, Any], *, with_spec: bool) -> list[list[Any]]:
+    """One row per plan-choice-against-chance comparison of the eval report
+    ``r`` (its ``baseline``): file, gripper, (spec,) scenes × random candidates,
+    chosen, random feasible, difference."""
+    return [
+        [
+            f"`{path.name}`",
+            f"`{short(b['gripper'])}`",
+            *([f"`{b['spec']}`"] if with_spec else []),
+            f"{b['scenes']} × {b['random_per_scene']}",
+            f"{100 * b['chosen_rate']:.1f} %",
+            f"{100 * b['random_rate']:.1f} %",
+            _difference(b),
+        ]
+        for b in r.get("baseline", [])
+    ]
+
+
 def _runs_in(folder: str) -> str:
     """One row per gripper and run for every eval summary in
     ``docs/results/<folder>/``: its objects, setting, trials and success; then,
@@ -443,18 +461,7 @@ def _runs_in(folder: str) -> str:
     chance = []
     for path in sorted((RESULTS / folder).glob("*.json")):
         r = json.loads(path.read_text())
-        for b in r.get("baseline", []):
-            chance.append(
-                [
-                    f"`{path.name}`",
-                    f"`{short(b['gripper'])}`",
-                    f"`{b['spec']}`",
-                    f"{b['scenes']} × {b['random_per_scene']}",
-                    f"{100 * b['chosen_rate']:.1f} %",
-                    f"{100 * b['random_rate']:.1f} %",
-                    _difference(b),
-                ]
-            )
+        chance += _chance_rows(path, r, with_spec=True)
         for c in r.get("specs_paired", []):
             paired.append(
                 [
@@ -573,10 +580,8 @@ def render_drive_guess_runs() -> str:
     folder = RESULTS / "drive-guess"
     out = []
     old_path = folder / "grippers-default-gain.json"
-    new_path = RESULTS / "grippers.json"
-    if old_path.exists() and new_path.exists():
-        old = json.loads(old_path.read_text())
-        new = json.loads(new_path.read_text())
+    old, new = _load(old_path), _load(RESULTS / "grippers.json")
+    if old is not None and new is not None:
         before = {r["name"]: r for r in old["rows"]}
         rows = []
         for r in new["rows"]:
@@ -615,21 +620,11 @@ def render_drive_guess_runs() -> str:
         if path == old_path:
             continue
         r = json.loads(path.read_text())
-        chance += [
-            [
-                f"`{path.name}`",
-                f"`{short(b['gripper'])}`",
-                f"{b['scenes']} × {b['random_per_scene']}",
-                f"{100 * b['chosen_rate']:.1f} %",
-                f"{100 * b['random_rate']:.1f} %",
-                _difference(b),
-            ]
-            for b in r.get("baseline", [])
-        ]
+        chance += _chance_rows(path, r, with_spec=False)
         by = {short(res["gripper"]): res for res in r.get("results", [])}
         protocol = f"`{r.get('params', {}).get('protocol', 'not recorded')}`"
+        out.append(f"`{path.name}`: {_provenance(r, '`wsgrasp eval`')}\n")
         if not any(name.endswith("-default-gain") for name in by):
-            out.append(f"`{path.name}`: {_provenance(r, '`wsgrasp eval`')}\n")
             alone += [
                 [
                     f"`{path.name}`",
@@ -660,7 +655,6 @@ def render_drive_guess_runs() -> str:
                     f"{sum(mine[o] < other[o] for o in common)}",
                 ]
             )
-            out.append(f"`{path.name}`: {_provenance(r, '`wsgrasp eval`')}\n")
     if rows:
         out.append(
             table(
