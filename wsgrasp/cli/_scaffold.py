@@ -63,17 +63,13 @@ def new(
     fingers = ", ".join(
         f"{f['name']} [{', '.join(map(str, f['joints']))}]" for f in d["fingers"]
     )
+    kp = (d.get("drive") or {}).get("kp_revolute")
+    drive = f"; finger drive in simulation {kp:g} N·m/rad" if kp is not None else ""
     console.print(
         f"[green]wrote[/] {escape(str(out))}/ : plugin package {escape(repr(name))} "
         + escape(
             f"({len(d['fingers'])} fingers: {fingers}; base {d['base_link']}, "
-            f"approach {d['approach_axis']}, closing {d['closing_axis']}"
-            + (
-                f"; finger drive in simulation {d['drive']['kp_revolute']:g} N·m/rad"
-                if "kp_revolute" in (d.get("drive") or {})
-                else ""
-            )
-            + ")"
+            f"approach {d['approach_axis']}, closing {d['closing_axis']}{drive})"
         ),
         highlight=False,
     )

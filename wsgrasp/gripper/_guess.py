@@ -1413,11 +1413,8 @@ def _drive(
         for j in fingers[link]:
             if u.kin.joints[j].kind != JOINT_REVOLUTE:
                 continue
-            lo, hi = dict(mid), dict(mid)
-            lo[j], hi[j] = mid[j] - h, mid[j] + h
-            d = (_pad_points(u, pad, hi, 1)[0] - _pad_points(u, pad, lo, 1)[0]) / (
-                2 * h
-            )
+            lo, hi = _pad_points(u, pad, {**mid, j: mid[j] + np.array([-h, h])}, 2)
+            d = (hi - lo) / (2 * h)  # (3,) m/rad
             total += float(d @ d)
         compliance.append(total)
     revolute = [c for c in compliance if c > 0.0]  # fingers a revolute joint moves
