@@ -79,11 +79,23 @@ def test_the_generic_default_validates_for_every_kind_of_gripper():
         assert spec.sampling.mode == "approach_sphere"
 
 
+def _level_if(scorers, tips):
+    """``scorers`` as a fingertips-first hand's default has them: its
+    approach_direction preferring a level approach, every other one as it is."""
+    if not tips:
+        return scorers
+    level = {"options": {"direction": "level"}}
+    return [
+        {**s, **level} if s["name"] == "approach_direction" else s for s in scorers
+    ]
+
+
 @pytest.mark.parametrize("tips", [False, True])
 def test_the_written_default_is_the_generic_one_with_reach_down_fingertips_first(tips):
     """What `gripper new` writes: the generic default naming the gripper; for a
     hand that approaches fingertips first, with reach_down added after the
-    generic scorers and a comment that says why."""
+    generic scorers, approach_direction preferring a level approach, and a
+    comment that says why."""
     from wsgrasp.default_specs import generic_spec_text
     from wsgrasp.spec import load_spec
 
@@ -92,7 +104,7 @@ def test_the_written_default_is_the_generic_one_with_reach_down_fingertips_first
     generic = yaml.safe_load(GENERIC_DEFAULT.read_text())
     assert data["gripper"] == "allegro_right"
     extra = [{"name": "reach_down", "weight": 1.0}] if tips else []
-    assert data["scorers"] == generic["scorers"] + extra
+    assert data["scorers"] == _level_if(generic["scorers"], tips) + extra
     assert {k: v for k, v in data.items() if k not in ("gripper", "scorers")} == {
         k: v for k, v in generic.items() if k not in ("gripper", "scorers")
     }
@@ -117,7 +129,7 @@ def test_a_hand_gets_the_generic_default_without_the_jaw_scorers(tips, fingers):
     kept = [s for s in generic["scorers"] if s["name"] not in JAW_SCORERS]
     assert kept and len(kept) < len(generic["scorers"])
     extra = [{"name": "reach_down", "weight": 1.0}] if tips else []
-    assert data["scorers"] == kept + extra
+    assert data["scorers"] == _level_if(kept, tips) + extra
     head = [ln for ln in text.splitlines() if ln.startswith("#")]
     assert f"a hand of {fingers} fingers" in head[1]
     assert ("approaches fingertips first" in text) == tips

@@ -287,7 +287,8 @@ def test_hand_on_a_forearm_approaches_palm_first_and_finds_grasps(tmp_path):
 
 def test_a_hand_scaffolded_fingertips_first_scores_by_reach_down(tmp_path, monkeypatch):
     """Where `gripper new` keeps the fingertips-first approach, the package's
-    default spec is the generic default with reach_down added."""
+    default spec is the generic default with reach_down added and
+    approach_direction preferring a level approach."""
     from wsgrasp.default_specs import default_spec
     from wsgrasp.gripper import _approach
 
@@ -305,6 +306,8 @@ def test_a_hand_scaffolded_fingertips_first_scores_by_reach_down(tmp_path, monke
     spec, source = default_spec(str(yaml_path))
     assert source.endswith("specs/default.yaml")
     assert [s["name"] for s in spec["scorers"]][-1] == "reach_down"
+    (direction,) = [s for s in spec["scorers"] if s["name"] == "approach_direction"]
+    assert direction["options"] == {"direction": "level"}
 
 
 def test_hand_gets_a_fingertips_first_alternative_and_claws_none(tmp_path):

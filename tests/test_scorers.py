@@ -129,6 +129,17 @@ def test_approach_direction_prefers_top_down():
     np.testing.assert_allclose(scorer.score(b, opts), [1.0, 0.5])
 
 
+def test_approach_direction_level_prefers_the_side_from_any_side():
+    scorer, _ = _scorer("approach_direction")
+    opts = scorer.Options(direction="level")
+    tilted = (np.sin(np.pi / 6), 0.0, -np.cos(np.pi / 6))  # 30 degrees off down
+    approaches = [(0, 0, -1), tilted, (1, 0, 0), (0, -1, 0)]
+    b = _batch(HOLD * 2, NORMALS, approach=approaches)
+    np.testing.assert_allclose(
+        scorer.score(b, opts), [0.0, 1.0 - np.cos(np.pi / 6), 1.0, 1.0], atol=1e-12
+    )
+
+
 def test_centroid_distance_is_monotone_in_distance():
     scorer, opts = _scorer("centroid_distance")
     b = _batch(HOLD * 3, NORMALS)

@@ -95,6 +95,9 @@ def default_spec(gripper: str) -> tuple[dict[str, Any], str]:
 #: the scorer a hand that approaches fingertips first gets beside the generic
 #: default's (docs/explanation/defaults.md#a-hand-that-approaches-fingertips-first)
 FINGERTIPS_FIRST_SCORER = "  - {name: reach_down, weight: 1.0}"
+#: ... and the direction its ``approach_direction`` prefers: level with the
+#: table, where the generic default's prefers straight down onto it
+FINGERTIPS_FIRST_DIRECTION = "level"
 
 
 def generic_spec_text(
@@ -113,7 +116,10 @@ def generic_spec_text(
     object, as ``gripper new`` may guess for a hand of four or more fingers)
     also scores by ``reach_down``: such a hand holds a low object only when its
     fingertips come down to the table beside it, rather than closing round the
-    object's top edge."""
+    object's top edge. Its ``approach_direction`` prefers an approach level
+    with the table (:data:`FINGERTIPS_FIRST_DIRECTION`): from above, such a
+    hand points its fingers down at the table, and the oblique approaches
+    that preference favours held fewer objects."""
     lines = GENERIC_DEFAULT.read_text().splitlines()
     while lines and lines[0].startswith("#"):  # its own header, replaced below
         lines.pop(0)
@@ -127,8 +133,13 @@ def generic_spec_text(
             + " (docs/explanation/defaults.md)."
         )
     if fingertips_first:
+        out = [
+            _level(ln) if _scorer_name(ln) == "approach_direction" else ln
+            for ln in out
+        ]
         notes.append(
-            "# with reach_down, as for every hand that approaches fingertips first "
+            "# with reach_down, and approach_direction preferring a level approach, "
+            "as for every hand that approaches fingertips first "
             "(docs/explanation/defaults.md)."
         )
     out[:0] = [
@@ -140,6 +151,13 @@ def generic_spec_text(
         last = max(i for i, ln in enumerate(out) if ln.startswith("  - {name:"))
         out.insert(last + 1, FINGERTIPS_FIRST_SCORER)
     return "\n".join(out) + "\n"
+
+
+def _level(line: str) -> str:
+    """A spec line ``  - {name: approach_direction, ...}`` with its direction
+    set to :data:`FINGERTIPS_FIRST_DIRECTION` (its weight kept)."""
+    head = line.rstrip().removesuffix("}")
+    return f"{head}, options: {{direction: {FINGERTIPS_FIRST_DIRECTION}}}}}"
 
 
 def _scorer_name(line: str) -> str | None:

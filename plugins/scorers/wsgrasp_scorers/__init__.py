@@ -196,16 +196,21 @@ class TableClearanceScorer:
 class ApproachDirectionScorer:
     """Preference for an approach direction: ``(1 + a · d) / 2``.
 
-    ``direction`` is ``against_table`` (straight down onto the table) or a vector
-    in the world frame.
+    ``direction`` is ``against_table`` (straight down onto the table), a vector
+    in the world frame, or ``level``: an approach parallel to the table from any
+    side, scored ``1 - |a · n|`` (``n`` the table's normal; 1 level, 0 straight
+    down).
     """
 
     class Options(_Options):
-        direction: Literal["against_table"] | tuple[float, float, float] = (
+        direction: Literal["against_table", "level"] | tuple[float, float, float] = (
             "against_table"
         )
 
     def score(self, batch: Any, options: Options) -> np.ndarray:
+        if options.direction == "level":
+            n = np.asarray(batch.table_normal, dtype=np.float64)
+            return 1.0 - np.abs(batch.approach @ n)  # type: ignore[no-any-return]
         if options.direction == "against_table":
             d = -np.asarray(batch.table_normal, dtype=np.float64)
         else:
