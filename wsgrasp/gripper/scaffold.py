@@ -293,7 +293,8 @@ pytest tests                          # builds, checks and plans a grasp
 Then use it in a pipeline spec: `gripper: {name}`. `wsgrasp plan --gripper {name}`
 and `wsgrasp eval --gripper {name}` use `{module}/specs/default.yaml`, wsgrasp's
 generic default spec as written here (its first lines say whether `reach_down` was
-added, as it is for a hand that approaches fingertips first); change it there to
+added and `approach_direction` set to prefer a level approach, as they are for a hand
+that approaches fingertips first); change it there to
 change the gripper's default.
 
 The YAML's comments say what `wsgrasp gripper new` guessed and how. Read the check's
