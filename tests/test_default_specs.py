@@ -85,9 +85,7 @@ def _level_if(scorers, tips):
     if not tips:
         return scorers
     level = {"options": {"direction": "level"}}
-    return [
-        {**s, **level} if s["name"] == "approach_direction" else s for s in scorers
-    ]
+    return [{**s, **level} if s["name"] == "approach_direction" else s for s in scorers]
 
 
 @pytest.mark.parametrize("tips", [False, True])

@@ -134,8 +134,7 @@ def generic_spec_text(
         )
     if fingertips_first:
         out = [
-            _level(ln) if _scorer_name(ln) == "approach_direction" else ln
-            for ln in out
+            _level(ln) if _scorer_name(ln) == "approach_direction" else ln for ln in out
         ]
         notes.append(
             "# with reach_down, and approach_direction preferring a level approach, "

@@ -927,3 +927,53 @@ def _clutter_run(name: str, r: dict[str, Any]) -> list[str]:
             )
         )
     return out
+
+
+def render_clutter_segments() -> str:
+    """The published runs of ``benchmarks/clutter_segments.py``: per object
+    range, scene kind and option set, how the ``clutter`` segmenter's instances
+    compare with the objects the points came from."""
+    paths = sorted((RESULTS / "clutter-segments").glob("*.json"))
+    if not paths:
+        return "No run of `benchmarks/clutter_segments.py` is published yet.\n"
+    out = []
+    for path in paths:
+        r = json.loads(path.read_text())
+        what = "`" + (r.get("command") or "benchmarks/clutter_segments.py") + "`"
+        out.append(
+            f"`{path.name}`: {_provenance(r, what)} {r.get('scenes')} scenes of "
+            f"{r.get('objects_per_scene')} objects from `{r.get('objects')}` per "
+            f"kind, seed {r.get('seed')}.\n"
+        )
+        rows = []
+        for row in r.get("rows", []):
+            options = row.get("options") or {}
+            setting = ", ".join(f"`{k}: {v}`" for k, v in options.items())
+            rows.append(
+                [
+                    f"`{row['scene']}`",
+                    setting or "the defaults",
+                    row["objects"],
+                    row["instances"],
+                    row["merged"],
+                    row["target merged"],
+                    row["split"],
+                    row["refused"],
+                ]
+            )
+        out.append(
+            table(
+                [
+                    "scene",
+                    "options",
+                    "objects seen",
+                    "instances",
+                    "merged",
+                    "merged, the highest",
+                    "objects split",
+                    "no table or object found",
+                ],
+                rows,
+            )
+        )
+    return "\n".join(out)
