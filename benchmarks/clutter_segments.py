@@ -7,8 +7,9 @@ cloud downsampled as the default spec does, and every instance is compared
 with the meshes the points came from (each point belongs to the nearest
 surface). Per option set it prints:
 
-- ``merged``: instances whose second object holds 20 % of their points or more
-  (what a clutter run counts as ``wrong_split`` when it is the target);
+- ``merged``: instances whose second object holds ``WRONG_SPLIT_SHARE`` (20 %)
+  of their points or more (what a clutter run counts as ``wrong_split`` when it
+  is the target);
 - ``target merged``: those among the ``highest`` instances, the target of a
   clutter run's first step;
 - ``split``: objects with a quarter of their points or more in each of two
@@ -35,13 +36,19 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
+from wsgrasp.errors import WsgraspError
 from wsgrasp.perception.process import downsample
-from wsgrasp.sim.clutter import ClutterWorld, _owners, place_objects, render_world
+from wsgrasp.sim.clutter import (
+    WRONG_SPLIT_SHARE,
+    ClutterWorld,
+    _owners,
+    place_objects,
+    render_world,
+    scene_draws,
+)
 from wsgrasp.sim.objects import resolve_objects
 from wsgrasp.sim.params import SimParams
 
-#: an instance whose second object holds this share of its points is merged
-MERGED_SHARE = 0.2
 #: an object with this share of its points in each of two instances is split
 SPLIT_SHARE = 0.25
 #: an object with fewer points is not counted as seen
@@ -63,13 +70,8 @@ def scenes(
     object, as ``wsgrasp eval --scene`` would build them."""
     p = SimParams.for_protocol("strict")
     pool = resolve_objects([objects], progress=False).objects
-    rng = np.random.default_rng(seed)
-    draws = [
-        [int(i) for i in rng.choice(len(pool), per_scene, replace=False)]
-        for _ in range(count)
-    ]
     out = []
-    for i, draw in enumerate(draws):
+    for i, draw in enumerate(scene_draws(len(pool), per_scene, count, seed)):
         objs = [pool[k] for k in draw]
         r = np.random.default_rng(seed + i)
         world = ClutterWorld.build(objs, p)
@@ -100,7 +102,7 @@ def score(data: list[dict[str, Any]], options: dict[str, Any]) -> dict[str, int]
     for s in data:
         try:
             seg = Clutter().segment(s["points"], o, seed=0, viewpoints=s["viewpoints"])
-        except Exception:  # noqa: BLE001 - a scene with nothing found counts
+        except WsgraspError:  # no table, or nothing on it: counted
             totals["refused"] += 1
             continue
         tree = cKDTree(s["points"])
@@ -113,7 +115,7 @@ def score(data: list[dict[str, Any]], options: dict[str, Any]) -> dict[str, int]
             tops.append(float(seg.table.signed_distance(c).max()))
         ranked = np.sort(share, axis=1)
         merged = (
-            ranked[:, -2] >= MERGED_SHARE * share.sum(axis=1)
+            ranked[:, -2] >= WRONG_SPLIT_SHARE * share.sum(axis=1)
             if n > 1
             else np.zeros(len(share), dtype=bool)
         )

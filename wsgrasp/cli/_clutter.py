@@ -64,13 +64,16 @@ def clutter_eval(
     ``baseline``, each scene is cleared a second time by random feasible
     candidates (``run_clutter_scene(pick="random")``), reported beside the
     choice with the paired differences over scenes (:func:`baseline_pairs`)."""
-    import numpy as np
-
     from wsgrasp._version import library_versions
     from wsgrasp.api import Pipeline
     from wsgrasp.errors import InputError
     from wsgrasp.sim import load_sim_gripper
-    from wsgrasp.sim.clutter import CLUTTER_SCENES, clutter_summary, run_clutter_scene
+    from wsgrasp.sim.clutter import (
+        CLUTTER_SCENES,
+        clutter_summary,
+        run_clutter_scene,
+        scene_draws,
+    )
     from wsgrasp.sim.objects import resolve_objects
     from wsgrasp.spec import load_spec
 
@@ -93,11 +96,7 @@ def clutter_eval(
             f"objects, --objects gave {len(pool)}",
             hint="give a larger object range, e.g. --objects random:000-299",
         )
-    rng = np.random.default_rng(seed)
-    draws = [
-        [int(i) for i in rng.choice(len(pool), objects_per_scene, replace=False)]
-        for _ in range(scenes)
-    ]
+    draws = scene_draws(len(pool), objects_per_scene, scenes, seed)
     report: dict[str, Any] = {
         "kind": "clutter",
         "libraries": library_versions(),

@@ -67,6 +67,7 @@ __all__ = [
     "place_objects",
     "render_world",
     "run_clutter_scene",
+    "scene_draws",
 ]
 
 Array = NDArray[np.float64]
@@ -80,7 +81,7 @@ PACKED_GAP = 0.003
 #: where removed objects are parked (m, world), one slot apart along y
 _PARK = np.array([5.0, 0.0, 1.0])
 #: share of the target's points that must lie on a second object for a wrong split
-_WRONG_SPLIT_SHARE = 0.2
+WRONG_SPLIT_SHARE = 0.2
 #: what executes a step's grasp: the plan's choice, or a random feasible
 #: candidate of the plan (the chance a clutter run is compared with)
 PICKS: tuple[str, ...] = ("plan", "random")
@@ -304,6 +305,17 @@ def place_objects(
     world.set_poses(poses, np.ones(n, dtype=bool))
     world.settle(p, limit=3.0 * p.settle_time)
     world.present = world.on_table(p)
+
+
+def scene_draws(pool: int, per_scene: int, scenes: int, seed: int) -> list[list[int]]:
+    """The objects of each of ``scenes`` clutter scenes: ``per_scene`` distinct
+    indices into a pool of ``pool`` objects, drawn from ``seed``'s stream (scene
+    ``i`` then runs with seed ``seed + i``: :func:`run_clutter_scene`)."""
+    rng = np.random.default_rng(seed)
+    return [
+        [int(i) for i in rng.choice(pool, per_scene, replace=False)]
+        for _ in range(scenes)
+    ]
 
 
 # --------------------------------------------------------------------------------
@@ -677,7 +689,7 @@ def _kind(outcome: str, share: float, lifted: int, pushed: bool) -> str | None:
         return "two_lifted"
     if outcome == "success":
         return None
-    if share >= _WRONG_SPLIT_SHARE:
+    if share >= WRONG_SPLIT_SHARE:
         return "wrong_split"
     if outcome == "approach_collision" or pushed:
         return "neighbour_collision"
