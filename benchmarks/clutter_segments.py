@@ -41,7 +41,7 @@ from wsgrasp.perception.process import downsample
 from wsgrasp.sim.clutter import (
     WRONG_SPLIT_SHARE,
     ClutterWorld,
-    _owners,
+    object_owners,
     place_objects,
     render_world,
     scene_draws,
@@ -83,7 +83,7 @@ def scenes(
             {
                 "points": points,
                 "viewpoints": scene.viewpoints(),
-                "owner": _owners(points, meshes),
+                "owner": object_owners(points, meshes),
                 "objects": len(meshes),
             }
         )

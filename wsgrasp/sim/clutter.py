@@ -64,6 +64,7 @@ __all__ = [
     "ClutterWorld",
     "Step",
     "clutter_summary",
+    "object_owners",
     "place_objects",
     "render_world",
     "run_clutter_scene",
@@ -392,7 +393,7 @@ def render_world(
     return Scene(views=views, points=points), present, meshes
 
 
-def _owners(points: Array, meshes: list[tuple[Any, Array]]) -> NDArray[np.int64]:
+def object_owners(points: Array, meshes: list[tuple[Any, Array]]) -> NDArray[np.int64]:
     """Index into ``meshes`` of the surface nearest each point ``(n, 3)``."""
     import open3d as o3d
 
@@ -676,7 +677,7 @@ def _target(
     the second most."""
     if object_points is None or not len(object_points):
         return 0, 0.0
-    owners = _owners(object_points, meshes)
+    owners = object_owners(object_points, meshes)
     counts = np.bincount(owners, minlength=len(meshes))
     order = np.argsort(-counts)
     second = float(counts[order[1]]) / len(owners) if len(meshes) > 1 else 0.0
