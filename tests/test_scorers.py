@@ -371,3 +371,85 @@ def test_reach_down_depth_asks_a_tall_object_for_its_top_alone():
         T, holding, flat, np.zeros((2, 3)), np.array([0.0, 0.005, 0.01]), np.eye(4)
     )
     np.testing.assert_allclose(scorer.score(batch, opts), [1.0, 0.5, 0.0])
+
+
+def test_pose_margin_counts_the_moved_poses_that_stay_feasible():
+    """With a scene on which a pose is feasible while its origin stays within
+    4 mm of the object's centroid along x, a candidate at the centroid keeps 10
+    of its 12 moved poses (the two 5 mm moves along x leave), one 2 mm along x
+    keeps 11 (the move away from the centroid leaves; 3-degree turns about the
+    centroid shift it by microns) and one 6 mm along keeps 1 (the move back)."""
+    scorer, opts = _scorer("pose_margin")
+    T = np.tile(np.eye(4), (3, 1, 1))
+    T[:, 0, 3] = [0.0, 0.002, 0.006]
+    seen = []
+
+    def feasible_at(poses):
+        seen.append(poses.shape)
+        return np.abs(poses[:, 0, 3]) < 0.004
+
+    batch = _jaw_batch(T, np.ones((3, 3, 2), bool), np.zeros((3, 3)), None, np.zeros(3))
+    batch.feasible_fn = feasible_at
+    np.testing.assert_allclose(scorer.score(batch, opts), [10 / 12, 11 / 12, 1 / 12])
+    assert seen == [(36, 4, 4)]  # every moved pose in one call
+
+
+def test_pose_margin_turns_about_the_object_centroid():
+    """A 3-degree turn about the centroid moves a pose 10 cm from it by about
+    5 mm: on a scene that allows 4 mm of drift in any direction, the four turns
+    about the two axes across the offset leave, the two about it stay, and the
+    six 5 mm moves all leave."""
+    scorer, opts = _scorer("pose_margin")
+    T = np.eye(4)[None].copy()
+    T[0, :3, 3] = [0.1, 0.0, 0.0]
+    batch = _jaw_batch(T, np.ones((1, 3, 2), bool), np.zeros((3, 3)), None, np.zeros(1))
+    batch.feasible_fn = lambda poses: (
+        np.linalg.norm(poses[:, :3, 3] - [0.1, 0.0, 0.0], axis=1) < 0.004
+    )
+    np.testing.assert_allclose(scorer.score(batch, opts), [2 / 12])
+
+
+def test_pose_margin_needs_a_batch_that_can_test_poses():
+    scorer, opts = _scorer("pose_margin")
+    batch = _jaw_batch(
+        np.eye(4)[None], np.ones((1, 3, 2), bool), np.zeros((3, 3)), None, np.zeros(1)
+    )
+    with pytest.raises(PluginError, match="cannot test other poses"):
+        scorer.score(batch, opts)
+
+
+def test_a_plans_batch_tests_poses_as_its_search_does(monkeypatch):
+    """Through a plan, ``feasible_at`` gives the search's own verdict: true at
+    every feasible candidate's pose, false at every rejected one's; and
+    ``pose_margin`` is recorded as a share of 12 moved poses."""
+    from pathlib import Path
+
+    from wsgrasp_scorers import PoseMarginScorer
+
+    from wsgrasp.api import Pipeline, as_scene
+    from wsgrasp.spec import load_spec
+
+    root = Path(__file__).resolve().parents[1]
+    seen = []
+    score = PoseMarginScorer.score
+
+    def keep(self, batch, options):
+        seen.append(batch)
+        return score(self, batch, options)
+
+    monkeypatch.setattr(PoseMarginScorer, "score", keep)
+    spec = load_spec(root / "examples" / "specs" / "franka.yaml").model_dump()
+    spec["scorers"].append({"name": "pose_margin", "weight": 0.0})
+    result = Pipeline(load_spec(spec)).plan(
+        as_scene(root / "examples" / "scenes" / "box_upright.npz")
+    )
+    (batch,) = seen
+    c = result.candidates
+    feasible = np.flatnonzero(c.feasible)
+    assert feasible.size == len(batch)
+    assert batch.feasible_at(c.T_world_ee[feasible]).all()
+    rejected = np.flatnonzero(~c.feasible)[:200]
+    assert not batch.feasible_at(c.T_world_ee[rejected]).any()
+    margin = c.terms["pose_margin"][feasible]
+    np.testing.assert_allclose(margin * 12, np.round(margin * 12))
+    assert (margin > 0).all() and (margin <= 1).all()

@@ -54,6 +54,11 @@ class CandidateBatch:
         ``(r,)`` alone, ``(r, 3)``, each bit for bit the one ``normals_fn``
         gives it. With it, :attr:`contact_normals` estimates only the normals of
         the points some finger holds.
+    feasible_fn : callable, optional
+        ``feasible_fn(T_world_gripper)``: for poses ``(M, 4, 4)`` of the
+        gripper, ``(M,)`` bool, whether each passes the search's checks on this
+        scene (table, body against the object and its neighbours, every contact
+        finger holding object points), as a candidate at that pose would.
     """
 
     gripper: GripperModel
@@ -74,6 +79,9 @@ class CandidateBatch:
     normals_of: Callable[[Array, NDArray[np.int64]], Array] | None = field(
         default=None, repr=False
     )
+    feasible_fn: Callable[[Array], NDArray[np.bool_]] | None = field(
+        default=None, repr=False
+    )
 
     def __len__(self) -> int:
         return int(self.T_world_gwc.shape[0])
@@ -83,6 +91,16 @@ class CandidateBatch:
         """``holding`` as :class:`~wsgrasp.planning.holdings.Holdings` (counts,
         blocks of rows, sums over the held points), without building the mask."""
         return type(self).__dict__["holding"].holdings_of(self)  # type: ignore[no-any-return]
+
+    def feasible_at(self, T_world_gripper: Array) -> NDArray[np.bool_]:
+        """Whether the gripper at each pose ``(M, 4, 4)`` passes the search's
+        checks on this scene, ``(M,)`` (``feasible_fn``)."""
+        if self.feasible_fn is None:
+            raise PluginError(
+                "this batch cannot test other poses",
+                hint="plan through wsgrasp.Pipeline, which provides feasible_fn",
+            )
+        return self.feasible_fn(T_world_gripper)
 
     @cached_property
     def contacts(self) -> NDArray[np.int64]:

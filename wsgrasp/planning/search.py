@@ -93,6 +93,7 @@ def run_search(
     """
     g = inp.gripper
     t0 = time.perf_counter()
+    spheres = spheres or FingerSpheres(g)  # built once: scorers may test more poses
     o = inp.orientations
     T_world_gwc, T_world_gripper, sample, orientation = candidate_poses(
         inp.T_world_object, inp.samples_object, o.R_object_gwc, g.T_gripper_gwc, o.depth
@@ -120,6 +121,14 @@ def run_search(
     best_terms: dict[str, float] = {}
     if ev.feasible.size:
         f = ev.feasible
+
+        def feasible_at(T: Array) -> NDArray[np.bool_]:
+            """The search's verdict on other poses of the gripper."""
+            v = evaluate_candidates(
+                T, g, inp.object_points, inp.obstacle_points, inp.table, spheres
+            )
+            return v.reason == 0
+
         batch = CandidateBatch(
             gripper=g,
             T_world_gwc=T_world_gwc[f],
@@ -135,6 +144,7 @@ def run_search(
             normals_fn=normals_fn,
             normals_of=normals_of,
             T_world_table=inp.table.T_world_table,
+            feasible_fn=feasible_at,
         )
         total, terms = combine_scores(batch, scorers)
         score[f] = total

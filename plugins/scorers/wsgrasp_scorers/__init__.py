@@ -22,6 +22,7 @@ __all__ = [
     "ContactBalanceScorer",
     "JointMarginScorer",
     "MassCenterScorer",
+    "PoseMarginScorer",
     "ReachDownScorer",
     "SqueezeInwardScorer",
     "TableClearanceScorer",
@@ -275,6 +276,48 @@ class MassCenterScorer:
         return _nearness(d, batch)
 
 
+class PoseMarginScorer:
+    """A grasp that stays feasible when the gripper arrives a little off its pose.
+
+    A robot reaches the planned pose only to within its hand-eye calibration
+    and its own repeatability: millimetres and a degree or two. Each candidate
+    is moved by ``offset`` (m) along -x, +x, -y, +y, -z and +z of the world and
+    turned by ``angle_deg`` either way about the world's three axes through
+    the object's centroid (12 poses, as the trials' execution error moves it);
+    the score is the share of those poses at which the search would still find
+    it feasible (``batch.feasible_at``: clear of the table and of every object,
+    each contact finger holding object points). A grasp whose fingers only just
+    reach the object, or whose body only just clears it or a neighbour, scores
+    low.
+    """
+
+    class Options(_Options):
+        offset: float = Field(
+            0.005, ge=0.0, description="how far (m) each pose is moved along each axis"
+        )
+        angle_deg: float = Field(
+            3.0,
+            ge=0.0,
+            description="how far (degrees) each pose is turned about each axis",
+        )
+
+    def score(self, batch: Any, options: Options) -> np.ndarray:
+        from scipy.spatial.transform import Rotation
+
+        F = len(batch)
+        eye = np.eye(3)
+        steps = np.concatenate([-eye, eye])  # (6, 3) -x, -y, -z, +x, +y, +z
+        moves = np.tile(np.eye(4), (12, 1, 1))  # (12, 4, 4) world motions
+        moves[:6, :3, 3] = options.offset * steps
+        R = Rotation.from_rotvec(np.radians(options.angle_deg) * steps).as_matrix()
+        c = np.asarray(batch.T_world_object[:3, 3], dtype=np.float64)
+        moves[6:, :3, :3] = R
+        moves[6:, :3, 3] = c - R @ c  # about the centroid
+        T = np.einsum("kij,fjl->fkil", moves, batch.T_world_gripper)  # (F, 12, 4, 4)
+        ok = batch.feasible_at(T.reshape(F * 12, 4, 4)).reshape(F, 12)
+        return ok.mean(axis=1)  # type: ignore[no-any-return]
+
+
 class ReachDownScorer:
     """A gripper that reaches down the object, not one that holds it by its top.
 
@@ -342,5 +385,6 @@ def wsgrasp_register_scorers(register: Any) -> None:
     register("approach_direction", ApproachDirectionScorer)
     register("joint_margin", JointMarginScorer)
     register("mass_center", MassCenterScorer)
+    register("pose_margin", PoseMarginScorer)
     register("reach_down", ReachDownScorer)
     register("squeeze_inward", SqueezeInwardScorer)
