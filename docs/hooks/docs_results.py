@@ -684,6 +684,11 @@ def render_reach_down_runs() -> str:
     return _runs_in("reach-down")
 
 
+def render_pose_margin_runs() -> str:
+    """The runs that measured the pose_margin scorer beside a default spec."""
+    return _runs_in("pose-margin")
+
+
 def render_defaults_effect() -> str:
     """Each gripper's default spec beside the paper's and the follow-up's setting,
     from every eval summary that ran more than one spec per gripper."""
