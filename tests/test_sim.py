@@ -425,3 +425,27 @@ def test_closing_push_is_how_far_the_fingers_moved_the_object(
             assert abs(step) < 1e-3  # still gripping at the end of the hold
     assert pushes[0.0] < 1e-3
     assert 0.005 < pushes[0.015] < 0.015
+
+
+def test_friction_use_says_how_near_the_grip_is_to_sliding(
+    jaw_dir: Path, box_object: SimObject
+):
+    """A jaw centred on the box holds it by friction alone once lifted: its
+    contacts use part of their friction cones, more with less friction (the
+    same squeeze, a smaller cone), none of them past the cone; before the
+    lift the table carries the box, and the jaw squeezes straight."""
+    uses = {}
+    for mu in (0.8, 0.4):
+        p = SimParams(hold_time=0.2, gripper_friction=mu, friction=mu)
+        scene = build_scene(
+            box_object, sim_gripper_from_files(jaw_description(), jaw_dir, p), p
+        )
+        T_world_base = _T((0.0, 0.0, 0.08 + 0.10 - 0.02), R_DOWN)
+        ex = execute_grasp(scene, _T(), T_world_base, p, joints_grasp={"j_left": 0.01})
+        assert ex.outcome == "success", ex.metrics
+        m = ex.metrics
+        assert m["friction_use_closed"] is not None
+        assert m["friction_use_closed"] < m["friction_use_lifted"] <= 1.0 + 1e-6
+        assert 0.0 < m["friction_use_held"] <= 1.0 + 1e-6
+        uses[mu] = m["friction_use_lifted"]
+    assert uses[0.4] > uses[0.8]

@@ -273,10 +273,14 @@ class Execution:
         pose), ``rise_after_lift`` and ``rise_after_hold`` (m, object height gain),
         ``contact_after_lift``/``contact_after_hold`` (object touching the
         gripper), ``grip_force`` (N, sum of the normal forces between gripper and
-        object once closed), ``closing_push`` (m, how far the object's centre
-        of mass moved while the fingers closed: a finger that arrives first
-        pushes it along the table, a hand that wraps it draws it in),
-        ``joints_closed`` (actuated joint name to position
+        object once closed), ``friction_use_closed``, ``friction_use_lifted``
+        and ``friction_use_held`` (the share of their friction cones the
+        gripper's contacts with the object use, weighted by their normal
+        forces, once closed, after the lift and after the hold: near 1, the grip
+        is about to slide; None without a contact), ``closing_push`` (m, how
+        far the object's centre of mass moved while the fingers closed: a
+        finger that arrives first pushes it along the table, a hand that wraps
+        it draws it in), ``joints_closed`` (actuated joint name to position
         once closed), ``sim_s`` (simulated seconds); what MuJoCo was given:
         ``object_mass`` (kg), ``object_friction``, ``disturbance_force`` (N, 0
         without disturbances), ``execution_offset`` (m) and
@@ -444,6 +448,7 @@ def execute_grasp(
         jn: float(d.qpos[scene.joint_qpos[jn]]) for jn in g.actuated
     }  # where the fingers stopped
     grip_force = _grip_force(scene)
+    use_closed = _friction_use(scene)
     pushed = float(np.linalg.norm(d.xipos[obj] - p_approached))
     c_closed, R_closed = in_grip()
     # 6. lift, then hold
@@ -451,8 +456,10 @@ def execute_grasp(
     move(T_goal[:3, 3], top, p.lift_speed)
     wait(0.2)
     lifted, grip, rise_lift = held()
+    use_lifted = _friction_use(scene)
     wait(p.hold_time)
     held_hold, grip2, rise_hold = held()
+    use_held = _friction_use(scene)
     c_hold, R_hold = in_grip()  # where the lift and the hold left it
     # 7. disturb: the six directions in turn, stopping once the object is lost
     weight = float(m.body_mass[obj] * np.linalg.norm(m.opt.gravity))
@@ -510,6 +517,9 @@ def execute_grasp(
             "contact_after_lift": bool(grip),
             "contact_after_hold": bool(grip2),
             "grip_force": grip_force,
+            "friction_use_closed": use_closed,
+            "friction_use_lifted": use_lifted,
+            "friction_use_held": use_held,
             "closing_push": pushed,
             "joints_closed": joints_closed,
             "sim_s": float(d.time),
@@ -525,6 +535,49 @@ def execute_grasp(
             "execution_angle_deg": angle,
         },
     )
+
+
+#: contacts pressing with less than this share of the object's weight are left
+#: out of :func:`_friction_use` (a finger grazing the object, a contact closing)
+_FRICTION_USE_FROM = 0.01
+
+
+def _friction_use(scene: SimScene) -> float | None:
+    """How near the grip is to sliding: each contact between the gripper and
+    the object uses ``|f_t / mu| / f_n`` of its friction cone (over its
+    friction directions, tangential and, where ``condim`` has it, torsional:
+    MuJoCo's elliptic cone, on which it is 1 and the contact slides); their
+    mean weighted by normal force. 0 is a squeeze along the normals alone, 1
+    every contact sliding. Contacts pressing with less than
+    :data:`_FRICTION_USE_FROM` of the object's weight are left out; None where
+    none is left.
+
+    The largest use of any one contact says little: a finger still closing
+    slides over the object in grasps that hold (the Ability hand's held grasps
+    on ``random:060``-``062`` had one, lift protocol)."""
+    mujoco = require_mujoco()
+    m, d = scene.model, scene.data
+    n = d.ncon
+    if n == 0:
+        return None
+    bodies = m.geom_bodyid[np.asarray(d.contact.geom[:n])]  # (n, 2)
+    obj = (bodies == scene.object_body).any(axis=1)
+    grip = np.isin(bodies, scene.gripper_bodies).any(axis=1)
+    least = _FRICTION_USE_FROM * float(
+        m.body_mass[scene.object_body] * np.linalg.norm(m.opt.gravity)
+    )
+    wrench = np.zeros(6)
+    used = pressed = 0.0
+    for i in np.flatnonzero(obj & grip):
+        mujoco.mj_contactForce(m, d, int(i), wrench)
+        f_n = float(wrench[0])
+        dim = int(d.contact.dim[i])
+        if f_n <= least or dim < 3:
+            continue
+        mu = np.asarray(d.contact.friction[i][: dim - 1], dtype=np.float64)
+        used += float(np.linalg.norm(wrench[1:dim] / np.maximum(mu, 1e-12)))
+        pressed += f_n
+    return used / pressed if pressed > 0.0 else None
 
 
 def _grip_force(scene: SimScene) -> float:
