@@ -12,6 +12,11 @@ choice is the default spec's). Then, over the random picks of each scene:
 - a term's *pick rate*: the success of the random pick the term alone would
   choose in each scene (ties averaged), beside the random picks' rate (chance)
   and the choice's own rate; the same for the default spec's weights.
+- a term's *margin concordance*: of the pairs of random picks that both held in
+  the same scene, the share in which the term ranks higher the one whose grip
+  used less of its friction at the end of the hold (the label's
+  ``friction_use``): where almost every grasp holds, as a jaw's on small
+  objects, this ranks the held grasps by how far they were from slipping.
 
 The summary goes to ``--out`` (``docs/results/scorers.json``, where the
 documentation renders it) with the commit, machine, protocol and object range.
@@ -120,13 +125,36 @@ def analyse(folder: Path) -> dict[str, Any]:
                 pairs += diff.size
         return (agree / pairs if pairs else float("nan")), int(pairs)
 
+    def margin_concordance(name: str) -> tuple[float, int]:
+        """Over pairs of held picks in one scene: the share in which the term
+        ranks higher the one whose grip used less of its friction (ties half)."""
+        agree = pairs = 0.0
+        for picks in scenes.values():
+            held = [
+                r for r in picks if r["success"] and r.get("friction_use") is not None
+            ]
+            if len(held) < 2:
+                continue
+            term = np.array([dict(r["score_terms"])[name] for r in held])
+            use = np.array([float(r["friction_use"]) for r in held])
+            firmer = use[:, None] < use[None, :]  # (i, j): i held more firmly
+            diff = term[:, None] - term[None, :]
+            agree += float(
+                ((diff > 0) & firmer).sum() + 0.5 * ((diff == 0) & firmer).sum()
+            )
+            pairs += float(firmer.sum())
+        return (agree / pairs if pairs else float("nan")), int(pairs)
+
     random_all = [r["success"] for picks in scenes.values() for r in picks]
     out_terms = {}
     for name in terms:
         c, n = concordance(name)
+        mc, mn = margin_concordance(name)
         out_terms[name] = {
             "concordance": round(c, 4),
             "pairs": n,
+            "margin_concordance": None if mn == 0 else round(mc, 4),
+            "margin_pairs": mn,
             "pick_rate": round(pick_rate({name: 1.0}), 4),
             "default_weight": weights.get(name, 0.0),
         }
@@ -202,9 +230,15 @@ def main(argv: list[str] | None = None) -> int:
             f"{r['random_success']}, default weights' pick {r['default_pick_rate']}"
         )
         for name, t in sorted(r["terms"].items(), key=lambda kv: -kv[1]["concordance"]):
+            margin = t.get("margin_concordance")
             print(
                 f"  {name:20s} concordance {t['concordance']:.3f} ({t['pairs']} pairs)"
                 f"  pick {t['pick_rate']:.3f}"
+                + (
+                    ""
+                    if margin is None
+                    else f"  margin {margin:.3f} ({t['margin_pairs']} pairs)"
+                )
             )
     print(f"wrote {args.out}")
     return 0

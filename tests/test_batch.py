@@ -193,6 +193,24 @@ def test_a_part_some_table_lacks_is_dropped_on_resume(tmp_path: Path):
     ]
 
 
+def test_resume_refuses_parts_with_other_columns(tmp_path: Path):
+    """Parts written with other columns (another wsgrasp version's tables)
+    would not read back as one table with the new ones: resuming them is
+    refused, naming the columns."""
+    import pyarrow as pa
+
+    from wsgrasp.errors import InputError
+
+    old = {"scenes": pa.schema([("object", pa.string())])}
+    sink = PartSink(tmp_path, old, "scenes", ("object",), row_group=1)
+    sink.add({"scenes": [{"object": "a"}]})
+    new = {"scenes": pa.schema([("object", pa.string()), ("use", pa.float64())])}
+    with pytest.raises(InputError, match="without use") as err:
+        PartSink(tmp_path, new, "scenes", ("object",), resume=True)
+    assert "new output folder" in err.value.hint
+    assert PartSink(tmp_path, old, "scenes", ("object",), resume=True).done == {("a",)}
+
+
 def test_scene_folders_and_repeats(tmp_path: Path):
     from wsgrasp.errors import InputError
 
@@ -269,6 +287,13 @@ def test_dataset_rows_labels_and_resume(tmp_path: Path, capsys):
     labelled = [c for c in cands if c["label"] is not None]
     assert [c["rank"] for c in labelled] == [0, 1] and summary["labels"] == 2
     assert all(c["success"] == (c["label"] == "success") for c in labelled)
+    # a label that held says how near its grip came to sliding; the rest none
+    assert any(c["success"] for c in labelled)
+    for c in cands:
+        if c["success"]:
+            assert 0.0 <= c["friction_use"] <= 1.0 + 1e-6
+        else:
+            assert c["friction_use"] is None
     # each executed as the plan that takes it: its pre-grasp pose and targets
     assert {c["label_targets"] for c in labelled} == {"plan"}
     assert {"centroid_distance", "antipodal"} <= set(dict(cands[0]["score_terms"]))

@@ -72,3 +72,54 @@ def test_concordance_and_pick_rates(tmp_path: Path):
     assert bad["pick_rate"] == pytest.approx(0.5)
     assert r["default_pick_rate"] == pytest.approx(0.5)
     assert bad["default_weight"] == 1.0 and good["default_weight"] == 0.0
+
+
+def test_margin_concordance_ranks_held_grasps_by_friction_use(tmp_path: Path):
+    """Among the held random picks of a scene, a term that ranks higher the
+    grip that used less of its friction scores 1, the reverse 0, a constant
+    0.5; a pick that dropped, the choice, or a dataset without the column
+    adds no pair."""
+    sys.path.insert(0, str(BENCH))
+    try:
+        from scorer_concordance import analyse
+    finally:
+        sys.path.remove(str(BENCH))
+    terms = [
+        {"firm": 0.9, "loose": 0.1, "flat": 0.5},
+        {"firm": 0.5, "loose": 0.5, "flat": 0.5},
+        {"firm": 0.1, "loose": 0.9, "flat": 0.5},
+    ]
+    rows = [
+        {**_row("a", i, True, t), "friction_use": use}
+        for i, (t, use) in enumerate(zip(terms, (0.2, 0.5, 0.8), strict=True))
+    ]
+    rows.append({**_row("a", 3, False, terms[2]), "friction_use": None})
+    rows.append(
+        {
+            **_row("a", 4, True, terms[2], random_pick=False, chosen=True),
+            "friction_use": 0.1,
+        }
+    )
+    folder = tmp_path / "ds"
+    (folder / "candidates").mkdir(parents=True)
+    schema = pa.schema(
+        [
+            ("object", pa.string()),
+            ("trial", pa.int32()),
+            ("candidate", pa.int32()),
+            ("random_pick", pa.bool_()),
+            ("chosen", pa.bool_()),
+            ("label", pa.string()),
+            ("success", pa.bool_()),
+            ("friction_use", pa.float64()),
+            ("score_terms", pa.map_(pa.string(), pa.float64())),
+        ]
+    )
+    pq.write_table(
+        pa.Table.from_pylist(rows, schema=schema), folder / "candidates" / "p.parquet"
+    )
+    r = analyse(folder)["terms"]
+    assert {n: r[n]["margin_pairs"] for n in r} == {"firm": 3, "loose": 3, "flat": 3}
+    assert r["firm"]["margin_concordance"] == 1.0
+    assert r["loose"]["margin_concordance"] == 0.0
+    assert r["flat"]["margin_concordance"] == 0.5

@@ -754,18 +754,29 @@ def _scorer_run(report: dict[str, Any]) -> list[str]:
             f"{100 * r['default_pick_rate']:.0f} %.\n"
         )
         terms = sorted(r["terms"].items(), key=lambda kv: -kv[1]["concordance"])
+        margins = any("margin_pairs" in t for _, t in terms)
         rows = [
             [
                 f"`{name}`",
                 f"{t['concordance']:.2f}",
                 f"{100 * t['pick_rate']:.0f} %",
                 f"{t['default_weight']:g}",
+                *(
+                    [
+                        "—"
+                        if t.get("margin_concordance") is None
+                        else f"{t['margin_concordance']:.2f} ({t['margin_pairs']})"
+                    ]
+                    if margins
+                    else []
+                ),
             ]
             for name, t in terms
         ]
-        out.append(
-            table(["term", "concordance", "its pick holds", "default weight"], rows)
-        )
+        header = ["term", "concordance", "its pick holds", "default weight"]
+        if margins:
+            header.append("held pairs: the firmer grip first (pairs)")
+        out.append(table(header, rows))
     return out
 
 

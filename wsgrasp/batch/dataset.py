@@ -69,6 +69,7 @@ def dataset_schemas() -> dict[str, Any]:
             ("random_pick", pa.bool_()),
             ("label", pa.string()),
             ("success", pa.bool_()),
+            ("friction_use", pa.float64()),
             ("label_targets", pa.string()),
             ("gripper", pa.string()),
         ]
@@ -237,8 +238,8 @@ def dataset_job(obj: Any, trial: int) -> dict[str, list[dict[str, Any]]]:
     for c in order:
         row = by_candidate[c]
         taken = result if row["chosen"] else next(others_taken)
-        outcome = _label(row, taken, obj, settled, okey, pay, seed)
-        row.update(label=outcome, success=outcome == "success")
+        outcome, use = _label(row, taken, obj, settled, okey, pay, seed)
+        row.update(label=outcome, success=outcome == "success", friction_use=use)
     chosen_row = next((r for r in rows if r["chosen"]), None)
     random_rows = [by_candidate[c] for c in drawn]
     scene_row.update(
@@ -325,10 +326,11 @@ def _label(
     okey: Any,
     pay: dict[str, Any],
     seed: list[int],
-) -> str:
+) -> tuple[str, float | None]:
     """Execute the plan ``taken`` (one candidate as the choice) in MuJoCo, with
     the trial's execution error (the one ``wsgrasp eval`` gives the same trial);
-    its outcome."""
+    its outcome and, for a grasp that held, how near the grip came to sliding
+    at the end of the hold (the trial's ``friction_use_held``)."""
     from wsgrasp.sim.gripper import load_sim_gripper
     from wsgrasp.sim.runner import _cached
     from wsgrasp.sim.scene import build_scene
@@ -336,7 +338,7 @@ def _label(
 
     row["label_targets"] = "plan" if taken.joints_grasp else "closed"
     if not taken.found or taken.T_world_ee is None:
-        return "no_grasp"
+        return "no_grasp", None
     p, g = pay["params"], pay["gripper"]
     sim_gripper = _cached(("gripper", g, p), lambda: load_sim_gripper(g, p))
     world = _cached(("scene", okey, g, p), lambda: build_scene(obj, sim_gripper, p))
@@ -351,7 +353,8 @@ def _label(
         joints_grasp=dict(taken.joints_grasp),
         error=execution_error(seed, p),
     )
-    return str(ex.outcome)
+    use = ex.metrics.get("friction_use_held") if ex.outcome == "success" else None
+    return str(ex.outcome), None if use is None else float(use)
 
 
 # --------------------------------------------------------------------------------

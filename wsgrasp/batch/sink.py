@@ -86,8 +86,33 @@ class PartSink:
                 f"{self.out} already holds {len(parts)} parts of a run",
                 hint="pass --resume to continue it, or choose another output folder",
             )
+        if parts:
+            self._check_columns(parts[-1])
         self._next = max(parts, default=-1) + 1
         self.done = self._done_keys() if parts else set()
+
+    def _check_columns(self, n: int) -> None:
+        """Refuse to resume a run whose parts have other columns than these
+        tables' (one written by another wsgrasp version): the parts would not
+        read back as one table."""
+        import pyarrow.parquet as pq
+
+        for table, schema in self.schemas.items():
+            have = pq.read_schema(self._path(table, n)).names
+            if have != schema.names:
+                missing = [c for c in schema.names if c not in have]
+                extra = [c for c in have if c not in schema.names]
+                what = "; ".join(
+                    f"{label} {', '.join(cols)}"
+                    for label, cols in (("without", missing), ("with", extra))
+                    if cols
+                )
+                raise InputError(
+                    f"{self.out / table} was written with other columns ({what}) "
+                    "than this version writes",
+                    hint="write to a new output folder, or resume with the "
+                    "wsgrasp version that started it",
+                )
 
     # ----------------------------------------------------------------------------
     def _existing_parts(self) -> list[int]:
