@@ -27,6 +27,26 @@ def _row(obj, cand, success, terms, *, random_pick=True, chosen=False):
     }
 
 
+def _dataset(folder: Path, rows, *, friction_use: bool = False) -> Path:
+    """A dataset folder holding ``rows`` as its ``candidates`` table (with the
+    ``friction_use`` column when asked)."""
+    (folder / "candidates").mkdir(parents=True)
+    columns = [
+        ("object", pa.string()),
+        ("trial", pa.int32()),
+        ("candidate", pa.int32()),
+        ("random_pick", pa.bool_()),
+        ("chosen", pa.bool_()),
+        ("label", pa.string()),
+        ("success", pa.bool_()),
+        *([("friction_use", pa.float64())] if friction_use else []),
+        ("score_terms", pa.map_(pa.string(), pa.float64())),
+    ]
+    table = pa.Table.from_pylist(rows, schema=pa.schema(columns))
+    pq.write_table(table, folder / "candidates" / "part.parquet")
+    return folder
+
+
 def test_concordance_and_pick_rates(tmp_path: Path):
     sys.path.insert(0, str(BENCH))
     try:
@@ -42,22 +62,7 @@ def test_concordance_and_pick_rates(tmp_path: Path):
         _row("b", 0, True, {"good": 0.5, "bad": 0.5}),
         _row("b", 1, True, {"good": 0.4, "bad": 0.5}, chosen=True),
     ]
-    folder = tmp_path / "ds"
-    (folder / "candidates").mkdir(parents=True)
-    schema = pa.schema(
-        [
-            ("object", pa.string()),
-            ("trial", pa.int32()),
-            ("candidate", pa.int32()),
-            ("random_pick", pa.bool_()),
-            ("chosen", pa.bool_()),
-            ("label", pa.string()),
-            ("success", pa.bool_()),
-            ("score_terms", pa.map_(pa.string(), pa.float64())),
-        ]
-    )
-    table = pa.Table.from_pylist(rows, schema=schema)
-    pq.write_table(table, folder / "candidates" / "part.parquet")
+    folder = _dataset(tmp_path / "ds", rows)
     (folder / "scorer_weights.json").write_text(json.dumps({"bad": 1.0, "good": 0.0}))
     r = analyse(folder)
     assert r["scenes"] == 2 and r["random_labels"] == 4
@@ -100,24 +105,7 @@ def test_margin_concordance_ranks_held_grasps_by_friction_use(tmp_path: Path):
             "friction_use": 0.1,
         }
     )
-    folder = tmp_path / "ds"
-    (folder / "candidates").mkdir(parents=True)
-    schema = pa.schema(
-        [
-            ("object", pa.string()),
-            ("trial", pa.int32()),
-            ("candidate", pa.int32()),
-            ("random_pick", pa.bool_()),
-            ("chosen", pa.bool_()),
-            ("label", pa.string()),
-            ("success", pa.bool_()),
-            ("friction_use", pa.float64()),
-            ("score_terms", pa.map_(pa.string(), pa.float64())),
-        ]
-    )
-    pq.write_table(
-        pa.Table.from_pylist(rows, schema=schema), folder / "candidates" / "p.parquet"
-    )
+    folder = _dataset(tmp_path / "ds", rows, friction_use=True)
     r = analyse(folder)["terms"]
     assert {n: r[n]["margin_pairs"] for n in r} == {"firm": 3, "loose": 3, "flat": 3}
     assert r["firm"]["margin_concordance"] == 1.0
