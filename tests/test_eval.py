@@ -157,3 +157,29 @@ def test_report_records_the_libraries_it_ran_with():
     # and the processor's vector extension, which the libraries' kernels follow
     assert libs["cpu"].split()[0] == __import__("platform").machine()
     assert all(v is None or isinstance(v, str) for v in libs.values())
+
+
+def test_report_gives_the_held_grasps_friction_use():
+    """Per gripper and spec, the median friction use of the grasps that held
+    (their trials' ``friction_use_held``), printed with the failures; a spec
+    with no held grasp, or records without it, has none."""
+
+    def rec(spec, outcome, use):
+        r = _rec("franka_hand", spec, "mug", outcome, 10.0)
+        r["metrics"] = {"friction_use_held": use}
+        return r
+
+    records = [
+        rec("default", "success", 0.2),
+        rec("default", "success", 0.6),
+        rec("default", "slipped_in_grip", 0.9),  # not held: left out
+        rec("default", "success", 0.4),
+        rec("firm", "no_grasp", None),
+    ]
+    report = build_report(records)
+    by_spec = {r["spec"]: r for r in report["results"]}
+    assert by_spec["default"]["held_friction_use_median"] == pytest.approx(0.4)
+    assert by_spec["firm"]["held_friction_use_median"] is None
+    md = report_markdown(report)
+    assert "held: friction use" in md
+    assert "| 0.40 |" in md and "| – |" in md

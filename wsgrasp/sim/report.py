@@ -69,6 +69,16 @@ def _summary(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
         "success_rate": ok / n if n else 0.0,
         "plan_ms_median": _median([r.get("plan_ms") for r in records]),
         "failures": {k: sum(r["outcome"] == k for r in records) for k in FAILURES},
+        # how near the held grasps' grips were to sliding at the end of the
+        # hold: where nearly every grasp holds, a spec that holds as many may
+        # still hold them more firmly
+        "held_friction_use_median": _median(
+            [
+                (r.get("metrics") or {}).get("friction_use_held")
+                for r in records
+                if r["outcome"] == "success"
+            ]
+        ),
     }
 
 
@@ -317,7 +327,7 @@ def _grippers(report: dict[str, Any]) -> list[str]:
 
 
 def _failure_rows(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
-    header = ["gripper", "spec", "trials", "success", *FAILURES]
+    header = ["gripper", "spec", "trials", "success", *FAILURES, "held: friction use"]
     rows = [
         [
             c["gripper"],
@@ -325,6 +335,9 @@ def _failure_rows(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
             str(c["trials"]),
             str(c["successes"]),
             *[str(c["failures"].get(k, 0)) for k in FAILURES],
+            "–"
+            if c.get("held_friction_use_median") is None
+            else f"{c['held_friction_use_median']:.2f}",
         ]
         for c in _columns(report)
     ]
