@@ -447,8 +447,9 @@ def execute_grasp(
     joints_closed = {
         jn: float(d.qpos[scene.joint_qpos[jn]]) for jn in g.actuated
     }  # where the fingers stopped
-    grip_force = _grip_force(scene)
-    use_closed = _friction_use(scene)
+    touching = _grip_contacts(scene)
+    grip_force = sum((f_n for f_n, _ in touching), 0.0)  # their normal forces (N)
+    use_closed = _friction_use(scene, touching)
     pushed = float(np.linalg.norm(d.xipos[obj] - p_approached))
     c_closed, R_closed = in_grip()
     # 6. lift, then hold
@@ -542,57 +543,56 @@ def execute_grasp(
 _FRICTION_USE_FROM = 0.01
 
 
-def _friction_use(scene: SimScene) -> float | None:
-    """How near the grip is to sliding: each contact between the gripper and
-    the object uses ``|f_t / mu| / f_n`` of its friction cone (over its
-    friction directions, tangential and, where ``condim`` has it, torsional:
-    MuJoCo's elliptic cone, on which it is 1 and the contact slides); their
-    mean weighted by normal force. 0 is a squeeze along the normals alone, 1
-    every contact sliding. Contacts pressing with less than
+def _grip_contacts(scene: SimScene) -> list[tuple[float, float | None]]:
+    """Per contact of the gripper with the object: its normal force ``f_n`` (N)
+    and its friction scaled by its cone, ``|f_t / mu|`` over its friction
+    directions (tangential and, where ``condim`` has it, torsional: on MuJoCo's
+    elliptic cone the contact slides where it equals ``f_n``); None for a
+    frictionless contact."""
+    mujoco = require_mujoco()
+    m, d = scene.model, scene.data
+    n = d.ncon
+    if n == 0:
+        return []
+    bodies = m.geom_bodyid[np.asarray(d.contact.geom[:n])]  # (n, 2)
+    obj = (bodies == scene.object_body).any(axis=1)
+    grip = np.isin(bodies, scene.gripper_bodies).any(axis=1)
+    wrench = np.zeros(6)
+    out: list[tuple[float, float | None]] = []
+    for i in np.flatnonzero(obj & grip):
+        mujoco.mj_contactForce(m, d, int(i), wrench)  # contact frame, normal first
+        f_n = float(wrench[0])
+        dim = int(d.contact.dim[i])
+        scaled = None
+        if dim >= 3:
+            mu = np.asarray(d.contact.friction[i][: dim - 1], dtype=np.float64)
+            scaled = float(np.linalg.norm(wrench[1:dim] / np.maximum(mu, 1e-12)))
+        out.append((f_n, scaled))
+    return out
+
+
+def _friction_use(
+    scene: SimScene, contacts: list[tuple[float, float | None]] | None = None
+) -> float | None:
+    """How near the grip is to sliding: the share of its friction cone each
+    contact of the gripper with the object uses, ``|f_t / mu| / f_n``
+    (``contacts``, :func:`_grip_contacts` of ``scene`` by default), their mean
+    weighted by normal force. 0 is a squeeze along the normals alone, 1 every
+    contact sliding. Contacts pressing with less than
     :data:`_FRICTION_USE_FROM` of the object's weight are left out; None where
     none is left.
 
     The largest use of any one contact says little: a finger still closing
     slides over the object in grasps that hold (the Ability hand's held grasps
     on ``random:060``-``062`` had one, lift protocol)."""
-    mujoco = require_mujoco()
-    m, d = scene.model, scene.data
-    n = d.ncon
-    if n == 0:
-        return None
-    bodies = m.geom_bodyid[np.asarray(d.contact.geom[:n])]  # (n, 2)
-    obj = (bodies == scene.object_body).any(axis=1)
-    grip = np.isin(bodies, scene.gripper_bodies).any(axis=1)
+    m = scene.model
     least = _FRICTION_USE_FROM * float(
         m.body_mass[scene.object_body] * np.linalg.norm(m.opt.gravity)
     )
-    wrench = np.zeros(6)
     used = pressed = 0.0
-    for i in np.flatnonzero(obj & grip):
-        mujoco.mj_contactForce(m, d, int(i), wrench)
-        f_n = float(wrench[0])
-        dim = int(d.contact.dim[i])
-        if f_n <= least or dim < 3:
+    for f_n, scaled in _grip_contacts(scene) if contacts is None else contacts:
+        if f_n <= least or scaled is None:
             continue
-        mu = np.asarray(d.contact.friction[i][: dim - 1], dtype=np.float64)
-        used += float(np.linalg.norm(wrench[1:dim] / np.maximum(mu, 1e-12)))
+        used += scaled
         pressed += f_n
     return used / pressed if pressed > 0.0 else None
-
-
-def _grip_force(scene: SimScene) -> float:
-    """Sum (N) of the normal forces of the gripper's contacts with the object."""
-    mujoco = require_mujoco()
-    m, d = scene.model, scene.data
-    n = d.ncon
-    if n == 0:
-        return 0.0
-    bodies = m.geom_bodyid[np.asarray(d.contact.geom[:n])]  # (n, 2)
-    obj = (bodies == scene.object_body).any(axis=1)
-    grip = np.isin(bodies, scene.gripper_bodies).any(axis=1)
-    wrench = np.zeros(6)
-    total = 0.0
-    for i in np.flatnonzero(obj & grip):
-        mujoco.mj_contactForce(m, d, int(i), wrench)
-        total += float(wrench[0])  # normal component, contact frame
-    return total
