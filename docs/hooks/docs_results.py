@@ -754,28 +754,23 @@ def _scorer_run(report: dict[str, Any]) -> list[str]:
             f"{100 * r['default_pick_rate']:.0f} %.\n"
         )
         terms = sorted(r["terms"].items(), key=lambda kv: -kv[1]["concordance"])
+        # runs before the held pairs' margin was measured have no such column
         margins = any("margin_pairs" in t for _, t in terms)
-        rows = [
-            [
+        header = ["term", "concordance", "its pick holds", "default weight"]
+        if margins:
+            header.append("held pairs: the firmer grip first (pairs)")
+        rows = []
+        for name, t in terms:
+            row = [
                 f"`{name}`",
                 f"{t['concordance']:.2f}",
                 f"{100 * t['pick_rate']:.0f} %",
                 f"{t['default_weight']:g}",
-                *(
-                    [
-                        "—"
-                        if t.get("margin_concordance") is None
-                        else f"{t['margin_concordance']:.2f} ({t['margin_pairs']})"
-                    ]
-                    if margins
-                    else []
-                ),
             ]
-            for name, t in terms
-        ]
-        header = ["term", "concordance", "its pick holds", "default weight"]
-        if margins:
-            header.append("held pairs: the firmer grip first (pairs)")
+            if margins:
+                m = t.get("margin_concordance")
+                row.append("—" if m is None else f"{m:.2f} ({t['margin_pairs']})")
+            rows.append(row)
         out.append(table(header, rows))
     return out
 
