@@ -48,6 +48,51 @@ def test_jaw_guesses_base_fingers_axes_and_postures(tmp_path):
         assert sc.notes[field], field
 
 
+def _on_arm(joints: int) -> str:
+    """``jaw_urdf``'s jaw bolted (a fixed joint) to the last link of an arm of
+    ``joints`` revolute joints, each link a 30 cm box: the URDF of a robot."""
+    jaw = jaw_urdf()
+    body = jaw[jaw.index("<link") : jaw.index("</robot>")]
+    arm = [
+        '<link name="arm_base"><collision><geometry><box size="0.1 0.1 0.1"/>'
+        "</geometry></collision></link>"
+    ]
+    parent = "arm_base"
+    for i in range(1, joints + 1):
+        arm.append(
+            f'<link name="arm_{i}"><collision><origin xyz="0 0 0.15"/><geometry>'
+            '<box size="0.06 0.06 0.3"/></geometry></collision></link>'
+            f'<joint name="arm_joint_{i}" type="revolute"><parent link="{parent}"/>'
+            f'<child link="arm_{i}"/><origin xyz="0 0 0.3"/><axis xyz="0 1 0"/>'
+            '<limit lower="-2.9" upper="2.9" effort="80" velocity="2"/></joint>'
+        )
+        parent = f"arm_{i}"
+    arm.append(
+        f'<joint name="flange" type="fixed"><parent link="{parent}"/>'
+        '<child link="palm"/><origin xyz="0 0 0.3"/></joint>'
+    )
+    return f'<?xml version="1.0"?>\n<robot name="robot">{"".join(arm)}{body}</robot>'
+
+
+def test_a_gripper_on_an_arm_starts_where_the_fingers_part(tmp_path):
+    """A robot's URDF (an arm of six joints, then the jaw): the arm is left out,
+    the base is the jaw's palm, as if the jaw's own URDF had been given; the note
+    names the arm. With ``--base-link`` the given link stays the base."""
+    alone = guess_description(_write(tmp_path, jaw_urdf()), "jaw").data
+    sc = guess_description(_write(tmp_path, _on_arm(6), "robot.urdf"), "jaw")
+    assert sc.data["base_link"] == "palm"
+    assert "arm of 6 joints" in sc.notes["base_link"]
+    assert "arm_joint_1" in sc.notes["base_link"]
+    assert any("arm_base" in w and "ignored" in w for w in sc.warnings)
+    for key in ("fingers", "approach_axis", "closing_axis", "pregrasp", "closed"):
+        assert sc.data[key] == alone[key], key
+    given = guess_description(tmp_path / "robot.urdf", "jaw", base_link="arm_6")
+    assert given.data["base_link"] == "arm_6"
+    # two joints above the fingers are a wrist, held, not an arm
+    wrist = guess_description(_write(tmp_path, _on_arm(2), "wrist.urdf"), "jaw")
+    assert wrist.data["base_link"] == "arm_base"
+
+
 def test_two_actuated_fingers_each_get_their_joint(tmp_path):
     sc = guess_description(_write(tmp_path, jaw_urdf(mimic=False)), "jaw")
     assert [f["joints"] for f in sc.data["fingers"]] == [

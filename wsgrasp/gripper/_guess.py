@@ -32,6 +32,10 @@ Boxes = dict[str, tuple[Array, Array]]
 MAX_GRIPPER_EXTENT = 1.5
 #: a whole gripper smaller than this (m) is implausible too
 MIN_GRIPPER_EXTENT = 0.01
+#: this many movable joints above the link where the fingers branch are an arm,
+#: not a hand's wrist (a hand's own wrist has at most two: the Shadow hand's
+#: WRJ2 and WRJ1); without ``--base-link``, the gripper starts at that link
+ARM_JOINTS = 3
 #: an axis within this angle (degrees) of a base-frame axis is snapped onto it
 SNAP_DEG = 15.0
 #: a hand of at least this many fingers may approach fingertips first, when the
@@ -224,17 +228,25 @@ def _r(v: Any, nd: int = 4) -> Any:
 # ------------------------------------------------------------------------------
 # The steps
 # ------------------------------------------------------------------------------
-def _read(path: Path, name: str, base_link: str | None) -> _Urdf:
-    """The URDF: base link, actuated joints, link geometry, plausible size."""
-    kin = load_kinematics(path, name)
+def _read(
+    path: Path,
+    name: str,
+    base_link: str | None,
+    *,
+    why: str = "given with --base-link",
+    kin: Kinematics | None = None,
+) -> _Urdf:
+    """The URDF: base link (``why`` says how ``base_link`` was chosen), actuated
+    joints, link geometry; its size is checked by :func:`_check_extent`."""
+    kin = kin or load_kinematics(path, name)
     notes: dict[str, str] = {}
     warnings: list[str] = []
     roots = [link for link in kin.links if link not in kin.parent_joint]
     if base_link is not None:
         kin.check_link(base_link, name, "--base-link")
         base = base_link
-        notes["base_link"] = "given with --base-link"
-        outside = sorted(set(kin.links) - set(kin.subtree(base)))
+        notes["base_link"] = why
+        outside = sorted(set(kin.links) - set(kin.subtree(base)), key=kin.links.index)
         if outside:
             warnings.append(
                 f"links not below base link {base!r} are ignored: "
@@ -287,31 +299,70 @@ def _read(path: Path, name: str, base_link: str | None) -> _Urdf:
         corners.append(c @ T[:3, :3].T + T[:3, 3])
     allc = np.concatenate(corners)  # (8 L, 3)
     extent = float(np.max(allc.max(axis=0) - allc.min(axis=0)))
-    if extent > MAX_GRIPPER_EXTENT:
-        big = max(boxes, key=lambda k: float(np.max(boxes[k][1] - boxes[k][0])))
-        raise GripperError(
-            f"URDF {path.name}: the gripper is {extent:.1f} m across (largest link "
-            f"{big!r}); its lengths look like millimetres, but URDF lengths are "
-            "metres",
-            hint="for meshes, rerun with --mesh-units mm; for origins and "
-            "primitive sizes, convert the URDF to metres",
-        )
-    if extent < MIN_GRIPPER_EXTENT:
-        raise GripperError(
-            f"URDF {path.name}: the gripper is only {extent * 1000:.2f} mm across; "
-            "its meshes are probably scaled twice",
-            hint="check the scale of the <mesh> elements (--mesh-units m if the "
-            "meshes are already in metres)",
-        )
     return _Urdf(
         path, kin, base, below, actuated, boxes, default, extent, notes, warnings
     )
 
 
-def _fingers(u: _Urdf) -> dict[str, list[str]]:
-    """Distal link -> the actuated joints (mimics replaced by their masters) on the
-    chain from the base, in tree order. Raises on a finger moved by a continuous
-    joint without limits."""
+def _check_extent(u: _Urdf) -> None:
+    """Refuse a gripper of implausible size: lengths in other units than metres."""
+    if u.extent > MAX_GRIPPER_EXTENT:
+        boxes = u.boxes
+        big = max(boxes, key=lambda k: float(np.max(boxes[k][1] - boxes[k][0])))
+        raise GripperError(
+            f"URDF {u.path.name}: the gripper is {u.extent:.1f} m across (largest "
+            f"link {big!r}); its lengths look like millimetres, but URDF lengths "
+            "are metres",
+            hint="for meshes, rerun with --mesh-units mm; for origins and "
+            "primitive sizes, convert the URDF to metres; if the URDF holds more "
+            "than the gripper, pass --base-link LINK (the link the arm holds)",
+        )
+    if u.extent < MIN_GRIPPER_EXTENT:
+        raise GripperError(
+            f"URDF {u.path.name}: the gripper is only {u.extent * 1000:.2f} mm "
+            "across; its meshes are probably scaled twice",
+            hint="check the scale of the <mesh> elements (--mesh-units m if the "
+            "meshes are already in metres)",
+        )
+
+
+def _hand_on_arm(u: _Urdf, name: str) -> _Urdf:
+    """``u`` itself, or, where the fingers hang below an arm (at least
+    :data:`ARM_JOINTS` movable joints above the link where their chains part),
+    the URDF read again from that link: the arm is no part of the gripper."""
+    distal, candidates, _, _ = _distal_links(u)
+    if len(distal) < 2:
+        return u
+    shared: list[Any] = []  # the joints every finger's chain passes
+    for joints in zip(*(candidates[link] for link in distal), strict=False):
+        if any(j.name != joints[0].name for j in joints):
+            break
+        shared.append(joints[0])
+    arm = [j.name for j in shared if j.kind != 0]
+    if len(arm) < ARM_JOINTS:
+        return u
+    hand = shared[-1].child
+    listed = ", ".join(arm[:3]) + (f" ... {arm[-1]}" if len(arm) > 3 else "")
+    return _read(
+        u.path,
+        name,
+        hand,
+        why=(
+            f"where the fingers' chains part: the URDF's root {u.base!r} carries "
+            f"this link on an arm of {len(arm)} joints ({listed}), which is left "
+            "out (--base-link LINK chooses another link)"
+        ),
+        kin=u.kin,
+    )
+
+
+def _distal_links(
+    u: _Urdf,
+) -> tuple[list[str], dict[str, list[Any]], dict[str, list[str]], list[str]]:
+    """The fingertips: links with geometry that a joint moves and that carry no
+    further moving link, less linkage bars, in tree order; with each moving
+    link's chain of joints from the base, each fingertip's actuated joints
+    (mimics replaced by their masters) and the bars."""
     kin = u.kin
     chains = {link: kin.chain(u.base, link) for link in u.boxes}
     candidates = {k: c for k, c in chains.items() if any(j.kind != 0 for j in c)}
@@ -341,6 +392,14 @@ def _fingers(u: _Urdf) -> dict[str, list[str]]:
         )
     ]
     distal = sorted((k for k in distal if k not in bars), key=u.below.index)
+    return distal, candidates, masters, bars
+
+
+def _fingers(u: _Urdf) -> dict[str, list[str]]:
+    """Distal link -> the actuated joints (mimics replaced by their masters) on the
+    chain from the base, in tree order. Raises on a finger moved by a continuous
+    joint without limits."""
+    distal, candidates, masters, bars = _distal_links(u)
     if not distal:
         raise GripperError(
             f"URDF {u.path.name}: found no fingertip (a link with geometry moved by "
@@ -1466,6 +1525,9 @@ def guess_description(
     """
     path = Path(urdf)
     u = _read(path, name, base_link)
+    if base_link is None:
+        u = _hand_on_arm(u, name)
+    _check_extent(u)
     fingers = _fingers(u)
     distal = list(fingers)
     names = _finger_names(distal)

@@ -242,9 +242,11 @@ def _check_size(report: CheckReport) -> None:
             report,
             "error",
             "urdf",
-            f"the gripper is {report.size_m:.2f} m across; a URDF in millimetres?",
+            f"the gripper is {report.size_m:.2f} m across: a URDF in millimetres, "
+            "or more than the gripper below base_link?",
             "URDF lengths are metres: scale the meshes (<mesh scale='0.001 0.001 "
-            "0.001'>) or rescaffold with --mesh-units mm",
+            "0.001'>) or rescaffold with --mesh-units mm; where base_link carries "
+            "an arm, set it to the link the arm holds",
         )
     elif report.size_m < lo:
         _add(
