@@ -173,6 +173,39 @@ def test_mujoco_refuses_the_palms_inertial_as_written():
         mujoco.MjModel.from_xml_string(xml)
 
 
+def test_an_inertia_too_large_for_its_link_is_recomputed():
+    """A placeholder inertia (1 kg·m² on a 100 g finger: a radius of gyration of
+    3 m) is no property of the link: the URDF's mass is kept, the inertia comes
+    from the geometry. A plausible one, and one at the bound, stay as written."""
+    import trimesh
+
+    from wsgrasp.gripper._urdf import Inertial
+    from wsgrasp.sim._repairs import link_mass_properties
+    from wsgrasp.sim.params import SimParams
+
+    p = SimParams()
+    finger = [trimesh.creation.box((0.1, 0.02, 0.02))]  # centred on the origin
+
+    def inertial(inertia):
+        return Inertial(0.1, np.eye(4), np.diag(inertia))
+
+    props, fix = link_mass_properties("f", inertial((1.0, 1.0, 1.0)), finger, True, p)
+    assert fix is not None and "too large for the link" in fix.problem
+    assert "3162 mm" in fix.problem  # sqrt(1 / 0.1)
+    assert props.mass == pytest.approx(0.1)
+    # the box's own inertia at 100 g
+    want = 0.1 / 12 * np.array([0.02**2 + 0.02**2, 0.1**2 + 0.02**2, 0.1**2 + 0.02**2])
+    np.testing.assert_allclose(np.diag(props.inertia), want, rtol=1e-9)
+    # the bound: the mass at the corners' distance from the centre of mass
+    reach2 = 0.05**2 + 0.01**2 + 0.01**2
+    for inertia in (want, (0.1 * reach2,) * 3):
+        props, fix = link_mass_properties("f", inertial(inertia), finger, True, p)
+        assert fix is None
+        np.testing.assert_allclose(np.diag(props.inertia), inertia)
+    _, fix = link_mass_properties("f", inertial((0.11 * reach2,) * 3), finger, True, p)
+    assert fix is not None
+
+
 def test_inertials_are_repaired_and_the_model_compiles(claw_dir: Path):
     g = sim_gripper_from_files(claw_description(), claw_dir)
     scene = build_scene(_box_object((0.3, 0.3, 0.04)), g)  # compiles

@@ -10,7 +10,13 @@ Inertials
     [``link_mass_floor``, ``link_mass_ceiling``] (:class:`~wsgrasp.sim.params.
     SimParams`, 1 g and 50 kg) and its inertia is finite, positive definite and
     satisfies the triangle inequality of its principal moments (A + B >= C, which
-    every rigid body does and MuJoCo checks). Otherwise, and where it is missing,
+    every rigid body does and MuJoCo checks), and when no principal moment exceeds
+    ``m R^2``, ``R`` the farthest the link's geometry reaches from the centre of
+    mass (:func:`inertia_beyond_geometry`: a moment about an axis through the
+    centre of mass is the mass times its mean squared distance from the axis, so
+    a larger one puts mass outside the link; placeholders such as ``ixx="1"`` for
+    a finger of 100 g, with a radius of gyration of 3 m, make it as sluggish as a
+    door). Otherwise, and where it is missing,
     the link's mass properties come from its geometry as simulated (the collision
     shapes, a mesh as its convex hull, which is closed by construction; a hull
     without volume, from a flat mesh, as a box of its extent, at least
@@ -58,6 +64,7 @@ __all__ = [
     "MassProperties",
     "Repair",
     "effort_limit",
+    "inertia_beyond_geometry",
     "inertia_problem",
     "link_mass_properties",
     "mimic_range",
@@ -160,6 +167,30 @@ def inertia_problem(mass: float, inertia: Array, p: SimParams) -> str:
     return "; ".join(problems)
 
 
+def inertia_beyond_geometry(props: MassProperties, solids: Sequence[Any]) -> str:
+    """What is wrong with an inertial too large for the link it belongs to:
+    a principal moment above ``mass * R**2``, ``R`` the farthest corner of the
+    bounds of ``solids`` (the link's geometry, link frame) from the centre of
+    mass (empty when nothing is). Bounds over-reach the geometry, so the test
+    errs towards keeping the URDF's inertial."""
+    if not solids or props.mass <= 0.0:
+        return ""
+    reach = 0.0
+    for solid in solids:
+        lo, hi = np.asarray(solid.bounds, dtype=np.float64)  # (2, 3)
+        far = np.maximum(np.abs(lo - props.com), np.abs(hi - props.com))  # (3,)
+        reach = max(reach, float(np.linalg.norm(far)))
+    largest = float(np.linalg.eigvalsh(0.5 * (props.inertia + props.inertia.T))[-1])
+    if largest <= props.mass * reach**2:
+        return ""
+    return (
+        f"inertia too large for the link: a principal moment of {largest:.3g} kg·m² "
+        f"puts its {_kg(props.mass)} {np.sqrt(largest / props.mass) * 1e3:.0f} mm "
+        f"from the centre of mass (radius of gyration), where its geometry "
+        f"reaches {reach * 1e3:.0f} mm"
+    )
+
+
 def solid_mass_properties(solids: Sequence[Any], density: float) -> MassProperties:
     """Mass properties of closed ``trimesh.Trimesh`` solids (one body, link
     frame; trimesh primitives exactly) at ``density`` (kg/m³); a solid without
@@ -234,6 +265,8 @@ def link_mass_properties(
             R @ np.asarray(inertial.inertia, dtype=np.float64) @ R.T,  # link axes
         )
         problem = inertia_problem(urdf.mass, urdf.inertia, p)
+        if not problem:
+            problem = inertia_beyond_geometry(urdf, solids)
         if not problem:
             return urdf, None
         mass_ok = p.link_mass_floor <= urdf.mass <= p.link_mass_ceiling
