@@ -236,3 +236,78 @@ def test_a_best_whose_pregrasp_hits_the_table_gives_way_to_the_first_clear_one(
     assert [a.index for a in fallback.alternatives] == [
         a.index for a in chosen.alternatives
     ]
+
+
+def test_a_hand_closes_on_the_object_when_three_contact_fingers_reach_it():
+    """``_closing_reaches``: the Allegro hand (four contact fingers) closes on
+    points its fingers' sweeps reach when three of them do, not two; a jaw
+    needs both fingers."""
+    import wsgrasp.api as api
+    from wsgrasp.gripper import load_gripper
+    from wsgrasp.planning.closing import closing_paths
+
+    hand = load_gripper("allegro_right")
+    pads = closing_paths(hand)[:, -1]  # (nf, 3) each pad at the closed posture
+    eye = np.eye(4)[None]
+    assert api._closing_reaches(hand, eye, pads[:3])[0]
+    assert not api._closing_reaches(hand, eye, pads[:2])[0]
+    far = pads + np.array([0.0, 0.0, 0.5])  # half a metre off: nothing reaches
+    assert not api._closing_reaches(hand, eye, far)[0]
+    # a pose moved the same way as the points keeps the answer, per pose
+    T = np.tile(np.eye(4), (2, 1, 1))
+    T[1, :3, 3] = (0.0, 0.0, 0.5)
+    np.testing.assert_array_equal(api._closing_reaches(hand, T, far), [False, True])
+    jaw = load_gripper("franka_hand")
+    path = closing_paths(jaw)
+    jaw_pads = path[:, path.shape[1] // 2]  # half closed: apart
+    assert api._closing_reaches(jaw, eye, jaw_pads)[0]
+    assert not api._closing_reaches(jaw, eye, jaw_pads[:1])[0]
+
+
+def test_a_closing_hand_whose_best_closes_beside_the_object_takes_the_next():
+    """With ``close_to: closed``, a best whose fingers would close beside the
+    object gives way to the best-scored candidate that closes on it, looked
+    for past the alternatives; none: no grasp."""
+    import wsgrasp.api as api
+
+    spec = load_spec(ROOT / "examples" / "specs" / "allegro.yaml")
+    assert spec.approach.close_to == "closed"
+    pipe = Pipeline(spec)
+    result = pipe.plan(SCENE)
+    cands = result.candidates
+    feasible = np.flatnonzero(cands.feasible)
+    order = feasible[np.argsort(-cands.score[feasible], kind="stable")]
+    beyond = order[len(result.alternatives) + 3]  # not an alternative
+    real = api._closing_reaches
+    at = cands.T_world_ee[beyond]
+
+    def only_beyond(g, T, points):  # type: ignore[no-untyped-def]
+        T = np.asarray(T).reshape(-1, 4, 4)
+        ok = np.array([np.allclose(t[:3, :3], at[:3, :3]) for t in T])
+        return ok & real(g, T, points)
+
+    api_real = api._closing_reaches
+    try:
+        api._closing_reaches = only_beyond
+        other = pipe.plan(SCENE)
+        assert other.found
+        picked = other.candidates.T_world_ee[other.best_index]
+        np.testing.assert_allclose(picked[:3, :3], at[:3, :3])
+        assert cands.score[other.best_index] <= cands.score[result.best_index]
+        api._closing_reaches = lambda g, T, points: np.zeros(len(T), dtype=bool)
+        assert not pipe.plan(SCENE).found
+    finally:
+        api._closing_reaches = api_real
+
+
+def test_no_grasp_that_closes_on_the_object_says_so(monkeypatch):
+    import wsgrasp.api as api
+
+    pipe = Pipeline(load_spec(ROOT / "examples" / "specs" / "allegro.yaml"))
+    monkeypatch.setattr(
+        api, "_closing_reaches", lambda g, T, p: np.zeros(len(T), dtype=bool)
+    )
+    result = pipe.plan(SCENE)
+    assert not result.found
+    assert "closes beside the object" in result.hint
+    assert "close_to: contacts" in result.hint

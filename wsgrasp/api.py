@@ -384,7 +384,13 @@ class Pipeline:
         hint = ""
         if choose is None:
             best, taken = _with_clear_pregrasp(
-                out, g, inp, self._spheres, distance, prep.table_footprint
+                out,
+                g,
+                inp,
+                self._spheres,
+                distance,
+                prep.table_footprint,
+                closing=self.spec.approach.close_to == "closed",
             )
             if best != out.best:
                 out = _choose(out, best, g, inp, self._spheres, self.spec.top_k, taken)
@@ -444,7 +450,9 @@ class Pipeline:
                 for f in targets.fingers
             ]
         elif not hint:  # a chosen candidate's hint says why already
-            hint = _no_grasp(prep, out, hist, g, distance)
+            hint = _no_grasp(
+                prep, out, hist, g, distance, self.spec.approach.close_to == "closed"
+            )
             if prep.blocked_by:
                 hint += "; " + _blockers(prep.blocked_by) + _siblings(prep)
         timing["total"] = shared_ms + (time.perf_counter() - t_start) * 1e3
@@ -930,6 +938,36 @@ def _under_table(
     return False
 
 
+#: a hand closing to its ``closed`` posture grasps when this many of its contact
+#: fingers (all of them, where it has fewer) reach the object on the way
+CLOSING_FINGERS = 3
+#: candidates whose closing is tested at once (:func:`_closing_reaches`)
+_CLOSING_CHUNK = 64
+
+
+def _closing_reaches(g: GripperModel, T: Array, points: Array) -> NDArray[np.bool_]:
+    """Per gripper pose ``(m, 4, 4)``: whether at least :data:`CLOSING_FINGERS`
+    of its contact fingers (all, where there are fewer) reach one of the object
+    ``points`` ``(n, 3)`` as they close from the pre-grasp posture to the closed
+    one (their sweeps: :func:`wsgrasp.planning.sweeps.reach_steps`). A finger
+    whose workspace spheres hold object points may still close beside them:
+    the spheres cover every posture of its joints, the closing only the line
+    between two. True throughout for a model without finger sweeps."""
+    from wsgrasp.planning.sweeps import reach_steps, sweep_steps
+
+    T = np.asarray(T, dtype=np.float64).reshape(-1, 4, 4)
+    contact = np.flatnonzero(g.contact_fingers)
+    if not (g.has_sweeps or g.has_configurations) or not len(contact):
+        return np.ones(len(T), dtype=bool)
+    need = min(len(contact), CLOSING_FINGERS)
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    # the points in each pose's gripper axes: R^T (p - t)
+    local = np.einsum("mji,mnj->mni", T[:, :3, :3], p[None] - T[:, None, :3, 3])
+    steps = reach_steps(g, local.reshape(-1, 3)).reshape(len(T), len(p), -1)
+    reached = steps[:, :, contact].min(axis=1) < sweep_steps(g)  # (m, c)
+    return reached.sum(axis=1) >= need  # type: ignore[no-any-return]
+
+
 def _with_clear_pregrasp(
     out: SearchOutput,
     g: GripperModel,
@@ -937,29 +975,49 @@ def _with_clear_pregrasp(
     spheres: FingerSpheres | None,
     distance: float,
     footprint: Footprint | None = None,
+    *,
+    closing: bool = False,
 ) -> tuple[int | None, tuple[Array, NDArray[np.bool_] | None] | None]:
     """The best candidate whose pre-grasp pose is clear of the table too, and
     neither it nor its pre-grasp pose under the table (:func:`_under_table`):
     the chosen one, else the first alternative that is (at its pose as it would
     be taken, backed off from the table), else None; with an alternative, its
-    pose as taken (:func:`_taken_pose`), for :func:`_choose`."""
+    pose as taken (:func:`_taken_pose`), for :func:`_choose`.
+
+    With ``closing`` (a hand that closes to its ``closed`` posture), the
+    candidate must also close on the object (:func:`_closing_reaches`), and
+    every feasible candidate is tried in score order, not the alternatives
+    alone."""
 
     def clear(T: Array) -> bool:
         pregrasp = pregrasp_pose(g, T, distance)
-        return not _hits_table(g, inp.table, pregrasp) and not _under_table(
+        if _hits_table(g, inp.table, pregrasp) or _under_table(
             g, footprint, T, distance
-        )
+        ):
+            return False
+        return not closing or bool(_closing_reaches(g, T[None], inp.object_points)[0])
 
     if out.best is None:
         return None, None
     if clear(out.candidates.T_world_ee[out.best]):
         return out.best, None
-    for a in out.alternatives:
-        if _under_table(g, footprint, out.candidates.T_world_ee[a.index], distance):
-            continue  # backing off from the table's surface cannot lift it out
-        taken = _taken_pose(out, a.index, g, inp, spheres)
-        if clear(taken[0]):
-            return int(a.index), taken
+    if closing:
+        c = out.candidates
+        feasible = np.flatnonzero(c.feasible & (np.arange(len(c.score)) != out.best))
+        order = feasible[np.argsort(-c.score[feasible], kind="stable")]
+    else:
+        order = np.array([a.index for a in out.alternatives], dtype=np.int64)
+    for lo in range(0, len(order), _CLOSING_CHUNK):
+        chunk = order[lo : lo + _CLOSING_CHUNK]
+        if closing:  # at the poses as generated, first: most fail here
+            T = out.candidates.T_world_ee[chunk]
+            chunk = chunk[_closing_reaches(g, T, inp.object_points)]
+        for i in chunk:
+            if _under_table(g, footprint, out.candidates.T_world_ee[i], distance):
+                continue  # backing off from the table's surface cannot lift it out
+            taken = _taken_pose(out, int(i), g, inp, spheres)
+            if clear(taken[0]):
+                return int(i), taken
     return None, None
 
 
@@ -969,8 +1027,10 @@ def _no_grasp(
     hist: dict[str, int],
     g: GripperModel,
     distance: float,
+    closing: bool = False,
 ) -> str:
-    """Why a plan has no grasp, in one sentence a user can act on."""
+    """Why a plan has no grasp, in one sentence a user can act on (``closing``:
+    the hand closes to its ``closed`` posture)."""
     if prep.too_large:
         return prep.too_large
     feasible = np.flatnonzero(out.candidates.feasible)
@@ -981,6 +1041,16 @@ def _no_grasp(
             return (
                 "every feasible grasp, or its pre-grasp pose, lies under the table; "
                 "check that the segmentation kept the object above the table"
+            )
+        pregrasp = pregrasp_pose(g, T_top, distance)
+        if closing and not _hits_table(g, prep.search_input.table, pregrasp):
+            need = min(int(np.count_nonzero(g.contact_fingers)), CLOSING_FINGERS)
+            return (
+                f"every feasible grasp closes beside the object: fewer than {need} "
+                "of the contact fingers reach it on the way from the pre-grasp to "
+                "the closed posture, though their workspaces hold object points; "
+                "set approach.close_to: contacts (each finger closes to where it "
+                "holds the object), or sample more depths and orientations"
             )
         return (
             f"every feasible grasp's pre-grasp pose, {distance:g} m back along its "

@@ -36,6 +36,9 @@ MIN_GRIPPER_EXTENT = 0.01
 #: not a hand's wrist (a hand's own wrist has at most two: the Shadow hand's
 #: WRJ2 and WRJ1); without ``--base-link``, the gripper starts at that link
 ARM_JOINTS = 3
+#: the links below the point where a gripper's fingers part span at most this
+#: (m): wider branchings are a robot's (its arms, its wheels)
+MAX_HAND_EXTENT = 0.6
 #: an axis within this angle (degrees) of a base-frame axis is snapped onto it
 SNAP_DEG = 15.0
 #: a hand of at least this many fingers may approach fingertips first, when the
@@ -266,7 +269,7 @@ def _read(
         notes["base_link"] = "the root link of the URDF tree"
     below = kin.subtree(base)
 
-    movable = [j for j in kin.joints.values() if j.kind != 0 and j.child in below]
+    movable = [j for j in kin.joints.values() if j.kind != 0 and j.parent in below]
     actuated = [j.name for j in movable if j.mimic is None]
     if not actuated:
         kinds = ", ".join(
@@ -326,23 +329,95 @@ def _check_extent(u: _Urdf) -> None:
         )
 
 
+def _extent(u: _Urdf, base: str, posture: dict[str, float]) -> float:
+    """Size (m) of the geometry of the links below ``base`` at ``posture``."""
+    poses = u.kin.link_poses(base, posture)
+    corners = []
+    for link, T in poses.items():
+        if link in u.boxes:
+            lo, hi = u.boxes[link]
+            c = np.array(np.meshgrid(*zip(lo, hi, strict=True), indexing="ij"))
+            corners.append(c.reshape(3, -1).T @ T[:3, :3].T + T[:3, 3])
+    if not corners:
+        return 0.0
+    allc = np.concatenate(corners)
+    return float(np.max(allc.max(axis=0) - allc.min(axis=0)))
+
+
+def _grippers_in(u: _Urdf) -> list[tuple[str, list[str]]]:
+    """Where grippers hang in the URDF's tree, outermost first: each link at
+    which the chains of two or more fingertips part, a joint below it moving
+    each, whose links below it span at most :data:`MAX_HAND_EXTENT` (wider
+    branchings are a robot's: its arms, its wheels); one inside another is
+    the same gripper. With the fingertips below each."""
+    distal, chains, _, _ = _distal_links(u)
+    below: dict[str, list[str]] = {}  # link -> fingertips a joint below it moves
+    child: dict[tuple[str, str], str] = {}  # (link, fingertip) -> next link
+    for tip in distal:
+        joints = chains[tip]
+        moving = False
+        for joint in reversed(joints):
+            moving = moving or joint.kind != 0
+            if moving:
+                below.setdefault(joint.parent, []).append(tip)
+                child[joint.parent, tip] = joint.child
+    found = [
+        link
+        for link, tips in below.items()
+        if len({child[link, t] for t in tips}) > 1
+        and _extent(u, link, u.default) <= MAX_HAND_EXTENT
+    ]
+    inside = {
+        link
+        for link in found
+        for other in found
+        if other != link and link in u.kin.subtree(other)
+    }
+    return [(link, below[link]) for link in found if link not in inside]
+
+
 def _hand_on_arm(u: _Urdf, name: str) -> _Urdf:
-    """``u`` itself, or, where the fingers hang below an arm (at least
-    :data:`ARM_JOINTS` movable joints above the link where their chains part),
-    the URDF read again from that link: the arm is no part of the gripper."""
-    distal, candidates, _, _ = _distal_links(u)
-    if len(distal) < 2:
-        return u
-    shared: list[Any] = []  # the joints every finger's chain passes
-    for joints in zip(*(candidates[link] for link in distal), strict=False):
-        if any(j.name != joints[0].name for j in joints):
-            break
-        shared.append(joints[0])
-    arm = [j.name for j in shared if j.kind != 0]
+    """``u`` itself, or, where the gripper hangs below an arm or on a robot (at
+    least :data:`ARM_JOINTS` movable joints above the link where its fingers'
+    chains part), the URDF read again from that link: the arm is no part of the
+    gripper. A URDF that holds several grippers (a robot's two arms) is refused,
+    naming them."""
+    found = _grippers_in(u)
+    path = u.path.name
+    if len(found) > 1:
+        listed = ", ".join(f"{link!r} ({len(tips)} fingers)" for link, tips in found)
+        raise GripperError(
+            f"URDF {path} holds {len(found)} grippers, below links {listed}; "
+            "a gripper plugin is one of them",
+            hint=f"pass --base-link with the one to scaffold (e.g. --base-link "
+            f"{found[0][0]})",
+        )
+    if found:
+        hand = found[0][0]
+        arm = [j.name for j in u.kin.chain(u.base, hand) if j.kind != 0]
+    else:  # no joint below where the chains part: a rigid tool on an arm?
+        distal, chains, _, _ = _distal_links(u)
+        if len(distal) < 2:
+            return u
+        shared: list[Any] = []  # the joints every fingertip's chain passes
+        for joints in zip(*(chains[link] for link in distal), strict=False):
+            if any(j.name != joints[0].name for j in joints):
+                break
+            shared.append(joints[0])
+        arm = [j.name for j in shared if j.kind != 0]
+        hand = shared[-1].child if shared else u.base
     if len(arm) < ARM_JOINTS:
         return u
-    hand = shared[-1].child
     listed = ", ".join(arm[:3]) + (f" ... {arm[-1]}" if len(arm) > 3 else "")
+    if not found:
+        raise GripperError(
+            f"URDF {path}: its {len(arm)} movable joints ({listed}) are an arm's, "
+            f"above link {hand!r}, and nothing below that link moves: the tool it "
+            "carries has no finger joints",
+            hint="a gripper's finger joints are revolute or prismatic with <limit "
+            "lower upper> (fixed ones cannot close); scaffold from a URDF whose "
+            "fingers move, or pass --base-link LINK",
+        )
     return _read(
         u.path,
         name,

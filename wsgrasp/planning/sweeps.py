@@ -45,6 +45,7 @@ __all__ = [
     "reach_steps",
     "slides",
     "sweep_back_offs",
+    "sweep_steps",
 ]
 
 Array = NDArray[np.float64]
@@ -194,6 +195,12 @@ def reach_grids(g: GripperModel) -> tuple[list[Array], list[NDArray[np.uint8]]]:
     REACH_VOXEL (i, j, k)`` holds the first posture reaching it."""
     index = _sweep_index(g)
     return list(index.origin), list(index.reach)
+
+
+def sweep_steps(g: GripperModel) -> int:
+    """The postures a finger's sweep is followed through, ``K``: what
+    :func:`reach_steps` answers for a point no finger reaches."""
+    return int(_sweep_index(g).hull.shape[1])
 
 
 def reach_steps(
