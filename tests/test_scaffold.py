@@ -48,30 +48,42 @@ def test_jaw_guesses_base_fingers_axes_and_postures(tmp_path):
         assert sc.notes[field], field
 
 
-def _on_arm(joints: int) -> str:
-    """``jaw_urdf``'s jaw bolted (a fixed joint) to the last link of an arm of
-    ``joints`` revolute joints, each link a 30 cm box: the URDF of a robot."""
+def _arm_with_jaw(joints: int, prefix: str = "", parent: str = "arm_base") -> str:
+    """An arm of ``joints`` revolute joints (30 cm box links) hanging from link
+    ``parent``, ``jaw_urdf``'s jaw bolted to its last link (a fixed joint);
+    every name but ``parent`` starts with ``prefix``."""
+    import re
+
     jaw = jaw_urdf()
     body = jaw[jaw.index("<link") : jaw.index("</robot>")]
-    arm = [
-        '<link name="arm_base"><collision><geometry><box size="0.1 0.1 0.1"/>'
-        "</geometry></collision></link>"
-    ]
-    parent = "arm_base"
+    body = re.sub(r'((?:name|link|joint)=")', rf"\g<1>{prefix}", body)
+    arm = []
+    up = parent
     for i in range(1, joints + 1):
         arm.append(
-            f'<link name="arm_{i}"><collision><origin xyz="0 0 0.15"/><geometry>'
-            '<box size="0.06 0.06 0.3"/></geometry></collision></link>'
-            f'<joint name="arm_joint_{i}" type="revolute"><parent link="{parent}"/>'
-            f'<child link="arm_{i}"/><origin xyz="0 0 0.3"/><axis xyz="0 1 0"/>'
-            '<limit lower="-2.9" upper="2.9" effort="80" velocity="2"/></joint>'
+            f'<link name="{prefix}arm_{i}"><collision><origin xyz="0 0 0.15"/>'
+            '<geometry><box size="0.06 0.06 0.3"/></geometry></collision></link>'
+            f'<joint name="{prefix}arm_joint_{i}" type="revolute"><parent '
+            f'link="{up}"/><child link="{prefix}arm_{i}"/><origin xyz="0 0 0.3"/>'
+            '<axis xyz="0 1 0"/><limit lower="-2.9" upper="2.9" effort="80" '
+            'velocity="2"/></joint>'
         )
-        parent = f"arm_{i}"
+        up = f"{prefix}arm_{i}"
     arm.append(
-        f'<joint name="flange" type="fixed"><parent link="{parent}"/>'
-        '<child link="palm"/><origin xyz="0 0 0.3"/></joint>'
+        f'<joint name="{prefix}flange" type="fixed"><parent link="{up}"/>'
+        f'<child link="{prefix}palm"/><origin xyz="0 0 0.3"/></joint>'
     )
-    return f'<?xml version="1.0"?>\n<robot name="robot">{"".join(arm)}{body}</robot>'
+    return "".join(arm) + body
+
+
+def _on_arm(joints: int) -> str:
+    """``jaw_urdf``'s jaw on an arm of ``joints`` joints: the URDF of a robot."""
+    base = (
+        '<link name="arm_base"><collision><geometry><box size="0.1 0.1 0.1"/>'
+        "</geometry></collision></link>"
+    )
+    arm = _arm_with_jaw(joints)
+    return f'<?xml version="1.0"?>\n<robot name="robot">{base}{arm}</robot>'
 
 
 def test_a_gripper_on_an_arm_starts_where_the_fingers_part(tmp_path):
@@ -91,6 +103,28 @@ def test_a_gripper_on_an_arm_starts_where_the_fingers_part(tmp_path):
     # two joints above the fingers are a wrist, held, not an arm
     wrist = guess_description(_write(tmp_path, _on_arm(2), "wrist.urdf"), "jaw")
     assert wrist.data["base_link"] == "arm_base"
+
+
+def test_a_robot_with_two_grippers_or_a_rigid_tool_is_refused_clearly(tmp_path):
+    """Two jaws on two arms of one torso: one message naming both; an arm whose
+    tool has no finger joints: one message saying so."""
+    base = (
+        '<link name="arm_base"><collision><geometry><box size="0.1 0.1 0.1"/>'
+        "</geometry></collision></link>"
+    )
+    both = (
+        f'<?xml version="1.0"?>\n<robot name="two">{base}'
+        f"{_arm_with_jaw(3, 'l_')}{_arm_with_jaw(3, 'r_')}</robot>"
+    )
+    with pytest.raises(GripperError, match="holds 2 grippers") as info:
+        guess_description(_write(tmp_path, both, "two.urdf"), "jaw")
+    assert "'l_palm'" in str(info.value) and "'r_palm'" in str(info.value)
+    assert "--base-link" in info.value.hint
+    one = guess_description(tmp_path / "two.urdf", "jaw", base_link="r_palm")
+    assert one.data["base_link"] == "r_palm"
+    rigid = _on_arm(6).replace('type="prismatic"', 'type="fixed"')
+    with pytest.raises(GripperError, match="no finger joints"):
+        guess_description(_write(tmp_path, rigid, "rigid.urdf"), "jaw")
 
 
 def test_two_actuated_fingers_each_get_their_joint(tmp_path):
