@@ -176,7 +176,9 @@ def test_every_plan_ends_with_the_table_check(monkeypatch):
         return out
 
     monkeypatch.setattr(Pipeline, "search", sunken)
-    monkeypatch.setattr(api, "_with_clear_pregrasp", lambda out, *a: (out.best, None))
+    monkeypatch.setattr(
+        api, "_with_clear_pregrasp", lambda out, *a, **k: (out.best, None)
+    )
     pipeline = Pipeline(fake_spec(), gripper=fake_gripper())
     with pytest.raises(AssertionError, match="enters the table"):
         pipeline.plan(box_scene())
