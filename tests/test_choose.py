@@ -239,7 +239,7 @@ def test_a_best_whose_pregrasp_hits_the_table_gives_way_to_the_first_clear_one(
 
 
 def test_a_hand_closes_on_the_object_when_three_contact_fingers_reach_it():
-    """``_closing_reaches``: the Allegro hand (four contact fingers) closes on
+    """``_closing_reaches``: the Allegro hand (four fingers) closes on
     points its fingers' sweeps reach when three of them do, not two; a jaw
     needs both fingers."""
     import wsgrasp.api as api
