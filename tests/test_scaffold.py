@@ -105,6 +105,25 @@ def test_a_gripper_on_an_arm_starts_where_the_fingers_part(tmp_path):
     assert wrist.data["base_link"] == "arm_base"
 
 
+def test_a_plugin_from_a_robots_urdf_carries_the_gripper_alone(tmp_path):
+    """The package scaffolded from a robot's URDF holds the links below the
+    gripper's base and nothing of the arm; it builds and checks."""
+    from wsgrasp.gripper import load_gripper
+    from wsgrasp.gripper._urdf import load_kinematics
+
+    urdf = _write(tmp_path, _on_arm(6), "robot.urdf")
+    yaml_path, sc = scaffold_plugin("armjaw", urdf, tmp_path / "out")
+    copy = yaml_path.parent / "armjaw.urdf"
+    kin = load_kinematics(copy, "armjaw")
+    assert set(kin.links) == {"palm", "left_finger", "right_finger"}
+    assert "arm_joint_1" not in copy.read_text()
+    text = yaml_path.read_text()
+    assert "left out of the copied URDF, above base link palm" in text
+    assert "are ignored" not in text
+    assert not [w for w in sc.warnings if "error" in w]
+    assert load_gripper(str(yaml_path)).num_fingers == 2
+
+
 def test_a_robot_with_two_grippers_or_a_rigid_tool_is_refused_clearly(tmp_path):
     """Two jaws on two arms of one torso: one message naming both; an arm whose
     tool has no finger joints: one message saying so."""

@@ -23,6 +23,7 @@ __all__ = [
     "MESH_UNITS",
     "copy_urdf",
     "narrow_limits",
+    "prune_urdf",
     "unlimited_continuous",
 ]
 
@@ -37,6 +38,9 @@ _JOINT = re.compile(r"<joint\b[^>]*?(?<!/)>.*?</joint\s*>", re.S)
 _NAME = re.compile(r"""\bname\s*=\s*(["'])(.*?)\1""", re.S)
 _LIMIT = re.compile(r"<limit\b[^>]*>", re.S)
 _VISUAL = re.compile(r"<visual\b[^>]*?(?<!/)>.*?</visual\s*>", re.S)
+_LINK = re.compile(r"<link\b[^>]*?/>|<link\b[^>]*?(?<!/)>.*?</link\s*>", re.S)
+_CHILD = re.compile(r"""<child\b[^>]*?\blink\s*=\s*(["'])(.*?)\1""", re.S)
+_PARENT = re.compile(r"""<parent\b[^>]*?\blink\s*=\s*(["'])(.*?)\1""", re.S)
 
 
 def _mesh_uses(text: str) -> dict[str, list[tuple[str, bool]]]:
@@ -311,3 +315,43 @@ def narrow_limits(path: Path, limits: dict[str, tuple[float, float]]) -> None:
         return element.replace(tag.group(0), new, 1)
 
     Path(path).write_text(_JOINT.sub(rewrite, text))
+
+
+def prune_urdf(urdf: Path, keep: set[str]) -> tuple[list[str], list[str]]:
+    """Leave out of a copied URDF every link not in ``keep`` and every joint
+    that joins one (the arm above a gripper that ``gripper new`` found in a
+    robot's URDF, and the joint that held the gripper to it), and delete the
+    copied meshes nothing left references.
+
+    Returns
+    -------
+    links, meshes
+        The links left out; the mesh files deleted (names under ``meshes/``).
+    """
+    text = urdf.read_text()
+    before = set(_mesh_uses(text))
+    gone: list[str] = []
+
+    def link(m: re.Match[str]) -> str:
+        name = _NAME.search(m.group(0))
+        if name is None or name.group(2) in keep:
+            return m.group(0)
+        gone.append(name.group(2))
+        return ""
+
+    def joint(m: re.Match[str]) -> str:
+        child = _CHILD.search(m.group(0))  # a transmission's <joint> has none
+        parent = _PARENT.search(m.group(0))
+        if child is None or parent is None:
+            return m.group(0)
+        return m.group(0) if {child.group(2), parent.group(2)} <= keep else ""
+
+    text = _JOINT.sub(joint, _LINK.sub(link, text))
+    urdf.write_text(text)
+    deleted = []
+    for name in sorted(before - set(_mesh_uses(text))):
+        path = urdf.parent / name
+        if name.startswith("meshes/") and path.is_file():
+            path.unlink()
+            deleted.append(name.removeprefix("meshes/"))
+    return gone, deleted

@@ -365,6 +365,26 @@ def scaffold_plugin(
         raise
 
 
+def _below_base(urdf_copy: Path, name: str, base: str) -> str:
+    """The copied URDF cut down to the links below ``base`` (the arm above a
+    gripper in a robot's URDF is no part of the plugin) and the meshes only
+    those use; a note saying what was left out, or nothing."""
+    from wsgrasp.gripper._scaffold_urdf import prune_urdf
+    from wsgrasp.gripper._urdf import load_kinematics
+
+    kin = load_kinematics(urdf_copy, name)
+    keep = set(kin.subtree(base))
+    if keep == set(kin.links):
+        return ""
+    links, meshes = prune_urdf(urdf_copy, keep)
+    return (
+        f"left out of the copied URDF, above base link {base}: "
+        + ", ".join(links[:8])
+        + (f" ... ({len(links)} links)" if len(links) > 8 else "")
+        + (f"; and {len(meshes)} of its meshes" if meshes else "")
+    )
+
+
 def _write_package(
     name: str,
     urdf: Path,
@@ -390,12 +410,24 @@ def _write_package(
     )
     scaffold = guess_description(urdf_copy, name, base_link=base_link)
     scaffold.warnings[:0] = mesh_warnings
+    pruned = _below_base(urdf_copy, name, scaffold.data["base_link"])
+    if pruned:  # the notes of the meshes still there; no warning on links
+        scaffold.warnings = [
+            w for w in scaffold.warnings if not w.startswith("links not below base")
+        ]
+        mesh_notes = [
+            n
+            for n in mesh_notes
+            if (pkg / n.split(" -> ")[-1].split(" (")[0]).is_file()
+        ]
     narrow_limits(urdf_copy, scaffold.limits)
     fit_sphere_count(scaffold, pkg)
     choose_approach(scaffold, pkg)
     header = []
     if mesh_notes:
         header.append("meshes copied: " + "; ".join(mesh_notes))
+    if pruned:
+        header.append(pruned)
     if scaffold.limits:
         header.append(
             "joint limits narrowed in the copied URDF, where a finger would close "
