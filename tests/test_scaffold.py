@@ -48,10 +48,12 @@ def test_jaw_guesses_base_fingers_axes_and_postures(tmp_path):
         assert sc.notes[field], field
 
 
-def _arm_with_jaw(joints: int, prefix: str = "", parent: str = "arm_base") -> str:
-    """An arm of ``joints`` revolute joints (30 cm box links) hanging from link
-    ``parent``, ``jaw_urdf``'s jaw bolted to its last link (a fixed joint);
-    every name but ``parent`` starts with ``prefix``."""
+def _arm_with_jaw(
+    joints: int, prefix: str = "", parent: str = "arm_base", length: float = 0.3
+) -> str:
+    """An arm of ``joints`` revolute joints (box links ``length`` long) hanging
+    from link ``parent``, ``jaw_urdf``'s jaw bolted to its last link (a fixed
+    joint); every name but ``parent`` starts with ``prefix``."""
     import re
 
     jaw = jaw_urdf()
@@ -61,17 +63,19 @@ def _arm_with_jaw(joints: int, prefix: str = "", parent: str = "arm_base") -> st
     up = parent
     for i in range(1, joints + 1):
         arm.append(
-            f'<link name="{prefix}arm_{i}"><collision><origin xyz="0 0 0.15"/>'
-            '<geometry><box size="0.06 0.06 0.3"/></geometry></collision></link>'
+            f'<link name="{prefix}arm_{i}"><collision><origin xyz="0 0 '
+            f'{length / 2:g}"/><geometry><box size="0.06 0.06 {length:g}"/>'
+            "</geometry></collision></link>"
             f'<joint name="{prefix}arm_joint_{i}" type="revolute"><parent '
-            f'link="{up}"/><child link="{prefix}arm_{i}"/><origin xyz="0 0 0.3"/>'
+            f'link="{up}"/><child link="{prefix}arm_{i}"/><origin xyz="0 0 '
+            f'{length:g}"/>'
             '<axis xyz="0 1 0"/><limit lower="-2.9" upper="2.9" effort="80" '
             'velocity="2"/></joint>'
         )
         up = f"{prefix}arm_{i}"
     arm.append(
         f'<joint name="{prefix}flange" type="fixed"><parent link="{up}"/>'
-        f'<child link="{prefix}palm"/><origin xyz="0 0 0.3"/></joint>'
+        f'<child link="{prefix}palm"/><origin xyz="0 0 {length:g}"/></joint>'
     )
     return "".join(arm) + body
 
@@ -139,6 +143,14 @@ def test_a_robot_with_two_grippers_or_a_rigid_tool_is_refused_clearly(tmp_path):
         guess_description(_write(tmp_path, both, "two.urdf"), "jaw")
     assert "'l_palm'" in str(info.value) and "'r_palm'" in str(info.value)
     assert "--base-link" in info.value.hint
+    # a robot so small that its arms and hands span less than a hand may
+    short = (
+        f'<?xml version="1.0"?>\n<robot name="two">{base}'
+        f"{_arm_with_jaw(3, 'l_', length=0.02)}{_arm_with_jaw(3, 'r_', length=0.02)}"
+        "</robot>"
+    )
+    with pytest.raises(GripperError, match="holds 2 grippers"):
+        guess_description(_write(tmp_path, short, "small.urdf"), "jaw")
     one = guess_description(tmp_path / "two.urdf", "jaw", base_link="r_palm")
     assert one.data["base_link"] == "r_palm"
     rigid = _on_arm(6).replace('type="prismatic"', 'type="fixed"')

@@ -348,8 +348,10 @@ def _grippers_in(u: _Urdf) -> list[tuple[str, list[str]]]:
     """Where grippers hang in the URDF's tree, outermost first: each link at
     which the chains of two or more fingertips part, a joint below it moving
     each, whose links below it span at most :data:`MAX_HAND_EXTENT` (wider
-    branchings are a robot's: its arms, its wheels); one inside another is
-    the same gripper. With the fingertips below each."""
+    branchings are a robot's: its arms, its wheels), and that holds no two such
+    links side by side below it (a robot small enough for that test, with a
+    hand on each arm); one inside another is the same gripper. With the
+    fingertips below each."""
     distal, chains, _, _ = _distal_links(u)
     below: dict[str, list[str]] = {}  # link -> fingertips a joint below it moves
     child: dict[tuple[str, str], str] = {}  # (link, fingertip) -> next link
@@ -367,13 +369,19 @@ def _grippers_in(u: _Urdf) -> list[tuple[str, list[str]]]:
         if len({child[link, t] for t in tips}) > 1
         and _extent(u, link, u.default) <= MAX_HAND_EXTENT
     ]
-    inside = {
+    under = {link: set(u.kin.subtree(link)) - {link} for link in found}
+
+    def outermost(links: list[str]) -> list[str]:
+        return [a for a in links if not any(a in under[b] for b in links if b != a)]
+
+    # a branching with two or more grippers below it is a robot's (its two
+    # small arms), not one gripper
+    kept = [
         link
         for link in found
-        for other in found
-        if other != link and link in u.kin.subtree(other)
-    }
-    return [(link, below[link]) for link in found if link not in inside]
+        if len(outermost([o for o in found if o in under[link]])) < 2
+    ]
+    return [(link, below[link]) for link in outermost(kept)]
 
 
 def _hand_on_arm(u: _Urdf, name: str) -> _Urdf:
@@ -410,6 +418,9 @@ def _hand_on_arm(u: _Urdf, name: str) -> _Urdf:
         return u
     listed = ", ".join(arm[:3]) + (f" ... {arm[-1]}" if len(arm) > 3 else "")
     if not found:
+        under = set(u.kin.subtree(hand))
+        if any(j.kind != 0 and j.parent in under for j in u.kin.joints.values()):
+            return u  # no gripper found, but not a rigid tool either
         raise GripperError(
             f"URDF {path}: its {len(arm)} movable joints ({listed}) are an arm's, "
             f"above link {hand!r}, and nothing below that link moves: the tool it "
