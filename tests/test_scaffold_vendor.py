@@ -553,3 +553,35 @@ def test_hand_with_a_thumb_needs_a_tripod(tmp_path):
     assert (
         "contact_fingers" not in guess_description(tmp_path / "claw.urdf", "claw").data
     )
+
+
+def _pybullet_data() -> Path:
+    data = pytest.importorskip("pybullet_data", reason="pybullet's data is not here")
+    return Path(data.getDataPath())
+
+
+def test_a_robot_urdf_as_pybullet_ships_it_gives_its_hand(tmp_path):
+    """pybullet's ``franka_panda/panda.urdf`` (a 7-joint arm, then the hand), as
+    a user points ``gripper new`` at it: the plugin is the hand alone, and it
+    checks without errors."""
+    urdf = _pybullet_data() / "franka_panda" / "panda.urdf"
+    yaml_path, sc = scaffold_plugin("panda_arm", urdf, tmp_path / "out")
+    assert sc.data["base_link"] == "panda_hand"
+    assert "arm of 7 joints" in sc.notes["base_link"]
+    kin = load_kinematics(yaml_path.parent / "panda_arm.urdf", "panda_arm")
+    assert "panda_link0" not in kin.links
+    assert len(sc.data["fingers"]) == 2
+    _no_errors(yaml_path)
+
+
+def test_placeholder_inertias_as_pybullet_ships_them_are_recomputed(tmp_path):
+    """pybullet's PR2 gripper gives every link ``ixx=iyy=izz=1``: the simulator
+    recomputes each from its geometry, and says so."""
+    pytest.importorskip("mujoco")
+    from wsgrasp.sim.gripper import load_sim_gripper
+
+    urdf = _pybullet_data() / "pr2_gripper.urdf"
+    yaml_path, _ = scaffold_plugin("pr2", urdf, tmp_path / "out")
+    g = load_sim_gripper(str(yaml_path))
+    fixed = {r.item for r in g.repairs if "too large for the link" in r.problem}
+    assert {"left_gripper", "right_gripper", "gripper_pole"} <= fixed
