@@ -127,6 +127,10 @@ class Scaffold:
     #: a second approach for a hand, fingertips first: ``approach_axis``,
     #: ``closing_axis`` and their notes; :func:`choose_approach` picks one
     fingertips_first: dict[str, Any] | None = None
+    #: the URDF's links below ``base_link`` (it included), and those above or
+    #: beside it, which are no part of the gripper (an arm), in file order
+    links_below: list[str] = field(default_factory=list)
+    links_outside: list[str] = field(default_factory=list)
 
     @property
     def approaches_fingertips_first(self) -> bool:
@@ -231,6 +235,12 @@ def _r(v: Any, nd: int = 4) -> Any:
 # ------------------------------------------------------------------------------
 # The steps
 # ------------------------------------------------------------------------------
+def _outside(kin: Kinematics, below: list[str]) -> list[str]:
+    """The URDF's links not in ``below``, in file order."""
+    inside = set(below)
+    return [link for link in kin.links if link not in inside]
+
+
 def _read(
     path: Path,
     name: str,
@@ -249,7 +259,7 @@ def _read(
         kin.check_link(base_link, name, "--base-link")
         base = base_link
         notes["base_link"] = why
-        outside = sorted(set(kin.links) - set(kin.subtree(base)), key=kin.links.index)
+        outside = _outside(kin, kin.subtree(base))
         if outside:
             warnings.append(
                 f"links not below base link {base!r} are ignored: "
@@ -293,15 +303,7 @@ def _read(
         j: float(np.clip(0.0, kin.joints[j].lower, kin.joints[j].upper))
         for j in actuated
     }
-    poses = kin.link_poses(base, default)
-    corners = []
-    for link, (lo, hi) in boxes.items():
-        c = np.array(np.meshgrid(*zip(lo, hi, strict=True), indexing="ij"))
-        c = c.reshape(3, -1).T  # (8, 3)
-        T = poses[link]
-        corners.append(c @ T[:3, :3].T + T[:3, 3])
-    allc = np.concatenate(corners)  # (8 L, 3)
-    extent = float(np.max(allc.max(axis=0) - allc.min(axis=0)))
+    extent = _extent(kin, boxes, base, default)
     return _Urdf(
         path, kin, base, below, actuated, boxes, default, extent, notes, warnings
     )
@@ -329,13 +331,16 @@ def _check_extent(u: _Urdf) -> None:
         )
 
 
-def _extent(u: _Urdf, base: str, posture: dict[str, float]) -> float:
-    """Size (m) of the geometry of the links below ``base`` at ``posture``."""
-    poses = u.kin.link_poses(base, posture)
+def _extent(
+    kin: Kinematics, boxes: Boxes, base: str, posture: dict[str, float]
+) -> float:
+    """Size (m) of the geometry boxes of the links below ``base`` at
+    ``posture``: the largest side of the box that holds them all."""
+    poses = kin.link_poses(base, posture)
     corners = []
     for link, T in poses.items():
-        if link in u.boxes:
-            lo, hi = u.boxes[link]
+        if link in boxes:
+            lo, hi = boxes[link]
             c = np.array(np.meshgrid(*zip(lo, hi, strict=True), indexing="ij"))
             corners.append(c.reshape(3, -1).T @ T[:3, :3].T + T[:3, 3])
     if not corners:
@@ -344,15 +349,16 @@ def _extent(u: _Urdf, base: str, posture: dict[str, float]) -> float:
     return float(np.max(allc.max(axis=0) - allc.min(axis=0)))
 
 
-def _grippers_in(u: _Urdf) -> list[tuple[str, list[str]]]:
+def _grippers_in(
+    u: _Urdf, distal: list[str], chains: dict[str, list[Any]]
+) -> list[tuple[str, list[str]]]:
     """Where grippers hang in the URDF's tree, outermost first: each link at
     which the chains of two or more fingertips part, a joint below it moving
     each, whose links below it span at most :data:`MAX_HAND_EXTENT` (wider
     branchings are a robot's: its arms, its wheels), and that holds no two such
     links side by side below it (a robot small enough for that test, with a
     hand on each arm); one inside another is the same gripper. With the
-    fingertips below each."""
-    distal, chains, _, _ = _distal_links(u)
+    fingertips below each. ``distal`` and ``chains``: :func:`_distal_links`."""
     below: dict[str, list[str]] = {}  # link -> fingertips a joint below it moves
     child: dict[tuple[str, str], str] = {}  # (link, fingertip) -> next link
     for tip in distal:
@@ -367,7 +373,7 @@ def _grippers_in(u: _Urdf) -> list[tuple[str, list[str]]]:
         link
         for link, tips in below.items()
         if len({child[link, t] for t in tips}) > 1
-        and _extent(u, link, u.default) <= MAX_HAND_EXTENT
+        and _extent(u.kin, u.boxes, link, u.default) <= MAX_HAND_EXTENT
     ]
     under = {link: set(u.kin.subtree(link)) - {link} for link in found}
 
@@ -390,7 +396,8 @@ def _hand_on_arm(u: _Urdf, name: str) -> _Urdf:
     chains part), the URDF read again from that link: the arm is no part of the
     gripper. A URDF that holds several grippers (a robot's two arms) is refused,
     naming them."""
-    found = _grippers_in(u)
+    distal, chains, _, _ = _distal_links(u)
+    found = _grippers_in(u, distal, chains)
     path = u.path.name
     if len(found) > 1:
         listed = ", ".join(f"{link!r} ({len(tips)} fingers)" for link, tips in found)
@@ -404,7 +411,6 @@ def _hand_on_arm(u: _Urdf, name: str) -> _Urdf:
         hand = found[0][0]
         arm = [j.name for j in u.kin.chain(u.base, hand) if j.kind != 0]
     else:  # no joint below where the chains part: a rigid tool on an arm?
-        distal, chains, _, _ = _distal_links(u)
         if len(distal) < 2:
             return u
         shared: list[Any] = []  # the joints every fingertip's chain passes
@@ -1656,6 +1662,8 @@ def guess_description(
         u.kin.warnings + u.warnings,
         limits=limits,
         fingertips_first=alternative,
+        links_below=list(u.below),
+        links_outside=_outside(u.kin, u.below),
     )
 
 

@@ -22,7 +22,12 @@ from wsgrasp.default_specs import generic_spec_text
 from wsgrasp.errors import GripperError, WsgraspError
 from wsgrasp.gripper._approach import choose_approach
 from wsgrasp.gripper._guess import Scaffold, fit_sphere_count, guess_description
-from wsgrasp.gripper._scaffold_urdf import MESH_UNITS, copy_urdf, narrow_limits
+from wsgrasp.gripper._scaffold_urdf import (
+    MESH_UNITS,
+    copy_urdf,
+    narrow_limits,
+    prune_urdf,
+)
 
 __all__ = [
     "MESH_UNITS",
@@ -365,18 +370,14 @@ def scaffold_plugin(
         raise
 
 
-def _below_base(urdf_copy: Path, name: str, base: str) -> str:
-    """The copied URDF cut down to the links below ``base`` (the arm above a
-    gripper in a robot's URDF is no part of the plugin) and the meshes only
-    those use; a note saying what was left out, or nothing."""
-    from wsgrasp.gripper._scaffold_urdf import prune_urdf
-    from wsgrasp.gripper._urdf import load_kinematics
-
-    kin = load_kinematics(urdf_copy, name)
-    keep = set(kin.subtree(base))
-    if keep == set(kin.links):
+def _below_base(urdf_copy: Path, scaffold: Scaffold) -> str:
+    """The copied URDF cut down to the links below the guess's base link (the
+    arm above a gripper in a robot's URDF is no part of the plugin) and the
+    meshes only those use; a note saying what was left out, or nothing."""
+    if not scaffold.links_outside:
         return ""
-    links, meshes = prune_urdf(urdf_copy, keep)
+    links, meshes = prune_urdf(urdf_copy, set(scaffold.links_below))
+    base = scaffold.data["base_link"]
     return (
         f"left out of the copied URDF, above base link {base}: "
         + ", ".join(links[:8])
@@ -410,7 +411,7 @@ def _write_package(
     )
     scaffold = guess_description(urdf_copy, name, base_link=base_link)
     scaffold.warnings[:0] = mesh_warnings
-    pruned = _below_base(urdf_copy, name, scaffold.data["base_link"])
+    pruned = _below_base(urdf_copy, scaffold)
     if pruned:  # the notes of the meshes still there; no warning on links
         scaffold.warnings = [
             w for w in scaffold.warnings if not w.startswith("links not below base")
