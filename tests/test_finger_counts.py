@@ -155,6 +155,38 @@ def test_search_verdicts_equal_the_reference(
     _check_kernel(g, case, obs, ref, monkeypatch, kernel)
 
 
+@pytest.fixture(scope="module")
+def rigid_jaw(tmp_path_factory: pytest.TempPathFactory) -> GripperModel:
+    """A moving jaw and a rigid one (``urdf_factory.rigid_jaw_urdf``),
+    scaffolded, built into a fresh cache."""
+    from urdf_factory import rigid_jaw_urdf
+
+    from wsgrasp.gripper.scaffold import scaffold_plugin
+
+    root = tmp_path_factory.mktemp("rigid")
+    (root / "rj.urdf").write_text(rigid_jaw_urdf())
+    yaml_path, _ = scaffold_plugin("rj", root / "rj.urdf", root / "pkg")
+    return load_gripper(str(yaml_path), cache_dir=root / "cache")
+
+
+@pytest.mark.parametrize("kernel", KERNELS)
+@pytest.mark.parametrize("sampling", list(SAMPLINGS))
+def test_rigid_jaw_verdicts_equal_the_reference(
+    rigid_jaw: GripperModel, monkeypatch: pytest.MonkeyPatch, sampling: str, kernel: str
+) -> None:
+    """A finger with no joints (a rigid jaw, its spheres filling its pad box)
+    gets the loop-by-loop reference's verdicts from every kernel."""
+    g = rigid_jaw
+    case = _cylinder_case(g, 2, sampling)
+    obj, T_world_object, table, samples, o, _ = case
+    obs = np.zeros((0, 3))
+    ref = reference_search(
+        g, T_world_object, samples, o.R_object_gwc, obj, obs, table, o.depth
+    )
+    assert (ref.reason == 0).any() and (ref.reason == 2).any(), "a scene that decides"
+    _check_kernel(g, case, obs, ref, monkeypatch, kernel)
+
+
 @pytest.mark.parametrize("nf", [1, 5, 6, 12])
 def test_depth_grid_counts_any_number_of_fingers(nf: int) -> None:
     """The depth grid and the count loop give each finger's exact holdings for

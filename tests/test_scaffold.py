@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import yaml
-from urdf_factory import jaw_urdf, write_claw
+from urdf_factory import jaw_urdf, rigid_jaw_urdf, write_claw
 
 from wsgrasp.errors import GripperError
 from wsgrasp.gripper.scaffold import copy_urdf, guess_description, scaffold_plugin
@@ -49,14 +49,19 @@ def test_jaw_guesses_base_fingers_axes_and_postures(tmp_path):
 
 
 def _arm_with_jaw(
-    joints: int, prefix: str = "", parent: str = "arm_base", length: float = 0.3
+    joints: int,
+    prefix: str = "",
+    parent: str = "arm_base",
+    length: float = 0.3,
+    gripper: str | None = None,
 ) -> str:
     """An arm of ``joints`` revolute joints (box links ``length`` long) hanging
-    from link ``parent``, ``jaw_urdf``'s jaw bolted to its last link (a fixed
-    joint); every name but ``parent`` starts with ``prefix``."""
+    from link ``parent``, ``gripper``'s URDF (``jaw_urdf``'s jaw by default; its
+    root link named ``palm``) bolted to its last link (a fixed joint); every
+    name but ``parent`` starts with ``prefix``."""
     import re
 
-    jaw = jaw_urdf()
+    jaw = gripper or jaw_urdf()
     body = jaw[jaw.index("<link") : jaw.index("</robot>")]
     body = re.sub(r'((?:name|link|joint)=")', rf"\g<1>{prefix}", body)
     arm = []
@@ -80,13 +85,14 @@ def _arm_with_jaw(
     return "".join(arm) + body
 
 
-def _on_arm(joints: int) -> str:
-    """``jaw_urdf``'s jaw on an arm of ``joints`` joints: the URDF of a robot."""
+def _on_arm(joints: int, gripper: str | None = None) -> str:
+    """``gripper``'s URDF (``jaw_urdf``'s jaw by default) on an arm of ``joints``
+    joints: the URDF of a robot."""
     base = (
         '<link name="arm_base"><collision><geometry><box size="0.1 0.1 0.1"/>'
         "</geometry></collision></link>"
     )
-    arm = _arm_with_jaw(joints)
+    arm = _arm_with_jaw(joints, gripper=gripper)
     return f'<?xml version="1.0"?>\n<robot name="robot">{base}{arm}</robot>'
 
 
@@ -156,6 +162,87 @@ def test_a_robot_with_two_grippers_or_a_rigid_tool_is_refused_clearly(tmp_path):
     rigid = _on_arm(6).replace('type="prismatic"', 'type="fixed"')
     with pytest.raises(GripperError, match="no finger joints"):
         guess_description(_write(tmp_path, rigid, "rigid.urdf"), "jaw")
+
+
+def test_a_jaw_closing_on_a_rigid_one_gets_the_rigid_jaw_as_a_finger(tmp_path):
+    """One moving jaw and a jaw plate on the palm: the plate is a second finger
+    with no joints, its pad a box on the plate's inner face as deep as the
+    moving finger may push the object; the moving jaw closes to where the two
+    meet (its limit narrowed there), not through the plate to its limit. On a
+    robot's URDF (an arm of six joints above it), the arm is left out and the
+    guess is the same."""
+    sc = guess_description(_write(tmp_path, rigid_jaw_urdf()), "rj")
+    d = sc.data
+    moving, rigid = d["fingers"]
+    assert moving["joints"] == ["jaw_joint"] and rigid["joints"] == []
+    assert rigid["name"] == "rigid_jaw" and rigid["pad"]["link"] == "palm"
+    # the plate's inner face is at y = -20 mm; the pad box starts there and
+    # reaches 10 mm towards the moving jaw, along the plate's height
+    lo = np.array(rigid["pad"]["center"]) - np.array(rigid["pad"]["size"]) / 2
+    hi = np.array(rigid["pad"]["center"]) + np.array(rigid["pad"]["size"]) / 2
+    assert lo[1] == pytest.approx(-0.02, abs=1e-3)
+    assert hi[1] == pytest.approx(-0.01, abs=1e-3)
+    assert 0.04 <= lo[2] < hi[2] <= 0.1
+    # the jaws meet near 0.68 rad: closed stops within 5 mm of that, the limit
+    # narrowed to it; pregrasp is the other limit
+    assert d["pregrasp"] == {"jaw_joint": -0.6}
+    assert 0.55 < d["closed"]["jaw_joint"] < 0.68
+    assert sc.limits == {"jaw_joint": (-0.6, d["closed"]["jaw_joint"])}
+    assert d["approach_axis"] == [0.0, 0.0, 1.0]
+    assert d["closing_axis"] == [0.0, 1.0, 0.0]
+    assert "rigid jaw" in sc.notes["fingers"] and "rigid jaw" in sc.notes["pad"]
+    assert not any("only one finger" in w for w in sc.warnings)
+    on_arm = guess_description(
+        _write(tmp_path, _on_arm(6, rigid_jaw_urdf()), "robot.urdf"), "rj"
+    )
+    assert on_arm.data["base_link"] == "palm"
+    assert "joint 'jaw_joint' of the only moving finger" in on_arm.notes["base_link"]
+    for key in ("fingers", "approach_axis", "closing_axis", "pregrasp", "closed"):
+        assert on_arm.data[key] == d[key], key
+
+
+def test_a_rigid_jaw_gripper_builds_checks_and_plans(tmp_path):
+    """The scaffolded rigid-jaw gripper builds into a model with two fingers
+    (the rigid one's spheres fill its pad box), `gripper check` finds no error,
+    and its default spec grasps an upright box and a cube."""
+    import wsgrasp
+    from wsgrasp.gripper import load_gripper
+    from wsgrasp.gripper.check import check_gripper
+    from wsgrasp.perception.synth import synth_scene
+    from wsgrasp.spec import load_spec
+
+    urdf = _write(tmp_path, rigid_jaw_urdf())
+    yaml_path, _ = scaffold_plugin("rj", urdf, tmp_path / "pkg")
+    g = load_gripper(str(yaml_path), cache_dir=tmp_path / "cache")
+    assert g.num_fingers == 2 and (g.sphere_finger == 1).any()
+    report = check_gripper(yaml_path, cache_dir=tmp_path / "cache")
+    assert not report.errors, report.format()
+    spec_path = yaml_path.parent / "specs" / "default.yaml"
+    spec = load_spec(
+        {**yaml.safe_load(spec_path.read_text()), "gripper": str(yaml_path)}
+    )
+    pipe = wsgrasp.Pipeline(spec, gripper=g)
+    for size in ((0.04, 0.03, 0.08), (0.03, 0.03, 0.03)):
+        result = pipe.plan(synth_scene("box", size=size, seed=1).points)
+        assert result.found, (size, result.hint)
+
+
+def test_a_description_of_rigid_jaws_alone_is_refused(tmp_path):
+    """Every finger a rigid jaw: nothing closes, refused naming the field; a
+    rigid jaw whose pad link another finger's joint moves: refused naming both."""
+    from wsgrasp.errors import SpecError
+    from wsgrasp.gripper import load_gripper
+
+    sc = guess_description(_write(tmp_path, rigid_jaw_urdf()), "rj")
+    data = yaml.safe_load(yaml.safe_dump(sc.data))
+    data["fingers"][0]["joints"] = []
+    with pytest.raises((SpecError, ValueError), match="every finger is a rigid jaw"):
+        GripperDescription.model_validate(data)
+    data = yaml.safe_load(yaml.safe_dump(sc.data))
+    data["fingers"][1]["pad"]["link"] = "jaw"
+    (tmp_path / "moved.yaml").write_text(yaml.safe_dump(data))
+    with pytest.raises(GripperError, match="rigid jaw .*jaw_joint"):
+        load_gripper(str(tmp_path / "moved.yaml"), cache_dir=tmp_path / "cache")
 
 
 def test_two_actuated_fingers_each_get_their_joint(tmp_path):

@@ -251,3 +251,32 @@ def test_real_panda_urdf_with_base_link_panda_hand(tmp_path: Path):
     records, _ = run_eval(config, progress=False)
     assert [r["finger_targets"] for r in records] == ["plan", "plan"]
     assert [r["outcome"] for r in records] == ["success", "success"], records
+
+
+def test_a_jaw_closing_on_a_rigid_one_holds_a_box(tmp_path: Path):
+    """`gripper new` on a gripper of one moving jaw and a rigid one, then one
+    eval trial: its default spec plans, the moving jaw pushes the box onto the
+    rigid jaw, and the box is lifted and held (the lift protocol); the rigid
+    jaw's finger has no joint to drive."""
+    from urdf_factory import rigid_jaw_urdf
+
+    from wsgrasp.gripper.scaffold import scaffold_plugin
+
+    (tmp_path / "rj.urdf").write_text(rigid_jaw_urdf())
+    yaml_path, _ = scaffold_plugin("rj", tmp_path / "rj.urdf", tmp_path / "pkg")
+    g = load_sim_gripper(str(yaml_path))
+    assert g.actuated == ["jaw_joint"]
+    T = np.eye(4)
+    T[2, 3] = 0.03
+    config = EvalConfig(
+        objects=[SimObject("box", [Part("box", (0.03, 0.04, 0.06), T)], 0.1)],
+        specs=spec_entries([str(yaml_path)], paper=False),
+        trials=1,
+        seed=0,
+        params=SimParams.for_protocol("lift", hold_time=1.0),
+        workers=1,
+    )
+    records, _ = run_eval(config, progress=False)
+    (rec,) = records
+    assert rec["found"], rec.get("hint")
+    assert rec["outcome"] == "success", rec

@@ -73,9 +73,11 @@ class FingerDescription(_Model):
 
     name: str
     joints: list[str] = Field(
-        min_length=1,
         description="actuated joints that move this finger's pad; mimic joints "
-        "follow their masters automatically",
+        "follow their masters automatically. Empty: a rigid jaw, a pad on a link "
+        "no joint moves that the other fingers close the object against; its "
+        "workspace is its pad box, so give the box the depth across which the "
+        "other fingers may push the object onto it",
     )
     pad: PadRegion
     on_table: Literal["slides", "sticks"] | None = Field(
@@ -239,6 +241,11 @@ class GripperDescription(_Model):
                 raise ValueError(f"{label} must be a unit vector, found {tuple(v)}")
         if abs(float(a @ c)) > 1e-3:
             raise ValueError("approach_axis and closing_axis must be perpendicular")
+        if all(not f.joints for f in self.fingers):
+            raise ValueError(
+                "every finger is a rigid jaw (empty joints); list under a finger's "
+                "joints the joints that close it"
+            )
         names = [f.name for f in self.fingers]
         if len(set(names)) != len(names):
             raise ValueError(f"finger names must be unique, found {names}")

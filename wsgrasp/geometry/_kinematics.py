@@ -128,10 +128,13 @@ def grid_configurations(lower: ArrayLike, upper: ArrayLike, samples: int) -> Arr
     -------
     (samples ** d, d) float
         Row-major: the last joint varies fastest, so a reshape to
-        ``(samples,) * d + (d,)`` gives the grid.
+        ``(samples,) * d + (d,)`` gives the grid. No joints (``d = 0``): the
+        one empty configuration, ``(1, 0)``.
     """
     lo = np.asarray(lower, dtype=np.float64).reshape(-1)
     hi = np.asarray(upper, dtype=np.float64).reshape(-1)
+    if len(lo) == 0:
+        return np.zeros((1, 0))
     axes = [np.linspace(a, b, samples) for a, b in zip(lo, hi, strict=True)]
     mesh = np.meshgrid(*axes, indexing="ij")  # d arrays of shape (samples,) * d
     return np.stack([m.reshape(-1) for m in mesh], axis=-1)  # (samples**d, d)

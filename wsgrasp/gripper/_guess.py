@@ -98,6 +98,14 @@ PAD_DEPTH = 0.004
 PAD_STIFFNESS = 300.0
 #: a gripper of at least this many fingers gets a drive guessed from its size
 DRIVE_MIN_FINGERS = 3
+#: depth (m) of a rigid jaw's pad box, its workspace: how far the moving finger
+#: may push an object across the table onto the jaw
+RIGID_PAD_DEPTH = 0.01
+#: points sampled on the still links' surfaces to find where a lone moving
+#: finger meets them (about a millimetre apart on a jaw-sized link)
+RIGID_SURFACE_SAMPLES = 20_000
+#: points sampled on the moving finger's surface to test against them
+RIGID_FINGER_POINTS = 4_000
 
 
 @dataclass
@@ -407,9 +415,17 @@ def _hand_on_arm(u: _Urdf, name: str) -> _Urdf:
             hint=f"pass --base-link with the one to scaffold (e.g. --base-link "
             f"{found[0][0]})",
         )
+    lone = None
     if found:
         hand = found[0][0]
         arm = [j.name for j in u.kin.chain(u.base, hand) if j.kind != 0]
+    elif len(distal) == 1:  # one moving finger on an arm: a jaw against a rigid one
+        moving = [j for j in chains[distal[0]] if j.kind != 0]
+        if len(moving) <= ARM_JOINTS:
+            return u
+        hand = moving[-1].parent
+        arm = [j.name for j in moving[:-1]]
+        lone = moving[-1].name
     else:  # no joint below where the chains part: a rigid tool on an arm?
         if len(distal) < 2:
             return u
@@ -423,7 +439,7 @@ def _hand_on_arm(u: _Urdf, name: str) -> _Urdf:
     if len(arm) < ARM_JOINTS:
         return u
     listed = ", ".join(arm[:3]) + (f" ... {arm[-1]}" if len(arm) > 3 else "")
-    if not found:
+    if not found and lone is None:
         under = set(u.kin.subtree(hand))
         if any(j.kind != 0 and j.parent in under for j in u.kin.joints.values()):
             return u  # no gripper found, but not a rigid tool either
@@ -435,14 +451,19 @@ def _hand_on_arm(u: _Urdf, name: str) -> _Urdf:
             "lower upper> (fixed ones cannot close); scaffold from a URDF whose "
             "fingers move, or pass --base-link LINK",
         )
+    where = (
+        f"the link that joint {lone!r} of the only moving finger turns on"
+        if lone
+        else "where the fingers' chains part"
+    )
     return _read(
         u.path,
         name,
         hand,
         why=(
-            f"where the fingers' chains part: the URDF's root {u.base!r} carries "
-            f"this link on an arm of {len(arm)} joints ({listed}), which is left "
-            "out (--base-link LINK chooses another link)"
+            f"{where}: the URDF's root {u.base!r} carries this link on an arm of "
+            f"{len(arm)} joints ({listed}), which is left out (--base-link LINK "
+            "chooses another link)"
         ),
         kin=u.kin,
     )
@@ -509,11 +530,6 @@ def _fingers(u: _Urdf) -> dict[str, list[str]]:
             else ""
         )
     )
-    if len(distal) == 1:
-        u.warnings.append(
-            f"only one finger found (link {distal[0]!r}); the planner needs fingers "
-            "that close against each other or against the palm"
-        )
     _hold_upstream(u, distal, {k: candidates[k] for k in distal}, masters)
     used = {m for link in distal for m in masters[link]}
     for j in unlimited_continuous(u.path):
@@ -528,6 +544,162 @@ def _fingers(u: _Urdf) -> dict[str, list[str]]:
             f"continuous joint {j!r} has no limits and moves no finger; it is held at 0"
         )
     return {link: masters[link] for link in distal}
+
+
+def _still_links(u: _Urdf) -> list[str]:
+    """Links with geometry that no finger joint moves (held wrist joints aside):
+    the palm, and a rigid jaw."""
+    kin = u.kin
+    return [
+        link
+        for link in u.boxes
+        if not any(
+            j.kind != 0 and kin.master(j.name) not in u.wrist
+            for j in kin.chain(u.base, link)
+        )
+    ]
+
+
+def _surface_points(mesh: Any, count: int) -> Array:
+    """A mesh's vertices (at most ``count``) and ``count`` points sampled on
+    its faces (seeded): its corners and edges, and its large flat faces'
+    insides, which a few vertices leave bare."""
+    from trimesh.sample import sample_surface
+
+    verts = np.asarray(mesh.vertices)[:: max(1, len(mesh.vertices) // count)]
+    return np.concatenate([verts, np.asarray(sample_surface(mesh, count, seed=0)[0])])
+
+
+@dataclass
+class _RigidJaw:
+    """Where a lone moving finger meets still geometry (see :func:`_rigid_jaw`)."""
+
+    link: str  # the still link it meets
+    point: Array  # (3,) the still surface point nearest it there, base frame
+    joints: dict[str, float]  # the finger's joint values there
+
+
+def _rigid_jaw(u: _Urdf, fingers: dict[str, list[str]]) -> _RigidJaw | None:
+    """For a gripper of one moving finger: the still geometry it closes against.
+
+    Many grippers close one moving jaw against a jaw fixed to their body. The
+    finger's joints move together from their lower to their upper limits (and
+    back); along each way, the first step at which the finger's surface comes
+    within ``MEET_DISTANCE`` of a still link's surface is where it meets the
+    rigid jaw, leaving out its hinge (the points that touch still geometry at
+    both limits, and, for a turning joint, those nearer its axis than half the
+    finger's length). The finger opens at the end from which it travels the
+    longer way before meeting it. None for several fingers, where the finger
+    meets no still geometry, or where it meets some at both limits.
+    """
+    from scipy.spatial import cKDTree
+
+    if len(fingers) != 1:
+        return None
+    ((link, ms),) = fingers.items()
+    still = [x for x in _still_links(u) if x != link]
+    if not ms or not still:
+        return None
+    kin = u.kin
+    poses = kin.link_poses(u.base, u.default)
+    meshes = {x: _link_mesh(u, x) for x in still}
+    total = sum(float(m.area) for m in meshes.values()) or 1.0
+    points, owner = [], []
+    for i, x in enumerate(still):
+        share = int(RIGID_SURFACE_SAMPLES * float(meshes[x].area) / total)
+        pts = _surface_points(meshes[x], max(200, share))
+        T = poses[x]
+        points.append(pts @ T[:3, :3].T + T[:3, 3])
+        owner.append(np.full(len(pts), i))
+    cloud, owners = np.concatenate(points), np.concatenate(owner)
+    tree = cKDTree(cloud)
+    verts = _surface_points(_link_mesh(u, link), RIGID_FINGER_POINTS)  # (V, 3)
+    lower = np.array([kin.joints[m].lower for m in ms])
+    upper = np.array([kin.joints[m].upper for m in ms])
+    t = np.linspace(0.0, 1.0, PATH_STEPS)  # (S,)
+    q = lower + t[:, None] * (upper - lower)  # (S, d)
+    values: dict[str, Any] = dict(u.default)
+    for i, m in enumerate(ms):
+        values[m] = q[:, i]
+    T = kin.chain_poses(u.base, link, values).reshape(-1, 4, 4)  # (S, 4, 4)
+    moved = np.einsum("sij,vj->svi", T[:, :3, :3], verts) + T[:, None, :3, 3]
+    dist, nearest = tree.query(moved.reshape(-1, 3))
+    dist = dist.reshape(len(t), -1)  # (S, V)
+    nearest = nearest.reshape(len(t), -1)
+    # the hinge: vertices that touch still geometry at both limits, and those
+    # nearer a turning joint's axis than half the finger's length
+    free = ~((dist[0] <= MEET_DISTANCE) & (dist[-1] <= MEET_DISTANCE))  # (V,)
+    first = next(j for j in kin.chain(u.base, link) if j.kind != 0)
+    if first.kind == JOINT_REVOLUTE:
+        A = kin.link_poses(u.base, u.default)[first.parent] @ first.origin
+        axis, at = A[:3, :3] @ first.axis, A[:3, 3]
+        rel = moved[0] - at  # (V, 3)
+        r = np.linalg.norm(rel - np.outer(rel @ axis, axis), axis=1)  # (V,)
+        free &= r >= 0.5 * r.max()
+    if not free.any():
+        return None
+    gap = dist[:, free].min(axis=1)  # (S,)
+    meets = np.flatnonzero(gap <= MEET_DISTANCE)
+    if len(meets) == 0:
+        return None
+    if gap[0] <= MEET_DISTANCE and gap[-1] <= MEET_DISTANCE:
+        return None  # it meets still geometry at both limits: no way to tell
+    # opening at the lower limits, it travels to meets[0]; opening at the upper
+    # ones, back to meets[-1]: it opens where it travels the longer way
+    up, down = int(meets[0]), int(meets[-1])
+    step = up if up >= len(t) - 1 - down else down
+    v = int(np.flatnonzero(free)[np.argmin(dist[step, free])])
+    k = int(nearest[step, v])
+    return _RigidJaw(
+        still[int(owners[k])],
+        cloud[k],
+        {m: float(q[step, i]) for i, m in enumerate(ms)},
+    )
+
+
+def _link_mesh(u: _Urdf, link: str) -> Any:
+    """A link's geometry as one mesh in its own frame."""
+    import trimesh
+
+    return trimesh.util.concatenate([shape_mesh(s) for s in u.kin.shapes[link]])
+
+
+def _rigid_pad(
+    u: _Urdf,
+    jaw: _RigidJaw,
+    pad: dict[str, Any],
+    pregrasp: dict[str, float],
+    closed: dict[str, float],
+) -> dict[str, Any]:
+    """The rigid jaw's pad: a box on the jaw's link at the surface point nearest
+    the moving pad closed, on the face of the link's frame whose normal best
+    points at the moving pad open, as wide as the moving pad and
+    :data:`RIGID_PAD_DEPTH` deep (the object may lie that far from the jaw
+    before the moving finger pushes it there)."""
+    kin = u.kin
+    p_open = _pad_centres(u, [pad], pregrasp)[0]
+    p_closed = _pad_centres(u, [pad], closed)[0]
+    poses = kin.link_poses(u.base, pregrasp)
+    T = poses[jaw.link]
+    R, o = T[:3, :3], T[:3, 3]
+    mesh = _link_mesh(u, jaw.link)
+    near = np.asarray(mesh.nearest.on_surface([(p_closed - o) @ R])[0][0])  # link
+    n_link = R.T @ (p_open - (R @ near + o))
+    k = int(np.argmax(np.abs(n_link)))
+    sign = float(np.sign(n_link[k]) or 1.0)
+    R_pad = poses[pad["link"]][:3, :3]
+    size = np.abs(R.T @ R_pad) @ np.asarray(pad["size"], dtype=np.float64)
+    size[k] = RIGID_PAD_DEPTH
+    centre = near.copy()
+    centre[k] += sign * 0.5 * RIGID_PAD_DEPTH
+    u.notes["pad"] += (
+        f"; rigid jaw: on {jaw.link}, at the point of its geometry nearest the "
+        f"moving pad closed, facing {'+' if sign > 0 else '-'}{'xyz'[k]} (towards "
+        f"the moving pad open), as wide as the moving pad and "
+        f"{RIGID_PAD_DEPTH * 1000:.0f} mm deep: its workspace, across which the "
+        "moving finger pushes the object onto the jaw"
+    )
+    return {"link": jaw.link, "center": _r(centre), "size": _r(size), "samples": 3}
 
 
 def _hold_value(lower: float, upper: float) -> float:
@@ -604,11 +776,7 @@ def _targets(u: _Urdf, fingers: dict[str, list[str]]) -> dict[str, Array]:
             link: np.mean([c for k, c in centres.items() if k != link], axis=0)
             for link in fingers
         }
-    still = [
-        link
-        for link in u.boxes
-        if not any(j.kind != 0 for j in kin.chain(u.base, link))
-    ]
+    still = _still_links(u)
     palm = u.centroids(still, u.default).mean(axis=0) if still else np.zeros(3)
     return {link: palm for link in fingers}
 
@@ -965,14 +1133,7 @@ def _stop_at_palm(
     """
     kin = u.kin
     closers = {m for ms in fingers.values() for m in ms}
-    palm = [
-        link
-        for link in u.boxes
-        if not any(
-            j.kind != 0 and kin.master(j.name) not in u.wrist
-            for j in kin.chain(u.base, link)
-        )
-    ]
+    palm = _still_links(u)
     if not palm or not closers:
         return {}
     poses = kin.link_poses(u.base, pregrasp)
@@ -1012,6 +1173,34 @@ def _stop_at_palm(
             "; stopped where the fingertip meets the palm (its geometry-box centre "
             "enters the box of a link no finger joint moves), the joint's limit "
             "narrowed to it in the copied URDF: " + ", ".join(how)
+        )
+    return limits
+
+
+def _stop_at_jaw(
+    u: _Urdf, jaw: _RigidJaw, pregrasp: dict[str, float], closed: dict[str, float]
+) -> dict[str, tuple[float, float]]:
+    """Stop a lone moving finger where its geometry meets the rigid jaw's
+    (:func:`_rigid_jaw`): ``closed`` is set there, in place, and each joint's
+    limit on that side is returned, to be narrowed in the URDF copy (past it,
+    the finger's workspace lies inside the jaw)."""
+    limits: dict[str, tuple[float, float]] = {}
+    how = []
+    for m, value in jaw.joints.items():
+        if m not in closed or closed[m] == pregrasp[m]:
+            continue
+        way = (value - pregrasp[m]) / (closed[m] - pregrasp[m])
+        if not 0.0 < way < 1.0:
+            continue
+        j = u.kin.joints[m]
+        closed[m] = value
+        limits[m] = (j.lower, value) if value > pregrasp[m] else (value, j.upper)
+        how.append(f"{m} at {value:g} ({way:.0%} of the way)")
+    if how:
+        u.notes["closed"] += (
+            f"; stopped where the finger's geometry meets the rigid jaw's (on "
+            f"{jaw.link!r}, within {MEET_DISTANCE * 1000:.0f} mm), the joint's "
+            "limit narrowed to it in the copied URDF: " + ", ".join(how)
         )
     return limits
 
@@ -1283,6 +1472,7 @@ def _axes(
     pads: list[dict[str, Any]],
     pregrasp: dict[str, float],
     closed: dict[str, float],
+    rigid: bool = False,
 ) -> tuple[Array, Array, Array, dict[str, Any] | None]:
     """Approach axis, closing axis, TCP position and, for a hand, a second
     approach fingertips first (:attr:`Scaffold.fingertips_first`).
@@ -1296,7 +1486,8 @@ def _axes(
     curl in front of the palm, so it may approach palm first, whatever the
     forearm or wrist above it. Without a palm with geometry, or with that
     centre inside the palm's box, the axis points from the base origin to the
-    pads' centre (open). The closing axis is the main direction across it in
+    pads' centre (open; closed for a jaw against a ``rigid`` one, which may open
+    far to one side). The closing axis is the main direction across it in
     which the pads move relative to each other (their closing motions less the
     motion they share, such as curling towards the palm).
 
@@ -1319,7 +1510,9 @@ def _axes(
             "smallest ball holding them)",
         )
     else:
-        centre = _enclosing_centre(p_open)
+        # a jaw closing on a rigid one holds the object where they meet; open,
+        # the moving jaw may stand far out to one side
+        centre = _enclosing_centre(p_closed if rigid else p_open)
         if np.linalg.norm(centre) < 1e-6:
             raise GripperError(
                 f"URDF {u.path.name}: the fingertips' centre coincides with the "
@@ -1329,9 +1522,10 @@ def _axes(
             )
         approach, u.notes["approach_axis"] = _snap(
             centre,
-            "from the base link's origin towards the pads' centre (open; the centre "
-            "of the smallest ball holding them), as no palm link with geometry "
-            "faces them",
+            "from the base link's origin towards the pads' centre ("
+            + ("closed, where the jaws meet" if rigid else "open")
+            + "; the centre of the smallest ball holding them), as no palm link "
+            "with geometry faces them",
         )
     closing, u.notes["closing_axis"], moves = _closing_axis(approach, p_open, p_closed)
     if not moves:
@@ -1621,16 +1815,40 @@ def guess_description(
         u = _hand_on_arm(u, name)
     _check_extent(u)
     fingers = _fingers(u)
+    jaw = _rigid_jaw(u, fingers)
     distal = list(fingers)
     names = _finger_names(distal)
-    targets = _targets(u, fingers)
+    if jaw is None:
+        targets = _targets(u, fingers)
+        if len(distal) == 1:
+            u.warnings.append(
+                f"only one finger found (link {distal[0]!r}), and no still "
+                "geometry it closes against (a rigid jaw); the planner needs "
+                "fingers that close against each other or against a rigid jaw"
+            )
+    else:
+        targets = {distal[0]: jaw.point}
     joints = {link: list(ms) for link, ms in fingers.items()}
     pregrasp, closed = _postures(u, fingers, targets)
     _hold_postures(u, joints, fingers, targets, pregrasp, closed)
-    limits = _stop_at_palm(u, fingers, pregrasp, closed)
+    if jaw is None:
+        limits = _stop_at_palm(u, fingers, pregrasp, closed)
+    else:
+        limits = _stop_at_jaw(u, jaw, pregrasp, closed)
     pads = _pads(u, distal, names, pregrasp, closed, targets)
+    if jaw is not None:
+        pads.append(_rigid_pad(u, jaw, pads[0], pregrasp, closed))
+        names.append("rigid_jaw" if "rigid_jaw" not in names else "rigid_jaw2")
+        distal.append(jaw.link)
+        fingers[jaw.link] = []
+        u.notes["fingers"] += (
+            f"; {names[-1]}: a rigid jaw, the part of {jaw.link!r} (a link no "
+            f"joint moves) that {names[0]} closes against"
+        )
     _stop_where_pads_meet(u, fingers, pads, pregrasp, closed)
-    approach, closing, tcp, alternative = _axes(u, pads, pregrasp, closed)
+    approach, closing, tcp, alternative = _axes(
+        u, pads, pregrasp, closed, rigid=jaw is not None
+    )
     contact = _contact_fingers(u, pads, names, pregrasp, closed, np.asarray(closing))
     data: dict[str, Any] = {
         "version": 1,

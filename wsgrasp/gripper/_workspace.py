@@ -154,6 +154,18 @@ def finger_joints(
             )
         if m not in masters:
             masters.append(m)
+    if not finger.joints:
+        closers = {kin.master(j) for f in desc.fingers for j in f.joints}
+        moved = sorted(on_chain & closers)
+        if moved:
+            raise GripperError(
+                f"gripper {desc.name!r}: {where} is a rigid jaw (no joints), but "
+                f"joints {moved} of other fingers move its pad link "
+                f"{finger.pad.link!r}",
+                hint=f"list the joints that move {finger.pad.link!r} in "
+                f"{where}.joints, or put the rigid jaw's pad on a link they do "
+                "not move",
+            )
     return masters
 
 
@@ -164,6 +176,7 @@ def sample_workspace(
 
     The finger's joints take ``desc.joint_samples`` values each over their limits;
     other joints stay in the pre-grasp posture; mimic joints follow their masters.
+    A rigid jaw (no joints) samples its pad box once, where the base holds it.
     """
     masters = finger_joints(kin, desc, finger)
     lower = np.array([kin.joints[m].lower for m in masters])
@@ -184,13 +197,13 @@ def sample_workspace(
     values: dict[str, Any] = dict(desc.pregrasp)
     for i, m in enumerate(masters):
         values[m] = q[:, i]
-    T = kin.chain_poses(desc.base_link, finger.pad.link, values)  # (K, 4, 4)
+    T = kin.chain_poses(desc.base_link, finger.pad.link, values).reshape(-1, 4, 4)
     pad = finger.pad
     pad_pts = box_grid_points(pad.center, pad.size, pad.samples)  # (P, 3)
     pts = transform_points(T, pad_pts)  # (K, P, 3)
     pad_centers = transform_points(T, np.asarray(pad.center, float)[None])[:, 0]
     travel = float(np.linalg.norm(np.ptp(pts[:, 0, :], axis=0)))
-    if travel < MIN_PAD_TRAVEL:
+    if d and travel < MIN_PAD_TRAVEL:
         raise GripperError(
             f"{where}: joints {masters} do not move pad link {pad.link!r} "
             f"(it travels {travel * 1000:.3f} mm over their limits)",

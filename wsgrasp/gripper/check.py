@@ -444,7 +444,12 @@ def _check_kinematics(report: CheckReport, desc: Any, base_dir: Path) -> None:
         blamed: list[int] = []
         pre_fixed, closed_fixed = dict(pre), dict(closed)
         while True:
-            owns = {k: share(k, path)[2] for k in range(n) if k not in blamed}
+            # a rigid jaw (no joints) does not move: the others close on it
+            owns = {
+                k: share(k, path)[2]
+                for k in range(n)
+                if k not in blamed and desc.fingers[k].joints
+            }
             failing = [k for k, v in owns.items() if v < 1e-3]
             if not failing:
                 break
