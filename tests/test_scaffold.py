@@ -215,8 +215,21 @@ def test_a_rigid_jaw_gripper_builds_checks_and_plans(tmp_path):
     yaml_path, _ = scaffold_plugin("rj", urdf, tmp_path / "pkg")
     g = load_gripper(str(yaml_path), cache_dir=tmp_path / "cache")
     assert g.num_fingers == 2 and (g.sphere_finger == 1).any()
+    # the rigid jaw reaches what lies in its pad box from the first step of
+    # the closing, and nothing a few centimetres from it
+    from wsgrasp.planning.sweeps import reach_steps, sweep_steps
+
+    pad = yaml.safe_load(yaml_path.read_text())["fingers"][1]["pad"]
+    inside = np.array(pad["center"]) + [0.0, 0.004, 0.0]
+    away = np.array(pad["center"]) + [0.0, 0.03, 0.0]
+    steps = reach_steps(g, np.stack([inside, away]), finger=1)[:, 0]
+    assert steps[0] == 0 and steps[1] == sweep_steps(g)
     report = check_gripper(yaml_path, cache_dir=tmp_path / "cache")
     assert not report.errors, report.format()
+    # the rigid pad faces the moving jaw, though the palm's centre lies
+    # beyond it (the pad's face is told from the jaw's surface behind it)
+    assert not [p for p in report.warnings if "inner face" in p.message]
+    assert report.fingers[1]["pad_facing_deg"] < 45
     spec_path = yaml_path.parent / "specs" / "default.yaml"
     spec = load_spec(
         {**yaml.safe_load(spec_path.read_text()), "gripper": str(yaml_path)}

@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 from wsgrasp.errors import GripperError
 from wsgrasp.geometry import JOINT_REVOLUTE, grid_configurations
 from wsgrasp.gripper._scaffold_urdf import unlimited_continuous
-from wsgrasp.gripper._urdf import Kinematics, load_kinematics, shape_mesh
+from wsgrasp.gripper._urdf import Kinematics, link_mesh, load_kinematics, shape_mesh
 
 __all__ = ["Scaffold", "fit_sphere_count", "guess_description"]
 
@@ -602,7 +602,7 @@ def _rigid_jaw(u: _Urdf, fingers: dict[str, list[str]]) -> _RigidJaw | None:
         return None
     kin = u.kin
     poses = kin.link_poses(u.base, u.default)
-    meshes = {x: _link_mesh(u, x) for x in still}
+    meshes = {x: link_mesh(u.kin, x) for x in still}
     total = sum(float(m.area) for m in meshes.values()) or 1.0
     points, owner = [], []
     for i, x in enumerate(still):
@@ -613,7 +613,7 @@ def _rigid_jaw(u: _Urdf, fingers: dict[str, list[str]]) -> _RigidJaw | None:
         owner.append(np.full(len(pts), i))
     cloud, owners = np.concatenate(points), np.concatenate(owner)
     tree = cKDTree(cloud)
-    verts = _surface_points(_link_mesh(u, link), RIGID_FINGER_POINTS)  # (V, 3)
+    verts = _surface_points(link_mesh(u.kin, link), RIGID_FINGER_POINTS)  # (V, 3)
     lower = np.array([kin.joints[m].lower for m in ms])
     upper = np.array([kin.joints[m].upper for m in ms])
     t = np.linspace(0.0, 1.0, PATH_STEPS)  # (S,)
@@ -657,13 +657,6 @@ def _rigid_jaw(u: _Urdf, fingers: dict[str, list[str]]) -> _RigidJaw | None:
     )
 
 
-def _link_mesh(u: _Urdf, link: str) -> Any:
-    """A link's geometry as one mesh in its own frame."""
-    import trimesh
-
-    return trimesh.util.concatenate([shape_mesh(s) for s in u.kin.shapes[link]])
-
-
 def _rigid_pad(
     u: _Urdf,
     jaw: _RigidJaw,
@@ -682,7 +675,7 @@ def _rigid_pad(
     poses = kin.link_poses(u.base, pregrasp)
     T = poses[jaw.link]
     R, o = T[:3, :3], T[:3, 3]
-    mesh = _link_mesh(u, jaw.link)
+    mesh = link_mesh(u.kin, jaw.link)
     near = np.asarray(mesh.nearest.on_surface([(p_closed - o) @ R])[0][0])  # link
     n_link = R.T @ (p_open - (R @ near + o))
     k = int(np.argmax(np.abs(n_link)))

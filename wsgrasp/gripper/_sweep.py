@@ -19,7 +19,12 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from wsgrasp.geometry import JOINT_FIXED, farthest_point_indices, transform_points
+from wsgrasp.geometry import (
+    JOINT_FIXED,
+    box_grid_points,
+    farthest_point_indices,
+    transform_points,
+)
 from wsgrasp.gripper._urdf import Kinematics, shape_mesh
 from wsgrasp.gripper._workspace import Workspace
 from wsgrasp.spec import GripperDescription
@@ -108,7 +113,8 @@ def finger_sweeps(
         closed posture (a joint missing from it stays). The same ``count``
         material points at every step: spread evenly (farthest-point) over the
         finger's links' collision geometry with their convex hulls' corners (a
-        fingertip's farthest point), and the pad centre.
+        fingertip's farthest point), and the pad centre; a rigid jaw's (no
+        joints), its pad box, still at every step.
     """
     base = desc.base_link
     masters = [ws.joints for ws in workspaces]
@@ -130,6 +136,11 @@ def finger_sweeps(
         parts: list[tuple[str, Array]] = [
             (finger.pad.link, np.asarray(finger.pad.center, dtype=np.float64)[None])
         ]
+        if not finger.joints:
+            # a rigid jaw moves nothing: it reaches what lies in its pad box,
+            # where the other fingers push the object onto it
+            box = box_grid_points(finger.pad.center, finger.pad.size, 3)
+            parts.append((finger.pad.link, box))
         meshes = [
             (link, shape_mesh(shape)) for link in links[f] for shape in kin.shapes[link]
         ]

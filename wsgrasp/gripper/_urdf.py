@@ -588,6 +588,14 @@ def shape_mesh(shape: Shape, *, frame: str = "link") -> Any:
     return mesh
 
 
+def link_mesh(kin: Kinematics, link: str) -> Any:
+    """All of a link's shapes as one ``trimesh.Trimesh`` in its frame (the link
+    must have geometry)."""
+    import trimesh
+
+    return trimesh.util.concatenate([shape_mesh(s) for s in kin.shapes[link]])
+
+
 def load_mesh(path: Path, what: str) -> Any:
     """A mesh file as one ``trimesh.Trimesh``, a copy (a scene's geometry, as
     GLB/GLTF and COLLADA files hold, concatenated in the file's frame).

@@ -184,7 +184,22 @@ def sample_workspace(
     n = desc.joint_samples
     d = len(masters)
     where = f"gripper {desc.name!r}: fingers[{finger.name}]"
-    samples = n**d * finger.pad.samples**3
+    pad = finger.pad
+    v = desc.workspace_voxel
+    sizes = np.asarray(pad.size, dtype=np.float64)
+    # a rigid jaw's workspace is its pad box: filled a voxel apart, as a moving
+    # pad's sweep fills its workspace
+    per_edge = pad.samples if d else np.ceil(sizes / v).astype(np.int64) + 1
+    samples = n**d * int(np.prod(np.broadcast_to(per_edge, (3,))))
+    if samples > MAX_WORKSPACE_SAMPLES and not d:
+        raise GripperError(
+            f"{where}: a rigid jaw's pad box of "
+            f"{' x '.join(f'{x * 1000:.0f}' for x in sizes)} mm at "
+            f"workspace_voxel {v:g} m makes {samples:,} points, more than "
+            f"{MAX_WORKSPACE_SAMPLES:,}",
+            hint="give the rigid jaw's pad.size the jaw's face and a depth of "
+            "a centimetre or so",
+        )
     if samples > MAX_WORKSPACE_SAMPLES:
         fit = max(2, int((MAX_WORKSPACE_SAMPLES / finger.pad.samples**3) ** (1 / d)))
         raise GripperError(
@@ -198,8 +213,7 @@ def sample_workspace(
     for i, m in enumerate(masters):
         values[m] = q[:, i]
     T = kin.chain_poses(desc.base_link, finger.pad.link, values).reshape(-1, 4, 4)
-    pad = finger.pad
-    pad_pts = box_grid_points(pad.center, pad.size, pad.samples)  # (P, 3)
+    pad_pts = box_grid_points(pad.center, pad.size, per_edge)  # (P, 3)
     pts = transform_points(T, pad_pts)  # (K, P, 3)
     pad_centers = transform_points(T, np.asarray(pad.center, float)[None])[:, 0]
     travel = float(np.linalg.norm(np.ptp(pts[:, 0, :], axis=0)))
@@ -216,8 +230,7 @@ def sample_workspace(
     for axis in range(d):
         step = np.linalg.norm(np.diff(grid, axis=axis), axis=-1)
         gap = max(gap, float(step.max()))
-    sizes = np.asarray(pad.size, dtype=np.float64)
-    if pad.samples > 1:
+    if d and pad.samples > 1:
         gap = max(gap, float(sizes.max()) / (pad.samples - 1))
     flat = pts.reshape(-1, 3)  # (K * P, 3)
     span = np.ptp(flat, axis=0)  # (3,)
@@ -230,7 +243,6 @@ def sample_workspace(
             hint="convert the URDF to metres (scale the origins and meshes by "
             "0.001), or fix fingers.pad.link",
         )
-    v = desc.workspace_voxel
     closing = int(min(MAX_CLOSING_VOXELS, max(1, np.ceil(gap / (2.0 * v)))))
     margin = closing + 2
     voxels = float(np.prod(span / v + 2 * margin + 1))

@@ -481,7 +481,10 @@ def _check_kinematics(report: CheckReport, desc: Any, base_dir: Path) -> None:
                     f"{f.joints}, or fix the joint axes in the URDF",
                 )
             rest = [j for j in range(n) if j != k]
-            normal = _pad_normal(f, boxes.get(f.pad.link))
+            # a rigid jaw's pad box stands in front of the jaw's face, which
+            # may lie far from its link's centre (the whole gripper body)
+            ref = _nearest_surface(kin, f) if not f.joints else boxes.get(f.pad.link)
+            normal = _pad_normal(f, ref)
             if normal is None:
                 report.fingers[k]["pad_facing_deg"] = None
                 continue
@@ -586,9 +589,21 @@ def _link_centres(kin: Any, links: list[str]) -> dict[str, Array]:
     return out
 
 
+def _nearest_surface(kin: Any, finger: Any) -> Array | None:
+    """The point of the pad link's geometry nearest the pad's centre (link
+    frame); None for a link without geometry."""
+    from wsgrasp.gripper._urdf import link_mesh
+
+    if not kin.shapes.get(finger.pad.link):
+        return None
+    mesh = link_mesh(kin, finger.pad.link)
+    return np.asarray(mesh.nearest.on_surface([finger.pad.center])[0][0])
+
+
 def _pad_normal(finger: Any, link_centre: Array | None) -> Array | None:
     """The pad's outward normal in its link frame: its thinnest axis, pointing
-    away from the link geometry's centre; None when it cannot be told."""
+    away from ``link_centre`` (the link geometry's centre, or for a rigid jaw
+    the point of its surface nearest the pad); None when it cannot be told."""
     size = np.asarray(finger.pad.size, dtype=np.float64)
     order = np.argsort(size)
     if size[order[0]] >= 0.8 * size[order[1]]:
