@@ -226,7 +226,8 @@ class GripperDescription(_Model):
                 f"finger{'' if len(fingers) == 1 else 's'} ({found}); a grasp needs "
                 "at least two opposing fingers",
                 hint="list under 'fingers:' each finger whose pad closes towards "
-                "another's (a thumb is a finger)",
+                "another's (a thumb is a finger; a jaw fixed to the body is a "
+                "finger with `joints: []`)",
             )
         return fingers
 
