@@ -626,12 +626,12 @@ def _rigid_jaw(u: _Urdf, fingers: dict[str, list[str]]) -> _RigidJaw | None:
     dist, nearest = tree.query(moved.reshape(-1, 3))
     dist = dist.reshape(len(t), -1)  # (S, V)
     nearest = nearest.reshape(len(t), -1)
-    # the hinge: vertices that touch still geometry at both limits, and those
+    # the hinge: points that touch still geometry at both limits, and those
     # nearer a turning joint's axis than half the finger's length
     free = ~((dist[0] <= MEET_DISTANCE) & (dist[-1] <= MEET_DISTANCE))  # (V,)
     first = next(j for j in kin.chain(u.base, link) if j.kind != 0)
     if first.kind == JOINT_REVOLUTE:
-        A = kin.link_poses(u.base, u.default)[first.parent] @ first.origin
+        A = poses[first.parent] @ first.origin
         axis, at = A[:3, :3] @ first.axis, A[:3, 3]
         rel = moved[0] - at  # (V, 3)
         r = np.linalg.norm(rel - np.outer(rel @ axis, axis), axis=1)  # (V,)
