@@ -315,3 +315,32 @@ def test_mesh_geometry_is_loaded_scaled_and_hashed(tmp_path):
     assert again.stats["cache"] == "miss"
     assert again.source_hash != m.source_hash
     assert_allclose(np.ptp(again.cloud[:, 0]), 0.10, atol=1e-6)
+
+
+def test_a_body_split_frees_the_workspace_its_box_swallows():
+    """One link shaped as an L (a block and a jaw plate standing on it, as a
+    rigid jaw on its gripper's body) with a finger's workspace in the corner:
+    split in two, neither half's box holds the workspace (the cut runs along
+    the block's top), where halving at the median along the longest side
+    leaves most of it inside; a link whose box holds no workspace is still
+    halved at the median along its longest side."""
+    from wsgrasp.gripper._body import BodySamples, _box, _inside_box, group_links
+
+    rng = np.random.default_rng(0)
+    block = rng.uniform([0.0, -0.02, 0.0], [0.1, 0.02, 0.02], (500, 3))
+    plate = rng.uniform([0.0, -0.02, 0.02], [0.01, 0.02, 0.12], (700, 3))
+    points = np.concatenate([block, plate])
+    body = BodySamples(points, np.zeros(len(points), dtype=np.int64), ["jaw"])
+    lo, hi = [0.02, -0.015, 0.03], [0.08, 0.015, 0.08]
+    workspace = rng.uniform(lo, hi, (400, 3))
+    cell = float(np.prod(np.subtract(hi, lo))) / len(workspace)
+    groups = group_links(body, 2, workspace, cell)
+    assert sum(len(g) for g in groups) == len(points)
+    assert all(_inside_box(workspace, *_box(g)) == 0 for g in groups)
+    # the median cut along z (the longest side) would keep most of it inside
+    below = points[points[:, 2] <= np.median(points[:, 2])]
+    assert _inside_box(workspace, *_box(below)) > 0
+    # with the workspace elsewhere, the longest side is halved at the median
+    halves = group_links(body, 2, workspace + [0.0, 0.0, 0.3], cell)
+    cut = np.median(points[:, 2])
+    assert sorted(float(g[:, 2].max()) <= cut for g in halves) == [False, True]

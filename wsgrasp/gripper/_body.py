@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -94,6 +94,39 @@ def _inside_box(points: Array, lo: Array, hi: Array) -> int:
     return int(np.count_nonzero(np.all((points >= lo) & (points <= hi), axis=1)))
 
 
+#: cuts tried along each axis when a group whose box swallows finger workspace
+#: is split (quantiles of its points)
+SPLIT_QUANTILES = np.linspace(0.1, 0.9, 17)
+
+
+def _split(
+    g: Array, workspace: Array, cost: Callable[[Array, Array], float]
+) -> tuple[Array, Array]:
+    """Two halves of a group of body points ``(n, 3)``: at the median along its
+    box's longest side; or, where its box holds finger-workspace points (a
+    jaw's channel, the face of a rigid jaw), at the cut (an axis and a
+    quantile of the points along it) whose halves' boxes cost least, so that
+    the workspace comes out between them."""
+    lo, hi = _box(g)
+    if not _inside_box(workspace, lo, hi):
+        axis = int(np.argmax(hi - lo))
+        cut = np.median(g[:, axis])
+        return g[g[:, axis] <= cut], g[g[:, axis] > cut]
+    best, best_cost = None, np.inf
+    for axis in range(3):
+        for cut in np.unique(np.quantile(g[:, axis], SPLIT_QUANTILES)):
+            keep = g[:, axis] <= cut
+            left, right = g[keep], g[~keep]
+            if not len(left) or not len(right):
+                continue
+            c = cost(*_box(left)) + cost(*_box(right))
+            if c < best_cost:
+                best, best_cost = (left, right), c
+    if best is None:
+        return g, g[:0]
+    return best
+
+
 def group_links(
     body: BodySamples, count: int, workspace: Array, cell_volume: float
 ) -> list[Array]:
@@ -115,14 +148,17 @@ def group_links(
     """
     groups = [body.points[body.link == i] for i in range(len(body.links))]
     groups = [g for g in groups if len(g)]
+
+    def cost(lo: Array, hi: Array) -> float:
+        return _volume(lo, hi) + WORKSPACE_WEIGHT * cell_volume * _inside_box(
+            workspace, lo, hi
+        )
+
     while len(groups) < count:
         vols = [_volume(*_box(g)) for g in groups]
         i = int(np.argmax(vols))
         g = groups.pop(i)
-        lo, hi = _box(g)
-        axis = int(np.argmax(hi - lo))
-        cut = np.median(g[:, axis])
-        left, right = g[g[:, axis] <= cut], g[g[:, axis] > cut]
+        left, right = _split(g, workspace, cost)
         if not len(right):
             raise GripperError(
                 f"cannot split the gripper body into {count} superellipsoids",
@@ -130,11 +166,6 @@ def group_links(
             )
         groups += [left, right]
     boxes = [_box(g) for g in groups]
-
-    def cost(lo: Array, hi: Array) -> float:
-        return _volume(lo, hi) + WORKSPACE_WEIGHT * cell_volume * _inside_box(
-            workspace, lo, hi
-        )
 
     own = [cost(*b) for b in boxes]
     ids = list(range(len(groups)))  # stable ids, so pair costs can be cached

@@ -666,7 +666,7 @@ def _rigid_pad(
 ) -> dict[str, Any]:
     """The rigid jaw's pad: a box on the jaw's link at the surface point nearest
     the moving pad closed, on the face of the link's frame whose normal best
-    points at the moving pad open, as wide as the moving pad and
+    points at the moving pad open, as wide as the moving pad closed and
     :data:`RIGID_PAD_DEPTH` deep (the object may lie that far from the jaw
     before the moving finger pushes it there)."""
     kin = u.kin
@@ -680,7 +680,8 @@ def _rigid_pad(
     n_link = R.T @ (p_open - (R @ near + o))
     k = int(np.argmax(np.abs(n_link)))
     sign = float(np.sign(n_link[k]) or 1.0)
-    R_pad = poses[pad["link"]][:3, :3]
+    # the moving pad as it meets the jaw, closed (open, it may stand across it)
+    R_pad = kin.link_poses(u.base, closed)[pad["link"]][:3, :3]
     size = np.abs(R.T @ R_pad) @ np.asarray(pad["size"], dtype=np.float64)
     size[k] = RIGID_PAD_DEPTH
     centre = near.copy()
