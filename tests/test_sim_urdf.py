@@ -280,3 +280,50 @@ def test_a_jaw_closing_on_a_rigid_one_holds_a_box(tmp_path: Path):
     (rec,) = records
     assert rec["found"], rec.get("hint")
     assert rec["outcome"] == "success", rec
+
+
+def test_a_rigid_jaws_concave_link_collides_as_its_convex_parts(tmp_path: Path):
+    """A rigid jaw standing out of its gripper's body on one link (an L-shaped
+    mesh): its convex hull would fill the corner in front of the jaw, where
+    the moving jaw pushes the object, so that link collides as its convex
+    decomposition (several mesh geoms, none holding the corner); a moving
+    finger's mesh is still one convex hull."""
+    pytest.importorskip("coacd")
+    import re
+
+    import trimesh
+    from urdf_factory import rigid_jaw_urdf
+
+    from wsgrasp.gripper.scaffold import scaffold_plugin
+
+    block = trimesh.creation.box((0.04, 0.08, 0.04))
+    block.apply_translation((0.0, 0.0, 0.02))
+    plate = trimesh.creation.box((0.02, 0.01, 0.06))
+    plate.apply_translation((0.0, -0.025, 0.07))
+    trimesh.util.concatenate([block, plate]).export(tmp_path / "palm.stl")
+    urdf = rigid_jaw_urdf().replace(
+        '<link name="palm">',
+        '<link name="palm"><collision><geometry><mesh filename="palm.stl"/>'
+        "</geometry></collision>",
+    )
+    # the palm's geometry is the mesh alone
+    head, rest = urdf.split('<link name="palm">', 1)
+    palm, tail = rest.split("</link>", 1)
+    palm = palm[: palm.index("</collision>") + len("</collision>")]
+    (tmp_path / "rj.urdf").write_text(f'{head}<link name="palm">{palm}</link>{tail}')
+    yaml_path, sc = scaffold_plugin("rj", tmp_path / "rj.urdf", tmp_path / "pkg")
+    assert [f["joints"] for f in sc.data["fingers"]] == [["jaw_joint"], []]
+    g = load_sim_gripper(str(yaml_path))
+    build_scene(_box_object(), g)  # MuJoCo compiles it
+    # each part's vertices, in the palm's frame (the mesh has no origin)
+    parts = re.findall(r'<mesh name="g/palm/0/part\d+" vertex="([^"]+)"', g.asset_xml)
+    assert len(parts) >= 2, g.asset_xml[:500]
+    # a point in the corner in front of the jaw: inside the palm mesh's hull,
+    # outside every convex part
+    corner = np.array([0.0, 0.0, 0.06])
+    assert trimesh.load(tmp_path / "palm.stl").convex_hull.contains([corner])[0]
+    for text in parts:
+        verts = np.array(text.split(), dtype=float).reshape(-1, 3)
+        assert not trimesh.convex.convex_hull(verts).contains([corner])[0]
+    # the moving jaw (a box here) is one geom as before
+    assert 'name="g/jaw/0"' in g.body_xml

@@ -48,6 +48,8 @@ Array = NDArray[np.float64]
 
 #: name prefix of the gripper's bodies, joints and geoms in the MJCF
 PREFIX = "g/"
+#: grid (m) a mesh's vertices are snapped to when its convex hull comes out open
+HULL_GRID = 1e-5
 #: collision bits: gripper geoms touch the table and the object, not each other
 GRIPPER_CONTYPE, GRIPPER_CONAFFINITY = 2, 1
 
@@ -291,7 +293,15 @@ def sim_gripper_from_files(
         repairs += [fix] if fix else []
     assets: list[str] = []
     body_repairs: list[Repair] = []
-    gripper.body_xml = _body(kin, base, None, p, assets, ranges, body_repairs)
+    # a rigid jaw's link: the object is pushed against its face, which the
+    # link's convex hull would cover where the link is concave (a jaw standing
+    # out of a motor housing); it collides as its convex parts
+    jaws = {
+        str(f["pad"]["link"])
+        for f in description.get("fingers") or []
+        if not f.get("joints")
+    }
+    gripper.body_xml = _body(kin, base, None, p, assets, ranges, body_repairs, jaws)
     gripper.repairs = body_repairs + repairs
     gripper.asset_xml = "\n".join(assets)
     gripper.equality_xml = "\n".join(
@@ -331,10 +341,13 @@ def _body(
     assets: list[str],
     ranges: dict[str, tuple[float, float] | None],
     repairs: list[Repair],
+    concave: set[str] = frozenset(),  # type: ignore[assignment]
 ) -> str:
     """The ``<body>`` of ``link`` and, nested, of every link below it; ``joint``
     attaches it to its parent (None for the root body). ``ranges`` holds the
-    mimic joints' ranges; the inertial repairs are appended to ``repairs``."""
+    mimic joints' ranges; the inertial repairs are appended to ``repairs``. The
+    mesh shapes of the links in ``concave`` collide as their convex
+    decompositions, the others' as their convex hulls."""
     head = f'<body name="{PREFIX}{link}" gravcomp="1"'
     if joint is not None:
         head += " " + pose_attrs(joint.origin)
@@ -398,9 +411,15 @@ def _body(
             + "/>"
         )
     for i, (shape, solid) in enumerate(zip(shapes, solids, strict=True)):
-        lines.append(_geom(shape, solid, f"{PREFIX}{link}/{i}", p, assets))
+        name = f"{PREFIX}{link}/{i}"
+        if link in concave and shape.kind == "mesh":
+            lines += _convex_parts(shape, name, p, assets)
+        else:
+            lines.append(_geom(shape, solid, name, p, assets))
     for child in kin.child_joints(link):
-        lines.append(_body(kin, child.child, child, p, assets, ranges, repairs))
+        lines.append(
+            _body(kin, child.child, child, p, assets, ranges, repairs, concave)
+        )
     lines.append("</body>")
     return "\n".join(lines)
 
@@ -422,6 +441,12 @@ def _solid(shape: Shape) -> Any:
     try:
         with np.errstate(invalid="ignore", divide="ignore"):  # a flat hull's
             hull = mesh.convex_hull  # centre of mass divides by its volume, 0
+            if not hull.is_watertight:
+                # near-coplanar facets of a finely curved mesh can leave qhull's
+                # hull open; vertices snapped to a grid far below the geometry's
+                # size close it
+                grid = np.round(np.asarray(mesh.vertices) / HULL_GRID) * HULL_GRID
+                hull = trimesh.convex.convex_hull(np.unique(grid, axis=0))
             if hull.is_watertight and hull.volume > MIN_THICKNESS**3:
                 return hull
     except Exception:  # noqa: BLE001 - qhull refuses points on a line or plane
@@ -440,14 +465,7 @@ def _geom(shape: Shape, solid: Any, name: str, p: SimParams, assets: list[str]) 
     Its mass is the body's ``<inertial>``, so the geom weighs nothing of its own."""
     import trimesh
 
-    common = attrs(
-        name=name,
-        contype=GRIPPER_CONTYPE,
-        conaffinity=GRIPPER_CONAFFINITY,
-        density=0,
-        friction=fmt((p.gripper_friction, p.torsional_friction, p.rolling_friction)),
-        group=1,
-    )
+    common = _geom_attrs(name, p)
     pose = pose_attrs(shape.T_link_shape)
     if shape.kind == "box":
         size = np.asarray(shape.size, dtype=np.float64) / 2.0
@@ -468,6 +486,38 @@ def _geom(shape: Shape, solid: Any, name: str, p: SimParams, assets: list[str]) 
     mesh_name = name + "/mesh"
     assets.append(f'<mesh name="{mesh_name}" vertex="{fmt(hull.reshape(-1))}"/>')
     return f'<geom type="mesh" mesh="{mesh_name}" {pose} {common}/>'
+
+
+def _convex_parts(
+    shape: Shape, name: str, p: SimParams, assets: list[str]
+) -> list[str]:
+    """A mesh shape's ``<geom>`` elements, one per convex part of its coacd
+    decomposition (cached as the objects' are: :mod:`wsgrasp.sim._meshes`)."""
+    from wsgrasp.sim._meshes import convex_decomposition
+
+    parts = convex_decomposition(shape_mesh(shape, frame="shape")).hulls
+    pose = pose_attrs(shape.T_link_shape)
+    out = []
+    for k, hull in enumerate(parts):
+        part = f"{name}/part{k}"
+        verts = np.asarray(hull, dtype=np.float64).reshape(-1)
+        assets.append(f'<mesh name="{part}" vertex="{fmt(verts)}"/>')
+        common = _geom_attrs(part, p)
+        out.append(f'<geom type="mesh" mesh="{part}" {pose} {common}/>')
+    return out
+
+
+def _geom_attrs(name: str, p: SimParams) -> str:
+    """What every gripper geom carries: its name, collision classes, no mass
+    of its own (the body's ``<inertial>`` has it), friction."""
+    return attrs(
+        name=name,
+        contype=GRIPPER_CONTYPE,
+        conaffinity=GRIPPER_CONAFFINITY,
+        density=0,
+        friction=fmt((p.gripper_friction, p.torsional_friction, p.rolling_friction)),
+        group=1,
+    )
 
 
 def _actuator(j: Joint, gains: Mapping[str, tuple[float, str]], effort: float) -> str:
