@@ -188,6 +188,23 @@ def test_plan_gripper_replaces_the_spec_gripper(
     assert json.loads(capsys.readouterr().out)["gripper"] == "franka_hand"
 
 
+def test_plan_gripper_replaces_a_gripper_not_installed_here(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A spec that a gripper package ships names its gripper, which may not be
+    installed where it is used: with --gripper replacing it, the spec plans;
+    without, the unknown name is the error."""
+    text = (ROOT / "examples" / "specs" / "franka.yaml").read_text()
+    spec = tmp_path / "default.yaml"
+    spec.write_text(text.replace("gripper: franka_hand", "gripper: not_here"))
+    assert "gripper: not_here" in spec.read_text()
+    args = ["plan", str(SCENE), "-s", str(spec), "--no-record"]
+    assert main([*args, "-g", "franka_hand", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["found"]
+    assert main(args) == 2
+    assert "unknown gripper 'not_here'" in capsys.readouterr().err
+
+
 def test_plan_needs_a_spec_or_a_gripper(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["plan", str(SCENE)]) == 2
     assert "--gripper" in capsys.readouterr().err

@@ -591,6 +591,7 @@ def load_spec(
     registry: Any | None = None,
     check_plugins: bool = True,
     check_files: bool = True,
+    check_gripper: bool = True,
 ) -> PipelineSpec:
     """Load and validate a pipeline spec.
 
@@ -607,6 +608,10 @@ def load_spec(
         With ``check_plugins``: find the files a gripper path leads to (its
         YAML, the URDF, the URDF's collision meshes), relative paths from the
         spec file's folder (the current directory for a mapping).
+    check_gripper
+        With ``check_plugins``: check the gripper (a registered name, or a path
+        whose files are found with ``check_files``); off where the caller
+        replaces it (``plan --spec FILE --gripper G``).
 
     Raises
     ------
@@ -634,7 +639,9 @@ def load_spec(
         _check_plugin(reg, "segmenters", spec.segmenter, ("segmenter",), lines)
         for i, ref in enumerate(spec.scorers):
             _check_plugin(reg, "scorers", ref, ("scorers", i), lines)
-        if not is_gripper_path(spec.gripper):
+        if not check_gripper:
+            pass
+        elif not is_gripper_path(spec.gripper):
             _check_name(reg, "grippers", spec.gripper, ("gripper",), lines)
         elif check_files:
             check_gripper_files(spec.gripper, lines)

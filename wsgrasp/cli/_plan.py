@@ -215,9 +215,9 @@ def plan_spec(spec_file: Path | None, gripper: str | None) -> Any:
         data, _ = default_spec(gripper)
         source = None
     else:
-        # every problem of the file, with its lines, but its gripper's files:
-        # that gripper is replaced
-        spec = load_spec(spec_file, check_files=False)
+        # every problem of the file, with its lines, but its gripper's (a name
+        # not installed here, files not found): that gripper is replaced
+        spec = load_spec(spec_file, check_gripper=False)
         data, _ = load_document(spec_file)
         source = spec.source
     replaced = load_spec({**data, "gripper": gripper_ref(gripper, Path.cwd())})
