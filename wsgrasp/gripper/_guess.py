@@ -666,7 +666,7 @@ def _rigid_pad(
 ) -> dict[str, Any]:
     """The rigid jaw's pad: a box on the jaw's link at the surface point nearest
     the moving pad closed, on the face of the link's frame whose normal best
-    points at the moving pad open, as wide as the moving pad closed and
+    points at the moving pad open, as large as the moving pad closed and
     :data:`RIGID_PAD_DEPTH` deep (the object may lie that far from the jaw
     before the moving finger pushes it there)."""
     kin = u.kin
@@ -689,7 +689,7 @@ def _rigid_pad(
     u.notes["pad"] += (
         f"; rigid jaw: on {jaw.link}, at the point of its geometry nearest the "
         f"moving pad closed, facing {'+' if sign > 0 else '-'}{'xyz'[k]} (towards "
-        f"the moving pad open), as wide as the moving pad and "
+        f"the moving pad open), as large as the moving pad closed and "
         f"{RIGID_PAD_DEPTH * 1000:.0f} mm deep: its workspace, across which the "
         "moving finger pushes the object onto the jaw"
     )
