@@ -191,7 +191,6 @@ def test_a_jaw_closing_on_a_rigid_one_gets_the_rigid_jaw_as_a_finger(tmp_path):
     assert d["approach_axis"] == [0.0, 0.0, 1.0]
     assert d["closing_axis"] == [0.0, 1.0, 0.0]
     assert "rigid jaw" in sc.notes["fingers"] and "rigid jaw" in sc.notes["pad"]
-    assert not any("only one finger" in w for w in sc.warnings)
     on_arm = guess_description(
         _write(tmp_path, _on_arm(6, rigid_jaw_urdf()), "robot.urdf"), "rj"
     )
@@ -199,6 +198,32 @@ def test_a_jaw_closing_on_a_rigid_one_gets_the_rigid_jaw_as_a_finger(tmp_path):
     assert "joint 'jaw_joint' of the only moving finger" in on_arm.notes["base_link"]
     for key in ("fingers", "approach_axis", "closing_axis", "pregrasp", "closed"):
         assert on_arm.data[key] == d[key], key
+
+
+def test_an_arm_without_its_gripper_is_refused_clearly(tmp_path):
+    """An arm of six joints and nothing mounted on it: its last link is the one
+    moving "finger", and it closes against no rigid jaw; one message says so
+    and names the link and its joint."""
+    bare = '<?xml version="1.0"?>\n<robot name="jaw"><link name="palm"/></robot>'
+    urdf = _write(tmp_path, _on_arm(6, bare), "arm.urdf")
+    with pytest.raises(GripperError, match="closes against no still geometry") as err:
+        guess_description(urdf, "arm")
+    assert "'arm_6'" in str(err.value) and "arm_joint_6" in str(err.value)
+    assert "an arm without its gripper" in str(err.value)
+
+
+def test_a_finger_that_hardly_opens_from_still_geometry_is_no_jaw(tmp_path):
+    """The rigid-jaw gripper with its jaw's range cut to open only 9 mm from the
+    plate (a wrist turning beside its arm's last link opens no more): no rigid
+    jaw is guessed, and the one-finger message says why."""
+    urdf = rigid_jaw_urdf().replace('lower="-0.6"', 'lower="0.55"')
+    with pytest.raises(GripperError, match="closes against no still geometry"):
+        guess_description(_write(tmp_path, urdf), "rj")
+    wide = rigid_jaw_urdf().replace('lower="-0.6"', 'lower="0.4"')  # 18 mm
+    assert (
+        guess_description(_write(tmp_path, wide), "rj").data["fingers"][1]["joints"]
+        == []
+    )
 
 
 def test_a_rigid_jaw_gripper_builds_checks_and_plans(tmp_path):

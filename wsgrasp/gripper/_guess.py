@@ -101,6 +101,9 @@ DRIVE_MIN_FINGERS = 3
 #: depth (m) of a rigid jaw's pad box, its workspace: how far the moving finger
 #: may push an object across the table onto the jaw
 RIGID_PAD_DEPTH = 0.01
+#: a lone moving finger that opens less than this (m) from still geometry
+#: closes against no rigid jaw (a wrist turning beside the arm's last link)
+MIN_JAW_OPENING = 0.01
 #: points sampled on the still links' surfaces to find where a lone moving
 #: finger meets them (about a millimetre apart on a jaw-sized link)
 RIGID_SURFACE_SAMPLES = 20_000
@@ -590,7 +593,8 @@ def _rigid_jaw(u: _Urdf, fingers: dict[str, list[str]]) -> _RigidJaw | None:
     both limits, and, for a turning joint, those nearer its axis than half the
     finger's length). The finger opens at the end from which it travels the
     longer way before meeting it. None for several fingers, where the finger
-    meets no still geometry, or where it meets some at both limits.
+    meets no still geometry, where it meets some at both limits, or where it
+    opens less than :data:`MIN_JAW_OPENING` from it.
     """
     from scipy.spatial import cKDTree
 
@@ -647,7 +651,10 @@ def _rigid_jaw(u: _Urdf, fingers: dict[str, list[str]]) -> _RigidJaw | None:
     # opening at the lower limits, it travels to meets[0]; opening at the upper
     # ones, back to meets[-1]: it opens where it travels the longer way
     up, down = int(meets[0]), int(meets[-1])
-    step = up if up >= len(t) - 1 - down else down
+    opens_at_lower = up >= len(t) - 1 - down
+    step = up if opens_at_lower else down
+    if gap[0 if opens_at_lower else -1] < MIN_JAW_OPENING:
+        return None  # it hardly opens: a wrist turning beside its arm, no jaw
     v = int(np.flatnonzero(free)[np.argmin(dist[step, free])])
     k = int(nearest[step, v])
     return _RigidJaw(
@@ -1813,13 +1820,18 @@ def guess_description(
     distal = list(fingers)
     names = _finger_names(distal)
     if jaw is None:
-        targets = _targets(u, fingers)
         if len(distal) == 1:
-            u.warnings.append(
-                f"only one finger found (link {distal[0]!r}), and no still "
-                "geometry it closes against (a rigid jaw); the planner needs "
-                "fingers that close against each other or against a rigid jaw"
+            moved = ", ".join(fingers[distal[0]])
+            raise GripperError(
+                f"URDF {u.path.name}: one finger moves below {u.base!r} (link "
+                f"{distal[0]!r}, joints {moved}), and it closes against no still "
+                "geometry (a rigid jaw): a grasp needs two fingers that close "
+                "against each other, or a finger and a rigid jaw (an arm without "
+                "its gripper has neither)",
+                hint="scaffold from the URDF of the gripper, or of the arm with its "
+                "gripper mounted; or pass --base-link LINK",
             )
+        targets = _targets(u, fingers)
     else:
         targets = {distal[0]: jaw.point}
     joints = {link: list(ms) for link, ms in fingers.items()}
