@@ -200,6 +200,31 @@ def test_a_jaw_closing_on_a_rigid_one_gets_the_rigid_jaw_as_a_finger(tmp_path):
         assert on_arm.data[key] == d[key], key
 
 
+def test_a_placeholder_on_an_actuators_link_is_no_finger(tmp_path):
+    """A hand's URDF may give the link an actuator turns a placeholder box of a
+    millimetre or two (the fingers follow through joints of their own): that
+    link is no finger, the note says so, and its joint, moving no finger, is
+    held."""
+    motor = (
+        '<link name="motor"><collision><geometry><box size="0.0016 0.0016 0.0016"/>'
+        '</geometry></collision></link><joint name="motor_joint" type="revolute">'
+        '<parent link="palm"/><child link="motor"/><origin xyz="0 0 0.02"/>'
+        '<axis xyz="1 0 0"/><limit lower="0" upper="1" effort="1" velocity="1"/>'
+        "</joint></robot>"
+    )
+    urdf = jaw_urdf().replace("</robot>", motor)
+    sc = guess_description(_write(tmp_path, urdf), "jaw")
+    assert [f["pad"]["link"] for f in sc.data["fingers"]] == [
+        "left_finger",
+        "right_finger",
+    ]
+    assert (
+        "placeholders on an actuator's or a sensor's link): motor"
+        in sc.notes["fingers"]
+    )
+    assert sc.data["pregrasp"]["motor_joint"] == sc.data["closed"]["motor_joint"]
+
+
 def test_an_arm_without_its_gripper_is_refused_clearly(tmp_path):
     """An arm of six joints and nothing mounted on it: its last link is the one
     moving "finger", and it closes against no rigid jaw; one message says so

@@ -98,6 +98,9 @@ PAD_DEPTH = 0.004
 PAD_STIFFNESS = 300.0
 #: a gripper of at least this many fingers gets a drive guessed from its size
 DRIVE_MIN_FINGERS = 3
+#: a moving link whose geometry is smaller than this (m) along every axis is no
+#: finger (a placeholder box on an actuator's or a sensor's link)
+MIN_FINGER_SIZE = 0.005
 #: depth (m) of a rigid jaw's pad box, its workspace: how far the moving finger
 #: may push an object across the table onto the jaw
 RIGID_PAD_DEPTH = 0.01
@@ -407,7 +410,7 @@ def _hand_on_arm(u: _Urdf, name: str) -> _Urdf:
     chains part), the URDF read again from that link: the arm is no part of the
     gripper. A URDF that holds several grippers (a robot's two arms) is refused,
     naming them."""
-    distal, chains, _, _ = _distal_links(u)
+    distal, chains, _, _, _ = _distal_links(u)
     found = _grippers_in(u, distal, chains)
     path = u.path.name
     if len(found) > 1:
@@ -474,14 +477,24 @@ def _hand_on_arm(u: _Urdf, name: str) -> _Urdf:
 
 def _distal_links(
     u: _Urdf,
-) -> tuple[list[str], dict[str, list[Any]], dict[str, list[str]], list[str]]:
+) -> tuple[list[str], dict[str, list[Any]], dict[str, list[str]], list[str], list[str]]:
     """The fingertips: links with geometry that a joint moves and that carry no
-    further moving link, less linkage bars, in tree order; with each moving
-    link's chain of joints from the base, each fingertip's actuated joints
-    (mimics replaced by their masters) and the bars."""
+    further moving link, less linkage bars and links whose geometry is under
+    :data:`MIN_FINGER_SIZE`, in tree order; with each moving link's chain of
+    joints from the base, each fingertip's actuated joints (mimics replaced by
+    their masters), the bars and the links too small."""
     kin = u.kin
     chains = {link: kin.chain(u.base, link) for link in u.boxes}
     candidates = {k: c for k, c in chains.items() if any(j.kind != 0 for j in c)}
+    # geometry smaller than a fingertip anywhere: a placeholder on an actuator's
+    # or a sensor's link, no finger
+    tiny = [
+        k
+        for k in candidates
+        if float(np.max(u.boxes[k][1] - u.boxes[k][0])) < MIN_FINGER_SIZE
+    ]
+    for k in tiny:
+        del candidates[k]
     # distal: no other candidate below it
     distal = [
         link
@@ -508,14 +521,14 @@ def _distal_links(
         )
     ]
     distal = sorted((k for k in distal if k not in bars), key=u.below.index)
-    return distal, candidates, masters, bars
+    return distal, candidates, masters, bars, tiny
 
 
 def _fingers(u: _Urdf) -> dict[str, list[str]]:
     """Distal link -> the actuated joints (mimics replaced by their masters) on the
     chain from the base, in tree order. Raises on a finger moved by a continuous
     joint without limits."""
-    distal, candidates, masters, bars = _distal_links(u)
+    distal, candidates, masters, bars, tiny = _distal_links(u)
     if not distal:
         raise GripperError(
             f"URDF {u.path.name}: found no fingertip (a link with geometry moved by "
@@ -530,6 +543,13 @@ def _fingers(u: _Urdf) -> dict[str, list[str]]:
             "; skipped as linkage bars (moved by a subset of a longer finger's "
             "joints): " + ", ".join(bars)
             if bars
+            else ""
+        )
+        + (
+            f"; skipped, their geometry under {MIN_FINGER_SIZE * 1000:.0f} mm "
+            "across (placeholders on an actuator's or a sensor's link): "
+            + ", ".join(tiny)
+            if tiny
             else ""
         )
     )
