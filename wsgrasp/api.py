@@ -1044,8 +1044,9 @@ def _no_grasp(
                 "every feasible grasp, or its pre-grasp pose, lies under the table; "
                 "check that the segmentation kept the object above the table"
             )
-        pregrasp = pregrasp_pose(g, T_top, distance)
-        if closing and not _hits_table(g, prep.search_input.table, pregrasp):
+        if closing and not _hits_table(
+            g, prep.search_input.table, pregrasp_pose(g, T_top, distance)
+        ):
             need = min(g.num_fingers, CLOSING_FINGERS)
             return (
                 f"every feasible grasp closes beside the object: fewer than {need} "

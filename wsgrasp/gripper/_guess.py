@@ -600,6 +600,7 @@ class _RigidJaw:
     link: str  # the still link it meets
     point: Array  # (3,) the still surface point nearest it there, base frame
     joints: dict[str, float]  # the finger's joint values there
+    mesh: Any  # the still link's geometry, one trimesh in its frame
 
 
 def _rigid_jaw(u: _Urdf, fingers: dict[str, list[str]]) -> _RigidJaw | None:
@@ -677,10 +678,9 @@ def _rigid_jaw(u: _Urdf, fingers: dict[str, list[str]]) -> _RigidJaw | None:
         return None  # it hardly opens: a wrist turning beside its arm, no jaw
     v = int(np.flatnonzero(free)[np.argmin(dist[step, free])])
     k = int(nearest[step, v])
+    met = still[int(owners[k])]
     return _RigidJaw(
-        still[int(owners[k])],
-        cloud[k],
-        {m: float(q[step, i]) for i, m in enumerate(ms)},
+        met, cloud[k], {m: float(q[step, i]) for i, m in enumerate(ms)}, meshes[met]
     )
 
 
@@ -702,8 +702,7 @@ def _rigid_pad(
     poses = kin.link_poses(u.base, pregrasp)
     T = poses[jaw.link]
     R, o = T[:3, :3], T[:3, 3]
-    mesh = link_mesh(u.kin, jaw.link)
-    near = np.asarray(mesh.nearest.on_surface([(p_closed - o) @ R])[0][0])  # link
+    near = np.asarray(jaw.mesh.nearest.on_surface([(p_closed - o) @ R])[0][0])
     n_link = R.T @ (p_open - (R @ near + o))
     k = int(np.argmax(np.abs(n_link)))
     sign = float(np.sign(n_link[k]) or 1.0)
@@ -778,10 +777,10 @@ def _hold_upstream(
 
 
 def _targets(u: _Urdf, fingers: dict[str, list[str]]) -> dict[str, Array]:
-    """Per finger, where it closes towards: the mean of the other fingertips'
-    sampled positions (each finger's joints over a 3-point grid of their ranges,
-    the rest at ``default``), finger by finger; for a single finger, the centre of
-    the links no joint moves (the palm)."""
+    """Per finger of two or more, where it closes towards: the mean of the
+    other fingertips' sampled positions (each finger's joints over a 3-point
+    grid of their ranges, the rest at ``default``), finger by finger (a single
+    finger closes towards its rigid jaw: :func:`_rigid_jaw`)."""
     kin = u.kin
     centres: dict[str, Array] = {}
     for link, ms in fingers.items():
@@ -792,14 +791,10 @@ def _targets(u: _Urdf, fingers: dict[str, list[str]]) -> dict[str, Array]:
         for i, m in enumerate(ms):
             values[m] = q[:, i]
         centres[link] = u.tips(link, values).reshape(-1, 3).mean(axis=0)
-    if len(fingers) > 1:
-        return {
-            link: np.mean([c for k, c in centres.items() if k != link], axis=0)
-            for link in fingers
-        }
-    still = _still_links(u)
-    palm = u.centroids(still, u.default).mean(axis=0) if still else np.zeros(3)
-    return {link: palm for link in fingers}
+    return {
+        link: np.mean([c for k, c in centres.items() if k != link], axis=0)
+        for link in fingers
+    }
 
 
 def _distance_change(u: _Urdf, link: str, m: str, target: Array) -> float:
