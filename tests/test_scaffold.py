@@ -544,3 +544,78 @@ def test_gripper_new_names_a_hands_guessed_drive(tmp_path, capsys):
         == 0
     )
     assert "finger drive" not in capsys.readouterr().out
+
+
+def test_a_wide_pad_is_sampled_a_voxel_apart_along_each_edge(tmp_path):
+    """A jaw 5 cm wide: twelve points per edge leave its sweep a lattice of
+    separate points that no sphere fits in; the scaffolder then samples the pad
+    about a voxel apart along each edge (one count per edge), and its spheres
+    cover the workspace."""
+    from wsgrasp.gripper.check import MIN_COVERAGE, check_gripper
+
+    urdf = _write(tmp_path, rigid_jaw_urdf(0.05))
+    yaml_path, _ = scaffold_plugin("rj", urdf, tmp_path / "pkg")
+    data = yaml.safe_load(yaml_path.read_text())
+    moving = data["fingers"][0]["pad"]
+    voxel = data["workspace_voxel"]
+    assert isinstance(moving["samples"], list) and len(moving["samples"]) == 3
+    pairs = zip(moving["size"], moving["samples"], strict=True)
+    spacing = [s / (k - 1) for s, k in pairs if k > 1]
+    assert max(spacing) <= voxel * 1.001
+    report = check_gripper(yaml_path, cache_dir=tmp_path / "cache")
+    assert not report.problems, report.format()
+    assert min(f["covered_fraction"] for f in report.fingers) >= MIN_COVERAGE
+    comments = " ".join(yaml_path.read_text().replace("#", " ").split())
+    assert "a voxel apart along each edge" in comments
+
+
+def test_a_rigid_pad_inside_the_body_superellipsoid_moves_out(tmp_path):
+    """A rigid pad whose box the superellipsoid round its jaw swallows (object
+    points there reject every grasp) slides out along its face's normal until
+    the superellipsoids hold little of it."""
+    from wsgrasp.geometry import box_grid_points, points_in_superellipsoids
+    from wsgrasp.gripper import load_gripper
+    from wsgrasp.gripper._guess import clear_rigid_pads
+    from wsgrasp.gripper.check import INTRUSION_WARN
+    from wsgrasp.gripper.scaffold import render_yaml
+
+    urdf = _write(tmp_path, rigid_jaw_urdf())
+    yaml_path, sc = scaffold_plugin("rj", urdf, tmp_path / "pkg")
+    pad = sc.data["fingers"][1]["pad"]
+    assert not clear_rigid_pads(sc, yaml_path)  # the guess lies clear already
+    # push the box 6 mm into the jaw plate (its face looks along +y)
+    pad["center"] = [pad["center"][0], pad["center"][1] - 0.006, pad["center"][2]]
+    yaml_path.write_text(render_yaml(sc, []))
+    pushed = pad["center"][1]
+    assert clear_rigid_pads(sc, yaml_path)
+    assert 0.003 <= pad["center"][1] - pushed <= 0.0105  # out along +y
+    yaml_path.write_text(render_yaml(sc, []))
+    g = load_gripper(str(yaml_path), cache_dir=tmp_path / "cache")
+    box = box_grid_points(pad["center"], pad["size"], 5)  # palm frame = base frame
+    inside = points_in_superellipsoids(box, g.se_centers, g.se_semi_axes, g.se_exponent)
+    assert inside.mean() <= INTRUSION_WARN
+    assert "the rigid pad moved" in sc.notes["pad"]
+
+
+def test_pad_samples_per_edge_validate_and_match_one_count(tmp_path):
+    """``pad.samples`` is one count (at most 12) or three, one per edge (at most
+    64 each); three equal counts sample the workspace exactly as one does."""
+    from wsgrasp.errors import SpecError
+    from wsgrasp.gripper._urdf import load_kinematics
+    from wsgrasp.gripper._workspace import sample_workspace
+
+    urdf = _write(tmp_path, rigid_jaw_urdf())
+    sc = guess_description(urdf, "rj")
+    data = yaml.safe_load(yaml.safe_dump(sc.data))
+    kin = load_kinematics(urdf, "rj")
+    spaces = []
+    for samples in (7, [7, 7, 7]):
+        data["fingers"][0]["pad"]["samples"] = samples
+        desc = GripperDescription.model_validate(data)
+        spaces.append(sample_workspace(kin, desc, desc.fingers[0]))
+    assert np.array_equal(spaces[0].occupied, spaces[1].occupied)
+    assert spaces[0].closing == spaces[1].closing
+    for bad in (13, [65, 2, 2], [4, 4]):
+        data["fingers"][0]["pad"]["samples"] = bad
+        with pytest.raises((SpecError, ValueError)):
+            GripperDescription.model_validate(data)

@@ -134,18 +134,20 @@ def write_claw(folder: Path, *, mesh_scale: float = 1.0) -> Path:
     return path
 
 
-def rigid_jaw_urdf() -> str:
+def rigid_jaw_urdf(width: float = 0.02) -> str:
     """One moving jaw closing on a jaw fixed to the palm (approach +z): the palm
     carries a box body and, on the same link, a rigid jaw plate (inner face at
     y = -20 mm, 40 to 100 mm up); the moving jaw turns about x on a hinge at
     y = +25 mm, tilting its tip towards the rigid jaw for positive angles, its
-    limits running past where the two meet (about 0.68 rad)."""
+    limits running past where the two meet (about 0.68 rad). Both jaws are
+    ``width`` (m) wide along x."""
+    plate = f"{width:g} 0.01 0.06"
     return f"""<?xml version="1.0"?>
 <robot name="rigid_jaw">
-  <link name="palm">{_box("0.04 0.08 0.04", "0 0 0.02")}{
-        _box("0.02 0.01 0.06", "0 -0.025 0.07")
+  <link name="palm">{_box(f"{max(0.04, width):g} 0.08 0.04", "0 0 0.02")}{
+        _box(plate, "0 -0.025 0.07")
     }</link>
-  <link name="jaw">{_box("0.02 0.01 0.06", "0 0 0.03")}</link>
+  <link name="jaw">{_box(plate, "0 0 0.03")}</link>
   <joint name="jaw_joint" type="revolute">
     <parent link="palm"/><child link="jaw"/>
     <origin xyz="0 0.025 0.04"/><axis xyz="1 0 0"/>

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import (
     BaseModel,
@@ -44,8 +44,12 @@ __all__ = [
 ]
 
 Vec3 = tuple[float, float, float]
+#: the most pad points along one edge, where each edge has its own count
+MAX_EDGE_SAMPLES = 64
 #: three sizes, each above zero
 Size3 = tuple[PositiveFloat, PositiveFloat, PositiveFloat]
+#: pad points along one box edge, where each edge has its own count
+EdgeSamples = Annotated[int, Field(ge=1, le=MAX_EDGE_SAMPLES)]
 
 
 class _Model(BaseModel):
@@ -63,8 +67,15 @@ class PadRegion(_Model):
     size: tuple[NonNegativeFloat, NonNegativeFloat, NonNegativeFloat] = Field(
         description="full box extents along the link's x, y, z (0: a flat pad)"
     )
-    samples: int = Field(
-        3, ge=1, le=12, description="points per box edge when sampling the pad"
+    samples: (
+        Annotated[int, Field(ge=1, le=12)]
+        | tuple[EdgeSamples, EdgeSamples, EdgeSamples]
+    ) = Field(
+        3,
+        description="points per box edge when sampling the pad: one count for "
+        "every edge (at most 12), or one per edge along the link's x, y, z (at "
+        f"most {MAX_EDGE_SAMPLES} each), so that a wide, thin pad is sampled "
+        "about as densely along each edge",
     )
 
 

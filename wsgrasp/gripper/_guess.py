@@ -93,6 +93,9 @@ TARGET_COVERAGE = 0.45
 MAX_SPHERES = 40
 #: pad depth into the distal link (m), at most
 PAD_DEPTH = 0.004
+#: pad points computed per finger at most (joint grid times pad samples) when a
+#: pad is sampled a voxel apart along each edge
+DENSE_PAD_BUDGET = 2_000_000
 #: a hand's guessed drive: the stiffness (N/m) of its median finger's pad, half
 #: closed, when each of the finger's joints gives way under its position actuator
 PAD_STIFFNESS = 300.0
@@ -104,6 +107,8 @@ MIN_FINGER_SIZE = 0.005
 #: depth (m) of a rigid jaw's pad box, its workspace: how far the moving finger
 #: may push an object across the table onto the jaw
 RIGID_PAD_DEPTH = 0.01
+#: the step (m) a rigid pad slides out by, off the body superellipsoids
+RIGID_PAD_STEP = 0.0005
 #: a lone moving finger that opens less than this (m) from still geometry
 #: closes against no rigid jaw (a wrist turning beside the arm's last link)
 MIN_JAW_OPENING = 0.01
@@ -1906,17 +1911,132 @@ def guess_description(
     )
 
 
+def _covered(spaces: list[Any], count: int, desc: Any) -> float:
+    """The least fraction of a moving finger's workspace that ``count`` spheres
+    cover (0 where none fits)."""
+    from wsgrasp.gripper._workspace import fill_spheres
+
+    least = 1.0
+    for ws, finger in zip(spaces, desc.fingers, strict=True):
+        if not finger.joints:
+            continue
+        try:
+            fill = fill_spheres(ws, count, desc.min_sphere_radius, desc.name)
+        except GripperError:
+            return 0.0
+        least = min(least, fill.covered_fraction)
+    return least
+
+
+def _dense_pad_samples(data: dict[str, Any], kin: Any, desc: Any) -> bool:
+    """Give each moving finger's pad in ``data`` a count of points per edge that
+    puts them about a voxel apart along that edge (within
+    :data:`DENSE_PAD_BUDGET` points over the finger's joint grid, and never
+    fewer than it had); whether any pad got more. One count for every edge
+    spaces a wide pad's points far wider than a voxel along its long edges, and
+    their sweep then stays a lattice of separate points that no sphere fits
+    in."""
+    from wsgrasp.gripper._workspace import finger_joints
+    from wsgrasp.spec import MAX_EDGE_SAMPLES
+
+    voxel = float(data["workspace_voxel"])
+    changed = False
+    for f, finger in zip(data["fingers"], desc.fingers, strict=True):
+        if not finger.joints:
+            continue  # a rigid jaw's box is filled a voxel apart already
+        sizes = np.asarray(f["pad"]["size"], dtype=np.float64)
+        per = np.where(sizes > 0, np.ceil(sizes / voxel - 1e-9) + 1, 1)
+        per = np.clip(per, 1, MAX_EDGE_SAMPLES)
+        configs = float(desc.joint_samples) ** len(finger_joints(kin, desc, finger))
+        over = configs * float(np.prod(per)) / DENSE_PAD_BUDGET
+        if over > 1.0:  # thin every edge alike to the budget
+            per = np.maximum(np.where(per > 1, 2, 1), np.floor(per / over ** (1 / 3)))
+        old = np.broadcast_to(np.asarray(f["pad"].get("samples", 3)), (3,))
+        if np.any(per > old):  # never fewer points along an edge than before
+            f["pad"]["samples"] = [int(k) for k in np.maximum(per, old)]
+            changed = True
+    return changed
+
+
+def clear_rigid_pads(scaffold: Scaffold, yaml_path: Path) -> bool:
+    """Move each rigid jaw's pad box off the body superellipsoids of the model
+    built from ``yaml_path``: the box starts at the jaw's surface, but the
+    superellipsoid fitted round the jaw's link stands a few millimetres proud of
+    it, and object points inside a superellipsoid reject the grasp, so that part
+    of the box can hold nothing. The box slides out along its face's normal (in
+    steps of :data:`RIGID_PAD_STEP`, at most :data:`RIGID_PAD_DEPTH`) until the
+    superellipsoids hold at most ``INTRUSION_WARN`` of its points. Whether any
+    pad moved; the move is noted under ``pad``."""
+    from wsgrasp.geometry import box_grid_points, points_in_superellipsoids
+    from wsgrasp.gripper import load_gripper
+    from wsgrasp.gripper.check import INTRUSION_WARN
+    from wsgrasp.spec import GripperDescription
+
+    data = scaffold.data
+    rigid = [f for f in data["fingers"] if not f["joints"]]
+    if not rigid:
+        return False
+    model = load_gripper(str(yaml_path))
+    desc = GripperDescription.model_validate(data)
+    kin = load_kinematics(Path(yaml_path).parent / desc.urdf, desc.name)
+    posture = dict(desc.pregrasp)
+    # where the moving pads stand open: the side the rigid pad faces
+    moving = [
+        kin.chain_poses(desc.base_link, f.pad.link, posture)
+        @ np.append(f.pad.center, 1)
+        for f in desc.fingers
+        if f.joints
+    ]
+    towards = np.mean([m[:3] for m in moving], axis=0)  # (3,) base frame
+    moved = False
+    for f in rigid:
+        pad = f["pad"]
+        T = np.asarray(kin.chain_poses(desc.base_link, pad["link"], posture))
+        centre = np.asarray(pad["center"], dtype=np.float64)
+        n_link = T[:3, :3].T @ (towards - (T[:3, :3] @ centre + T[:3, 3]))
+        k = int(np.argmax(np.abs(n_link)))
+        sign = float(np.sign(n_link[k]) or 1.0)
+        box = box_grid_points(centre, pad["size"], 5)  # (m, 3) link frame
+        shift = 0.0
+        while True:
+            pts = box.copy()
+            pts[:, k] += sign * shift
+            base = pts @ T[:3, :3].T + T[:3, 3]
+            inside = points_in_superellipsoids(
+                base, model.se_centers, model.se_semi_axes, model.se_exponent
+            )
+            if float(np.mean(inside)) <= INTRUSION_WARN:
+                break
+            if shift + RIGID_PAD_STEP > RIGID_PAD_DEPTH + 1e-12:
+                shift = 0.0  # the body swallows it whatever: the check says so
+                break
+            shift += RIGID_PAD_STEP
+        if shift > 0.0:
+            centre[k] += sign * shift
+            pad["center"] = _r(centre)
+            scaffold.notes["pad"] += (
+                f"; the rigid pad moved {shift * 1000:.1f} mm out along "
+                f"{'+' if sign > 0 else '-'}{'xyz'[k]}, off the body "
+                f"superellipsoid fitted round {pad['link']}, which stands proud "
+                "of the jaw's surface (object points inside it reject the grasp)"
+            )
+            moved = True
+    return moved
+
+
 def fit_sphere_count(scaffold: Scaffold, base_dir: Path) -> None:
     """Size ``spheres_per_finger`` (and the voxel) to the sampled workspaces: halve
     the voxel while a workspace is too thin for spheres, lower the count to what
     fits, raise it (up to :data:`MAX_SPHERES`) until the spheres cover
     :data:`TARGET_COVERAGE` of every workspace; note what was changed."""
     from wsgrasp.gripper._workspace import fill_spheres, sample_workspace
+    from wsgrasp.gripper.check import MIN_COVERAGE
     from wsgrasp.spec import GripperDescription
 
     data = scaffold.data
     note = scaffold.notes
-    for _ in range(3):
+    dense = False
+    for _ in range(4):
         desc = GripperDescription.model_validate(data)
         kin = load_kinematics(Path(base_dir) / desc.urdf, desc.name)
         spaces = [sample_workspace(kin, desc, f) for f in desc.fingers]
@@ -1929,14 +2049,28 @@ def fit_sphere_count(scaffold: Scaffold, base_dir: Path) -> None:
             for ws in spaces
         ]
         fewest = min(counts)
-        if fewest >= 3:
+        most = max(1, min(MAX_SPHERES, fewest // 3))  # the most spheres it may get
+        if fewest >= 3 and (dense or _covered(spaces, most, desc) >= MIN_COVERAGE):
             break
+        if not dense:  # first the pads a voxel apart along every edge
+            dense = _dense_pad_samples(data, kin, desc)
+            if dense:
+                note["pad"] += (
+                    "; a pad's points a voxel apart along each edge where one count "
+                    "for every edge left its sweep too sparse to close into a "
+                    "volume (pad.samples per edge x, y, z)"
+                )
+                continue
+            if fewest >= 3:
+                break
         data["workspace_voxel"] = max(0.0005, data["workspace_voxel"] / 2)
         data["min_sphere_radius"] = data["workspace_voxel"]
         note["workspace_voxel"] += (
             f"; halved to {data['workspace_voxel'] * 1000:.2f} mm (a workspace was "
             "too thin for spheres)"
         )
+        if dense:
+            _dense_pad_samples(data, kin, GripperDescription.model_validate(data))
     else:
         return  # the check will report it
     n = data["spheres_per_finger"]

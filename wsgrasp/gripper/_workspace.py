@@ -189,8 +189,12 @@ def sample_workspace(
     sizes = np.asarray(pad.size, dtype=np.float64)
     # a rigid jaw's workspace is its pad box: filled a voxel apart, as a moving
     # pad's sweep fills its workspace
-    per_edge = pad.samples if d else np.ceil(sizes / v).astype(np.int64) + 1
-    samples = n**d * int(np.prod(np.broadcast_to(per_edge, (3,))))
+    per_edge = (
+        np.broadcast_to(np.asarray(pad.samples, dtype=np.int64), (3,))
+        if d
+        else np.ceil(sizes / v).astype(np.int64) + 1
+    )
+    samples = n**d * int(np.prod(per_edge))
     if samples > MAX_WORKSPACE_SAMPLES and not d:
         raise GripperError(
             f"{where}: a rigid jaw's pad box of "
@@ -201,11 +205,11 @@ def sample_workspace(
             "a centimetre or so",
         )
     if samples > MAX_WORKSPACE_SAMPLES:
-        fit = max(2, int((MAX_WORKSPACE_SAMPLES / finger.pad.samples**3) ** (1 / d)))
+        fit = max(2, int((MAX_WORKSPACE_SAMPLES / np.prod(per_edge)) ** (1 / d)))
         raise GripperError(
             f"{where}: joint_samples {n} over {d} joints and pad.samples "
-            f"{finger.pad.samples} make {samples:,} pad points to compute, more "
-            f"than {MAX_WORKSPACE_SAMPLES:,}",
+            f"{_samples_text(pad.samples)} make {samples:,} pad points to compute, "
+            f"more than {MAX_WORKSPACE_SAMPLES:,}",
             hint=f"lower joint_samples to {fit} or less, or pad.samples",
         )
     q = grid_configurations(lower, upper, n)  # (n**d, d)
@@ -230,8 +234,10 @@ def sample_workspace(
     for axis in range(d):
         step = np.linalg.norm(np.diff(grid, axis=axis), axis=-1)
         gap = max(gap, float(step.max()))
-    if d and pad.samples > 1:
-        gap = max(gap, float(sizes.max()) / (pad.samples - 1))
+    if d:  # the pad's own spacing along each edge that has several points
+        spaced = (per_edge > 1) & (sizes > 0)
+        if spaced.any():
+            gap = max(gap, float(np.max(sizes[spaced] / (per_edge[spaced] - 1))))
     flat = pts.reshape(-1, 3)  # (K * P, 3)
     span = np.ptp(flat, axis=0)  # (3,)
     if float(span.max()) > MAX_FINGER_SPAN:
@@ -280,6 +286,13 @@ def sample_workspace(
         samples=n,
         pad_centers=pad_centers,
     )
+
+
+def _samples_text(samples: int | tuple[int, int, int]) -> str:
+    """``pad.samples`` as the YAML writes it."""
+    if isinstance(samples, int):
+        return str(samples)
+    return "[" + ", ".join(str(k) for k in samples) + "]"
 
 
 @dataclass

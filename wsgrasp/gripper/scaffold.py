@@ -21,7 +21,12 @@ from typing import Any
 from wsgrasp.default_specs import generic_spec_text
 from wsgrasp.errors import GripperError, WsgraspError
 from wsgrasp.gripper._approach import choose_approach
-from wsgrasp.gripper._guess import Scaffold, fit_sphere_count, guess_description
+from wsgrasp.gripper._guess import (
+    Scaffold,
+    clear_rigid_pads,
+    fit_sphere_count,
+    guess_description,
+)
 from wsgrasp.gripper._scaffold_urdf import (
     MESH_UNITS,
     copy_urdf,
@@ -449,6 +454,11 @@ def _write_package(
             scaffold.build_error = str(exc)
         else:
             report = _refit_ellipsoids(scaffold, yaml_path, header, report)
+            if any(p.field == "ellipsoids" for p in report.problems) and (
+                clear_rigid_pads(scaffold, yaml_path)
+            ):
+                yaml_path.write_text(render_yaml(scaffold, header))
+                report = check_gripper(str(yaml_path))
             lines = [
                 f"`wsgrasp gripper check` on this guess: {p.severity}: {p.message} "
                 f"(field {p.field}; fix: {p.fix})"
