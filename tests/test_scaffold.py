@@ -134,6 +134,29 @@ def test_a_plugin_from_a_robots_urdf_carries_the_gripper_alone(tmp_path):
     assert load_gripper(str(yaml_path)).num_fingers == 2
 
 
+def test_the_arm_left_out_keeps_simulator_elements_whole(tmp_path):
+    """A robot's URDF with Gazebo elements named like URDF tags
+    (``<joint:hinge>`` between two arm links, as in the PR2's URDF): leaving the
+    arm out removes the URDF joints and links only, and the copy stays valid
+    XML."""
+    import xml.etree.ElementTree as ET
+
+    gazebo = (
+        '<gazebo reference="arm_2"><joint:hinge name="arm_tip_hinge">'
+        "<body1>arm_1</body1><body2>arm_2</body2><axis>0 0 1</axis>"
+        "</joint:hinge><linkName>arm_2</linkName></gazebo>"
+    )
+    robot = _on_arm(6).replace(
+        '<robot name="robot">',
+        '<robot name="robot" xmlns:joint="http://example.org/joint">' + gazebo,
+    )
+    urdf = _write(tmp_path, robot, "robot.urdf")
+    yaml_path, _ = scaffold_plugin("armjaw", urdf, tmp_path / "out")
+    copy = (yaml_path.parent / "armjaw.urdf").read_text()
+    ET.fromstring(copy)
+    assert "<joint:hinge" in copy and "arm_joint_1" not in copy
+
+
 def test_a_robot_with_two_grippers_or_a_rigid_tool_is_refused_clearly(tmp_path):
     """Two jaws on two arms of one torso: one message naming both; an arm whose
     tool has no finger joints: one message saying so."""

@@ -31,16 +31,19 @@ __all__ = [
 MESH_UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 #: a single mesh larger than this (m) is taken to be in other units than metres
 MAX_MESH_EXTENT = 1.0
-_MESH_TAG = re.compile(r"<mesh\b[^>]*>", re.S)
+#: a tag's name ends at white space, '/' or '>': ``<joint`` does not open
+#: ``<joint:hinge>`` (a Gazebo element in the PR2's URDF) or ``<jointName>``
+_END = r"(?=[\s/>])"
+_MESH_TAG = re.compile(rf"<mesh{_END}[^>]*>", re.S)
 _FILENAME = re.compile(r"""filename\s*=\s*(["'])(.*?)\1""", re.S)
 _SCALE = re.compile(r"""scale\s*=\s*(["'])(.*?)\1""", re.S)
-_JOINT = re.compile(r"<joint\b[^>]*?(?<!/)>.*?</joint\s*>", re.S)
+_JOINT = re.compile(rf"<joint{_END}[^>]*?(?<!/)>.*?</joint\s*>", re.S)
 _NAME = re.compile(r"""\bname\s*=\s*(["'])(.*?)\1""", re.S)
-_LIMIT = re.compile(r"<limit\b[^>]*>", re.S)
-_VISUAL = re.compile(r"<visual\b[^>]*?(?<!/)>.*?</visual\s*>", re.S)
-_LINK = re.compile(r"<link\b[^>]*?/>|<link\b[^>]*?(?<!/)>.*?</link\s*>", re.S)
-_CHILD = re.compile(r"""<child\b[^>]*?\blink\s*=\s*(["'])(.*?)\1""", re.S)
-_PARENT = re.compile(r"""<parent\b[^>]*?\blink\s*=\s*(["'])(.*?)\1""", re.S)
+_LIMIT = re.compile(rf"<limit{_END}[^>]*>", re.S)
+_VISUAL = re.compile(rf"<visual{_END}[^>]*?(?<!/)>.*?</visual\s*>", re.S)
+_LINK = re.compile(rf"<link{_END}[^>]*?/>|<link{_END}[^>]*?(?<!/)>.*?</link\s*>", re.S)
+_CHILD = re.compile(rf"""<child{_END}[^>]*?\blink\s*=\s*(["'])(.*?)\1""", re.S)
+_PARENT = re.compile(rf"""<parent{_END}[^>]*?\blink\s*=\s*(["'])(.*?)\1""", re.S)
 
 
 def _mesh_uses(text: str) -> dict[str, list[tuple[str, bool]]]:
@@ -346,7 +349,17 @@ def prune_urdf(urdf: Path, keep: set[str]) -> tuple[list[str], list[str]]:
             return m.group(0)
         return m.group(0) if {child.group(2), parent.group(2)} <= keep else ""
 
-    text = _JOINT.sub(joint, _LINK.sub(link, text))
+    pruned = _JOINT.sub(joint, _LINK.sub(link, text))
+    try:
+        ET.fromstring(pruned)
+    except ET.ParseError as exc:
+        raise GripperError(
+            f"URDF {urdf.name}: leaving the arm's links out of the copy made "
+            f"invalid XML ({exc})",
+            hint="scaffold from the gripper's own URDF (and report the URDF to "
+            "wsgrasp: the copy should stay valid)",
+        ) from None
+    text = pruned
     urdf.write_text(text)
     deleted = []
     for name in sorted(before - set(_mesh_uses(text))):
