@@ -642,3 +642,25 @@ def test_pad_samples_per_edge_validate_and_match_one_count(tmp_path):
         data["fingers"][0]["pad"]["samples"] = bad
         with pytest.raises((SpecError, ValueError)):
             GripperDescription.model_validate(data)
+
+
+def test_finger_names_come_from_the_words_the_link_names_do_not_share():
+    """Finger names are the words of each distal link's name that the others
+    lack; where a differing word appears in every name at another place (a
+    right gripper's left and right fingertips), the words that differ at their
+    place."""
+    from wsgrasp.gripper._guess import _finger_names
+
+    assert _finger_names(["rh_ffdistal", "rh_thdistal"]) == ["ffdistal", "thdistal"]
+    assert _finger_names(["finger_1_link_3", "finger_middle_link_3"]) == [
+        "finger1",
+        "middle",
+    ]
+    assert _finger_names(
+        ["gripper_right_fingertip_left_link", "gripper_right_fingertip_right_link"]
+    ) == ["left", "right"]
+    assert _finger_names(["r_gripper_l_finger_tip", "r_gripper_r_finger_tip"]) == [
+        "l",
+        "r",
+    ]
+    assert _finger_names(["tip", "tip"]) == ["finger1", "finger2"]

@@ -228,12 +228,23 @@ def _snap(v: Array, what: str) -> tuple[Array, str]:
 
 
 def _finger_names(links: list[str]) -> list[str]:
-    """Short, unique finger names from the distal link names."""
+    """Short, unique finger names from the distal link names: the words of each
+    name that not every name has; where that leaves a name empty or two alike
+    (``gripper_right_fingertip_left_link`` and ``..._right_link``: "right" is in
+    both), the words that differ at their place in names of as many words."""
     tokens = [re.split(r"[_\-.]", link.lower()) for link in links]
     common = set(tokens[0]).intersection(*tokens[1:]) if len(tokens) > 1 else set()
+    rests = [[t for t in toks if t and t not in common] for toks in tokens]
+    if len({len(t) for t in tokens}) == 1 and (
+        not all(rests) or len({tuple(r) for r in rests}) != len(rests)
+    ):
+        same = [len(set(column)) == 1 for column in zip(*tokens, strict=True)]
+        rests = [
+            [t for t, s in zip(toks, same, strict=True) if t and not s]
+            for toks in tokens
+        ]
     names = []
-    for i, toks in enumerate(tokens):
-        rest = [t for t in toks if t and t not in common]
+    for i, rest in enumerate(rests):
         name = "_".join(rest) if rest else f"finger{i + 1}"
         if name[0].isdigit():
             name = f"finger{name}"
