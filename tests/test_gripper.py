@@ -344,3 +344,34 @@ def test_a_body_split_frees_the_workspace_its_box_swallows():
     halves = group_links(body, 2, workspace + [0.0, 0.0, 0.3], cell)
     cut = np.median(points[:, 2])
     assert sorted(float(g[:, 2].max()) <= cut for g in halves) == [False, True]
+
+
+def test_an_l_shaped_link_round_a_workspace_is_fitted_as_two():
+    """A link shaped as an L round a finger's workspace (a jaw plate and the
+    carriage it stands on, in one link), among as many links as superellipsoids:
+    it is fitted as two groups, so no box holds the workspace in its corner; a
+    straight link beside the same workspace stays whole."""
+    from wsgrasp.gripper._body import BodySamples, _box, _inside_box, group_links
+
+    rng = np.random.default_rng(1)
+    block = rng.uniform([0.0, -0.02, 0.0], [0.1, 0.02, 0.02], (500, 3))
+    plate = rng.uniform([0.0, -0.02, 0.02], [0.01, 0.02, 0.12], (700, 3))
+    small = rng.uniform([0.3, -0.01, 0.0], [0.32, 0.01, 0.02], (100, 3))
+    other = rng.uniform([0.33, -0.01, 0.0], [0.35, 0.01, 0.02], (100, 3))
+    points = np.concatenate([block, plate, small, other])
+    link = np.repeat([0, 1, 2], [1200, 100, 100])
+    body = BodySamples(points, link, ["jaw", "a", "b"])
+    lo, hi = [0.02, -0.015, 0.03], [0.08, 0.015, 0.08]
+    workspace = rng.uniform(lo, hi, (400, 3))
+    cell = float(np.prod(np.subtract(hi, lo))) / len(workspace)
+    groups = group_links(body, 3, workspace, cell)
+    assert sum(len(g) for g in groups) == len(points)
+    assert all(_inside_box(workspace, *_box(g)) == 0 for g in groups)
+    # the plate alone, beside the workspace: one group, as it was
+    straight = BodySamples(
+        np.concatenate([plate, small, other]),
+        np.repeat([0, 1, 2], 100 * np.array([7, 1, 1])),
+        ["jaw", "a", "b"],
+    )
+    kept = group_links(straight, 3, workspace, cell)
+    assert sorted(len(g) for g in kept) == [100, 100, 700]
