@@ -664,3 +664,24 @@ def test_finger_names_come_from_the_words_the_link_names_do_not_share():
         "r",
     ]
     assert _finger_names(["tip", "tip"]) == ["finger1", "finger2"]
+
+
+def test_a_urdf_with_undeclared_namespace_prefixes_is_read(tmp_path):
+    """A Drake URDF's ``<drake:collision_filter_group>`` without an ``xmlns:drake``
+    declaration (which ROS's and Drake's parsers accept): it scaffolds and
+    builds; a URDF that is not XML is still refused naming the file."""
+    from wsgrasp.gripper import load_gripper
+    from wsgrasp.gripper._urdf import load_kinematics
+
+    drake = (
+        '<drake:collision_filter_group name="fingers">'
+        '<drake:member link="left_finger"/><drake:member link="right_finger"/>'
+        "</drake:collision_filter_group></robot>"
+    )
+    urdf = _write(tmp_path, jaw_urdf().replace("</robot>", drake), "drake.urdf")
+    assert set(load_kinematics(urdf, "jaw").links) >= {"left_finger", "right_finger"}
+    yaml_path, _ = scaffold_plugin("drakejaw", urdf, tmp_path / "pkg")
+    assert load_gripper(str(yaml_path)).num_fingers == 2
+    broken = _write(tmp_path, jaw_urdf().replace("</robot>", "<link>"), "bad.urdf")
+    with pytest.raises(GripperError, match="not valid XML"):
+        load_kinematics(broken, "jaw")

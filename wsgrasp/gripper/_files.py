@@ -58,10 +58,10 @@ def _missing_mesh(urdf: Path) -> str | None:
     """The first collision mesh of ``urdf`` that is not found (what the build
     refuses; a missing visual mesh only warns), as a sentence; None when every
     one is there or the file does not parse (the build says why)."""
-    from wsgrasp.gripper._urdf import resolve_mesh
+    from wsgrasp.gripper._urdf import parse_xml, resolve_mesh
 
     try:
-        root = ET.fromstring(urdf.read_bytes())
+        root = parse_xml(urdf.read_bytes())
     except (ET.ParseError, OSError):
         return None
     folder = urdf.parent

@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wsgrasp.errors import GripperError
-from wsgrasp.gripper._urdf import load_mesh, resolve_mesh
+from wsgrasp.gripper._urdf import load_mesh, parse_xml, resolve_mesh
 
 __all__ = [
     "MAX_MESH_EXTENT",
@@ -52,7 +52,7 @@ def _mesh_uses(text: str) -> dict[str, list[tuple[str, bool]]]:
     collision element, or a visual one of a link without collision elements)."""
     out: dict[str, list[tuple[str, bool]]] = {}
     try:
-        root = ET.fromstring(text)
+        root = parse_xml(text.encode())
     except ET.ParseError:
         return out
     for link in root.iter("link"):
@@ -277,7 +277,7 @@ def copy_urdf(
 def unlimited_continuous(path: Path) -> list[str]:
     """Continuous joints without ``<limit lower upper>``."""
     try:
-        root = ET.parse(path).getroot()
+        root = parse_xml(path.read_bytes())
     except ET.ParseError:
         return []
     out = []
@@ -351,7 +351,7 @@ def prune_urdf(urdf: Path, keep: set[str]) -> tuple[list[str], list[str]]:
 
     pruned = _JOINT.sub(joint, _LINK.sub(link, text))
     try:
-        ET.fromstring(pruned)
+        parse_xml(pruned.encode())
     except ET.ParseError as exc:
         raise GripperError(
             f"URDF {urdf.name}: leaving the arm's links out of the copy made "

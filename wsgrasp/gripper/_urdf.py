@@ -285,6 +285,33 @@ def _origin(o: Any) -> Array:
     return np.eye(4) if o is None else np.asarray(o, dtype=np.float64).copy()
 
 
+#: an element or attribute name with a namespace prefix: ``<drake:member``
+_PREFIX = re.compile(rb"(?:</?|\s)([A-Za-z_][\w.-]*):[A-Za-z_][\w.-]*")
+
+
+def parse_xml(text: bytes) -> ET.Element:
+    """The root element of a URDF's text, read as ROS and Drake read it: a
+    namespace prefix the file uses without declaring it (``<drake:member>`` in
+    a Drake URDF; tinyxml2 does not check them) is declared on the root for the
+    parse. Other XML errors raise ``ET.ParseError`` as they are."""
+    try:
+        return ET.fromstring(text)
+    except ET.ParseError as exc:
+        if "unbound prefix" not in str(exc):
+            raise
+        declared = set(re.findall(rb"xmlns:([A-Za-z_][\w.-]*)\s*=", text))
+        used = set(_PREFIX.findall(text)) - declared - {b"xmlns", b"xml"}
+        if not used:
+            raise
+        root = re.search(rb"<(?![?!])[A-Za-z_][\w.:-]*", text)
+        if root is None:
+            raise
+        names = b"".join(
+            b' xmlns:%s="urn:undeclared:%s"' % (p, p) for p in sorted(used)
+        )
+        return ET.fromstring(text[: root.end()] + names + text[root.end() :])
+
+
 def load_kinematics(
     path: Path, gripper: str, *, package_paths: Sequence[Path] = ()
 ) -> Kinematics:
@@ -319,7 +346,7 @@ def load_kinematics(
         raise fail("does not exist")
     text = path.read_bytes()
     try:
-        root = ET.fromstring(text)
+        root = parse_xml(text)
     except ET.ParseError as exc:
         raise fail(f"is not valid XML: {exc}") from None
     if root.tag != "robot":
