@@ -327,3 +327,30 @@ def test_a_rigid_jaws_concave_link_collides_as_its_convex_parts(tmp_path: Path):
         assert not trimesh.convex.convex_hull(verts).contains([corner])[0]
     # the moving jaw (a box here) is one geom as before
     assert 'name="g/jaw/0"' in g.body_xml
+
+
+def test_an_effort_too_weak_to_close_the_fingers_is_replaced(tmp_path: Path):
+    """A jaw whose URDF effort (0.1 N·m, within the plausible range) cannot turn
+    it against its joint's damping in the closing time: free of any object it
+    closes a fraction of the way, the default effort nearly all of it, so it is
+    driven with the default and the repair says how far each closed. With the
+    damping light enough for 0.1 N·m to close it, the URDF's effort stays."""
+    from dataclasses import replace
+
+    from urdf_factory import rigid_jaw_urdf
+
+    from wsgrasp.gripper.scaffold import scaffold_plugin
+    from wsgrasp.sim.gripper import EFFORT_SHORTFALL, free_closing
+
+    urdf = rigid_jaw_urdf().replace('effort="2"', 'effort="0.1"')
+    (tmp_path / "rj.urdf").write_text(urdf)
+    yaml_path, _ = scaffold_plugin("rj", tmp_path / "rj.urdf", tmp_path / "pkg")
+    stiff = replace(SimParams(), damping_revolute=0.3)
+    g = load_sim_gripper(str(yaml_path), stiff)
+    assert g.efforts["jaw_joint"] == (stiff.effort_revolute, "N·m", "default")
+    (fix,) = [r for r in g.repairs if r.kind == "effort"]
+    assert fix.item == "jaw_joint" and "effort 0.1 N·m closes the finger" in fix.problem
+    assert free_closing(g, stiff)[0] > 0.9
+    light = load_sim_gripper(str(yaml_path), SimParams())
+    assert light.efforts["jaw_joint"] == (0.1, "N·m", "urdf")
+    assert free_closing(light, SimParams())[0] > 1.0 - EFFORT_SHORTFALL

@@ -34,7 +34,9 @@ Finger efforts
     (0.1-200 N·m, 1-2000 N: from a small servo finger to an industrial
     gripper); outside (0, a missing value, 1000 or 1e6 written as "unlimited"),
     ``effort_revolute`` (5 N·m) or ``effort_prismatic`` (100 N, the Franka
-    hand's jaw).
+    hand's jaw). A URDF effort within the range but below that default which
+    cannot close its own fingers is replaced too
+    (``wsgrasp.sim.gripper.EFFORT_SHORTFALL``).
 
 Mimic joints
     A mimic joint moves through its leader's range mapped by the multiplier and

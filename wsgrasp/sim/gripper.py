@@ -32,6 +32,7 @@ from wsgrasp._names import is_gripper_path
 from wsgrasp.errors import SimulationError
 from wsgrasp.geometry import JOINT_FIXED, JOINT_PRISMATIC
 from wsgrasp.gripper._urdf import Joint, Kinematics, Shape, load_kinematics, shape_mesh
+from wsgrasp.sim._mujoco import require_mujoco
 from wsgrasp.sim._repairs import (
     MIN_THICKNESS,
     Repair,
@@ -329,7 +330,107 @@ def sim_gripper_from_files(
     gripper.actuator_xml = "\n".join(
         _actuator(j, gripper.gains, gripper.efforts[j.name][0]) for j in actuated
     )
+    weak = _weak_efforts(gripper, actuated, p)
+    if weak:
+        gripper.repairs += weak
+        gripper.actuator_xml = "\n".join(
+            _actuator(j, gripper.gains, gripper.efforts[j.name][0]) for j in actuated
+        )
     return gripper
+
+
+#: a joint whose URDF effort, free of any object, leaves it this fraction of its
+#: travel from ``pregrasp`` to ``closed`` short of where the default effort takes
+#: it is driven with the default: the effort cannot move the finger's own
+#: linkage (TIAGo Pro's gripper, 0.1 N·m on a four-bar of six joints, stops 40 %
+#: of the way; 5 N·m closes it 99 %)
+EFFORT_SHORTFALL = 0.2
+
+
+def _default_effort(j: Joint, p: SimParams) -> float:
+    return p.effort_prismatic if j.kind == JOINT_PRISMATIC else p.effort_revolute
+
+
+def _weak_efforts(
+    gripper: SimGripper, actuated: list[Joint], p: SimParams
+) -> list[Repair]:
+    """Close ``gripper`` free of any object with the URDF's efforts, and with the
+    default effort on each joint whose URDF effort is below it; each such joint
+    that the default closes :data:`EFFORT_SHORTFALL` further gets the default in
+    ``gripper.efforts`` and a repair saying how far each closed it."""
+    low = [
+        j
+        for j in actuated
+        if gripper.efforts[j.name][2] == "urdf"
+        and gripper.efforts[j.name][0] < _default_effort(j, p)
+    ]
+    if not low:
+        return []
+    try:
+        require_mujoco()
+    except SimulationError:
+        return []  # a trial says that mujoco is missing
+    own = free_closing(gripper, p)
+    strong = SimGripper(**{**gripper.__dict__, "efforts": dict(gripper.efforts)})
+    for j in low:
+        strong.efforts[j.name] = (_default_effort(j, p), *gripper.efforts[j.name][1:])
+    strong.actuator_xml = "\n".join(
+        _actuator(j, strong.gains, strong.efforts[j.name][0]) for j in actuated
+    )
+    default = free_closing(strong, p)
+    repairs = []
+    for j in low:
+        i = gripper.actuated.index(j.name)
+        if default[i] - own[i] <= EFFORT_SHORTFALL:
+            continue
+        effort, unit, _ = gripper.efforts[j.name]
+        gripper.efforts[j.name] = (_default_effort(j, p), unit, "default")
+        kind = "prismatic" if j.kind == JOINT_PRISMATIC else "revolute"
+        repairs.append(
+            Repair(
+                j.name,
+                "effort",
+                f"effort {effort:g} {unit} closes the finger {own[i]:.0%} of the "
+                f"way to closed, free of any object (the default effort: "
+                f"{default[i]:.0%})",
+                f"{_default_effort(j, p):g} {unit}, the default for a {kind} "
+                "finger joint",
+            )
+        )
+    return repairs
+
+
+def free_closing(gripper: SimGripper, p: SimParams) -> Array:
+    """How far each actuated joint of ``gripper`` closes ``(A,)``, held in the
+    air with nothing between its fingers, its targets ramped from ``pregrasp``
+    to ``closed`` as a trial ramps them: 0 at ``pregrasp``, 1 at ``closed``."""
+    from wsgrasp.sim.objects import Part, SimObject
+    from wsgrasp.sim.scene import build_scene
+
+    mujoco = require_mujoco()
+    # the scene needs an object: a small ball on the table, far from the gripper
+    scene = build_scene(
+        SimObject("probe", [Part("sphere", (0.005,))], 0.01), gripper, p
+    )
+    m, d = scene.model, scene.data
+    assert scene.gripper_qpos is not None
+    mujoco.mj_resetData(m, d)
+    d.qpos[scene.object_qpos] = [0.2, 0.2, 0.005, 1.0, 0.0, 0.0, 0.0]
+    d.qpos[scene.gripper_qpos] = 0.0
+    d.qpos[scene.gripper_qpos][2] = d.ctrl[2] = 0.5  # half a metre above the table
+    for jn, v in gripper.qpos_pregrasp.items():
+        d.qpos[scene.joint_qpos[jn]] = v
+    d.ctrl[6:] = gripper.pregrasp
+    mujoco.mj_forward(m, d)
+    n = max(1, int(round(p.close_time / p.timestep)))
+    for i in range(1, n + 1):
+        d.ctrl[6:] = gripper.pregrasp + (gripper.closed - gripper.pregrasp) * (i / n)
+        mujoco.mj_step(m, d)
+    mujoco.mj_step(m, d, nstep=max(1, int(round(p.close_wait / p.timestep))))
+    q = np.array([d.qpos[scene.joint_qpos[jn]] for jn in gripper.actuated])
+    span = gripper.closed - gripper.pregrasp
+    moves = np.abs(span) > 1e-9
+    return np.where(moves, (q - gripper.pregrasp) / np.where(moves, span, 1.0), 1.0)
 
 
 # --------------------------------------------------------------------------------
