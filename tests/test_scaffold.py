@@ -663,6 +663,10 @@ def test_finger_names_come_from_the_words_the_link_names_do_not_share():
         "l",
         "r",
     ]
+    assert _finger_names(["/left_finger_link", "/right_finger_link"]) == [
+        "left",
+        "right",
+    ]
     assert _finger_names(["tip", "tip"]) == ["finger1", "finger2"]
 
 
@@ -685,3 +689,26 @@ def test_a_urdf_with_undeclared_namespace_prefixes_is_read(tmp_path):
     broken = _write(tmp_path, jaw_urdf().replace("</robot>", "<link>"), "bad.urdf")
     with pytest.raises(GripperError, match="not valid XML"):
         load_kinematics(broken, "jaw")
+
+
+def test_a_link_turned_only_by_an_unlimited_continuous_joint_is_no_finger(tmp_path):
+    """A motor's horn on a continuous joint without limits beside a jaw's two
+    fingers (Interbotix arms' grippers): not a finger, its joint held at 0 with
+    a warning; a finger that such a joint moves is still refused."""
+    horn = (
+        '<link name="horn"><collision><geometry><box size="0.02 0.02 0.01"/>'
+        "</geometry></collision></link>"
+        '<joint name="horn_joint" type="continuous"><parent link="palm"/>'
+        '<child link="horn"/><origin xyz="0 0 -0.01"/><axis xyz="0 0 1"/></joint>'
+        "</robot>"
+    )
+    urdf = _write(tmp_path, jaw_urdf().replace("</robot>", horn), "horn.urdf")
+    sc = guess_description(urdf, "jaw")
+    assert [f["pad"]["link"] for f in sc.data["fingers"]] == [
+        "left_finger",
+        "right_finger",
+    ]
+    assert "horn" in sc.notes["fingers"] and "without limits" in sc.notes["fingers"]
+    assert any("horn_joint" in w and "held at 0" in w for w in sc.warnings)
+    with pytest.raises(GripperError, match="moves a finger"):
+        guess_description(_write(tmp_path, jaw_urdf(continuous=True)), "jaw")

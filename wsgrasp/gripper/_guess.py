@@ -232,7 +232,7 @@ def _finger_names(links: list[str]) -> list[str]:
     name that not every name has; where that leaves a name empty or two alike
     (``gripper_right_fingertip_left_link`` and ``..._right_link``: "right" is in
     both), the words that differ at their place in names of as many words."""
-    tokens = [re.split(r"[_\-.]", link.lower()) for link in links]
+    tokens = [re.split(r"[_\-./:]", link.lower()) for link in links]
     common = set(tokens[0]).intersection(*tokens[1:]) if len(tokens) > 1 else set()
     rests = [[t for t in toks if t and t not in common] for toks in tokens]
     if len({len(t) for t in tokens}) == 1 and (
@@ -551,6 +551,14 @@ def _fingers(u: _Urdf) -> dict[str, list[str]]:
             f"a joint) below {u.base!r}",
             hint="give the finger links <collision> geometry",
         )
+    # a link that only continuous joints without limits turn spins (a motor's
+    # horn, a wheel): no fingertip, where two fingers are left besides
+    unlimited = set(unlimited_continuous(u.path))
+    spinning = [k for k in distal if masters[k] and set(masters[k]) <= unlimited]
+    if spinning and len(distal) - len(spinning) >= 2:
+        distal = [k for k in distal if k not in spinning]
+    else:
+        spinning = []
     u.notes["fingers"] = (
         "one finger per distal link (a link with geometry that a joint moves and "
         "that carries no further moving link): "
@@ -566,6 +574,12 @@ def _fingers(u: _Urdf) -> dict[str, list[str]]:
             "across (placeholders on an actuator's or a sensor's link): "
             + ", ".join(tiny)
             if tiny
+            else ""
+        )
+        + (
+            "; skipped, turned only by continuous joints without limits (a "
+            "motor's horn, a wheel): " + ", ".join(spinning)
+            if spinning
             else ""
         )
     )
