@@ -712,3 +712,109 @@ def test_a_link_turned_only_by_an_unlimited_continuous_joint_is_no_finger(tmp_pa
     assert any("horn_joint" in w and "held at 0" in w for w in sc.warnings)
     with pytest.raises(GripperError, match="moves a finger"):
         guess_description(_write(tmp_path, jaw_urdf(continuous=True)), "jaw")
+
+
+def _xacro_package(root):
+    """A ROS description package holding a jaw as xacro: a macro for the
+    fingers in a file it includes, an argument for the finger length, a palm
+    mesh named by ``package://`` and a finger mesh by ``$(find ...)``."""
+    import trimesh
+
+    pkg = root / "jaw_description"
+    (pkg / "urdf").mkdir(parents=True)
+    (pkg / "meshes").mkdir()
+    (pkg / "package.xml").write_text(
+        "<package format='2'><name>jaw_description</name></package>"
+    )
+    trimesh.creation.box(extents=(0.04, 0.16, 0.05)).export(pkg / "meshes/palm.stl")
+    trimesh.creation.box(extents=(0.02, 0.015, 0.05)).export(pkg / "meshes/finger.stl")
+    (pkg / "urdf" / "finger.xacro").write_text(
+        """<?xml version="1.0"?>
+<robot xmlns:xacro="http://www.ros.org/wiki/xacro">
+  <xacro:macro name="finger" params="side sign length">
+    <link name="${side}_finger"><collision>
+      <origin xyz="0 ${sign * 0.0075} ${length / 2}"/>
+      <geometry><mesh filename="$(find jaw_description)/meshes/finger.stl"
+        scale="1 1 ${length / 0.05}"/></geometry>
+    </collision></link>
+    <joint name="${side}_joint" type="prismatic">
+      <parent link="palm"/><child link="${side}_finger"/>
+      <origin xyz="0 ${sign * 0.005} 0.05"/><axis xyz="0 ${sign} 0"/>
+      <limit lower="0" upper="0.04" effort="1" velocity="1"/>
+      <xacro:if value="${sign &lt; 0}"><mimic joint="left_joint"/></xacro:if>
+    </joint>
+  </xacro:macro>
+</robot>
+"""
+    )
+    (pkg / "urdf" / "jaw.urdf.xacro").write_text(
+        """<?xml version="1.0"?>
+<robot name="jaw" xmlns:xacro="http://www.ros.org/wiki/xacro">
+  <xacro:arg name="finger_length" default="0.05"/>
+  <xacro:include filename="finger.xacro"/>
+  <link name="palm"><collision><origin xyz="0 0 0.025"/>
+    <geometry><mesh filename="package://jaw_description/meshes/palm.stl"/></geometry>
+  </collision></link>
+  <xacro:finger side="left" sign="1" length="$(arg finger_length)"/>
+  <xacro:finger side="right" sign="-1" length="$(arg finger_length)"/>
+</robot>
+"""
+    )
+    return pkg / "urdf" / "jaw.urdf.xacro"
+
+
+def test_a_xacro_file_is_expanded_with_its_arguments(tmp_path):
+    """`gripper new` on a ROS package's .urdf.xacro: expanded (includes, macros,
+    ``$(find)``, ``package://``), its ``--xacro-arg`` applied, the meshes copied
+    into the package, and a model that builds; the expansion is named in the
+    YAML. A bad argument, or an argument for a plain URDF, is refused."""
+    pytest.importorskip("xacrodoc")
+    from wsgrasp.gripper import load_gripper
+    from wsgrasp.gripper._scaffold_urdf import xacro_args
+
+    source = _xacro_package(tmp_path / "src")
+    yaml_path, sc = scaffold_plugin(
+        "xjaw",
+        source,
+        tmp_path / "pkg",
+        xacro_args=xacro_args(["finger_length:=0.06"]),
+    )
+    copy = (yaml_path.parent / "xjaw.urdf").read_text()
+    assert "xacro" not in copy and "$(find" not in copy
+    assert sorted(p.name for p in (yaml_path.parent / "meshes").iterdir()) == [
+        "finger.stl",
+        "palm.stl",
+    ]
+    assert 'scale="1 1 1.2' in copy  # the argument reached the macro
+    assert "expanded from jaw.urdf.xacro by xacro with finger_length:=0.06" in (
+        " ".join(yaml_path.read_text().replace("#", " ").split())
+    )
+    assert [f["joints"] for f in sc.data["fingers"]] == [["left_joint"]] * 2
+    assert load_gripper(str(yaml_path)).num_fingers == 2
+    with pytest.raises(GripperError, match="NAME:=VALUE"):
+        xacro_args(["finger_length=0.06"])
+    with pytest.raises(GripperError, match="no xacro file"):
+        scaffold_plugin(
+            "plain",
+            _write(tmp_path, jaw_urdf()),
+            tmp_path / "plain",
+            xacro_args={"a": "1"},
+        )
+    broken = source.parent / "broken.urdf.xacro"
+    broken.write_text(source.read_text().replace("finger.xacro", "missing.xacro"))
+    with pytest.raises(GripperError, match="does not expand"):
+        scaffold_plugin("broken", broken, tmp_path / "broken")
+    assert not (tmp_path / "broken").exists()
+
+
+def test_a_xacro_file_without_xacrodoc_names_the_extra(tmp_path, monkeypatch):
+    """Without xacrodoc installed, a xacro file is refused with the extra that
+    installs it, and no package is left behind."""
+    import sys
+
+    monkeypatch.setitem(sys.modules, "xacrodoc", None)
+    source = _xacro_package(tmp_path / "src")
+    with pytest.raises(GripperError, match="needs xacrodoc") as info:
+        scaffold_plugin("xjaw", source, tmp_path / "pkg")
+    assert "wsgrasp[xacro]" in info.value.hint
+    assert not (tmp_path / "pkg").exists()

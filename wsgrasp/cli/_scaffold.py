@@ -26,7 +26,9 @@ def register(app: typer.Typer) -> None:
 @gripper_app.command("new")
 def new(
     name: str = typer.Argument(..., help="Gripper (and distribution) name."),
-    urdf: Path = typer.Option(..., "--urdf", help="The gripper's URDF."),
+    urdf: Path = typer.Option(
+        ..., "--urdf", help="The gripper's URDF, or a xacro file (.urdf.xacro)."
+    ),
     out: Path = typer.Option(..., "--out", "-o", help="Folder for the plugin package."),
     base_link: str | None = typer.Option(
         None, "--base-link", help="Link the arm holds (default: the URDF's root)."
@@ -43,9 +45,16 @@ def new(
         help="Folder holding ROS packages, for package:// URIs, like "
         "ROS_PACKAGE_PATH (repeatable).",
     ),
+    xacro_arg: list[str] = typer.Option(
+        [],
+        "--xacro-arg",
+        help="NAME:=VALUE for a xacro file's <xacro:arg> (repeatable).",
+    ),
     force: bool = typer.Option(False, "--force", help="Write into a non-empty --out."),
 ) -> None:
-    """Write a pip-installable plugin package for a gripper, guessed from its URDF."""
+    """Write a pip-installable plugin package for a gripper, guessed from its URDF
+    (or a xacro file, expanded first: the `xacro` extra)."""
+    from wsgrasp.gripper._scaffold_urdf import xacro_args
     from wsgrasp.gripper.scaffold import scaffold_plugin
 
     with err_console.status(f"scaffolding {name} from {urdf.name}"):
@@ -58,6 +67,7 @@ def new(
             mesh_units=mesh_units,
             force=force,
             package_paths=list(package_path),
+            xacro_args=xacro_args(list(xacro_arg)),
         )
     d = scaffold.data
     fingers = ", ".join(

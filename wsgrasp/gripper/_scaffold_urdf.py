@@ -6,6 +6,7 @@ out with a warning (only the collision geometry is needed).
 
 from __future__ import annotations
 
+import os
 import re
 import shutil
 import xml.etree.ElementTree as ET
@@ -22,9 +23,12 @@ __all__ = [
     "MAX_MESH_EXTENT",
     "MESH_UNITS",
     "copy_urdf",
+    "expand_xacro",
+    "is_xacro",
     "narrow_limits",
     "prune_urdf",
     "unlimited_continuous",
+    "xacro_args",
 ]
 
 #: unit name -> metres per unit, for ``--mesh-units``
@@ -102,6 +106,117 @@ def _drop_visuals(text: str, names: set[str]) -> str:
         return element
 
     return _VISUAL.sub(drop, text)
+
+
+#: file endings of a xacro file (``model.urdf.xacro``, ``model.xacro``)
+XACRO_SUFFIX = ".xacro"
+
+
+def is_xacro(path: Path) -> bool:
+    """Whether ``path`` is a xacro file: its name ends in ``.xacro``, or it
+    declares the xacro namespace."""
+    if path.name.lower().endswith(XACRO_SUFFIX):
+        return True
+    try:
+        with open(path, "rb") as f:
+            head = f.read(4096)
+    except OSError:
+        return False
+    return b"xmlns:xacro" in head
+
+
+def xacro_args(items: list[str]) -> dict[str, str]:
+    """``NAME:=VALUE`` strings (as xacro's command line takes them) as a dict.
+
+    Raises
+    ------
+    GripperError
+        An item without ``:=`` or without a name.
+    """
+    out: dict[str, str] = {}
+    for item in items:
+        key, sep, value = item.partition(":=")
+        if not sep or not key.strip():
+            raise GripperError(
+                f"xacro argument {item!r} is not NAME:=VALUE",
+                hint="write it as xacro takes it, e.g. --xacro-arg prefix:=left_",
+            )
+        out[key.strip()] = value
+    return out
+
+
+def expand_xacro(
+    path: Path,
+    out_dir: Path,
+    args: dict[str, str] | None = None,
+    package_paths: list[Path] | None = None,
+) -> Path:
+    """Expand a xacro file into a URDF in ``out_dir`` (named after it, ending in
+    ``.urdf``), with xacrodoc, as ROS's ``xacro`` would: ``args`` are its
+    ``<xacro:arg>`` values, ``$(find PKG)`` is the package folder found above
+    ``path`` (a ``package.xml`` naming it, or a folder of that name) or under
+    ``package_paths``. Mesh files it names that are found (relative to ``path``,
+    ``package://`` URIs, ``file://``) are written as absolute paths, so that the
+    expanded URDF reads them from anywhere.
+
+    Raises
+    ------
+    GripperError
+        xacrodoc is not installed, or the file does not expand.
+    """
+    try:
+        from xacrodoc import XacroDoc, packages
+    except ImportError:
+        raise GripperError(
+            f"{path.name} is a xacro file, and expanding it needs xacrodoc",
+            hint="pip install 'wsgrasp[xacro]', or expand it with ROS's xacro "
+            "and pass the URDF",
+        ) from None
+    found: dict[str, Path] = {}
+    for folder in [path.parent, *path.parent.parents]:
+        found.setdefault(folder.name, folder)
+    for root in package_paths or []:
+        if Path(root).is_dir():
+            for folder in sorted(Path(root).iterdir()):
+                if folder.is_dir():
+                    found.setdefault(folder.name, folder)
+    packages.update_package_cache({k: v for k, v in found.items() if k})
+    if package_paths:
+        packages.look_in([str(p) for p in package_paths])
+    here = os.getcwd()
+    try:  # xacro reads an include's relative path from the working folder
+        os.chdir(path.resolve().parent)
+        doc = XacroDoc.from_file(
+            path.resolve(), subargs=args or {}, resolve_packages=False
+        )
+        text = doc.to_urdf_string()
+    except Exception as exc:  # noqa: BLE001 - any xacro failure is the file's
+        raise GripperError(
+            f"xacro file {path.name} does not expand: {type(exc).__name__}: {exc}",
+            hint="pass its arguments with --xacro-arg NAME:=VALUE and the folders "
+            "holding the packages it names with --package-path",
+        ) from None
+    finally:
+        os.chdir(here)
+
+    def absolute(m: re.Match[str]) -> str:
+        tag = m.group(0)
+        name = _FILENAME.search(tag)
+        if name is None:
+            return tag
+        where = resolve_mesh(name.group(2), path.parent, package_paths or [])
+        if where is None:
+            return tag  # the copy reports it
+        return tag.replace(name.group(0), f'filename="{where.resolve()}"', 1)
+
+    text = _MESH_TAG.sub(absolute, text)
+    stem = path.name
+    for suffix in (XACRO_SUFFIX, ".urdf"):
+        if stem.lower().endswith(suffix):
+            stem = stem[: -len(suffix)]
+    dest = Path(out_dir) / f"{stem or 'robot'}.urdf"
+    dest.write_text(text)
+    return dest
 
 
 def copy_urdf(

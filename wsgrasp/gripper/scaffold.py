@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import re
 import shutil
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -30,6 +31,8 @@ from wsgrasp.gripper._guess import (
 from wsgrasp.gripper._scaffold_urdf import (
     MESH_UNITS,
     copy_urdf,
+    expand_xacro,
+    is_xacro,
     narrow_limits,
     prune_urdf,
 )
@@ -324,11 +327,13 @@ def scaffold_plugin(
     force: bool = False,
     check: bool = True,
     package_paths: list[Path] | None = None,
+    xacro_args: dict[str, str] | None = None,
 ) -> tuple[Path, Scaffold]:
     """Write a pip-installable gripper plugin package into ``out_dir``.
 
     ``mesh_dirs`` are extra folders holding mesh files; ``package_paths`` are
     folders holding ROS packages, for ``package://`` URIs (as ``ROS_PACKAGE_PATH``).
+    A xacro file is expanded first (:func:`expand_xacro`, with ``xacro_args``).
 
     Returns
     -------
@@ -359,16 +364,36 @@ def scaffold_plugin(
         )
     fresh = not out.exists()
     try:
-        return _write_package(
-            name,
-            Path(urdf),
-            out,
-            base_link,
-            mesh_dirs,
-            mesh_units,
-            check,
-            package_paths,
-        )
+        with tempfile.TemporaryDirectory(prefix="wsgrasp-xacro-") as tmp:
+            source, expanded = Path(urdf), None
+            if source.is_file() and is_xacro(source):
+                expanded = expand_xacro(source, Path(tmp), xacro_args, package_paths)
+            elif xacro_args:
+                raise GripperError(
+                    f"--xacro-arg given, but {source.name} is no xacro file",
+                    hint="leave --xacro-arg out for a URDF",
+                )
+            return _write_package(
+                name,
+                expanded or source,
+                out,
+                base_link,
+                mesh_dirs,
+                mesh_units,
+                check,
+                package_paths,
+                xacro_note=(
+                    f"expanded from {source.name} by xacro"
+                    + (
+                        " with "
+                        + ", ".join(f"{k}:={v}" for k, v in (xacro_args or {}).items())
+                        if xacro_args
+                        else ""
+                    )
+                    if expanded is not None
+                    else None
+                ),
+            )
     except BaseException:
         if fresh:  # leave nothing half-written behind
             shutil.rmtree(out, ignore_errors=True)
@@ -400,6 +425,7 @@ def _write_package(
     mesh_units: str | None,
     check: bool,
     package_paths: list[Path] | None = None,
+    xacro_note: str | None = None,
 ) -> tuple[Path, Scaffold]:
     module = module_name(name)
     pkg = out / module
@@ -429,7 +455,7 @@ def _write_package(
     narrow_limits(urdf_copy, scaffold.limits)
     fit_sphere_count(scaffold, pkg)
     choose_approach(scaffold, pkg)
-    header = []
+    header = [xacro_note] if xacro_note else []
     if mesh_notes:
         header.append("meshes copied: " + "; ".join(mesh_notes))
     if pruned:
