@@ -168,3 +168,33 @@ def test_cli_check_json_picture_and_exit_codes(tmp_path, capsys):
     assert main(["gripper", "check", str(bad)]) == 1
     text = capsys.readouterr().out
     assert "error:" in text and "[field: closed]" in text
+
+
+def test_a_collision_envelope_round_the_fingers_is_named(tmp_path):
+    """A palm whose collision geometry is an envelope drawn round the fingers
+    (as for arm motion planning): the check names the link and says to give it
+    its own shape, not to add superellipsoids; the same jaw without the
+    envelope has no such finding."""
+    from wsgrasp.gripper.scaffold import scaffold_plugin
+
+    envelope = (
+        '<collision><origin xyz="0 0 0.08"/><geometry>'
+        '<box size="0.06 0.2 0.08"/></geometry></collision></link>'
+    )
+    urdf = jaw_urdf().replace("</link>", envelope, 1)  # the palm is the first link
+    (tmp_path / "env.urdf").write_text(urdf)
+    yaml_path, _ = scaffold_plugin("env", tmp_path / "env.urdf", tmp_path / "pkg")
+    report = check_gripper(yaml_path, cache_dir=tmp_path / "cache")
+    found = [p for p in report.errors if p.field == "urdf"]
+    assert len(found) == 2 and all(
+        "link 'palm' itself holds" in p.message for p in found
+    )
+    assert "<collision> shapes of its own form" in found[0].fix
+    assert not [p for p in report.problems if p.field == "ellipsoids"]
+    (tmp_path / "plain.urdf").write_text(jaw_urdf())
+    plain, _ = scaffold_plugin("plain", tmp_path / "plain.urdf", tmp_path / "plain")
+    assert not [
+        p
+        for p in check_gripper(plain, cache_dir=tmp_path / "cache").problems
+        if p.field == "urdf"
+    ]

@@ -280,6 +280,45 @@ def _check_cloud(report: CheckReport) -> None:
         )
 
 
+def _enveloping_link(
+    kin: Any,
+    desc: Any,
+    finger: Any,
+    pts: NDArray[np.float64],
+    posture: dict[str, float],
+) -> tuple[str, float] | None:
+    """The link off ``finger``'s chain whose shapes (each as its convex hull, in
+    ``posture``) hold the largest fraction of the finger's workspace points
+    ``pts`` ``(W, 3)``, and that fraction, where it passes ``INTRUSION_ERROR``;
+    else None."""
+    import trimesh
+
+    from wsgrasp.gripper._urdf import shape_mesh
+
+    chain = {j.child for j in kin.chain(desc.base_link, finger.pad.link)}
+    chain.add(finger.pad.link)  # a rigid jaw's pad lies against its own link
+    poses = kin.link_poses(desc.base_link, posture)
+    best: tuple[str, float] | None = None
+    for link, shapes in kin.shapes.items():
+        if link in chain or link not in poses or not shapes or not len(pts):
+            continue
+        T = poses[link]
+        local = (pts - T[:3, 3]) @ T[:3, :3]  # (W, 3) in the link's frame
+        inside = np.zeros(len(pts), dtype=bool)
+        for shape in shapes:
+            hull = shape_mesh(shape).convex_hull
+            lo, hi = hull.bounds
+            near = np.flatnonzero(np.all((local >= lo) & (local <= hi), axis=1))
+            if len(near):
+                inside[near] |= trimesh.Trimesh(hull.vertices, hull.faces).contains(
+                    local[near]
+                )
+        frac = float(np.mean(inside))
+        if frac > INTRUSION_ERROR and (best is None or frac > best[1]):
+            best = (link, frac)
+    return best
+
+
 def _check_kinematics(report: CheckReport, desc: Any, base_dir: Path) -> None:
     from scipy.spatial import cKDTree
 
@@ -311,6 +350,29 @@ def _check_kinematics(report: CheckReport, desc: Any, base_dir: Path) -> None:
             )[0]
         )
 
+    # a link whose own shapes swallow a finger's workspace (a coarse envelope
+    # drawn round the fingers for arm motion planning): no superellipsoid count
+    # helps, the link's geometry must change
+    enveloped = {
+        finger.name: hit
+        for finger, pts in zip(desc.fingers, voxels, strict=True)
+        if (hit := _enveloping_link(kin, desc, finger, pts, pre)) is not None
+    }
+    for finger in desc.fingers:
+        if finger.name in enveloped:
+            link, frac = enveloped[finger.name]
+            _add(
+                report,
+                "error",
+                "urdf",
+                f"the geometry of link {link!r} itself holds {frac:.0%} of finger "
+                f"{finger.name}'s workspace (an envelope drawn round the fingers, "
+                "as for arm motion planning?): object points there reject every "
+                "grasp, whatever the superellipsoids",
+                f"give link {link!r} <collision> shapes of its own form (its "
+                "<visual> mesh, say) in the URDF, and the fingers theirs, then rerun "
+                "`wsgrasp gripper new ... --force`",
+            )
     for i, e in enumerate(model.se_centers):
         for finger, pts in zip(desc.fingers, voxels, strict=True):
             inside = points_in_superellipsoids(
@@ -329,6 +391,8 @@ def _check_kinematics(report: CheckReport, desc: Any, base_dir: Path) -> None:
                         "own_link": own,
                     }
                 )
+            if finger.name in enveloped:
+                continue  # said above, with the fix that helps
             if frac > (INTRUSION_ERROR if own else INTRUSION_WARN):
                 _add(
                     report,
