@@ -317,6 +317,17 @@ def test_mesh_geometry_is_loaded_scaled_and_hashed(tmp_path):
     assert_allclose(np.ptp(again.cloud[:, 0]), 0.10, atol=1e-6)
 
 
+def _l_round_a_workspace(rng):
+    """Surface samples of an L (a block 10 cm long and a plate standing on its
+    end), finger-workspace samples in its corner, and their voxel volume."""
+    block = rng.uniform([0.0, -0.02, 0.0], [0.1, 0.02, 0.02], (500, 3))
+    plate = rng.uniform([0.0, -0.02, 0.02], [0.01, 0.02, 0.12], (700, 3))
+    lo, hi = [0.02, -0.015, 0.03], [0.08, 0.015, 0.08]
+    workspace = rng.uniform(lo, hi, (400, 3))
+    cell = float(np.prod(np.subtract(hi, lo))) / len(workspace)
+    return block, plate, workspace, cell
+
+
 def test_a_body_split_frees_the_workspace_its_box_swallows():
     """One link shaped as an L (a block and a jaw plate standing on it, as a
     rigid jaw on its gripper's body) with a finger's workspace in the corner:
@@ -327,13 +338,9 @@ def test_a_body_split_frees_the_workspace_its_box_swallows():
     from wsgrasp.gripper._body import BodySamples, _box, _inside_box, group_links
 
     rng = np.random.default_rng(0)
-    block = rng.uniform([0.0, -0.02, 0.0], [0.1, 0.02, 0.02], (500, 3))
-    plate = rng.uniform([0.0, -0.02, 0.02], [0.01, 0.02, 0.12], (700, 3))
+    block, plate, workspace, cell = _l_round_a_workspace(rng)
     points = np.concatenate([block, plate])
     body = BodySamples(points, np.zeros(len(points), dtype=np.int64), ["jaw"])
-    lo, hi = [0.02, -0.015, 0.03], [0.08, 0.015, 0.08]
-    workspace = rng.uniform(lo, hi, (400, 3))
-    cell = float(np.prod(np.subtract(hi, lo))) / len(workspace)
     groups = group_links(body, 2, workspace, cell)
     assert sum(len(g) for g in groups) == len(points)
     assert all(_inside_box(workspace, *_box(g)) == 0 for g in groups)
@@ -354,16 +361,12 @@ def test_an_l_shaped_link_round_a_workspace_is_fitted_as_two():
     from wsgrasp.gripper._body import BodySamples, _box, _inside_box, group_links
 
     rng = np.random.default_rng(1)
-    block = rng.uniform([0.0, -0.02, 0.0], [0.1, 0.02, 0.02], (500, 3))
-    plate = rng.uniform([0.0, -0.02, 0.02], [0.01, 0.02, 0.12], (700, 3))
+    block, plate, workspace, cell = _l_round_a_workspace(rng)
     small = rng.uniform([0.3, -0.01, 0.0], [0.32, 0.01, 0.02], (100, 3))
     other = rng.uniform([0.33, -0.01, 0.0], [0.35, 0.01, 0.02], (100, 3))
     points = np.concatenate([block, plate, small, other])
     link = np.repeat([0, 1, 2], [1200, 100, 100])
     body = BodySamples(points, link, ["jaw", "a", "b"])
-    lo, hi = [0.02, -0.015, 0.03], [0.08, 0.015, 0.08]
-    workspace = rng.uniform(lo, hi, (400, 3))
-    cell = float(np.prod(np.subtract(hi, lo))) / len(workspace)
     groups = group_links(body, 3, workspace, cell)
     assert sum(len(g) for g in groups) == len(points)
     assert all(_inside_box(workspace, *_box(g)) == 0 for g in groups)
