@@ -2050,10 +2050,13 @@ def clear_rigid_pads(scaffold: Scaffold, yaml_path: Path) -> bool:
 
 
 def fit_sphere_count(scaffold: Scaffold, base_dir: Path) -> None:
-    """Size ``spheres_per_finger`` (and the voxel) to the sampled workspaces: halve
-    the voxel while a workspace is too thin for spheres, lower the count to what
-    fits, raise it (up to :data:`MAX_SPHERES`) until the spheres cover
-    :data:`TARGET_COVERAGE` of every workspace; note what was changed."""
+    """Size ``spheres_per_finger`` (and the pad samples and the voxel) to the
+    sampled workspaces: where a workspace is too thin for spheres, or the most
+    spheres it may get cover under ``MIN_COVERAGE`` of it, first sample the pads
+    a voxel apart along each edge (:func:`_dense_pad_samples`), then halve the
+    voxel while it stays too thin; lower the count to what fits, raise it (up to
+    :data:`MAX_SPHERES`) until the spheres cover :data:`TARGET_COVERAGE` of every
+    workspace; note what was changed."""
     from wsgrasp.gripper._workspace import fill_spheres, sample_workspace
     from wsgrasp.gripper.check import MIN_COVERAGE
     from wsgrasp.spec import GripperDescription
