@@ -818,3 +818,11 @@ def test_a_xacro_file_without_xacrodoc_names_the_extra(tmp_path, monkeypatch):
         scaffold_plugin("xjaw", source, tmp_path / "pkg")
     assert "wsgrasp[xacro]" in info.value.hint
     assert not (tmp_path / "pkg").exists()
+    # a URDF that xacro wrote keeps the namespace, and needs no expanding
+    written = jaw_urdf().replace(
+        '<robot name="jaw">',
+        '<robot name="jaw" xmlns:xacro="http://www.ros.org/wiki/xacro">',
+    )
+    plain = _write(tmp_path, written, "written.urdf")
+    yaml_path, _ = scaffold_plugin("written", plain, tmp_path / "written")
+    assert yaml_path.is_file()

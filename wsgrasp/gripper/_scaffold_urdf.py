@@ -113,16 +113,15 @@ XACRO_SUFFIX = ".xacro"
 
 
 def is_xacro(path: Path) -> bool:
-    """Whether ``path`` is a xacro file: its name ends in ``.xacro``, or it
-    declares the xacro namespace."""
+    """Whether ``path`` is a xacro file: its name ends in ``.xacro``, or it holds
+    xacro elements (``<xacro:...``; a URDF that xacro wrote often keeps the
+    namespace's declaration, and no element)."""
     if path.name.lower().endswith(XACRO_SUFFIX):
         return True
     try:
-        with open(path, "rb") as f:
-            head = f.read(4096)
+        return b"<xacro:" in path.read_bytes()
     except OSError:
         return False
-    return b"xmlns:xacro" in head
 
 
 def xacro_args(items: list[str]) -> dict[str, str]:
