@@ -821,7 +821,8 @@ def test_a_xacro_file_without_xacrodoc_names_the_extra(tmp_path, monkeypatch):
     # a URDF that xacro wrote keeps the namespace, and needs no expanding
     written = jaw_urdf().replace(
         '<robot name="jaw">',
-        '<robot name="jaw" xmlns:xacro="http://www.ros.org/wiki/xacro">',
+        '<robot name="jaw" xmlns:xacro="http://www.ros.org/wiki/xacro">'
+        '<!-- <xacro:include filename="jaw.xacro"/> -->',
     )
     plain = _write(tmp_path, written, "written.urdf")
     yaml_path, _ = scaffold_plugin("written", plain, tmp_path / "written")

@@ -114,14 +114,16 @@ XACRO_SUFFIX = ".xacro"
 
 def is_xacro(path: Path) -> bool:
     """Whether ``path`` is a xacro file: its name ends in ``.xacro``, or it holds
-    xacro elements (``<xacro:...``; a URDF that xacro wrote often keeps the
-    namespace's declaration, and no element)."""
+    xacro elements (``<xacro:...`` outside comments; a URDF that xacro wrote
+    often keeps the namespace's declaration, and the Robotiq 3F's keeps a macro
+    call in a comment)."""
     if path.name.lower().endswith(XACRO_SUFFIX):
         return True
     try:
-        return b"<xacro:" in path.read_bytes()
+        text = path.read_bytes()
     except OSError:
         return False
+    return b"<xacro:" in re.sub(rb"<!--.*?-->", b"", text, flags=re.S)
 
 
 def xacro_args(items: list[str]) -> dict[str, str]:
