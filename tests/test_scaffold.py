@@ -3,6 +3,8 @@ writes, and the clear errors on bad URDFs."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import yaml
@@ -827,3 +829,15 @@ def test_a_xacro_file_without_xacrodoc_names_the_extra(tmp_path, monkeypatch):
     plain = _write(tmp_path, written, "written.urdf")
     yaml_path, _ = scaffold_plugin("written", plain, tmp_path / "written")
     assert yaml_path.is_file()
+
+
+def test_a_xacro_file_given_by_a_relative_path_expands(tmp_path, monkeypatch):
+    """The xacro file named relative to the working folder, as on a command
+    line: expanded, and the working folder is the same afterwards."""
+    pytest.importorskip("xacrodoc")
+    source = _xacro_package(tmp_path / "src")
+    monkeypatch.chdir(tmp_path / "src")
+    relative = source.relative_to(tmp_path / "src")
+    yaml_path, _ = scaffold_plugin("xjaw", relative, tmp_path / "pkg")
+    assert yaml_path.is_file()
+    assert Path.cwd() == tmp_path / "src"

@@ -173,8 +173,9 @@ def expand_xacro(
             hint="pip install 'wsgrasp[xacro]', or expand it with ROS's xacro "
             "and pass the URDF",
         ) from None
+    source = path.resolve()
     found: dict[str, Path] = {}
-    for folder in [path.parent, *path.parent.parents]:
+    for folder in [source.parent, *source.parent.parents]:
         found.setdefault(folder.name, folder)
     for root in package_paths or []:
         if Path(root).is_dir():
@@ -186,10 +187,8 @@ def expand_xacro(
         packages.look_in([str(p) for p in package_paths])
     here = os.getcwd()
     try:  # xacro reads an include's relative path from the working folder
-        os.chdir(path.resolve().parent)
-        doc = XacroDoc.from_file(
-            path.resolve(), subargs=args or {}, resolve_packages=False
-        )
+        os.chdir(source.parent)
+        doc = XacroDoc.from_file(source, subargs=args or {}, resolve_packages=False)
         text = doc.to_urdf_string()
     except Exception as exc:  # noqa: BLE001 - any xacro failure is the file's
         raise GripperError(
@@ -205,7 +204,7 @@ def expand_xacro(
         name = _FILENAME.search(tag)
         if name is None:
             return tag
-        where = resolve_mesh(name.group(2), path.parent, package_paths or [])
+        where = resolve_mesh(name.group(2), source.parent, package_paths or [])
         if where is None:
             return tag  # the copy reports it
         return tag.replace(name.group(0), f'filename="{where.resolve()}"', 1)
