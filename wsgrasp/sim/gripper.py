@@ -367,10 +367,9 @@ def _weak_efforts(
     if not low:
         return []
     try:
-        require_mujoco()
+        own = free_closing(gripper, p)
     except SimulationError:
-        return []  # a trial says that mujoco is missing
-    own = free_closing(gripper, p)
+        return []  # mujoco missing, or the gripper does not compile: a trial says
     strong = SimGripper(**{**gripper.__dict__, "efforts": dict(gripper.efforts)})
     for j in low:
         strong.efforts[j.name] = (_default_effort(j, p), *gripper.efforts[j.name][1:])
