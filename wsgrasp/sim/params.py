@@ -78,7 +78,9 @@ Finger drive
     lies within [``effort_min_prismatic``, ``effort_max_prismatic``] (1-2000 N)
     or [``effort_min_revolute``, ``effort_max_revolute``] (0.1-200 N·m), else
     ``effort_prismatic`` (100 N, the Franka hand's jaw) or ``effort_revolute``
-    (5 N·m): 0, 1000 or 1e6 are placeholders, not a finger's force. URDF
+    (5 N·m): 0, 1000 or 1e6 are placeholders, not a finger's force; so is an
+    effort below that default that cannot close the fingers in the air
+    (``wsgrasp.sim.gripper.EFFORT_SHORTFALL``). URDF
     ``<mimic>`` joints are coupled to their master by a joint equality ``q =
     offset + multiplier * q_master`` and limited to the range that maps from
     the master's. Closing ramps
