@@ -650,11 +650,9 @@ def load_spec(
         _check_plugin(reg, "segmenters", spec.segmenter, ("segmenter",), lines)
         for i, ref in enumerate(spec.scorers):
             _check_plugin(reg, "scorers", ref, ("scorers", i), lines)
-        if not check_gripper:
-            pass
-        elif not is_gripper_path(spec.gripper):
+        if check_gripper and not is_gripper_path(spec.gripper):
             _check_name(reg, "grippers", spec.gripper, ("gripper",), lines)
-        elif check_files:
+        elif check_gripper and check_files:
             check_gripper_files(spec.gripper, lines)
     return spec
 

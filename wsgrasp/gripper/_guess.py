@@ -553,8 +553,8 @@ def _fingers(u: _Urdf) -> dict[str, list[str]]:
         )
     # a link that only continuous joints without limits turn spins (a motor's
     # horn, a wheel): no fingertip, where two fingers are left besides
-    unlimited = set(unlimited_continuous(u.path))
-    spinning = [k for k in distal if masters[k] and set(masters[k]) <= unlimited]
+    unlimited = unlimited_continuous(u.path)
+    spinning = [k for k in distal if masters[k] and set(masters[k]) <= set(unlimited)]
     if spinning and len(distal) - len(spinning) >= 2:
         distal = [k for k in distal if k not in spinning]
     else:
@@ -585,7 +585,7 @@ def _fingers(u: _Urdf) -> dict[str, list[str]]:
     )
     _hold_upstream(u, distal, {k: candidates[k] for k in distal}, masters)
     used = {m for link in distal for m in masters[link]}
-    for j in unlimited_continuous(u.path):
+    for j in unlimited:
         if j in used:
             raise GripperError(
                 f"URDF {u.path.name}: continuous joint {j!r} moves a finger but has "

@@ -291,8 +291,6 @@ def _enveloping_link(
     ``posture``) hold the largest fraction of the finger's workspace points
     ``pts`` ``(W, 3)``, and that fraction, where it passes ``INTRUSION_ERROR``;
     else None."""
-    import trimesh
-
     from wsgrasp.gripper._urdf import shape_mesh
 
     chain = {j.child for j in kin.chain(desc.base_link, finger.pad.link)}
@@ -310,9 +308,7 @@ def _enveloping_link(
             lo, hi = hull.bounds
             near = np.flatnonzero(np.all((local >= lo) & (local <= hi), axis=1))
             if len(near):
-                inside[near] |= trimesh.Trimesh(hull.vertices, hull.faces).contains(
-                    local[near]
-                )
+                inside[near] |= hull.contains(local[near])
         frac = float(np.mean(inside))
         if frac > INTRUSION_ERROR and (best is None or frac > best[1]):
             best = (link, frac)

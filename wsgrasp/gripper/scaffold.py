@@ -365,9 +365,14 @@ def scaffold_plugin(
     fresh = not out.exists()
     try:
         with tempfile.TemporaryDirectory(prefix="wsgrasp-xacro-") as tmp:
-            source, expanded = Path(urdf), None
+            source, note = Path(urdf), None
             if source.is_file() and is_xacro(source):
-                expanded = expand_xacro(source, Path(tmp), xacro_args, package_paths)
+                note = f"expanded from {source.name} by xacro"
+                if xacro_args:
+                    note += " with " + ", ".join(
+                        f"{k}:={v}" for k, v in xacro_args.items()
+                    )
+                source = expand_xacro(source, Path(tmp), xacro_args, package_paths)
             elif xacro_args:
                 raise GripperError(
                     f"--xacro-arg given, but {source.name} is no xacro file",
@@ -375,24 +380,14 @@ def scaffold_plugin(
                 )
             return _write_package(
                 name,
-                expanded or source,
+                source,
                 out,
                 base_link,
                 mesh_dirs,
                 mesh_units,
                 check,
                 package_paths,
-                xacro_note=(
-                    f"expanded from {source.name} by xacro"
-                    + (
-                        " with "
-                        + ", ".join(f"{k}:={v}" for k, v in (xacro_args or {}).items())
-                        if xacro_args
-                        else ""
-                    )
-                    if expanded is not None
-                    else None
-                ),
+                xacro_note=note,
             )
     except BaseException:
         if fresh:  # leave nothing half-written behind

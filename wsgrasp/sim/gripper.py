@@ -21,7 +21,7 @@ moves.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -327,16 +327,20 @@ def sim_gripper_from_files(
             if own is not None
             else (float(getattr(p, f"kp_{kind}")), "params")
         )
-    gripper.actuator_xml = "\n".join(
-        _actuator(j, gripper.gains, gripper.efforts[j.name][0]) for j in actuated
-    )
+    gripper.actuator_xml = _actuators(gripper, actuated)
     weak = _weak_efforts(gripper, actuated, p)
     if weak:
         gripper.repairs += weak
-        gripper.actuator_xml = "\n".join(
-            _actuator(j, gripper.gains, gripper.efforts[j.name][0]) for j in actuated
-        )
+        gripper.actuator_xml = _actuators(gripper, actuated)
     return gripper
+
+
+def _actuators(gripper: SimGripper, actuated: list[Joint]) -> str:
+    """The ``<actuator>`` elements of ``actuated`` at the gripper's gains and
+    efforts."""
+    return "\n".join(
+        _actuator(j, gripper.gains, gripper.efforts[j.name][0]) for j in actuated
+    )
 
 
 #: a joint whose URDF effort, free of any object, leaves it this fraction of its
@@ -370,12 +374,10 @@ def _weak_efforts(
         own = free_closing(gripper, p)
     except SimulationError:
         return []  # mujoco missing, or the gripper does not compile: a trial says
-    strong = SimGripper(**{**gripper.__dict__, "efforts": dict(gripper.efforts)})
+    strong = replace(gripper, efforts=dict(gripper.efforts))
     for j in low:
         strong.efforts[j.name] = (_default_effort(j, p), *gripper.efforts[j.name][1:])
-    strong.actuator_xml = "\n".join(
-        _actuator(j, strong.gains, strong.efforts[j.name][0]) for j in actuated
-    )
+    strong.actuator_xml = _actuators(strong, actuated)
     default = free_closing(strong, p)
     repairs = []
     for j in low:
@@ -405,6 +407,7 @@ def free_closing(gripper: SimGripper, p: SimParams) -> Array:
     to ``closed`` as a trial ramps them: 0 at ``pregrasp``, 1 at ``closed``."""
     from wsgrasp.sim.objects import Part, SimObject
     from wsgrasp.sim.scene import build_scene
+    from wsgrasp.sim.trial import close_fingers
 
     mujoco = require_mujoco()
     # the scene needs an object: a small ball on the table, far from the gripper
@@ -421,11 +424,7 @@ def free_closing(gripper: SimGripper, p: SimParams) -> Array:
         d.qpos[scene.joint_qpos[jn]] = v
     d.ctrl[6:] = gripper.pregrasp
     mujoco.mj_forward(m, d)
-    n = max(1, int(round(p.close_time / p.timestep)))
-    for i in range(1, n + 1):
-        d.ctrl[6:] = gripper.pregrasp + (gripper.closed - gripper.pregrasp) * (i / n)
-        mujoco.mj_step(m, d)
-    mujoco.mj_step(m, d, nstep=max(1, int(round(p.close_wait / p.timestep))))
+    close_fingers(m, d, gripper.pregrasp, gripper.closed, p)
     q = np.array([d.qpos[scene.joint_qpos[jn]] for jn in gripper.actuated])
     span = gripper.closed - gripper.pregrasp
     moves = np.abs(span) > 1e-9

@@ -55,6 +55,7 @@ __all__ = [
     "Execution",
     "ExecutionError",
     "Settled",
+    "close_fingers",
     "execute_grasp",
     "execution_error",
     "render_views",
@@ -295,6 +296,18 @@ class Execution:
     metrics: dict[str, Any] = field(default_factory=dict)
 
 
+def close_fingers(m: Any, d: Any, start: Array, goal: Array, p: SimParams) -> None:
+    """Step 5 of the protocol: ramp the finger actuators' targets (``d.ctrl[6:]``,
+    after the drive's six) from ``start`` to ``goal`` over ``close_time``, then
+    let the grip build up for ``close_wait``."""
+    mujoco = require_mujoco()
+    n = max(1, int(round(p.close_time / p.timestep)))
+    for i in range(1, n + 1):
+        d.ctrl[6:] = start + (goal - start) * (i / n)
+        mujoco.mj_step(m, d)
+    mujoco.mj_step(m, d, nstep=max(1, int(round(p.close_wait / p.timestep))))
+
+
 def _contacts(scene: SimScene) -> tuple[bool, bool]:
     """(object touches the gripper, object touches the table)."""
     m, d = scene.model, scene.data
@@ -439,11 +452,7 @@ def execute_grasp(
     )
     # 5. close: ramp the targets, then let the grip build up
     p_approached = d.xipos[obj].copy()  # centre of mass
-    n = max(1, int(round(p.close_time / dt)))
-    for i in range(1, n + 1):
-        d.ctrl[6:] = ctrl_pre + (ctrl_grasp - ctrl_pre) * (i / n)
-        mujoco.mj_step(m, d)
-    wait(p.close_wait)
+    close_fingers(m, d, ctrl_pre, ctrl_grasp, p)
     joints_closed = {
         jn: float(d.qpos[scene.joint_qpos[jn]]) for jn in g.actuated
     }  # where the fingers stopped
