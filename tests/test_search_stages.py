@@ -750,3 +750,90 @@ def test_sweeps_lowest_heights_do_not_depend_on_blocking(seed, nf, H, U, block):
     np.testing.assert_array_equal(blocked.view(np.uint64), whole.view(np.uint64))
     heights = np.einsum("fkhi,ui->fkuh", hull, u)  # (nf, 4, U, H)
     np.testing.assert_allclose(whole, heights.min(axis=3), rtol=0, atol=1e-15)
+
+
+@SETTINGS
+@given(
+    seed=st.integers(0, 2**16),
+    ns=st.integers(1, 9),
+    n_orient=st.integers(1, 7),
+    depths=st.booleans(),
+)
+def test_pose_array_reads_the_structures_poses_bit_for_bit(seed, ns, n_orient, depths):
+    """Any subset of a ``PoseArray``'s poses, read from the structure, is the
+    same bits as the whole array ``candidate_poses`` builds, for integer,
+    negative, array and mask indices; a pose set on it overrides the
+    structure's wherever read, and a copy keeps its own."""
+    from wsgrasp.planning.poses import PoseArray
+
+    rng = np.random.default_rng(seed)
+    T_wo = np.eye(4)
+    T_wo[:3, :3] = Rotation.from_rotvec(rng.normal(size=3)).as_matrix()
+    T_wo[:3, 3] = rng.uniform(-2, 2, 3)
+    samples = rng.uniform(-0.1, 0.1, (ns, 3))
+    R = Rotation.random(n_orient, random_state=seed).as_matrix()
+    depth = rng.uniform(-0.02, 0.02, n_orient) if depths else None
+    T_gg = np.eye(4)
+    T_gg[:3, 3] = rng.uniform(-0.1, 0.1, 3)
+    _, T_wg, _, _ = candidate_poses(T_wo, samples, R, T_gg, depth)
+    structure = CandidateStructure(T_wo, samples, R, depth)
+    lazy = PoseArray(StructuredPoses.build(structure, T_gg))
+    C = ns * n_orient
+    assert len(lazy) == C
+    index = rng.integers(-C, C, 5)
+    mask = rng.random(C) < 0.5
+    for i in (0, C - 1, -1, index, mask, np.array([], dtype=np.int64)):
+        assert np.array_equal(lazy.at(i), T_wg[i])
+    with pytest.raises(IndexError):
+        lazy.at(C)
+    assert not lazy.built
+    edit = np.eye(4)
+    edit[:3, 3] = [1.0, 2.0, 3.0]
+    copy = lazy.copy()
+    lazy.set(C - 1, edit)
+    assert np.array_equal(lazy.at(-1), edit)
+    assert np.array_equal(lazy.at(np.arange(C))[-1], edit)
+    assert np.array_equal(copy.at(-1), T_wg[-1])  # the copy keeps its own
+    whole = lazy.whole()
+    assert lazy.built and np.array_equal(whole[:-1], T_wg[:-1])
+    assert np.array_equal(whole[-1], edit)
+
+
+def test_a_search_builds_no_pose_array_of_every_candidate():
+    """The search keeps its candidates' poses as the structure gives them: a
+    plan without a recording reads those of the feasible and chosen ones, and
+    the candidate set still gives every pose, as ``candidate_poses`` lays them
+    out, when read whole."""
+    from pathlib import Path
+
+    from wsgrasp.api import Pipeline, as_scene
+    from wsgrasp.spec import load_spec
+
+    root = Path(__file__).resolve().parent.parent
+    s = load_spec(root / "examples" / "specs" / "allegro.yaml")
+    pipe = Pipeline(s)
+    prep = pipe.prepare(as_scene(root / "examples" / "scenes" / "box_upright.npz"))
+    out = pipe.search(prep)
+    ee, gwc = out.candidates.poses()
+    assert not ee.built and not gwc.built
+    inp = prep.search_input
+    o = inp.orientations
+    T_gwc, T_ee, sample, orientation = candidate_poses(
+        inp.T_world_object,
+        inp.samples_object,
+        o.R_object_gwc,
+        inp.gripper.T_gripper_gwc,
+        o.depth,
+    )
+    moved = np.flatnonzero(
+        np.any(T_ee != out.candidates.ee_at(np.arange(len(T_ee))), axis=(1, 2))
+    )
+    assert set(moved) <= {out.best}  # the choice, where backed off
+    np.testing.assert_array_equal(
+        np.delete(out.candidates.T_world_ee, moved, 0), np.delete(T_ee, moved, 0)
+    )
+    np.testing.assert_array_equal(
+        np.delete(out.candidates.T_world_gwc, moved, 0), np.delete(T_gwc, moved, 0)
+    )
+    np.testing.assert_array_equal(out.candidates.sample, sample)
+    np.testing.assert_array_equal(out.candidates.orientation, orientation)

@@ -399,7 +399,7 @@ class Pipeline:
                 o.on_stage("choice", {"candidate": int(choose)})
             index = _taken(out, choose)
             out = _choose(out, index, g, inp, self._spheres, self.spec.top_k)
-            T = out.candidates.T_world_ee[index]
+            T = out.candidates.ee_at(index)
             if _under_table(g, prep.table_footprint, T, distance):
                 out = _choose(out, None, g, inp, self._spheres, self.spec.top_k)
                 hint = (
@@ -419,8 +419,8 @@ class Pipeline:
         joints_grasp: dict[str, float] = {}
         finger_targets: list[dict[str, Any]] = []
         if out.best is not None:
-            T_world_gripper = out.candidates.T_world_ee[out.best]
-            T_world_gwc = out.candidates.T_world_gwc[out.best]
+            T_world_gripper = out.candidates.ee_at(out.best)
+            T_world_gwc = out.candidates.gwc_at(out.best)
             T_world_tcp = T_world_gripper @ g.T_gripper_tcp
             t = time.perf_counter()
             targets = grasp_targets(
@@ -558,13 +558,13 @@ def _clear_of_neighbours(
     code = REASONS.index("obstacle_collision")
     cands = out.candidates
     tally = {n: {"body": 0, "closing": 0} for n in names}
-    body = blocked_by_body(g, cands.T_world_ee[cands.reason == code], prep.obstacles)
+    body = blocked_by_body(g, cands.ee_at(cands.reason == code), prep.obstacles)
     for k, n in zip(*np.unique(body[body >= 0], return_counts=True), strict=True):
         tally[names[k]]["body"] += int(n)
     feasible = np.flatnonzero(cands.reason == 0)
     closing = blocked_in_closing(
         g,
-        cands.T_world_ee[feasible],
+        cands.ee_at(feasible),
         prep.obstacles,
         prep.search_input.object_points,
     )
@@ -580,7 +580,7 @@ def _clear_of_neighbours(
         score[blocked] = np.nan
         for v in terms.values():
             v[blocked] = np.nan
-        c = replace(cands, reason=reason, score=score, terms=terms)
+        c = cands.replaced(reason=reason, score=score, terms=terms)
         out = replace(out, candidates=c)
         kept = np.flatnonzero(reason == 0)
         order = kept[np.argsort(-score[kept], kind="stable")]  # best first
@@ -590,7 +590,7 @@ def _clear_of_neighbours(
             alternatives = [
                 Alternative(
                     index=int(j),
-                    T_world_ee=c.T_world_ee[j],
+                    T_world_ee=c.ee_at(j),
                     score=float(score[j]),
                     terms={k: float(v[j]) for k, v in terms.items()},
                 )
@@ -1001,7 +1001,7 @@ def _with_clear_pregrasp(
 
     if out.best is None:
         return None, None
-    if clear(out.candidates.T_world_ee[out.best]):
+    if clear(out.candidates.ee_at(out.best)):
         return out.best, None
     if closing:
         c = out.candidates
@@ -1012,10 +1012,10 @@ def _with_clear_pregrasp(
     for lo in range(0, len(order), _CLOSING_CHUNK):
         chunk = order[lo : lo + _CLOSING_CHUNK]
         if closing:  # at the poses as generated, first: most fail here
-            T = out.candidates.T_world_ee[chunk]
+            T = out.candidates.ee_at(chunk)
             chunk = chunk[_closing_reaches(g, T, inp.object_points)]
         for i in chunk:
-            if _under_table(g, footprint, out.candidates.T_world_ee[i], distance):
+            if _under_table(g, footprint, out.candidates.ee_at(i), distance):
                 continue  # backing off from the table's surface cannot lift it out
             taken = _taken_pose(out, int(i), g, inp, spheres)
             if clear(taken[0]):
@@ -1038,7 +1038,7 @@ def _no_grasp(
     feasible = np.flatnonzero(out.candidates.feasible)
     if len(feasible):
         top = feasible[int(np.argmax(out.candidates.score[feasible]))]
-        T_top = out.candidates.T_world_ee[top]
+        T_top = out.candidates.ee_at(top)
         if _under_table(g, prep.table_footprint, T_top, distance):
             return (
                 "every feasible grasp, or its pre-grasp pose, lies under the table; "
@@ -1116,7 +1116,7 @@ def _taken_pose(
     from wsgrasp.planning.evaluate import evaluate_candidates
     from wsgrasp.planning.sweeps import sweep_back_offs
 
-    T = out.candidates.T_world_ee[index]
+    T = out.candidates.ee_at(index)
     if index == out.best:
         return T, None
     d = float(
@@ -1165,7 +1165,7 @@ def _sweeps_cleared(
     feasible = np.flatnonzero(cands.reason == 0)  # (F,)
     if not len(feasible):
         return out
-    T = cands.T_world_ee[feasible]  # (F, 4, 4) a copy
+    T = cands.ee_at(feasible)  # (F, 4, 4) a copy
     best = out.best
     # the candidates of one orientation share their rotation
     groups = cands.orientation[feasible] if cands.orientation is not None else None
@@ -1191,7 +1191,7 @@ def _sweeps_cleared(
     if new_best == best and not rejected.any():
         assert best is not None
         i = int(np.searchsorted(feasible, best))
-        if np.array_equal(taken(i), cands.T_world_ee[best]):
+        if np.array_equal(taken(i), cands.ee_at(best)):
             ms = (time.perf_counter() - t0) * 1e3
             return replace(out, timing_ms={**out.timing_ms, "sweeps": ms})
     reason, terms = cands.reason, cands.terms
@@ -1199,7 +1199,6 @@ def _sweeps_cleared(
     score[feasible[rejected]] = np.nan
     for v in terms.values():
         v[feasible[rejected]] = np.nan
-    T_ee, T_gwc = cands.T_world_ee, cands.T_world_gwc
     contacts = []
     score_terms: dict[str, float] = {}
     alternatives = []
@@ -1207,8 +1206,7 @@ def _sweeps_cleared(
         i = int(np.searchsorted(feasible, new_best))
         T_best = taken(i)
         if d[i] > 0.0:  # moved back: the candidate set holds the choice as taken
-            T_ee[new_best] = T_best
-            T_gwc[new_best] = T_best @ g.T_gripper_gwc
+            cands.set_pose(new_best, T_best, T_best @ g.T_gripper_gwc)
         ev = evaluate_candidates(
             T_best[None], g, inp.object_points, inp.obstacle_points, inp.table, spheres
         )
@@ -1217,20 +1215,13 @@ def _sweeps_cleared(
         alternatives = [
             Alternative(
                 index=int(j),
-                T_world_ee=T_ee[j],
+                T_world_ee=cands.ee_at(j),
                 score=float(score[j]),
                 terms={k: float(v[j]) for k, v in terms.items()},
             )
             for j in order[1 : top_k + 1]
         ]
-    candidates = replace(
-        cands,
-        T_world_ee=T_ee,
-        T_world_gwc=T_gwc,
-        reason=reason,
-        score=score,
-        terms=terms,
-    )
+    candidates = cands.replaced(reason=reason, score=score, terms=terms)
     return replace(
         out,
         candidates=candidates,
@@ -1268,20 +1259,16 @@ def _choose(
     T, holding = taken or _taken_pose(out, index, g, inp, spheres)
     assert holding is not None
     # a new candidate set: the searched one may be recorded already, as it was
-    c = replace(
-        out.candidates,
-        T_world_ee=out.candidates.T_world_ee.copy(),
-        T_world_gwc=out.candidates.T_world_gwc.copy(),
-    )
-    c.T_world_ee[index] = T
-    c.T_world_gwc[index] = T @ g.T_gripper_gwc
+    ee, gwc = out.candidates.poses()
+    c = out.candidates.replaced(T_world_ee=ee.copy(), T_world_gwc=gwc.copy())
+    c.set_pose(index, T, T @ g.T_gripper_gwc)
     feasible = np.flatnonzero(c.reason == 0)
     order = feasible[np.argsort(-c.score[feasible], kind="stable")]
     rank = int(np.flatnonzero(order == index)[0])
     alternatives = [
         Alternative(
             index=int(j),
-            T_world_ee=c.T_world_ee[j],
+            T_world_ee=c.ee_at(j),
             score=float(c.score[j]),
             terms={k: float(v[j]) for k, v in c.terms.items()},
         )

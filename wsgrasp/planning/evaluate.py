@@ -29,7 +29,12 @@ from wsgrasp.planning.body import body_verdicts
 from wsgrasp.planning.fingers import finger_verdicts
 from wsgrasp.planning.holdings import HoldingField, Holdings, feasible_holdings
 from wsgrasp.planning.kernels import choose_kernels
-from wsgrasp.planning.poses import CandidateStructure, StructuredPoses, TableSE
+from wsgrasp.planning.poses import (
+    CandidateStructure,
+    PoseArray,
+    StructuredPoses,
+    TableSE,
+)
 from wsgrasp.planning.table import table_verdicts
 
 __all__ = [
@@ -81,7 +86,7 @@ class Evaluation:
 
 
 def evaluate_candidates(
-    T_world_gripper: Array,
+    T_world_gripper: Array | PoseArray,
     gripper: GripperModel,
     object_points: Array,
     obstacle_points: Array,
@@ -94,7 +99,7 @@ def evaluate_candidates(
 
     Parameters
     ----------
-    T_world_gripper : (C, 4, 4) float
+    T_world_gripper : (C, 4, 4) float, or a PoseArray of them
     gripper : GripperModel
     object_points : (no, 3) float
         World frame.
@@ -111,7 +116,11 @@ def evaluate_candidates(
     """
     spheres = spheres or FingerSpheres(gripper)
     if structure is None:
-        poses = StructuredPoses.of_transforms(T_world_gripper)
+        poses = StructuredPoses.of_transforms(
+            T_world_gripper.whole()
+            if isinstance(T_world_gripper, PoseArray)
+            else T_world_gripper
+        )
     else:
         poses = StructuredPoses.checked(
             structure, gripper.T_gripper_gwc, T_world_gripper

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+from wsgrasp.planning.poses import PoseArray
 
 __all__ = ["REASONS", "CandidateSet", "Contact", "Alternative", "PlanResult"]
 
@@ -25,9 +27,36 @@ REASONS: tuple[str, ...] = (
 )
 
 
+class PoseField:
+    """A dataclass field of ``(C, 4, 4)`` poses kept as a
+    :class:`~wsgrasp.planning.poses.PoseArray`: set as an array or a
+    ``PoseArray``, read as the whole array (built on first read, then kept).
+
+    The field has no default: reading it on the class raises AttributeError,
+    which is how ``dataclasses`` tells a descriptor that supplies none.
+    """
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self._slot = "_" + name
+
+    def __get__(self, obj: Any, objtype: type | None = None) -> NDArray[np.float64]:
+        if obj is None:
+            raise AttributeError(self._slot[1:])
+        return obj.__dict__[self._slot].whole()  # type: ignore[no-any-return]
+
+    def __set__(self, obj: Any, value: NDArray[np.float64] | PoseArray) -> None:
+        obj.__dict__[self._slot] = (
+            value if isinstance(value, PoseArray) else PoseArray(value)
+        )
+
+
 @dataclass
 class CandidateSet:
     """Every candidate evaluated, as arrays over candidates ``C``.
+
+    The poses of a searched set are built whole only when read whole
+    (``T_world_gwc``, ``T_world_ee``); :meth:`ee_at` and :meth:`gwc_at` give
+    some of them without building the rest.
 
     Attributes
     ----------
@@ -52,8 +81,12 @@ class CandidateSet:
         samples outer, orientations inner).
     """
 
-    T_world_gwc: NDArray[np.float64]
-    T_world_ee: NDArray[np.float64]
+    if TYPE_CHECKING:  # read as arrays; set as arrays or PoseArrays
+        T_world_gwc: NDArray[np.float64]
+        T_world_ee: NDArray[np.float64]
+    else:
+        T_world_gwc: NDArray[np.float64] = PoseField()
+        T_world_ee: NDArray[np.float64] = PoseField()
     sample: NDArray[np.int64]
     theta: NDArray[np.float64]
     reason: NDArray[np.int64]
@@ -71,6 +104,36 @@ class CandidateSet:
 
     def __len__(self) -> int:
         return int(self.reason.shape[0])
+
+    def ee_at(self, index: Any) -> NDArray[np.float64]:
+        """``T_world_ee[index]`` (an integer, integers or a mask), without
+        building every pose."""
+        return self.__dict__["_T_world_ee"].at(index)  # type: ignore[no-any-return]
+
+    def gwc_at(self, index: Any) -> NDArray[np.float64]:
+        """``T_world_gwc[index]``, without building every pose."""
+        return self.__dict__["_T_world_gwc"].at(index)  # type: ignore[no-any-return]
+
+    def set_pose(
+        self,
+        index: int,
+        T_world_ee: NDArray[np.float64],
+        T_world_gwc: NDArray[np.float64],
+    ) -> None:
+        """Set candidate ``index``'s two poses (a choice as the plan takes it)."""
+        self.__dict__["_T_world_ee"].set(index, T_world_ee)
+        self.__dict__["_T_world_gwc"].set(index, T_world_gwc)
+
+    def poses(self) -> tuple[PoseArray, PoseArray]:
+        """The pose fields as they are kept: ``(T_world_ee, T_world_gwc)``."""
+        return self.__dict__["_T_world_ee"], self.__dict__["_T_world_gwc"]
+
+    def replaced(self, **changes: Any) -> CandidateSet:
+        """``dataclasses.replace`` that passes the poses on as they are kept
+        (the same ``PoseArray``, unless ``changes`` gives others), not built
+        whole."""
+        ee, gwc = self.poses()
+        return replace(self, **{"T_world_ee": ee, "T_world_gwc": gwc, **changes})
 
     @property
     def feasible(self) -> NDArray[np.bool_]:

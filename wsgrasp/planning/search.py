@@ -20,13 +20,14 @@ from numpy.typing import NDArray
 
 from wsgrasp.geometry import invert_transforms, spheres_hit_by_points, transform_points
 from wsgrasp.gripper.model import GripperModel
-from wsgrasp.planning.candidates import Orientations, candidate_poses
+from wsgrasp.planning.candidates import Orientations
 from wsgrasp.planning.evaluate import (
     CandidateStructure,
     FingerSpheres,
     TableSE,
     evaluate_candidates,
 )
+from wsgrasp.planning.poses import PoseArray, StructuredPoses
 from wsgrasp.planning.result import REASONS, Alternative, CandidateSet, Contact
 from wsgrasp.planning.scoring import CandidateBatch, combine_scores
 
@@ -95,9 +96,16 @@ def run_search(
     t0 = time.perf_counter()
     spheres = spheres or FingerSpheres(g)  # built once: scorers may test more poses
     o = inp.orientations
-    T_world_gwc, T_world_gripper, sample, orientation = candidate_poses(
-        inp.T_world_object, inp.samples_object, o.R_object_gwc, g.T_gripper_gwc, o.depth
+    # the candidates as candidate_poses lays them out (samples outer), their
+    # poses built from the structure where read (PoseArray)
+    structure = CandidateStructure(
+        inp.T_world_object, inp.samples_object, o.R_object_gwc, o.depth
     )
+    T_world_gwc = PoseArray(StructuredPoses.build(structure))
+    T_world_gripper = PoseArray(StructuredPoses.build(structure, g.T_gripper_gwc))
+    ns, n_or = len(inp.samples_object), len(o.R_object_gwc)
+    sample = np.repeat(np.arange(ns, dtype=np.int64), n_or)
+    orientation = np.tile(np.arange(n_or, dtype=np.int64), ns)
     theta = o.theta[orientation]
     flipped = o.flipped[orientation]
     ev = evaluate_candidates(
@@ -107,9 +115,7 @@ def run_search(
         inp.obstacle_points,
         inp.table,
         spheres,
-        structure=CandidateStructure(
-            inp.T_world_object, inp.samples_object, o.R_object_gwc, o.depth
-        ),
+        structure=structure,
     )
     t1 = time.perf_counter()
     C = len(sample)
@@ -131,8 +137,8 @@ def run_search(
 
         batch = CandidateBatch(
             gripper=g,
-            T_world_gwc=T_world_gwc[f],
-            T_world_gripper=T_world_gripper[f],
+            T_world_gwc=T_world_gwc.at(f),
+            T_world_gripper=T_world_gripper.at(f),
             theta=theta[f],
             # as Holdings: the mask is built only if a scorer reads it
             holding=ev.holdings,  # type: ignore[arg-type]
@@ -161,17 +167,18 @@ def run_search(
             alternatives.append(
                 Alternative(
                     index=int(f[j]),
-                    T_world_ee=T_world_gripper[f[j]],
+                    T_world_ee=T_world_gripper.at(f[j]),
                     score=float(total[j]),
                     terms={k: float(v[j]) for k, v in terms.items()},
                 )
             )
         holding = ev.holdings.rows([best_local])[0]  # (no, nf)
-        contacts = _contacts(g, T_world_gripper[best], inp.object_points, holding)
+        contacts = _contacts(g, T_world_gripper.at(best), inp.object_points, holding)
     t2 = time.perf_counter()
     cands = CandidateSet(
-        T_world_gwc=T_world_gwc,
-        T_world_ee=T_world_gripper,
+        # as PoseArrays: built whole only if read whole (a recording)
+        T_world_gwc=T_world_gwc,  # type: ignore[arg-type]
+        T_world_ee=T_world_gripper,  # type: ignore[arg-type]
         sample=sample,
         theta=theta,
         reason=ev.reason,
