@@ -469,6 +469,27 @@ def test_bad_names(tmp_path):
         scaffold_plugin("jaw", urdf, tmp_path / "o", mesh_units="inch")
 
 
+@pytest.mark.parametrize(
+    "text, kind",
+    [
+        ('<sdf version="1.6"><model name="g"/></sdf>', "an SDFormat"),
+        ('<mujoco model="g"><worldbody/></mujoco>', "a MuJoCo"),
+        ("solid cube\nendsolid cube\n", "not valid XML"),
+    ],
+    ids=["sdf", "mjcf", "not xml"],
+)
+def test_a_description_that_is_no_urdf_is_named_and_refused(tmp_path, text, kind):
+    """An SDFormat or MJCF description, or no XML at all, passed as the URDF is
+    refused before anything is written, naming the file the user passed."""
+    src = tmp_path / "gripper.xml"
+    src.write_text(text)
+    with pytest.raises(GripperError) as err:
+        scaffold_plugin("g", src, tmp_path / "out")
+    msg = str(err.value)
+    assert kind in msg and str(src) in msg and "URDF" in msg
+    assert not (tmp_path / "out").exists()
+
+
 def test_failed_scaffold_leaves_no_folder(tmp_path):
     urdf = _write(tmp_path, jaw_urdf(stray_tree=True))
     with pytest.raises(GripperError, match="disconnected"):

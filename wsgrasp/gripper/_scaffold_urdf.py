@@ -219,6 +219,36 @@ def expand_xacro(
     return dest
 
 
+#: descriptions of a robot that are not URDF, by their root element
+_OTHER_FORMATS = {
+    "sdf": "an SDFormat (Gazebo) description",
+    "mujoco": "a MuJoCo (MJCF) model",
+    "COLLADA": "a COLLADA mesh",
+}
+
+
+def check_is_urdf(text: str, shown: Path) -> None:
+    """Raise ``GripperError`` naming the file ``shown`` where ``text`` is not a
+    URDF: not XML, or XML whose root element is not ``<robot>`` (an SDFormat or
+    MJCF description, which ``gripper new`` does not read)."""
+    try:
+        root = parse_xml(text.encode())
+    except ET.ParseError as exc:
+        raise GripperError(
+            f"{str(shown)!r} is not valid XML, so no URDF: {exc}",
+            hint="pass the gripper's URDF (or .urdf.xacro) with --urdf",
+        ) from None
+    if root.tag != "robot":
+        tag = root.tag.rsplit("}", 1)[-1]
+        kind = _OTHER_FORMATS.get(tag, f"XML whose root element is <{tag}>")
+        raise GripperError(
+            f"{str(shown)!r} is {kind}, not a URDF (whose root element is <robot>)",
+            hint="gripper new reads URDF and xacro files: pass the gripper's URDF "
+            "(a ROS description package has one, often as .urdf.xacro), or convert "
+            "this description to URDF first",
+        )
+
+
 def copy_urdf(
     urdf: Path,
     out_dir: Path,

@@ -30,6 +30,7 @@ from wsgrasp.gripper._guess import (
 )
 from wsgrasp.gripper._scaffold_urdf import (
     MESH_UNITS,
+    check_is_urdf,
     copy_urdf,
     expand_xacro,
     is_xacro,
@@ -378,6 +379,8 @@ def scaffold_plugin(
                     f"--xacro-arg given, but {source.name} is no xacro file",
                     hint="leave --xacro-arg out for a URDF",
                 )
+            elif source.is_file():
+                check_is_urdf(source.read_text(errors="replace"), source)
             return _write_package(
                 name,
                 source,
