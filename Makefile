@@ -120,16 +120,20 @@ eval-scorers: $(STAMP)
 		--random 15 --commit "$(COMMIT)"
 
 # every URDF under GRIPPERS_DIR (the vendor descriptions wsgrasp is developed
-# against) scaffolded with no edit, checked, planned on the bundled scenes and tried
-# on random:000-299 x 1 (the lift protocol; PROTOCOL=strict for eval's default),
-# and every built-in and example gripper: docs/results/grippers.json, the docs'
+# against), and three URDFs pybullet ships that it is not developed against (an
+# xArm gripper and a Franka Panda, each below its arm, and the PR2 gripper),
+# scaffolded with no edit, checked, planned on the bundled scenes and tried on
+# random:000-299 x 1 (the lift protocol; PROTOCOL=strict for eval's default), and
+# every built-in and example gripper: docs/results/grippers.json, the docs'
 # gripper table (benchmarks/eval_grippers.py)
 GRIPPERS_DIR ?= ../shared/grippers
 PROTOCOL ?= lift
 eval-grippers: $(STAMP)
 	$(BIN)/python -m pip install -q -e '.[sim]'
 	$(BIN)/python benchmarks/eval_grippers.py --grippers-dir $(GRIPPERS_DIR) \
-		--protocol $(PROTOCOL)
+		--also-dir "$$($(BIN)/python -c 'import pybullet_data; print(pybullet_data.getDataPath())')" \
+		--also xarm/xarm6_with_gripper.urdf --also franka_panda/panda.urdf \
+		--also pr2_gripper.urdf --protocol $(PROTOCOL)
 
 # a default install (numba included); the dense entries' `compiled` field says
 # which kernels ran. Writes docs/results/bench.json (the docs' Speed page)

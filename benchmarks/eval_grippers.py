@@ -3,7 +3,9 @@ and example gripper, from URDF to held grasp with its default spec.
 
 For each URDF found under ``--grippers-dir`` (by default ``../shared/grippers``,
 the vendor descriptions wsgrasp is developed against; any folder of URDFs with
-their meshes works the same way):
+their meshes works the same way), and each ``--also`` URDF of ``--also-dir``
+(``make eval-grippers``: three that pybullet ships in ``pybullet_data``, which
+the project was not developed against):
 
 1. ``wsgrasp gripper new`` (Python: ``scaffold_plugin``) into a package under
    ``--out``, with no edit: scaffolds yes / no, and why not;
@@ -387,6 +389,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--grippers-dir", type=Path, default=ROOT.parent / "shared/grippers"
     )
+    ap.add_argument(
+        "--also-dir",
+        type=Path,
+        help="a second folder of descriptions, of which only the --also files "
+        "are taken (pybullet_data: URDFs the project is not developed against)",
+    )
+    ap.add_argument(
+        "--also",
+        action="append",
+        default=[],
+        help="a URDF in --also-dir, relative to it (repeatable)",
+    )
     ap.add_argument("--objects", default="random:000-299")
     ap.add_argument("--trials", type=int, default=1)
     ap.add_argument("--seed", type=int, default=0)
@@ -436,6 +450,13 @@ def main(argv: list[str] | None = None) -> int:
             f"no folder {args.grippers_dir}: the vendor descriptions are left out "
             "(pass --grippers-dir)"
         )
+    for rel in args.also:
+        if args.also_dir is None or not (args.also_dir / rel).is_file():
+            raise SystemExit(
+                f"--also {rel}: no such file in --also-dir {args.also_dir}"
+            )
+        urdf = args.also_dir / rel
+        entries.append((package_name(urdf), f"{args.also_dir.name}/{rel}", urdf))
     entries += [(n, "built-in", ref) for n, ref in BUILT_IN.items()]
     if args.only:
         entries = [e for e in entries if e[0] in args.only]
