@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from wsgrasp.planning._fields import BuiltOnRead
 from wsgrasp.planning.fingers import FingerVerdicts, count_held
 
 __all__ = ["Holdings", "HoldingField", "feasible_holdings"]
@@ -151,35 +152,24 @@ def feasible_holdings(fingers: FingerVerdicts, feasible: NDArray[np.int64]) -> H
     return Holdings(counts, fingers.num_points, rows=lambda i: rows(p[i]))
 
 
-class HoldingField:
+class HoldingField(BuiltOnRead):
     """A dataclass field that stores a bool array or a :class:`Holdings` and
     reads as the ``(F, no, nf)`` bool array (built from the holdings on first
     read). ``holdings_of(obj)`` gives the :class:`Holdings` without building it.
-
-    The field has no default: reading it on the class raises AttributeError,
-    which is how ``dataclasses`` tells a descriptor that supplies none.
     """
 
-    def __set_name__(self, owner: type, name: str) -> None:
-        self._slot = "_" + name
+    def read(self, stored: Any) -> NDArray[np.bool_]:
+        if isinstance(stored, Holdings):
+            return stored.dense()
+        return stored  # type: ignore[no-any-return]
 
-    def __get__(self, obj: Any, objtype: type | None = None) -> NDArray[np.bool_]:
-        if obj is None:
-            raise AttributeError(self._slot[1:])
-        got = obj.__dict__[self._slot]
-        if isinstance(got, Holdings):
-            return got.dense()
-        return got  # type: ignore[no-any-return]
-
-    def __set__(self, obj: Any, value: NDArray[np.bool_] | Holdings) -> None:
-        if not isinstance(value, Holdings):
-            value = np.asarray(value, dtype=bool)
-        obj.__dict__[self._slot] = value
+    def keep(self, value: NDArray[np.bool_] | Holdings) -> Any:
+        return value if isinstance(value, Holdings) else np.asarray(value, dtype=bool)
 
     def holdings_of(self, obj: Any) -> Holdings:
-        got = obj.__dict__[self._slot]
+        got = self.stored(obj)
         if isinstance(got, Holdings):
             return got
         h = Holdings.of(got)
-        obj.__dict__[self._slot] = h
+        self.replace_stored(obj, h)
         return h

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from wsgrasp.planning._fields import BuiltOnRead
 from wsgrasp.planning.poses import PoseArray
 
 __all__ = ["REASONS", "CandidateSet", "Contact", "Alternative", "PlanResult"]
@@ -27,27 +28,17 @@ REASONS: tuple[str, ...] = (
 )
 
 
-class PoseField:
+class PoseField(BuiltOnRead):
     """A dataclass field of ``(C, 4, 4)`` poses kept as a
     :class:`~wsgrasp.planning.poses.PoseArray`: set as an array or a
     ``PoseArray``, read as the whole array (built on first read, then kept).
-
-    The field has no default: reading it on the class raises AttributeError,
-    which is how ``dataclasses`` tells a descriptor that supplies none.
     """
 
-    def __set_name__(self, owner: type, name: str) -> None:
-        self._slot = "_" + name
+    def read(self, stored: PoseArray) -> NDArray[np.float64]:
+        return stored.whole()
 
-    def __get__(self, obj: Any, objtype: type | None = None) -> NDArray[np.float64]:
-        if obj is None:
-            raise AttributeError(self._slot[1:])
-        return obj.__dict__[self._slot].whole()  # type: ignore[no-any-return]
-
-    def __set__(self, obj: Any, value: NDArray[np.float64] | PoseArray) -> None:
-        obj.__dict__[self._slot] = (
-            value if isinstance(value, PoseArray) else PoseArray(value)
-        )
+    def keep(self, value: NDArray[np.float64] | PoseArray) -> PoseArray:
+        return value if isinstance(value, PoseArray) else PoseArray(value)
 
 
 @dataclass
@@ -108,11 +99,11 @@ class CandidateSet:
     def ee_at(self, index: Any) -> NDArray[np.float64]:
         """``T_world_ee[index]`` (an integer, integers or a mask), without
         building every pose."""
-        return self.__dict__["_T_world_ee"].at(index)  # type: ignore[no-any-return]
+        return self._kept("T_world_ee").at(index)
 
     def gwc_at(self, index: Any) -> NDArray[np.float64]:
         """``T_world_gwc[index]``, without building every pose."""
-        return self.__dict__["_T_world_gwc"].at(index)  # type: ignore[no-any-return]
+        return self._kept("T_world_gwc").at(index)
 
     def set_pose(
         self,
@@ -121,12 +112,16 @@ class CandidateSet:
         T_world_gwc: NDArray[np.float64],
     ) -> None:
         """Set candidate ``index``'s two poses (a choice as the plan takes it)."""
-        self.__dict__["_T_world_ee"].set(index, T_world_ee)
-        self.__dict__["_T_world_gwc"].set(index, T_world_gwc)
+        self._kept("T_world_ee").set(index, T_world_ee)
+        self._kept("T_world_gwc").set(index, T_world_gwc)
 
     def poses(self) -> tuple[PoseArray, PoseArray]:
         """The pose fields as they are kept: ``(T_world_ee, T_world_gwc)``."""
-        return self.__dict__["_T_world_ee"], self.__dict__["_T_world_gwc"]
+        return self._kept("T_world_ee"), self._kept("T_world_gwc")
+
+    def _kept(self, name: str) -> PoseArray:
+        """The ``PoseArray`` the pose field ``name`` keeps."""
+        return type(self).__dict__[name].stored(self)  # type: ignore[no-any-return]
 
     def replaced(self, **changes: Any) -> CandidateSet:
         """``dataclasses.replace`` that passes the poses on as they are kept
