@@ -269,8 +269,9 @@ def _candidate_rows(
     """Every feasible candidate, best score first (rank 0)."""
     C = result.candidates
     order = _ranked(C)
-    ee = C.T_world_ee[order].reshape(-1, 16)  # (F, 16) row-major poses
-    gwc = C.T_world_gwc[order].reshape(-1, 16)
+    # (F, 16) row-major poses, of the feasible candidates alone
+    ee = C.ee_at(order).reshape(-1, 16)
+    gwc = C.gwc_at(order).reshape(-1, 16)
     terms = {k: np.asarray(v)[order] for k, v in C.terms.items()}
     return [
         {
