@@ -585,3 +585,29 @@ def test_placeholder_inertias_as_pybullet_ships_them_are_recomputed(tmp_path):
     g = load_sim_gripper(str(yaml_path))
     fixed = {r.item for r in g.repairs if "too large for the link" in r.problem}
     assert {"left_gripper", "right_gripper", "gripper_pole"} <= fixed
+
+
+def test_a_linkage_gripper_below_an_arm_as_pybullet_ships_it(tmp_path):
+    """pybullet's ``xarm/xarm6_with_gripper.urdf``: a 6-joint arm, then a
+    gripper of two four-bar linkages whose six joints follow one
+    (``drive_joint``; the other five mimic it). The plugin is the gripper alone,
+    both fingers driven by that joint, and it checks without errors."""
+    urdf = _pybullet_data() / "xarm" / "xarm6_with_gripper.urdf"
+    yaml_path, sc = scaffold_plugin("xarm_gripper", urdf, tmp_path / "out")
+    assert sc.data["base_link"] == "xarm_gripper_base_link"
+    kin = load_kinematics(yaml_path.parent / "xarm_gripper.urdf", "xarm_gripper")
+    assert "link1" not in kin.links
+    fingers = sc.data["fingers"]
+    assert len(fingers) == 2
+    assert all(f["joints"] == ["drive_joint"] for f in fingers)
+    _no_errors(yaml_path)
+
+
+def test_an_sdformat_gripper_as_pybullet_ships_it_is_refused_by_name(tmp_path):
+    """pybullet's WSG 50 comes as SDFormat: ``gripper new`` names the file and
+    says it is no URDF, and writes nothing."""
+    sdf = _pybullet_data() / "gripper" / "wsg50_one_motor_gripper_new.sdf"
+    with pytest.raises(GripperError) as err:
+        scaffold_plugin("wsg50", sdf, tmp_path / "out")
+    assert "SDFormat" in str(err.value) and str(sdf) in str(err.value)
+    assert not (tmp_path / "out").exists()
