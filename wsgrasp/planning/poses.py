@@ -237,11 +237,12 @@ class PoseArray:
     (:meth:`at`) from the structure, bit for bit those of
     :meth:`StructuredPoses.every` (``A[s] + B[o]`` and ``B[o] + A[s]`` are the
     same sum). A search keeps its candidates' poses this way, and reads a few
-    thousand of them: built whole, the dense bench cases' two arrays (93 MB
-    each for the Allegro hand's 729,000 candidates) cost the Franka hand's
-    search 185 -> 151 ms and the Allegro hand's 761 -> 720 ms (medians of 11,
-    runs alternated on the 2-core machine), and peak memory 180 -> 55 MB and
-    288 -> 111 MB.
+    thousand of them. Built whole instead, the dense bench cases' two arrays
+    (93 MB each for the Allegro hand's 729,000 candidates) take the Franka
+    hand's search from 151 to 185 ms and the Allegro hand's from 720 to 761 ms,
+    and their peak memory from 55 to 180 MB and from 111 to 288 MB (medians of
+    11, the two alternated on the 2-core machine).
+
     Made from an array, it is that array. Poses set with :meth:`set` (a
     backed-off choice) override the structure's.
     """
