@@ -120,7 +120,7 @@ eval-scorers: $(STAMP)
 		--random 15 --commit "$(COMMIT)"
 
 # every URDF under GRIPPERS_DIR (the vendor descriptions wsgrasp is developed
-# against), and three URDFs pybullet ships that it is not developed against (an
+# against), and three URDFs pybullet ships, outside that development set (an
 # xArm gripper and a Franka Panda, each below its arm, and the PR2 gripper),
 # scaffolded with no edit, checked, planned on the bundled scenes and tried on
 # random:000-299 x 1 (the lift protocol; PROTOCOL=strict for eval's default), and

@@ -5,7 +5,7 @@ For each URDF found under ``--grippers-dir`` (by default ``../shared/grippers``,
 the vendor descriptions wsgrasp is developed against; any folder of URDFs with
 their meshes works the same way), and each ``--also`` URDF of ``--also-dir``
 (``make eval-grippers``: three that pybullet ships in ``pybullet_data``, which
-the project was not developed against):
+are not among the development descriptions):
 
 1. ``wsgrasp gripper new`` (Python: ``scaffold_plugin``) into a package under
    ``--out``, with no edit: scaffolds yes / no, and why not;
@@ -393,7 +393,7 @@ def main(argv: list[str] | None = None) -> int:
         "--also-dir",
         type=Path,
         help="a second folder of descriptions, of which only the --also files "
-        "are taken (pybullet_data: URDFs the project is not developed against)",
+        "are taken (pybullet_data: URDFs outside the development set)",
     )
     ap.add_argument(
         "--also",
