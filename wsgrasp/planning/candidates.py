@@ -399,7 +399,5 @@ def candidate_poses(
     structure = CandidateStructure(T_world_object, samples_object, R_object_gwc, depth)
     gwc = StructuredPoses.build(structure)
     gripper = StructuredPoses.build(structure, T_gripper_gwc)
-    ns, nos = len(gwc.A), len(gwc.R)
-    sample = np.repeat(np.arange(ns, dtype=np.int64), nos)
-    orientation = np.tile(np.arange(nos, dtype=np.int64), ns)
+    sample, orientation = structure.indices()
     return gwc.every(), gripper.every(), sample, orientation

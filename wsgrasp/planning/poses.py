@@ -87,6 +87,14 @@ class CandidateStructure:
     def num_candidates(self) -> int:
         return len(self.samples_object) * len(self.R_object_gwc)
 
+    def indices(self) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+        """Each candidate's sample and orientation, ``(C,)`` each: samples
+        outer, orientations inner."""
+        ns, n_or = len(self.samples_object), len(self.R_object_gwc)
+        sample = np.repeat(np.arange(ns, dtype=np.int64), n_or)
+        orientation = np.tile(np.arange(n_or, dtype=np.int64), ns)
+        return sample, orientation
+
 
 @dataclass(frozen=True)
 class StructuredPoses:

@@ -103,9 +103,7 @@ def run_search(
     )
     T_world_gwc = PoseArray(StructuredPoses.build(structure))
     T_world_gripper = PoseArray(StructuredPoses.build(structure, g.T_gripper_gwc))
-    ns, n_or = len(inp.samples_object), len(o.R_object_gwc)
-    sample = np.repeat(np.arange(ns, dtype=np.int64), n_or)
-    orientation = np.tile(np.arange(n_or, dtype=np.int64), ns)
+    sample, orientation = structure.indices()
     theta = o.theta[orientation]
     flipped = o.flipped[orientation]
     ev = evaluate_candidates(
