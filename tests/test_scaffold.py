@@ -862,3 +862,14 @@ def test_a_xacro_file_given_by_a_relative_path_expands(tmp_path, monkeypatch):
     yaml_path, _ = scaffold_plugin("xjaw", relative, tmp_path / "pkg")
     assert yaml_path.is_file()
     assert Path.cwd() == tmp_path / "src"
+
+
+def test_a_gripper_yaml_whose_urdf_is_sdformat_names_the_format(tmp_path):
+    """Read as a gripper's URDF (a YAML's ``urdf`` field), an SDFormat file is
+    named for what it is, as ``gripper new`` names it."""
+    from wsgrasp.gripper._urdf import load_kinematics
+
+    src = tmp_path / "g.urdf"
+    src.write_text('<sdf version="1.6"><model name="g"/></sdf>')
+    with pytest.raises(GripperError, match="an SDFormat .* not a URDF"):
+        load_kinematics(src, "g")

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wsgrasp.errors import GripperError
-from wsgrasp.gripper._urdf import load_mesh, parse_xml, resolve_mesh
+from wsgrasp.gripper._urdf import load_mesh, not_urdf, parse_xml, resolve_mesh
 
 __all__ = [
     "MAX_MESH_EXTENT",
@@ -219,14 +219,6 @@ def expand_xacro(
     return dest
 
 
-#: descriptions of a robot that are not URDF, by their root element
-_OTHER_FORMATS = {
-    "sdf": "an SDFormat (Gazebo) description",
-    "mujoco": "a MuJoCo (MJCF) model",
-    "COLLADA": "a COLLADA mesh",
-}
-
-
 def check_is_urdf(text: str, shown: Path) -> None:
     """Raise ``GripperError`` naming the file ``shown`` where ``text`` is not a
     URDF: not XML, or XML whose root element is not ``<robot>`` (an SDFormat or
@@ -238,9 +230,8 @@ def check_is_urdf(text: str, shown: Path) -> None:
             f"{str(shown)!r} is not valid XML, so no URDF: {exc}",
             hint="pass the gripper's URDF (or .urdf.xacro) with --urdf",
         ) from None
-    if root.tag != "robot":
-        tag = root.tag.rsplit("}", 1)[-1]
-        kind = _OTHER_FORMATS.get(tag, f"XML whose root element is <{tag}>")
+    kind = not_urdf(root)
+    if kind is not None:
         raise GripperError(
             f"{str(shown)!r} is {kind}, not a URDF (whose root element is <robot>)",
             hint="gripper new reads URDF and xacro files: pass the gripper's URDF "

@@ -312,6 +312,24 @@ def parse_xml(text: bytes) -> ET.Element:
         return ET.fromstring(text[: root.end()] + names + text[root.end() :])
 
 
+#: descriptions of a robot that are not URDF, by their root element
+_OTHER_FORMATS = {
+    "sdf": "an SDFormat (Gazebo) description",
+    "mujoco": "a MuJoCo (MJCF) model",
+    "COLLADA": "a COLLADA mesh",
+}
+
+
+def not_urdf(root: ET.Element) -> str | None:
+    """What a file whose root element is ``root`` is, where it is no URDF
+    (whose root is ``<robot>``): "an SDFormat (Gazebo) description", ...; None
+    for a URDF."""
+    if root.tag == "robot":
+        return None
+    tag = root.tag.rsplit("}", 1)[-1]
+    return _OTHER_FORMATS.get(tag, f"XML whose root element is <{tag}>")
+
+
 def load_kinematics(
     path: Path, gripper: str, *, package_paths: Sequence[Path] = ()
 ) -> Kinematics:
@@ -349,8 +367,9 @@ def load_kinematics(
         root = parse_xml(text)
     except ET.ParseError as exc:
         raise fail(f"is not valid XML: {exc}") from None
-    if root.tag != "robot":
-        raise fail(f"has root element <{root.tag}>, expected <robot>")
+    other = not_urdf(root)
+    if other is not None:
+        raise fail(f"is {other}, not a URDF (whose root element is <robot>)")
     sink = io.StringIO()
     try:
         with contextlib.redirect_stdout(sink), contextlib.redirect_stderr(sink):
