@@ -17,7 +17,7 @@ pytest.importorskip("mujoco")
 from test_sim import _T, JAW_URDF, R_DOWN, jaw_description  # noqa: E402
 
 from wsgrasp.cli import main  # noqa: E402
-from wsgrasp.errors import InputError  # noqa: E402
+from wsgrasp.errors import InputError, SimulationError  # noqa: E402
 from wsgrasp.sim import (  # noqa: E402
     SimParams,
     build_report,
@@ -190,7 +190,9 @@ def test_sim_settings_reach_the_model_and_bad_ones_are_named():
     assert over == {"kp_revolute": 12.5, "views": 2}
     assert isinstance(over["views"], int)
     p = SimParams.for_protocol("lift", **over)
-    g = load_sim_gripper("allegro_right", p)
+    # a hand whose YAML gives no drive of its own
+    yaml = "examples/plugins/robotiq_2f85_like/wsgrasp_robotiq_2f85_like"
+    g = load_sim_gripper(str(ROOT / yaml / "robotiq_2f85_like.yaml"), p)
     gains = {float(k) for k in re.findall(r'kp="([^"]+)"', g.actuator_xml)}
     assert gains == {12.5}
     for item, message, fix in [
@@ -218,6 +220,7 @@ def test_a_grippers_drive_sets_its_gains_and_leaves_its_model_alone():
 
     path = ROOT / "plugins/grippers/wsgrasp_grippers/allegro_right/allegro_right.yaml"
     desc, base = load_gripper_description(path)
+    desc = desc.model_copy(update={"drive": DriveSettings()})  # no drive of its own
     p = SimParams.for_protocol("lift", kp_revolute=3.0)
     plain = sim_gripper_from_files(desc.model_dump(), base, p)
     assert plain.gains["revolute"] == (3.0, "params")
@@ -230,6 +233,36 @@ def test_a_grippers_drive_sets_its_gains_and_leaves_its_model_alone():
     for bad in (0.0, -1.0, float("nan")):
         with pytest.raises(ValidationError):
             DriveSettings(kp_revolute=bad)
+
+
+def test_single_joints_take_the_gains_the_drive_gives_them():
+    """``drive.joints`` sets the gains of the joints it names (the Allegro
+    hand's thumb at three times its fingers'); the others keep their kind's.
+    A name that is no actuated joint is one error naming it and the fix."""
+    from wsgrasp.sim.gripper import sim_gripper_from_files
+    from wsgrasp.sim.report import _repair_markdown
+    from wsgrasp.spec import DriveSettings, load_gripper_description
+
+    path = ROOT / "plugins/grippers/wsgrasp_grippers/allegro_right/allegro_right.yaml"
+    desc, base = load_gripper_description(path)
+    thumb = ["joint_12.0", "joint_13.0", "joint_14.0", "joint_15.0"]
+    assert desc.drive.joints == dict.fromkeys(thumb, 6.0)
+    g = sim_gripper_from_files(desc.model_dump(), base, SimParams())
+    kp = dict(re.findall(r'joint="g/([^"]+)" kp="([^"]+)"', g.actuator_xml))
+    assert len(kp) == 16
+    assert {j: float(v) for j, v in kp.items() if j in thumb} == dict.fromkeys(
+        thumb, 6.0
+    )
+    assert {float(v) for j, v in kp.items() if j not in thumb} == {2.0}
+    notes = g.notes_json()
+    assert notes["joint_gains"] == {j: {"kp": 6.0} for j in thumb}
+    text = "\n".join(_repair_markdown({"sim_grippers": {"allegro_right": notes}}))
+    assert "drive.joints: joint_12.0 6" in text
+    for name, what in (("joint_99", "not an actuated"), ("joint_13", "not an")):
+        bad = desc.model_copy(update={"drive": DriveSettings(joints={name: 3.0})})
+        with pytest.raises(SimulationError, match=what) as info:
+            sim_gripper_from_files(bad.model_dump(), base, SimParams())
+        assert "drive.joints" in str(info.value) and "joint_0.0" in info.value.hint
 
 
 def test_a_bad_sim_setting_is_one_clear_error_from_the_cli(capsys):

@@ -156,6 +156,13 @@ class DriveSettings(_Model):
         description="gain (N/m) of every prismatic finger joint's position "
         "actuator; default: the simulator's kp_prismatic",
     )
+    joints: dict[str, PositiveFloat] = Field(
+        default_factory=dict,
+        description="gains of single actuated joints, by URDF joint name (N·m/rad "
+        "for a revolute joint, N/m for a prismatic one), over kp_revolute and "
+        "kp_prismatic: a controller whose gains differ per joint (a thumb that "
+        "presses against several fingers)",
+    )
 
 
 class _TooFewFingers(SpecError):

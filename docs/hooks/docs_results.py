@@ -571,6 +571,13 @@ def render_simulator_versions_runs() -> str:
     )
 
 
+def render_thumb_drive_runs() -> str:
+    """The runs that measured the Allegro hand's thumb drive
+    (``docs/results/thumb-drive/``): the hand as it is beside the same YAML
+    with one gain for every joint (``allegro_right_one_gain``)."""
+    return _runs_in("thumb-drive")
+
+
 def render_drive_guess_runs() -> str:
     """The runs that measured the finger drive `gripper new` guesses for a hand
     (``docs/results/drive-guess/``): the gripper table with the simulator's

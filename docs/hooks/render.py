@@ -52,6 +52,7 @@ from docs_results import (
     render_results_grippers,
     render_results_scorers,
     render_simulator_versions_runs,
+    render_thumb_drive_runs,
 )
 
 MARKER = re.compile(r"^<!-- render: ([a-z0-9-]+) -->$", re.M)
@@ -82,6 +83,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "angles-from-runs": render_angles_from_runs,
     "simulator-versions-runs": render_simulator_versions_runs,
     "drive-guess-runs": render_drive_guess_runs,
+    "thumb-drive-runs": render_thumb_drive_runs,
     "results-scorers": render_results_scorers,
 }
 

@@ -91,6 +91,9 @@ class SimGripper:
         The position gain of each kind of finger joint (``revolute`` in N·m/rad,
         ``prismatic`` in N/m) and where it came from: ``gripper`` (the YAML's
         ``drive``) or ``params`` (the run's ``kp_revolute`` / ``kp_prismatic``).
+    joint_gains : dict of str to float
+        The gains of single actuated joints over their kind's (the YAML's
+        ``drive.joints``).
     repairs : list of Repair
         The URDF's values replaced (inertials, efforts, mimic limits), with what
         was wrong and what was used instead.
@@ -114,6 +117,7 @@ class SimGripper:
     mimics: dict[str, tuple[str, float, float]] = field(default_factory=dict)
     efforts: dict[str, tuple[float, str, str]] = field(default_factory=dict)
     gains: dict[str, tuple[float, str]] = field(default_factory=dict)
+    joint_gains: dict[str, float] = field(default_factory=dict)
     repairs: list[Repair] = field(default_factory=list)
 
     def notes_json(self) -> dict[str, Any]:
@@ -126,6 +130,11 @@ class SimGripper:
             "gains": {
                 kind: {"kp": v, "source": src} for kind, (v, src) in self.gains.items()
             },
+            **(
+                {"joint_gains": {j: {"kp": v} for j, v in self.joint_gains.items()}}
+                if self.joint_gains
+                else {}
+            ),
             "repairs": [r.to_json() for r in self.repairs],
         }
 
@@ -327,6 +336,19 @@ def sim_gripper_from_files(
             if own is not None
             else (float(getattr(p, f"kp_{kind}")), "params")
         )
+    actuated_names = [j.name for j in actuated]
+    for jn, kp in (drive.get("joints") or {}).items():
+        if jn not in actuated_names:
+            what = (
+                f"a mimic joint of {mimics[jn][0]!r}"
+                if jn in mimics
+                else f"not an actuated finger joint below base_link {base!r}"
+            )
+            raise SimulationError(
+                f"gripper {name!r}: drive.joints names joint {jn!r}, {what}",
+                hint="give gains to the actuated joints: " + ", ".join(actuated_names),
+            )
+        gripper.joint_gains[jn] = float(kp)
     gripper.actuator_xml = _actuators(gripper, actuated)
     weak = _weak_efforts(gripper, actuated, p)
     if weak:
@@ -339,7 +361,13 @@ def _actuators(gripper: SimGripper, actuated: list[Joint]) -> str:
     """The ``<actuator>`` elements of ``actuated`` at the gripper's gains and
     efforts."""
     return "\n".join(
-        _actuator(j, gripper.gains, gripper.efforts[j.name][0]) for j in actuated
+        _actuator(
+            j,
+            gripper.gains,
+            gripper.efforts[j.name][0],
+            gripper.joint_gains.get(j.name),
+        )
+        for j in actuated
     )
 
 
@@ -619,14 +647,21 @@ def _geom_attrs(name: str, p: SimParams) -> str:
     )
 
 
-def _actuator(j: Joint, gains: Mapping[str, tuple[float, str]], effort: float) -> str:
+def _actuator(
+    j: Joint,
+    gains: Mapping[str, tuple[float, str]],
+    effort: float,
+    own: float | None = None,
+) -> str:
+    """The position actuator of joint ``j``: at its kind's gain, or at ``own``
+    where the joint has a gain of its own."""
     kind = "prismatic" if j.kind == JOINT_PRISMATIC else "revolute"
     return (
         "<position "
         + attrs(
             name=PREFIX + j.name,
             joint=PREFIX + j.name,
-            kp=gains[kind][0],
+            kp=gains[kind][0] if own is None else own,
             ctrlrange=None if j.continuous else fmt((j.lower, j.upper)),
             forcerange=fmt((-effort, effort)),
         )

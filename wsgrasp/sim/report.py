@@ -435,6 +435,11 @@ def _repair_markdown(report: dict[str, Any]) -> list[str]:
             f"{kp:g} {unit} ({_GAIN_SOURCES.get(source, source)})"
             for kp, unit, source in finger_gains(notes)
         )
+        own = ", ".join(
+            f"{j} {g['kp']:g}" for j, g in (notes.get("joint_gains") or {}).items()
+        )
+        if own:
+            gains += f"; of their own, from the gripper YAML's drive.joints: {own}"
         if gains:
             lines += ["", f"{gripper}: finger position gains {gains}"]
         repairs = notes.get("repairs", [])
