@@ -258,7 +258,7 @@ def test_single_joints_take_the_gains_the_drive_gives_them():
     assert notes["joint_gains"] == {j: {"kp": 6.0} for j in thumb}
     text = "\n".join(_repair_markdown({"sim_grippers": {"allegro_right": notes}}))
     assert "drive.joints: joint_12.0 6" in text
-    for name, what in (("joint_99", "not an actuated"), ("joint_13", "not an")):
+    for name, what in (("joint_99", "not a movable joint"), ("joint_13", "not a")):
         bad = desc.model_copy(update={"drive": DriveSettings(joints={name: 3.0})})
         with pytest.raises(SimulationError, match=what) as info:
             sim_gripper_from_files(bad.model_dump(), base, SimParams())

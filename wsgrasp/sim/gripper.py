@@ -245,7 +245,13 @@ def sim_gripper_from_files(
                     f"{mimics[j.name][0]!r}, which is not below base_link {base!r}",
                     hint="set base_link to a link that carries both joints",
                 )
-    for label, posture in (("pregrasp", pregrasp), ("closed", closed)):
+    drive = description.get("drive") or {}
+    joint_gains = drive.get("joints") or {}
+    for label, posture in (
+        ("pregrasp", pregrasp),
+        ("closed", closed),
+        ("drive.joints", joint_gains),
+    ):
         for jn in posture:
             if jn not in movable_names:
                 raise SimulationError(
@@ -328,7 +334,6 @@ def sim_gripper_from_files(
         for j in movable
         if j.mimic is not None
     )
-    drive = description.get("drive") or {}
     for kind in ("revolute", "prismatic"):
         own = drive.get(f"kp_{kind}")
         gripper.gains[kind] = (
@@ -336,19 +341,7 @@ def sim_gripper_from_files(
             if own is not None
             else (float(getattr(p, f"kp_{kind}")), "params")
         )
-    actuated_names = [j.name for j in actuated]
-    for jn, kp in (drive.get("joints") or {}).items():
-        if jn not in actuated_names:
-            what = (
-                f"a mimic joint of {mimics[jn][0]!r}"
-                if jn in mimics
-                else f"not an actuated finger joint below base_link {base!r}"
-            )
-            raise SimulationError(
-                f"gripper {name!r}: drive.joints names joint {jn!r}, {what}",
-                hint="give gains to the actuated joints: " + ", ".join(actuated_names),
-            )
-        gripper.joint_gains[jn] = float(kp)
+    gripper.joint_gains = {jn: float(kp) for jn, kp in joint_gains.items()}
     gripper.actuator_xml = _actuators(gripper, actuated)
     weak = _weak_efforts(gripper, actuated, p)
     if weak:
