@@ -77,6 +77,12 @@ def test_a_packed_scene_is_cleared_and_every_step_recorded(franka_clutter, tmp_p
         assert step["records"] and all(
             (tmp_path / r).is_file() for r in step["records"]
         )
+        # the neighbours moved before the lift, and those the gripper touched:
+        # never the target
+        others = {"box0", "box1"} - {step["target"]}
+        assert set(step["pushed"]) <= others and set(step["touched"]) <= others
+        if step["kind"] == "neighbour_collision":
+            assert step["touched"] or step["outcome"] == "approach_collision"
     s = clutter_summary([out])
     assert s["attempts"] == out["attempts"]
     assert 0.0 <= s["grasp_success_rate"] <= 1.0
@@ -295,3 +301,30 @@ def test_a_replayed_step_names_the_random_candidate_it_executed():
     assert "candidate" not in SequenceStep(info, []).line()
     line = SequenceStep({**info, "candidate": 7}, []).line()
     assert "target box0 (random feasible candidate 7): success" in line
+
+
+def test_a_grasp_that_lands_on_a_neighbour_touches_it(franka_clutter):
+    """Execution names the neighbours the gripper touched while it approached
+    and closed: a hand brought down onto the other box of a packed pair touches
+    that box, one brought down beside both touches neither."""
+    from wsgrasp.sim.clutter import _target_scene
+    from wsgrasp.sim.trial import execute_grasp
+
+    _, gripper, p = franka_clutter
+    settle = ClutterWorld.build(_boxes(2), p)
+    place_objects(settle, "packed", np.random.default_rng(0), p)
+    poses = settle.poses()
+    world = ClutterWorld.build(_boxes(2), p, gripper)
+    R_down = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+
+    def touched_at(xy) -> list[int]:
+        world.set_poses(poses, np.ones(2, dtype=bool))
+        scene = _target_scene(world, 0)
+        T = np.eye(4)
+        T[:3, :3] = R_down
+        T[:3, 3] = (*xy, 0.12)  # the base 12 cm up: the fingertips near the table
+        ex = execute_grasp(scene, poses[0], T, p)
+        return [world.bodies.index(int(b)) for b in ex.touched]
+
+    assert touched_at(poses[1][:2, 3]) == [1]
+    assert touched_at((0.5, 0.5)) == []

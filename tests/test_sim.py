@@ -211,6 +211,12 @@ def test_grasp_execution_outcomes(
     assert ex.outcome == expected, ex.metrics
     if expected == "success":
         assert ex.metrics["rise_after_hold"] > 0.15
+        # where the bodies were once the fingers had closed: the box still on
+        # the table, before the lift took it up
+        assert ex.xipos_closed is not None
+        assert ex.xipos_closed.shape == (scene.model.nbody, 3)
+        box_z = ex.xipos_closed[scene.object_body, 2]
+        assert box_z < scene.data.xipos[scene.object_body, 2] - 0.15
 
 
 def test_fingers_are_driven_to_the_plans_joint_targets(jaw_dir: Path):

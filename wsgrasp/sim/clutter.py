@@ -32,7 +32,9 @@ is an attempt that failed); declutter rate = objects removed (lifted off the
 table by a grasp; one pushed or knocked off the table is gone but not removed)
 / objects. Each failure gets a kind: ``no_grasp``, ``wrong_split`` (the
 target's points lie on two objects), ``neighbour_collision`` (the approach was
-flagged or another object was pushed more than ``displaced_distance``),
+flagged, or the gripper touched another object while it approached and closed;
+a neighbour the target moves, or knocks as it falls back onto the pile, does
+not count),
 ``slip`` (dropped, slipped, not lifted) and ``two_lifted`` (more objects than
 the target came up).
 """
@@ -356,6 +358,11 @@ class Step:
     success: bool = False
     kind: str | None = None
     lifted: list[str] = field(default_factory=list)
+    #: the neighbours the approach or the closing fingers moved more than
+    #: ``displaced_distance`` (horizontally) before the lift
+    pushed: list[str] = field(default_factory=list)
+    #: the neighbours the gripper touched while it approached and closed
+    touched: list[str] = field(default_factory=list)
     #: wall-clock time of the step's plans (ms), recording included
     plan_ms: float = 0.0
     #: the candidate executed (index into the plan's candidates) where the
@@ -504,19 +511,23 @@ def run_clutter_scene(
             after = grip.data.xipos[grip.bodies].copy()
             rise = after[:, 2] - before[:, 2]
             lifted = present & (rise > p.lifted_fraction * p.lift_height)
-            pushed = (
-                present
-                & ~lifted
-                & (
-                    np.linalg.norm(after[:, :2] - before[:, :2], axis=1)
-                    > p.displaced_distance
-                )
+            # a neighbour the approach or the closing fingers moved: one that
+            # moves later, as a failed grasp lets its target fall back onto the
+            # pile, says nothing of the plan's collision test
+            assert ex.xipos_closed is not None
+            closed = ex.xipos_closed[grip.bodies]
+            pushed = present & (
+                np.linalg.norm(closed[:, :2] - before[:, :2], axis=1)
+                > p.displaced_distance
             )
             pushed[k_target] = False
+            touched = np.isin(grip.bodies, ex.touched)
             step.outcome = ex.outcome
             step.success = ex.outcome == "success"
             step.lifted = [names[k] for k in np.flatnonzero(lifted)]
-            step.kind = _kind(ex.outcome, share, int(lifted.sum()), bool(pushed.any()))
+            step.pushed = [names[k] for k in np.flatnonzero(pushed)]
+            step.touched = [names[k] for k in np.flatnonzero(touched)]
+            step.kind = _kind(ex.outcome, share, int(lifted.sum()), bool(touched.any()))
             # what is left settles where the attempt left it
             poses = grip.poses()
             present = present & ~lifted
@@ -684,7 +695,7 @@ def _target(
     return int(order[0]), second
 
 
-def _kind(outcome: str, share: float, lifted: int, pushed: bool) -> str | None:
+def _kind(outcome: str, share: float, lifted: int, touched: bool) -> str | None:
     """The failure kind of an executed attempt (None for a success)."""
     if lifted > 1:
         return "two_lifted"
@@ -692,7 +703,7 @@ def _kind(outcome: str, share: float, lifted: int, pushed: bool) -> str | None:
         return None
     if share >= WRONG_SPLIT_SHARE:
         return "wrong_split"
-    if outcome == "approach_collision" or pushed:
+    if outcome == "approach_collision" or touched:
         return "neighbour_collision"
     return "slip"
 

@@ -37,7 +37,7 @@ lift), ``dropped_holding`` (held after the lift, lost during the hold),
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -290,22 +290,62 @@ class Execution:
         object's motion in the grip from the closed grip to the end),
         ``slip_distance_hold`` and ``slip_angle_deg_hold`` (the same, to the end
         of the hold: what the lift moved).
+    xipos_closed : (nbody, 3) float, optional
+        Every body's centre of mass (world) once the fingers had closed, before
+        the lift: what the approach and the closing moved in a world of several
+        objects (``wsgrasp.sim.clutter``).
+    touched : (k,) int
+        The bodies other than the object, the gripper's and the table's that
+        the gripper touched during the approach and the closing (a world of
+        several objects: the neighbours it collided with), ascending.
     """
 
     outcome: str
     metrics: dict[str, Any] = field(default_factory=dict)
+    xipos_closed: Array | None = None
+    touched: NDArray[np.int64] = field(
+        default_factory=lambda: np.zeros(0, dtype=np.int64)
+    )
 
 
-def close_fingers(m: Any, d: Any, start: Array, goal: Array, p: SimParams) -> None:
+def close_fingers(
+    m: Any,
+    d: Any,
+    start: Array,
+    goal: Array,
+    p: SimParams,
+    after_step: Callable[[], None] | None = None,
+) -> None:
     """Step 5 of the protocol: ramp the finger actuators' targets (``d.ctrl[6:]``,
     after the drive's six) from ``start`` to ``goal`` over ``close_time``, then
-    let the grip build up for ``close_wait``."""
+    let the grip build up for ``close_wait``; ``after_step`` is called after
+    every simulation step."""
     mujoco = require_mujoco()
     n = max(1, int(round(p.close_time / p.timestep)))
     for i in range(1, n + 1):
         d.ctrl[6:] = start + (goal - start) * (i / n)
         mujoco.mj_step(m, d)
-    mujoco.mj_step(m, d, nstep=max(1, int(round(p.close_wait / p.timestep))))
+        if after_step is not None:
+            after_step()
+    wait = max(1, int(round(p.close_wait / p.timestep)))
+    if after_step is None:
+        mujoco.mj_step(m, d, nstep=wait)
+        return
+    for _ in range(wait):
+        mujoco.mj_step(m, d)
+        after_step()
+
+
+def _touching_gripper(scene: SimScene, bodies: NDArray[np.int64]) -> Any:
+    """Those of ``bodies`` that touch the gripper now."""
+    m, d = scene.model, scene.data
+    n = d.ncon
+    if n == 0:
+        return bodies[:0]
+    pair = m.geom_bodyid[np.asarray(d.contact.geom[:n])]  # (n, 2) bodies
+    grip = np.isin(pair, scene.gripper_bodies)  # (n, 2)
+    other = np.where(grip[:, 0], pair[:, 1], pair[:, 0])[grip[:, 0] ^ grip[:, 1]]
+    return bodies[np.isin(bodies, other)]
 
 
 def _contacts(scene: SimScene) -> tuple[bool, bool]:
@@ -411,12 +451,32 @@ def execute_grasp(
     R0 = d.xmat[obj].reshape(3, 3).copy()
     dt = p.timestep
 
-    def move(start: Array, goal: Array, speed: float) -> None:
+    # the other objects of a world of several (none for a single object), and
+    # those of them the gripper touches while it approaches and closes
+    with_geoms = np.unique(m.geom_bodyid)
+    others = with_geoms[
+        (with_geoms != 0)
+        & (with_geoms != obj)
+        & ~np.isin(with_geoms, scene.gripper_bodies)
+    ].astype(np.int64)
+    touched = np.zeros(m.nbody, dtype=bool)
+
+    def watch() -> None:
+        touched[_touching_gripper(scene, others)] = True
+
+    def move(
+        start: Array,
+        goal: Array,
+        speed: float,
+        after_step: Callable[[], None] | None = None,
+    ) -> None:
         dist = float(np.linalg.norm(goal - start))
         n = max(1, int(np.ceil(dist / speed / dt)))
         for i in range(1, n + 1):
             d.ctrl[:3] = start + (goal - start) * (i / n)
             mujoco.mj_step(m, d)
+            if after_step is not None:
+                after_step()
 
     def wait(seconds: float) -> None:
         mujoco.mj_step(m, d, nstep=max(1, int(round(seconds / dt))))
@@ -439,7 +499,8 @@ def execute_grasp(
         return c, R_root.T @ d.xmat[obj].reshape(3, 3)
 
     # 4. approach
-    move(T_start[:3, 3], T_goal[:3, 3], p.approach_speed)
+    on_step = watch if len(others) else None
+    move(T_start[:3, 3], T_goal[:3, 3], p.approach_speed, on_step)
     wait(0.1)
     root = d.xpos[scene.root_body]
     blocked = float(np.linalg.norm(root - T_goal[:3, 3]))
@@ -452,7 +513,7 @@ def execute_grasp(
     )
     # 5. close: ramp the targets, then let the grip build up
     p_approached = d.xipos[obj].copy()  # centre of mass
-    close_fingers(m, d, ctrl_pre, ctrl_grasp, p)
+    close_fingers(m, d, ctrl_pre, ctrl_grasp, p, on_step)
     joints_closed = {
         jn: float(d.qpos[scene.joint_qpos[jn]]) for jn in g.actuated
     }  # where the fingers stopped
@@ -460,6 +521,7 @@ def execute_grasp(
     grip_force = sum((f_n for f_n, _ in touching), 0.0)  # their normal forces (N)
     use_closed = _friction_use(scene, touching)
     pushed = float(np.linalg.norm(d.xipos[obj] - p_approached))
+    xipos_closed = d.xipos.copy()
     c_closed, R_closed = in_grip()
     # 6. lift, then hold
     top = T_goal[:3, 3] + np.array([0.0, 0.0, p.lift_height])
@@ -544,6 +606,8 @@ def execute_grasp(
             "execution_offset": offset,
             "execution_angle_deg": angle,
         },
+        xipos_closed,
+        np.flatnonzero(touched).astype(np.int64),
     )
 
 
