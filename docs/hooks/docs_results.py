@@ -872,9 +872,15 @@ def _clutter_run(name: str, r: dict[str, Any]) -> list[str]:
         fails = ", ".join(f"{k} {kinds[k]}" for k in order if kinds[k])
         ends: dict[str, int] = {}
         fell = 0
+        steps = []
         for scene in g.get("scenes") or []:
             ends[scene.get("end", "?")] = ends.get(scene.get("end", "?"), 0) + 1
             fell += len(scene.get("fell_off") or [])
+            steps += scene.get("steps") or []
+        # attempts whose gripper touched another object while it approached
+        # and closed, successes included (where the run recorded it)
+        recorded = [st["touched"] for st in steps if "touched" in st]
+        touched = sum(bool(t) for t in recorded) if recorded else "–"
         p90 = s.get("first_plan_ms_p90")
         first = _ms(s.get("first_plan_ms_median")) + (
             f" / {_ms(p90)}" if p90 is not None else ""
@@ -890,6 +896,7 @@ def _clutter_run(name: str, r: dict[str, Any]) -> list[str]:
                 _ms(s.get("pipeline_ms_median")),
                 first,
                 fails or "–",
+                touched,
                 s.get("two_lifted", "–"),
                 fell,
                 ", ".join(f"{k} {v}" for k, v in sorted(ends.items())) or "–",
@@ -906,6 +913,7 @@ def _clutter_run(name: str, r: dict[str, Any]) -> list[str]:
                 "plans per step, median",
                 "first plan, median / p90",
                 "failed attempts by kind",
+                "touched a neighbour",
                 "two lifted at once",
                 "knocked off the table",
                 "scenes ended",
