@@ -336,18 +336,6 @@ def close_fingers(
         after_step()
 
 
-def _touching_gripper(scene: SimScene, bodies: NDArray[np.int64]) -> Any:
-    """Those of ``bodies`` that touch the gripper now."""
-    m, d = scene.model, scene.data
-    n = d.ncon
-    if n == 0:
-        return bodies[:0]
-    pair = m.geom_bodyid[np.asarray(d.contact.geom[:n])]  # (n, 2) bodies
-    grip = np.isin(pair, scene.gripper_bodies)  # (n, 2)
-    other = np.where(grip[:, 0], pair[:, 1], pair[:, 0])[grip[:, 0] ^ grip[:, 1]]
-    return bodies[np.isin(bodies, other)]
-
-
 def _contacts(scene: SimScene) -> tuple[bool, bool]:
     """(object touches the gripper, object touches the table)."""
     m, d = scene.model, scene.data
@@ -453,16 +441,23 @@ def execute_grasp(
 
     # the other objects of a world of several (none for a single object), and
     # those of them the gripper touches while it approaches and closes
-    with_geoms = np.unique(m.geom_bodyid)
-    others = with_geoms[
-        (with_geoms != 0)
-        & (with_geoms != obj)
-        & ~np.isin(with_geoms, scene.gripper_bodies)
-    ].astype(np.int64)
+    is_grip = np.zeros(m.nbody, dtype=bool)
+    is_grip[scene.gripper_bodies] = True
+    is_other = np.zeros(m.nbody, dtype=bool)
+    is_other[m.geom_bodyid] = True
+    is_other[[0, obj]] = False  # the world's (the table) and the object's
+    is_other &= ~is_grip
     touched = np.zeros(m.nbody, dtype=bool)
 
     def watch() -> None:
-        touched[_touching_gripper(scene, others)] = True
+        n = d.ncon
+        if n:
+            pair = m.geom_bodyid[d.contact.geom[:n]]  # (n, 2) bodies
+            grip = is_grip[pair]  # (n, 2)
+            one = grip[:, 0] != grip[:, 1]
+            if one.any():
+                other = np.where(grip[:, 0], pair[:, 1], pair[:, 0])[one]
+                touched[other[is_other[other]]] = True
 
     def move(
         start: Array,
@@ -499,7 +494,7 @@ def execute_grasp(
         return c, R_root.T @ d.xmat[obj].reshape(3, 3)
 
     # 4. approach
-    on_step = watch if len(others) else None
+    on_step = watch if is_other.any() else None
     move(T_start[:3, 3], T_goal[:3, 3], p.approach_speed, on_step)
     wait(0.1)
     root = d.xpos[scene.root_body]
