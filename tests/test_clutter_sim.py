@@ -181,7 +181,10 @@ def test_a_target_lifted_but_slipping_in_the_grip_counts_as_lifted_not_held():
             _step("c", "approach_collision", ["b2"], "neighbour_collision"),
         ],
     }
+    scene["steps"][0]["touched"] = ["c"]  # a success that brushed a neighbour
+    scene["steps"][3]["touched"] = ["b"]
     s = clutter_summary([scene])
+    assert s["touched_neighbour"] == 2
     assert s["successes"] == 1 and s["grasp_success_rate"] == 0.25
     # the other object that came up with the last attempt is not its target
     assert s["target_lifted"] == 2 and s["lift_rate"] == 0.5

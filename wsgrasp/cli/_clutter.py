@@ -226,6 +226,7 @@ def _print_table(report: dict[str, Any]) -> None:
         "declutter",
         "plan ms (median / p90)",
         "failures",
+        "touched a neighbour",
     ):
         table.add_column(col)
     rows = []
@@ -246,6 +247,7 @@ def _print_table(report: dict[str, Any]) -> None:
             if s["first_plan_ms_median"] is None
             else f"{s['first_plan_ms_median']:.0f} / {s['first_plan_ms_p90']:.0f}",
             ", ".join(f"{k} {v}" for k, v in sorted(s["failure_kinds"].items())),
+            str(s.get("touched_neighbour", "-")),
         )
     console.print(table)
     for g, r in report["grippers"].items():

@@ -746,8 +746,10 @@ def clutter_summary(scenes: list[dict[str, Any]]) -> dict[str, Any]:
     protocol), lift rate (attempts that took their target off the table /
     attempts: what clutter-removal benchmarks count as a successful grasp, a
     grasp that slipped in the grip under the ``strict`` disturbances included),
-    declutter rate (removed / objects), the failed attempts by kind and the
-    attempts that lifted two objects or more (``two_lifted``, successes too) over
+    declutter rate (removed / objects), the failed attempts by kind, the
+    attempts whose gripper touched a neighbour while it approached and closed
+    (``touched_neighbour``) and the attempts that lifted two objects or more
+    (``two_lifted``; both successes too) over
     ``scenes`` (:func:`run_clutter_scene`'s results), with the steps' planning
     times (ms):
     wall-clock with recording (median, maximum), the plans' own time (median)
@@ -760,9 +762,11 @@ def clutter_summary(scenes: list[dict[str, Any]]) -> dict[str, Any]:
     times, own, first = [], [], []
     two = 0
     target_lifted = 0
+    touched = 0
     for s in scenes:
         for st in s["steps"]:
             times.append(st["plan_ms"])
+            touched += bool(st.get("touched"))
             target_lifted += bool(st.get("target")) and st["target"] in st["lifted"]
             if st.get("first_plan_ms"):
                 own.append(st["pipeline_ms"])
@@ -782,6 +786,7 @@ def clutter_summary(scenes: list[dict[str, Any]]) -> dict[str, Any]:
         "declutter_rate": removed / objects if objects else None,
         "failure_kinds": kinds,
         "two_lifted": two,
+        "touched_neighbour": touched,
         "plan_ms_median": float(np.median(times)) if times else None,
         "plan_ms_max": float(np.max(times)) if times else None,
         "pipeline_ms_median": float(np.median(own)) if own else None,
