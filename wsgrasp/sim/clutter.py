@@ -358,8 +358,8 @@ class Step:
     success: bool = False
     kind: str | None = None
     lifted: list[str] = field(default_factory=list)
-    #: the neighbours the approach or the closing fingers moved more than
-    #: ``displaced_distance`` (horizontally) before the lift
+    #: the neighbours that moved more than ``displaced_distance``
+    #: (horizontally) before the lift, pushed by the gripper or by the target
     pushed: list[str] = field(default_factory=list)
     #: the neighbours the gripper touched while it approached and closed
     touched: list[str] = field(default_factory=list)
@@ -511,9 +511,9 @@ def run_clutter_scene(
             after = grip.data.xipos[grip.bodies].copy()
             rise = after[:, 2] - before[:, 2]
             lifted = present & (rise > p.lifted_fraction * p.lift_height)
-            # a neighbour the approach or the closing fingers moved: one that
-            # moves later, as a failed grasp lets its target fall back onto the
-            # pile, says nothing of the plan's collision test
+            # the neighbours moved before the lift (by the gripper, or by the
+            # target it pushed): one that moves later, as a failed grasp lets
+            # its target fall back onto the pile, says nothing of the approach
             assert ex.xipos_closed is not None
             closed = ex.xipos_closed[grip.bodies]
             pushed = present & (
