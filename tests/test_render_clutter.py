@@ -49,7 +49,13 @@ def _report(scene: str) -> dict[str, Any]:
         "first_plan_ms_p90": 1500.0,
     }
     scenes = [
-        {"scene": scene, "end": "clear", "fell_off": [], "steps": []},
+        {
+            "scene": scene,
+            "end": "clear",
+            "fell_off": [],
+            # the first attempt's gripper touched a neighbour, the second not
+            "steps": [{"touched": ["b"]}, {"touched": []}],
+        },
         {"scene": scene, "end": "two_failures", "fell_off": ["a"], "steps": []},
     ]
     return {
@@ -101,8 +107,22 @@ def test_each_published_scene_kind_is_a_table_of_its_rates(
         "no_grasp 1, wrong_split 1, slip 1",
         "1",
         "1",
+        "1",
         "clear 1, two_failures 1",
     ]
+
+
+def test_a_run_that_did_not_record_touches_shows_none(
+    docs_results: ModuleType, tmp_path: Path
+) -> None:
+    report = _report("pile")
+    for scene in report["grippers"]["franka_hand"]["scenes"]:
+        scene["steps"] = [{} for _ in scene["steps"]]
+    (tmp_path / "clutter").mkdir()
+    (tmp_path / "clutter" / "pile.json").write_text(json.dumps(report))
+    md = docs_results.render_results_clutter()
+    row = next(ln for ln in md.splitlines() if ln.startswith("| `franka_hand`"))
+    assert [c.strip() for c in row.strip("|").split("|")][8] == "–"
 
 
 def test_no_published_run_says_which_target_writes_it(
