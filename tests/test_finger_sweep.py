@@ -251,7 +251,7 @@ def test_fingers_that_several_joints_drive_may_graze_the_table(tmp_path):
     )
     assert [len(j) for j in knuckled.finger_joints] == [2, 2]
     column = _column(0.05)
-    T = _top_down(0.09)
+    T = _top_down(0.095)
     assert -GRAZE_SLACK < _lowest(knuckled, T) < -SWEEP_SLACK
     assert sweep_back_offs(knuckled, T[None], TABLE, column)[0] == 0.0
     # deeper than a graze: backed off until it is one
@@ -275,7 +275,7 @@ def test_a_finger_whose_tip_sticks_on_the_table_is_kept_off_it(tmp_path):
     )
     assert slides(sticking) == [False, False]
     column = _column(0.05)
-    T = _top_down(0.09)
+    T = _top_down(0.095)
     assert -GRAZE_SLACK < _lowest(sticking, T) < -SWEEP_SLACK
     d = sweep_back_offs(sticking, T[None], TABLE, column)[0]
     assert d > 0.0
@@ -286,7 +286,7 @@ def test_a_finger_whose_tip_sticks_on_the_table_is_kept_off_it(tmp_path):
         write_claw(tmp_path / "g", on_table="slides"), cache_dir=tmp_path / "cache"
     )
     assert slides(sliding) == [True, True]
-    T = _top_down(0.09)
+    T = _top_down(0.095)
     assert -GRAZE_SLACK < _lowest(sliding, T) < -SWEEP_SLACK
     assert sweep_back_offs(sliding, T[None], TABLE, column)[0] == 0.0
 

@@ -34,7 +34,7 @@ from wsgrasp.sim.objects import (  # noqa: E402
     resolve_objects,
     trial_mass,
 )
-from wsgrasp.sim.report import paired_difference  # noqa: E402
+from wsgrasp.sim.report import LOW_OBJECT, paired_difference  # noqa: E402
 from wsgrasp.sim.trial import (  # noqa: E402
     DISTURBANCE_DIRECTIONS,
     ExecutionError,
@@ -368,6 +368,49 @@ def test_report_pairs_the_choice_with_random_candidates_per_scene():
     assert (low, high) == pytest.approx((mean - half, mean + half))
     md = report_markdown(report)
     assert "| franka_hand | default | 3 × 2 random | 67 % | 17 % | +50.0 pts" in md
+
+
+def test_report_splits_low_objects_from_tall_ones():
+    # a: low, held by the choice, one of two random candidates; b: low, lost by
+    # both; c: tall, held by the choice and both random candidates; d: never
+    # settled (no height): in neither band
+    heights = {"a": 0.021, "b": 0.029, "c": 0.06}
+    records = [
+        _rec("default", "a", "success"),
+        _rec("default", "a", "success", "random", 0),
+        _rec("default", "a", "slipped_lifting", "random", 1),
+        _rec("default", "b", "slipped_lifting"),
+        _rec("default", "b", "slipped_lifting", "random", 0),
+        _rec("default", "b", "slipped_lifting", "random", 1),
+        _rec("default", "c", "success"),
+        _rec("default", "c", "success", "random", 0),
+        _rec("default", "c", "success", "random", 1),
+        _rec("default", "d", "no_grasp"),
+    ]
+    for r in records:
+        if r["object"] in heights:
+            r["object_height"] = heights[r["object"]]
+    report = build_report(records)
+    (res,) = report["results"]
+    split = res["by_height"]
+    assert split["low_below_m"] == LOW_OBJECT == 0.03
+    assert (split["low"]["trials"], split["low"]["successes"]) == (2, 1)
+    assert (split["tall"]["trials"], split["tall"]["successes"]) == (1, 1)
+    assert split["low"]["success_rate"] == pytest.approx(0.5)
+    (b,) = report["baseline"]
+    low, tall = b["by_height"]["low"], b["by_height"]["tall"]
+    assert (low["scenes"], tall["scenes"]) == (2, 1)
+    assert low["chosen_rate"] == pytest.approx(0.5)
+    assert low["random_rate"] == pytest.approx(0.25)
+    assert (tall["chosen_rate"], tall["random_rate"]) == (1.0, 1.0)
+    md = report_markdown(report)
+    assert (
+        "| franka_hand | default | 50 % of 2 (random 25 %) "
+        "| 100 % of 1 (random 100 %) |" in md
+    )
+    # no trial in a band: no rate, not a division by zero
+    only_tall = build_report([r for r in records if r["object"] == "c"])
+    assert only_tall["results"][0]["by_height"]["low"]["success_rate"] is None
 
 
 def test_report_pairs_each_spec_with_the_primary_over_the_same_scenes():

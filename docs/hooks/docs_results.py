@@ -571,6 +571,13 @@ def render_simulator_versions_runs() -> str:
     )
 
 
+def render_graze_depth_runs() -> str:
+    """The runs that measured how deep a sliding fingertip's sweep may dip below
+    the table (``docs/results/graze-depth/``): each depth against the first of
+    its run, over the same objects."""
+    return _runs_in("graze-depth")
+
+
 def render_thumb_drive_runs() -> str:
     """The runs that measured the Allegro hand's thumb drive
     (``docs/results/thumb-drive/``): the hand as it is beside the same YAML

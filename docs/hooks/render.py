@@ -43,6 +43,7 @@ from docs_results import (
     render_defaults_success,
     render_drive_guess_runs,
     render_generic_scorers_runs,
+    render_graze_depth_runs,
     render_on_table_runs,
     render_pose_margin_runs,
     render_reach_down_runs,
@@ -84,6 +85,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "simulator-versions-runs": render_simulator_versions_runs,
     "drive-guess-runs": render_drive_guess_runs,
     "thumb-drive-runs": render_thumb_drive_runs,
+    "graze-depth-runs": render_graze_depth_runs,
     "results-scorers": render_results_scorers,
 }
 

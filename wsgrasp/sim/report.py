@@ -12,6 +12,11 @@ beside it (each scene's share of them held, averaged over the scenes) and the
 paired difference with a 95 % interval (:func:`paired_difference`). With several
 specs per gripper, ``specs_paired`` sets each against the primary spec over the
 scenes both ran (:func:`spec_pairs`).
+
+Each gripper × spec, and each baseline row, also splits its scenes by how high
+the object stood on the table once it settled (``by_height``: objects lower
+than :data:`LOW_OBJECT` and the others): a hand that holds tall objects and
+drops flat ones shows it there, where the overall rate averages the two.
 """
 
 from __future__ import annotations
@@ -25,6 +30,7 @@ from wsgrasp._version import library_versions
 from wsgrasp.sim.trial import OUTCOMES
 
 __all__ = [
+    "LOW_OBJECT",
     "PAPER_TABLE2",
     "baseline_rows",
     "build_report",
@@ -53,6 +59,33 @@ PAPER_TABLE2: dict[str, dict[str, tuple[float, float]]] = {
 }
 PAPER_AVERAGE = {"allegro_right": (1.22, 0.65), "franka_hand": (0.34, 0.65)}
 FAILURES = OUTCOMES[1:]
+#: objects standing lower than this (m) on the table are the ``by_height``
+#: split's low ones (half of the random set stands 2.0-2.5 cm high, the rest
+#: 4-8 cm: a fingertip about as wide as the object is high grips its edge)
+LOW_OBJECT = 0.03
+
+
+def _height_band(r: dict[str, Any]) -> str | None:
+    """``"low"`` or ``"tall"`` (:data:`LOW_OBJECT`), or None for a trial whose
+    object never settled (no height recorded)."""
+    h = r.get("object_height")
+    if h is None:
+        return None
+    return "low" if float(h) < LOW_OBJECT else "tall"
+
+
+def _by_height(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """Trials, successes and success rate of the low and the tall objects."""
+    out: dict[str, Any] = {"low_below_m": LOW_OBJECT}
+    for band in ("low", "tall"):
+        recs = [r for r in records if _height_band(r) == band]
+        ok = sum(r["outcome"] == "success" for r in recs)
+        out[band] = {
+            "trials": len(recs),
+            "successes": ok,
+            "success_rate": ok / len(recs) if recs else None,
+        }
+    return out
 
 
 def _median(values: Sequence[float | None]) -> float | None:
@@ -111,7 +144,13 @@ def build_report(
                 row["paper"] = {"plan_s": paper[0], "success_rate": paper[1]}
             rows.append(row)
         results.append(
-            {"gripper": gripper, "spec": spec, **_summary(recs), "objects": rows}
+            {
+                "gripper": gripper,
+                "spec": spec,
+                **_summary(recs),
+                "by_height": _by_height(recs),
+                "objects": rows,
+            }
         )
     main = [r for r in chosen if r["spec"] == primary] or list(chosen)
     out = {
@@ -180,6 +219,15 @@ def baseline_rows(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
             [a - b for a, b in zip(held, chance, strict=True)]
         )
         n = len(scenes)
+        bands: dict[str, Any] = {"low_below_m": LOW_OBJECT}
+        for band in ("low", "tall"):
+            at = [i for i, r in enumerate(scenes) if _height_band(r) == band]
+            m = len(at)
+            bands[band] = {
+                "scenes": m,
+                "chosen_rate": sum(held[i] for i in at) / m if m else None,
+                "random_rate": sum(chance[i] for i in at) / m if m else None,
+            }
         rows.append(
             {
                 "gripper": gripper,
@@ -192,6 +240,7 @@ def baseline_rows(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
                 "difference": diff,
                 "ci95": [low, high],
                 "interval": INTERVAL,
+                "by_height": bands,
             }
         )
     return rows
@@ -362,6 +411,32 @@ def _baseline_table(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]
     return header, rows
 
 
+def _height_table(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
+    """Success on the low objects and on the tall ones (``by_height``), a row
+    per gripper and spec; with a random baseline, chance beside each."""
+    base = {(b["gripper"], b["spec"]): b for b in report.get("baseline") or []}
+    header = ["gripper", "spec", "low objects", "tall objects"]
+    rows = []
+    for res in report["results"]:
+        split = res.get("by_height")
+        if not split:
+            continue
+        chance = (base.get((res["gripper"], res["spec"])) or {}).get("by_height", {})
+        cells = []
+        for band in ("low", "tall"):
+            b = split[band]
+            cell = f"{_pct(b['success_rate'])} of {b['trials']}"
+            if band in chance:
+                cell += f" (random {_pct(chance[band]['random_rate'])})"
+            cells.append(cell)
+        rows.append([res["gripper"], res["spec"], *cells])
+    if rows:
+        low = 100 * next(r["by_height"]["low_below_m"] for r in report["results"])
+        header[2] = f"objects under {low:g} cm high"
+        header[3] = "the others"
+    return header, rows
+
+
 #: the report's comparisons, each as (key, title, table builder, columns on the left)
 _COMPARISONS = (
     (
@@ -375,6 +450,12 @@ _COMPARISONS = (
         "Each spec against the primary one, over the same scenes",
         _pairs_table,
         3,
+    ),
+    (
+        "results",
+        "Success by how high the object stood on the table",
+        _height_table,
+        2,
     ),
 )
 
@@ -503,6 +584,8 @@ def report_table(report: dict[str, Any]) -> list[Any]:
     for key, title, build, left in _COMPARISONS:
         if report.get(key):
             header, crows = build(report)
+            if not crows:  # a report written before the table's data was
+                continue
             c = Table(title=title)
             for i, h in enumerate(header):
                 c.add_column(h, justify="left" if i < left else "right")
@@ -537,6 +620,8 @@ def report_markdown(report: dict[str, Any]) -> str:
     for key, title, build, left in _COMPARISONS:
         if report.get(key):
             header, crows = build(report)
+            if not crows:  # a report written before the table's data was
+                continue
             lines += [
                 f"**{title}**",
                 "",
@@ -544,7 +629,7 @@ def report_markdown(report: dict[str, Any]) -> str:
                 "|" + "|".join(["---"] * left + ["---:"] * (len(header) - left)) + "|",
             ]
             lines += ["| " + " | ".join(r) + " |" for r in crows]
-            lines += ["", f"Interval: {INTERVAL}.", ""]
+            lines += ["", f"Interval: {INTERVAL}.", ""] if key != "results" else [""]
     fh, frows = _failure_rows(report)
     lines += [
         "| " + " | ".join(fh) + " |",
