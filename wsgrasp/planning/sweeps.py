@@ -56,22 +56,13 @@ SWEEP_SLACK = 0.002
 #: ... or this far, for a finger driven by several joints: where the table
 #: pushes on its tip, its position-controlled joints give way and the tip
 #: slides along the table, while a finger that one joint drives (a jaw, a
-#: linkage, mimic-coupled links) stops there (the BarrettHand's, 1 cm deep: 81
-#: held, 94 with the sweeps kept up; random objects 000-099, 1 trial, lift
-#: protocol). How deep a sliding tip may graze was measured on the Allegro hand
-#: (development objects random:000-299, 1 trial, strict protocol, the same
-#: drops; docs/results/graze-depth/): 15 mm held 170 of 297, 8 mm 194 (objects
-#: under 3 cm high 41 of 143 -> 70, the taller 129 of 154 -> 124), 5 mm 190;
-#: deeper, the fingertips jam against the table and push a low object out of
-#: the hand (30 mm: none of the 58 low objects of random:000-119). Kept off the
-#: table entirely (2 mm) it holds fewer (lift protocol, 000-099: 77 of 100
-#: against 88 at 15 mm and 90 at 8 mm). Not every finger of several joints
-#: slides: a D'Claw's nearly straight two-joint fingers press their tips into
-#: the table and stop there (random objects 000-099, lift: 68 of 100 held as
-#: sliding, 93 as sticking; sticking, the Allegro hand holds 85 instead of 94,
-#: the Shadow hand 60 instead of 72; the runs are under
-#: docs/results/on-table/), so which it is is the description's ``on_table``
-#: or guessed per finger (:func:`slides`)
+#: linkage, mimic-coupled links) stops there. Deeper, a low object's fingertips
+#: jam against the table and push it out of the hand; shallower, they close
+#: above its edges (the Allegro hand, random:000-299, strict: 194 of 297 held
+#: at 8 mm, 170 at 15 mm; docs/results/graze-depth/). Not every finger of
+#: several joints slides (a D'Claw's nearly straight two-joint fingers press
+#: their tips into the table: docs/results/on-table/), so which it is is the
+#: description's ``on_table`` or guessed per finger (:func:`slides`)
 GRAZE_SLACK = 0.008
 #: voxel (m) of each finger's reach grid (:func:`_reach_grid`, :func:`reach_steps`)
 REACH_VOXEL = 0.004
