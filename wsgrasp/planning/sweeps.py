@@ -59,10 +59,10 @@ SWEEP_SLACK = 0.002
 #: linkage, mimic-coupled links) stops there. Deeper, a low object's fingertips
 #: jam against the table and push it out of the hand; shallower, they close
 #: above its edges (the Allegro hand, random:000-299, strict: 194 of 297 held
-#: at 8 mm, 170 at 15 mm; docs/results/graze-depth/). Not every finger of
-#: several joints slides (a D'Claw's nearly straight two-joint fingers press
-#: their tips into the table: docs/results/on-table/), so which it is is the
-#: description's ``on_table`` or guessed per finger (:func:`slides`)
+#: at 8 mm, 170 at 15 mm, 183 at 2 mm; docs/results/graze-depth/). Not every
+#: finger of several joints slides (a D'Claw's nearly straight two-joint
+#: fingers press their tips into the table: docs/results/on-table/), so which
+#: it is is the description's ``on_table`` or guessed per finger (:func:`slides`)
 GRAZE_SLACK = 0.008
 #: voxel (m) of each finger's reach grid (:func:`_reach_grid`, :func:`reach_steps`)
 REACH_VOXEL = 0.004
