@@ -114,6 +114,38 @@ def test_render_markers_are_known() -> None:
             assert name in render.RENDERERS, f"{page}: unknown marker {name}"
 
 
+def test_results_page_splits_success_by_object_height() -> None:
+    sys.path.insert(0, str(DOCS / "hooks"))
+    try:
+        import docs_results  # type: ignore[import-not-found]
+    finally:
+        sys.path.remove(str(DOCS / "hooks"))
+    split = {
+        "low_below_m": 0.03,
+        "low": {"trials": 4, "successes": 1, "success_rate": 0.25},
+        "tall": {"trials": 0, "successes": 0, "success_rate": None},
+    }
+    report = {
+        "results": [
+            {"gripper": "hand", "spec": "default", "by_height": split},
+            {"gripper": "jaw", "spec": "default"},  # written before the split
+        ],
+        "baseline": [
+            {
+                "gripper": "hand",
+                "spec": "default",
+                "by_height": {
+                    "low": {"scenes": 4, "chosen_rate": 0.25, "random_rate": 0.5},
+                    "tall": {"scenes": 0, "chosen_rate": None, "random_rate": None},
+                },
+            }
+        ],
+    }
+    rows = docs_results._by_height_rows(report)
+    assert rows == [["hand", "default", "25.0 % of 4 (random 50.0 %)", "–"]]
+    assert docs_results._by_height_rows({"results": report["results"][1:]}) == []
+
+
 def test_strict_build_fails_on_a_broken_link(tmp_path: Path) -> None:
     """The validation settings of mkdocs.yml turn a broken link into a failure."""
     validation = yaml.safe_load(

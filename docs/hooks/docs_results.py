@@ -386,7 +386,39 @@ def render_results_eval() -> str:
                         brow,
                     )
                 )
+        heights = _by_height_rows(r)
+        if heights:
+            out.append("By how high the object stood on the table:\n")
+            header = ["gripper", "spec", "objects under 3 cm high", "the others"]
+            out.append(table(header, heights))
     return "\n".join(out)
+
+
+def _by_height_rows(r: dict[str, Any]) -> list[list[Any]]:
+    """Per gripper and spec of the eval report ``r``: success on the objects
+    under 3 cm high and on the others (``by_height``), with chance beside each
+    where the run had a random baseline; none for a report without the split."""
+    base = {
+        (b["gripper"], b.get("spec")): b.get("by_height", {})
+        for b in r.get("baseline") or []
+        if isinstance(b, dict) and "gripper" in b
+    }
+    rows = []
+    for res in r.get("results", []):
+        split = res.get("by_height")
+        if not split:
+            continue
+        chance = base.get((res["gripper"], res["spec"]), {})
+        cells = []
+        for band in ("low", "tall"):
+            b = split[band]
+            rate = b["success_rate"]
+            cell = "–" if rate is None else f"{100 * rate:.1f} % of {b['trials']}"
+            if chance.get(band, {}).get("random_rate") is not None:
+                cell += f" (random {100 * chance[band]['random_rate']:.1f} %)"
+            cells.append(cell)
+        rows.append([short(res["gripper"]), res["spec"], *cells])
+    return rows
 
 
 def _per_object(results: list[dict[str, Any]]) -> str:
@@ -574,8 +606,29 @@ def render_simulator_versions_runs() -> str:
 def render_graze_depth_runs() -> str:
     """The runs that measured how deep a sliding fingertip's sweep may dip below
     the table (``docs/results/graze-depth/``): each depth against the first of
-    its run, over the same objects."""
-    return _runs_in("graze-depth")
+    its run, over the same objects; then each setting's success on the objects
+    under 3 cm high and on the others (``by_height``)."""
+    rows = []
+    for path in sorted((RESULTS / "graze-depth").glob("*.json")):
+        for res in json.loads(path.read_text()).get("results", []):
+            split = res.get("by_height")
+            if not split:
+                continue
+            rows.append(
+                [
+                    f"`{path.name}`",
+                    f"`{res['spec']}`",
+                    *(
+                        f"{split[b]['successes']} of {split[b]['trials']}"
+                        for b in ("low", "tall")
+                    ),
+                ]
+            )
+    out = _runs_in("graze-depth")
+    if rows:
+        header = ["file", "setting", "held, objects under 3 cm high", "held, others"]
+        out += "\n" + table(header, rows)
+    return out
 
 
 def render_thumb_drive_runs() -> str:
