@@ -415,12 +415,13 @@ def _height_table(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
     """Success on the low objects and on the tall ones (``by_height``), a row
     per gripper and spec; with a random baseline, chance beside each."""
     base = {(b["gripper"], b["spec"]): b for b in report.get("baseline") or []}
-    header = ["gripper", "spec", "low objects", "tall objects"]
     rows = []
+    below = LOW_OBJECT
     for res in report["results"]:
         split = res.get("by_height")
         if not split:
             continue
+        below = split["low_below_m"]
         chance = (base.get((res["gripper"], res["spec"])) or {}).get("by_height", {})
         cells = []
         for band in ("low", "tall"):
@@ -430,10 +431,7 @@ def _height_table(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
                 cell += f" (random {_pct(chance[band]['random_rate'])})"
             cells.append(cell)
         rows.append([res["gripper"], res["spec"], *cells])
-    if rows:
-        low = 100 * next(r["by_height"]["low_below_m"] for r in report["results"])
-        header[2] = f"objects under {low:g} cm high"
-        header[3] = "the others"
+    header = ["gripper", "spec", f"objects under {100 * below:g} cm high", "the others"]
     return header, rows
 
 
