@@ -513,16 +513,12 @@ def test_vendor_gripper_scaffolds_and_checks(tmp_path, name):
     if name in ("ability", "shadow"):
         # fingertips meeting the thumb's, not curled past it
         assert "nearest a common point" in sc.notes["closed"]
-        # both approaches planned on flat objects: the Ability hand's palm (+x)
-        # leaves more grasps, the Shadow hand's fingertips (+z, along its
-        # fingers), whose open thumb stands far out in front of the palm
+        # both approaches planned on flat objects: for both hands the palm (+x)
+        # leaves more grasps than the fingertips (the Shadow hand's +z, along
+        # its fingers), whose sweeps may graze the table 8 mm deep at most
         note = sc.notes["approach_axis"]
         assert "feasible grasps fingertips first" in note
-        if name == "ability":
-            assert d["approach_axis"] == [1.0, 0.0, 0.0] and "palm" in note
-        else:
-            assert d["approach_axis"] == [0.0, 0.0, 1.0]
-            assert note.startswith("fingertips first")
+        assert d["approach_axis"] == [1.0, 0.0, 0.0] and "palm" in note
     if name in ("barrett", "dclaw", "robotiq_3f"):  # tips that cross or part
         assert "closing all joints together" in sc.notes["closed"]
     if name == "robotiq_3f":
