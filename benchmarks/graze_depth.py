@@ -44,10 +44,10 @@ def label(depth: float) -> str:
 
 
 def run_depth(
-    depth: float, gripper: str, objects: str, protocol: str, seed: int, workers: int
+    depth: float, gripper: str, objects: str, params: Any, seed: int, workers: int
 ) -> list[dict[str, Any]]:
-    """The trial records of one depth (the gripper's default spec)."""
-    from wsgrasp.cli._eval import sim_params
+    """The trial records of one depth (the gripper's default spec; ``params``
+    the protocol's ``SimParams``)."""
     from wsgrasp.sim import EvalConfig, run_eval, spec_entries
     from wsgrasp.sim.objects import resolve_objects
 
@@ -56,9 +56,6 @@ def run_depth(
 
     sweeps.GRAZE_SLACK = depth  # this process too (workers=1 runs here)
     objs = resolve_objects([objects], workers=workers, progress=False).objects
-    params = sim_params(
-        protocol, drop="natural", mass=None, density=None, friction=None, sim=[]
-    )
     entries = spec_entries([gripper], None, paper=False, followup=False)
     config = EvalConfig(
         objects=objs, specs=entries, trials=1, seed=seed, params=params, workers=workers
@@ -82,14 +79,14 @@ def main(argv: list[str] | None = None) -> int:
     from wsgrasp.cli._eval import sim_params
     from wsgrasp.sim import build_report
 
-    records: list[dict[str, Any]] = []
-    for depth in args.depths:
-        records += run_depth(
-            depth, args.gripper, args.objects, args.protocol, args.seed, args.workers
-        )
     params = sim_params(
         args.protocol, drop="natural", mass=None, density=None, friction=None, sim=[]
     )
+    records: list[dict[str, Any]] = []
+    for depth in args.depths:
+        records += run_depth(
+            depth, args.gripper, args.objects, params, args.seed, args.workers
+        )
     report = build_report(
         records,
         primary=label(args.depths[0]),

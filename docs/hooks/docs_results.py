@@ -608,25 +608,14 @@ def render_graze_depth_runs() -> str:
     the table (``docs/results/graze-depth/``): each depth against the first of
     its run, over the same objects; then each setting's success on the objects
     under 3 cm high and on the others (``by_height``)."""
-    rows = []
-    for path in sorted((RESULTS / "graze-depth").glob("*.json")):
-        for res in json.loads(path.read_text()).get("results", []):
-            split = res.get("by_height")
-            if not split:
-                continue
-            rows.append(
-                [
-                    f"`{path.name}`",
-                    f"`{res['spec']}`",
-                    *(
-                        f"{split[b]['successes']} of {split[b]['trials']}"
-                        for b in ("low", "tall")
-                    ),
-                ]
-            )
+    rows = [
+        [f"`{path.name}`", f"`{spec}`", low, tall]
+        for path in sorted((RESULTS / "graze-depth").glob("*.json"))
+        for _, spec, low, tall in _by_height_rows(json.loads(path.read_text()))
+    ]
     out = _runs_in("graze-depth")
     if rows:
-        header = ["file", "setting", "held, objects under 3 cm high", "held, others"]
+        header = ["file", "setting", "objects under 3 cm high", "the others"]
         out += "\n" + table(header, rows)
     return out
 
