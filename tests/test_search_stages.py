@@ -398,8 +398,8 @@ def test_slab_pairs_are_exactly_the_points_in_the_slab(
     fingers=st.integers(1, 6),
 )
 def test_numpy_slab_kernels_match_every_point(seed, q, n, spheres, fingers):
-    """numpy's body and finger kernels on slabs give what testing every point
-    gives."""
+    """numpy's body kernel on slabs, and its finger kernel in chunks, give what
+    testing every point at once gives."""
     g = _hand(seed, fingers, spheres)
     Q, ol, u = _rows(seed, q, n)
     Q *= 0.7  # points among the gripper's bodies and spheres

@@ -8,10 +8,11 @@ get the exact test (a point strictly inside a sphere), by one of two kernels
 (``wsgrasp.planning.kernels`` picks), both reading each point's verdict from the
 depth grid (``_grids.FingerSpheres``) and testing the points it leaves unsure
 against the few spheres listed at their node: the compiled loop (``_compiled``),
-or numpy's (``FingerDepth.holding_coordinates``), which looks up only the points
-in the slab of the fingers' sphere box along its thinnest axis (every point,
-where the slab holds most of them). Any number of fingers: arrays are per finger
-with the count as a dimension.
+or numpy's (``FingerDepth.holding_coordinates``, every point of a candidate whose
+object box meets a finger's: looking up only the points in the slab of the
+fingers' sphere box gained nothing on the bundled plans and cost the Allegro
+hand's dense search a fifth more, ``kernels``). Any number of fingers: arrays
+are per finger with the count as a dimension.
 
 The holdings themselves (which points each finger holds) come from the same
 kernel: computed with the counts and kept where they are few (up to
@@ -31,8 +32,8 @@ from numpy.typing import NDArray
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.planning import _compiled
 from wsgrasp.planning._grids import FingerDepth
-from wsgrasp.planning.kernels import SLAB_FROM, SLAB_MOST, Kernels
-from wsgrasp.planning.poses import Slabs, StructuredPoses, clear_of_boxes, grouped
+from wsgrasp.planning.kernels import Kernels
+from wsgrasp.planning.poses import StructuredPoses, clear_of_boxes, grouped
 
 __all__ = ["FingerVerdicts", "finger_verdicts", "count_held"]
 
@@ -172,42 +173,17 @@ class _Fingers:
     def _numpy_held(
         self, Q: Array, ol: NDArray[np.int64], u: Array, cand: NDArray[np.int64]
     ) -> NDArray[np.bool_]:
-        """numpy's holdings of candidates ``cand`` of a chunk: only the points in
-        the slab of the fingers' sphere box along its thinnest gripper axis (the
-        others are outside every sphere), or every point where the slab holds
-        most of them: (n, no, nf) bool."""
-        lo, hi = self.f_lo.min(axis=0), self.f_hi.max(axis=0)  # the fingers' box
-        k = int(np.argmin(hi - lo))
+        """numpy's holdings of candidates ``cand`` of a chunk, every point
+        through the depth grid: (n, no, nf) bool."""
         n = Q.shape[2]
-        if len(cand) <= SLAB_FROM * len(Q):  # few per orientation: sorting costs more
-            pair = None
-        else:
-            slabs = Slabs(Q)
-            pair, j, r = slabs.pairs(
-                ol[cand], u[cand, k], k, float(lo[k]), float(hi[k])
+        held = np.empty((len(cand), n, self.nf), dtype=bool)
+        step = max(1, _CHUNK_PAIRS // max(n, 1))
+        for a in range(0, len(cand), step):
+            cb = cand[a : a + step]
+            rb = ol[cb]
+            held[a : a + step] = self.depth.holding_coordinates(
+                *(Q[rb, i] - u[cb, i, None] for i in range(3))
             )
-        if pair is None or len(pair) > SLAB_MOST * len(cand) * n:
-            held = np.empty((len(cand), n, self.nf), dtype=bool)
-            step = max(1, _CHUNK_PAIRS // max(n, 1))
-            for a in range(0, len(cand), step):
-                cb = cand[a : a + step]
-                rb = ol[cb]
-                held[a : a + step] = self.depth.holding_coordinates(
-                    *(Q[rb, i] - u[cb, i, None] for i in range(3))
-                )
-            return held
-        held = np.zeros((len(cand), n, self.nf), dtype=bool)
-        c = cand[pair]
-        Qf = np.ascontiguousarray(Q).reshape(-1)  # (q * 3 * n,)
-        uT = np.ascontiguousarray(u.T)  # (3, m) a row per axis
-        for a in range(0, len(pair), _CHUNK_PAIRS):  # bounds the sphere lists
-            b = slice(a, a + _CHUNK_PAIRS)
-            base = r[b] * (3 * n) + j[b]  # Q[r, 0, j], flat
-            held[pair[b], j[b]] = self.depth.holding_coordinates(
-                Qf[base] - uT[0, c[b]],
-                Qf[base + n] - uT[1, c[b]],
-                Qf[base + 2 * n] - uT[2, c[b]],
-            )  # (pairs, nf)
         return held
 
 

@@ -28,11 +28,14 @@ points in space order (the Allegro's dense counts 20 % faster; sorting costs
 more than it saves on a few hundred candidates, 0.13 ms of the Franka hand's
 Table I search).
 
-Within numpy's kernels, points sorted along a gripper axis per orientation
-(``poses.Slabs``) let a test read only the points in a body's or the fingers'
-slab; sorting pays from ``SLAB_FROM`` candidates per orientation on, and the
-fingers' test takes every point where the slab holds more than ``SLAB_MOST`` of
-them (poses checked one by one, one candidate per orientation, take every point).
+Within numpy's body kernel, points sorted along a gripper axis per orientation
+(``poses.Slabs``) let the test read only the points in a body's slab; sorting
+pays from ``SLAB_FROM`` candidates per orientation on (the Franka hand's default
+search, numpy's kernels: 4.8 ms with the slabs, 6.7 ms without). numpy's finger
+kernel reads every point: its slab lookup, measured side by side over 21 runs
+each, took the Franka hand's default search 4.72 ms against 4.76 without and
+the Allegro hand's 18.8 against 18.6; its dense searches (numba turned off) 767
+against 968 ms and 4,962 against 4,185 ms.
 """
 
 from __future__ import annotations
@@ -47,7 +50,6 @@ COMPILED_FROM = 1_000_000
 SMALL_FROM = 20_000
 SMALL_BEFORE_LOADING = 3
 SLAB_FROM = 2
-SLAB_MOST = 0.5
 
 _small_searches = 0
 
