@@ -608,23 +608,31 @@ def render_graze_depth_runs() -> str:
     the table (``docs/results/graze-depth/``): each depth against the first of
     its run, over the same objects; then each setting's success on the objects
     under 3 cm high and on the others (``by_height``)."""
-    rows = [
-        [f"`{path.name}`", f"`{spec}`", low, tall]
-        for path in sorted((RESULTS / "graze-depth").glob("*.json"))
-        for _, spec, low, tall in _by_height_rows(json.loads(path.read_text()))
-    ]
-    out = _runs_in("graze-depth")
-    if rows:
-        header = ["file", "setting", "objects under 3 cm high", "the others"]
-        out += "\n" + table(header, rows)
-    return out
+    return _runs_in("graze-depth") + _height_table("graze-depth")
 
 
 def render_thumb_drive_runs() -> str:
-    """The runs that measured the Allegro hand's thumb drive
+    """The runs that measured the Allegro hand's drive
     (``docs/results/thumb-drive/``): the hand as it is beside the same YAML
-    with one gain for every joint (``allegro_right_one_gain``)."""
-    return _runs_in("thumb-drive")
+    with one gain for every joint (``allegro_right_one_gain``), the thumb's
+    gain at other multiples, and the fingers' gain at other levels; then each
+    gripper's success on the objects under 3 cm high and on the others, for
+    the runs that split it."""
+    return _runs_in("thumb-drive") + _height_table("thumb-drive")
+
+
+def _height_table(folder: str) -> str:
+    """Per run in ``docs/results/<folder>/`` that splits success by height
+    (``by_height``), a row per gripper and spec; empty without such runs."""
+    rows = [
+        [f"`{path.name}`", f"`{gripper}`", f"`{spec}`", low, tall]
+        for path in sorted((RESULTS / folder).glob("*.json"))
+        for gripper, spec, low, tall in _by_height_rows(json.loads(path.read_text()))
+    ]
+    if not rows:
+        return ""
+    header = ["file", "gripper", "setting", "objects under 3 cm high", "the others"]
+    return "\n" + table(header, rows)
 
 
 def render_drive_guess_runs() -> str:
