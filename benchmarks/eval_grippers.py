@@ -25,7 +25,9 @@ a crash costs only that row. Writes ``grippers.json`` (every figure) and
 ``--results`` (``docs/results/grippers.json``), which the documentation renders
 (its Results: grippers page, with a chart), and a short table into the README.
 ``--render FILE`` prints the table of a ``grippers.json``; ``--readme FILE``
-writes the README's table from one.
+writes the README's table from one; ``--no-readme`` leaves the README as it is
+(``make eval-grippers-strict``: the strict protocol's run goes to
+``docs/results/grippers-strict.json`` only).
 
     python benchmarks/eval_grippers.py                  # what `make eval-grippers` runs
     python benchmarks/eval_grippers.py --objects random:000-019 --no-results
@@ -418,6 +420,11 @@ def main(argv: list[str] | None = None) -> int:
         help="also write grippers.json here, where the documentation renders it",
     )
     ap.add_argument("--no-results", action="store_true")
+    ap.add_argument(
+        "--no-readme",
+        action="store_true",
+        help="leave the README's table as it is (it shows the lift protocol's run)",
+    )
     ap.add_argument("--no-eval", action="store_true", help="skip the trials")
     ap.add_argument("--only", action="append", help="only these gripper names")
     ap.add_argument(
@@ -517,8 +524,11 @@ def main(argv: list[str] | None = None) -> int:
     if not args.no_results:
         args.results.parent.mkdir(parents=True, exist_ok=True)
         args.results.write_text(text)
-        write_readme(report, ROOT / "README.md")
-        console.print(f"wrote {args.results} and the README's table")
+        if args.no_readme:
+            console.print(f"wrote {args.results}")
+        else:
+            write_readme(report, ROOT / "README.md")
+            console.print(f"wrote {args.results} and the README's table")
     return 0
 
 

@@ -299,6 +299,30 @@ def test_readme_gripper_table_is_the_published_run():
     )
 
 
+def test_gripper_run_without_readme_leaves_it(tmp_path: Path) -> None:
+    """``eval_grippers.py --no-readme`` (``make eval-grippers-strict``) writes
+    its results file and leaves the README's table, the lift run's, as it is."""
+    import json
+
+    before = (ROOT / "README.md").read_text()
+    results = tmp_path / "grippers-strict.json"
+    argv = ["--grippers-dir", str(tmp_path / "none"), "--only", "no_such_gripper"]
+    argv += ["--no-eval", "--protocol", "strict", "--out", str(tmp_path / "out")]
+    sys.path.insert(0, str(ROOT / "benchmarks"))  # it imports publish_result
+    try:
+        import eval_grippers
+
+        code = eval_grippers.main([*argv, "--results", str(results), "--no-readme"])
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+        after = (ROOT / "README.md").read_text()
+        (ROOT / "README.md").write_text(before)  # the checkout's, whatever happened
+    assert code == 0
+    assert after == before
+    report = json.loads(results.read_text())
+    assert report["protocol"] == "strict" and report["rows"] == []
+
+
 def test_gripper_table_counts_low_and_tall_objects_apart():
     """The gripper table's split of the plans' grasps by how high the object
     settled: plans only (random draws left out), records without a height

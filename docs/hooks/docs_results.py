@@ -69,6 +69,17 @@ def render_results_grippers() -> str:
     return _eval_grippers_markdown(report)
 
 
+def render_results_grippers_strict() -> str:
+    """The same table under the strict protocol (``make eval-grippers-strict``)."""
+    report = _load(RESULTS / "grippers-strict.json")
+    if report is None:
+        return (
+            "No `docs/results/grippers-strict.json` yet: `make eval-grippers-strict` "
+            "writes it.\n"
+        )
+    return _eval_grippers_markdown(report)
+
+
 def render_defaults_success() -> str:
     """The built-in and example grippers' default specs, from grippers.json."""
     report = _load(RESULTS / "grippers.json")
