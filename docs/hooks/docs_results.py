@@ -59,25 +59,26 @@ def _eval_grippers_markdown(report: dict[str, Any]) -> str:
     return str(mod.markdown(report))
 
 
-def render_results_grippers() -> str:
-    report = _load(RESULTS / "grippers.json")
+def _grippers_table(name: str, target: str) -> str:
+    """The gripper table of ``docs/results/<name>``, which ``make <target>``
+    writes, or a line saying it is not there yet."""
+    report = _load(RESULTS / name)
     if report is None:
         return (
-            "No `docs/results/grippers.json` yet: `make eval-grippers` writes it "
+            f"No `docs/results/{name}` yet: `make {target}` writes it "
             "(see [Evaluate a gripper](../how-to/evaluate-a-gripper.md)).\n"
         )
     return _eval_grippers_markdown(report)
 
 
+def render_results_grippers() -> str:
+    """Every gripper under the lift protocol (``make eval-grippers``)."""
+    return _grippers_table("grippers.json", "eval-grippers")
+
+
 def render_results_grippers_strict() -> str:
-    """The same table under the strict protocol (``make eval-grippers-strict``)."""
-    report = _load(RESULTS / "grippers-strict.json")
-    if report is None:
-        return (
-            "No `docs/results/grippers-strict.json` yet: `make eval-grippers-strict` "
-            "writes it.\n"
-        )
-    return _eval_grippers_markdown(report)
+    """The same under the strict protocol (``make eval-grippers-strict``)."""
+    return _grippers_table("grippers-strict.json", "eval-grippers-strict")
 
 
 def render_defaults_success() -> str:
