@@ -11,6 +11,7 @@ fails here.
 from __future__ import annotations
 
 import html
+import json
 import os
 import re
 import subprocess
@@ -114,7 +115,9 @@ def test_render_markers_are_known() -> None:
             assert name in render.RENDERERS, f"{page}: unknown marker {name}"
 
 
-def test_results_page_splits_success_by_object_height() -> None:
+def test_results_page_splits_success_by_object_height(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     sys.path.insert(0, str(DOCS / "hooks"))
     try:
         import docs_results  # type: ignore[import-not-found]
@@ -144,6 +147,17 @@ def test_results_page_splits_success_by_object_height() -> None:
     rows = docs_results._by_height_rows(report)
     assert rows == [["hand", "default", "25.0 % of 4 (random 50.0 %)", "–"]]
     assert docs_results._by_height_rows({"results": report["results"][1:]}) == []
+    # a folder of runs: a row per run that splits, none for one that does not
+    folder = tmp_path / "runs"
+    folder.mkdir()
+    (folder / "a.json").write_text(json.dumps(report))
+    (folder / "b.json").write_text(json.dumps({"results": report["results"][1:]}))
+    monkeypatch.setattr(docs_results, "RESULTS", tmp_path)
+    out = docs_results._height_table("runs")
+    assert "`a.json` | `hand` | `default` | 25.0 % of 4 (random 50.0 %) | –" in out
+    assert "b.json" not in out
+    (folder / "a.json").unlink()
+    assert docs_results._height_table("runs") == ""
 
 
 def test_strict_build_fails_on_a_broken_link(tmp_path: Path) -> None:
@@ -282,8 +296,6 @@ def test_spec_file_comment_is_one_line_linking_to_its_rationale(path: Path) -> N
 def test_readme_gripper_table_is_the_published_run():
     """The README's gripper table is what ``benchmarks/eval_grippers.py`` writes
     from ``docs/results/grippers.json``, not typed by hand."""
-    import json
-
     sys.path.insert(0, str(ROOT / "benchmarks"))
     try:
         import eval_grippers
@@ -302,8 +314,6 @@ def test_readme_gripper_table_is_the_published_run():
 def test_gripper_run_without_readme_leaves_it(tmp_path: Path) -> None:
     """``eval_grippers.py --no-readme`` (``make eval-grippers-strict``) writes
     its results file and leaves the README's table, the lift run's, as it is."""
-    import json
-
     before = (ROOT / "README.md").read_text()
     results = tmp_path / "grippers-strict.json"
     argv = ["--grippers-dir", str(tmp_path / "none"), "--only", "no_such_gripper"]
