@@ -404,8 +404,8 @@ class Slabs:
     points of a candidate inside a slab ``lo <= (Q - u)_k <= hi`` are one range.
 
     ``Q`` (q, 3, n) are the points per orientation in the gripper axes. An axis is
-    sorted when a search along it first needs it (the body and finger tests
-    search along one each).
+    sorted when a search along it first needs it (numpy's body test searches
+    along each body's thinnest axis).
     """
 
     def __init__(self, Q: Array) -> None:
