@@ -528,14 +528,20 @@ def _pad_speeds(urdf_path, d):
 def test_a_hand_gets_a_drive_for_its_size_a_jaw_none(tmp_path, monkeypatch):
     import hand_factory
 
-    from wsgrasp.gripper._guess import PAD_STIFFNESS
+    from wsgrasp.gripper._guess import PAD_STIFFNESS, PAD_STIFFNESS_THREE
 
     path = _write(tmp_path, hand_factory.hand_urdf(3), "hand.urdf")
     d = guess_description(path, "hand").data
     kp = d["drive"]["kp_revolute"]
-    want = PAD_STIFFNESS * float(np.median(_pad_speeds(path, d)))
+    want = PAD_STIFFNESS_THREE * float(np.median(_pad_speeds(path, d)))
     assert kp == pytest.approx(want, rel=0.03)  # two significant digits
     GripperDescription.model_validate(d)
+    # a fourth finger of the same size: the softer pads of a hand of more fingers
+    path4 = _write(tmp_path, hand_factory.hand_urdf(4), "hand4.urdf")
+    d4 = guess_description(path4, "hand4").data
+    want4 = PAD_STIFFNESS * float(np.median(_pad_speeds(path4, d4)))
+    assert d4["drive"]["kp_revolute"] == pytest.approx(want4, rel=0.03)
+    assert PAD_STIFFNESS < PAD_STIFFNESS_THREE
     # the same hand twice as large: four times the gain for the same pad stiffness
     for name in ("PALM_RADIUS", "PALM_THICKNESS", "BASE_RADIUS", "PROXIMAL", "DISTAL"):
         monkeypatch.setattr(hand_factory, name, 2 * getattr(hand_factory, name))
@@ -552,7 +558,7 @@ def test_a_hands_prismatic_finger_leaves_the_drive_to_its_revolute_ones(tmp_path
 
     import hand_factory
 
-    from wsgrasp.gripper._guess import PAD_STIFFNESS
+    from wsgrasp.gripper._guess import pad_stiffness
 
     text = hand_factory.hand_urdf(3)
     for joint in ("f0_base", "f0_tip", "f1_base", "f1_tip"):  # two fingers slide
@@ -565,7 +571,7 @@ def test_a_hands_prismatic_finger_leaves_the_drive_to_its_revolute_ones(tmp_path
     revolute = [f for f in d["fingers"] if f["joints"][0].startswith("f2")]
     assert len(revolute) == 1
     speeds = _pad_speeds(path, {**d, "fingers": revolute})
-    want = PAD_STIFFNESS * float(np.median(speeds))
+    want = pad_stiffness(3) * float(np.median(speeds))
     assert d["drive"]["kp_revolute"] == pytest.approx(want, rel=0.03)
 
 

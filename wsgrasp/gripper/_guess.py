@@ -99,6 +99,12 @@ DENSE_PAD_BUDGET = 2_000_000
 #: a hand's guessed drive: the stiffness (N/m) of its median finger's pad, half
 #: closed, when each of the finger's joints gives way under its position actuator
 PAD_STIFFNESS = 300.0
+#: ... for a hand of three fingers, which holds each object with fewer pads.
+#: Measured under the strict protocol (``random:000-119``, 1 trial, seed 0;
+#: ``docs/results/drive-guess/hands-drive-x2-x4-strict-000-119.json``): twice
+#: the stiffness held 94 against 83 of 120 objects (BarrettHand), 87 against 82
+#: (D'Claw), 45 against 42 (Robotiq 3F); the five-finger hands gained nothing
+PAD_STIFFNESS_THREE = 600.0
 #: a gripper of at least this many fingers gets a drive guessed from its size
 DRIVE_MIN_FINGERS = 3
 #: a moving link whose geometry is smaller than this (m) along every axis is no
@@ -1771,6 +1777,13 @@ def _settings(
     }
 
 
+def pad_stiffness(n_fingers: int) -> float:
+    """The pad stiffness (N/m) a hand of ``n_fingers`` fingers gets its drive
+    guessed for: :data:`PAD_STIFFNESS_THREE` for three, :data:`PAD_STIFFNESS`
+    for more."""
+    return PAD_STIFFNESS_THREE if n_fingers == 3 else PAD_STIFFNESS
+
+
 def _drive(
     u: _Urdf,
     fingers: dict[str, list[str]],
@@ -1787,12 +1800,13 @@ def _drive(
     give way by ``sum_j |dp/dq_j|^2 / kp`` metres per newton, where ``dp/dq_j``
     (m/rad, mimics following their master) is how fast joint ``j`` moves the pad:
     the same gain makes a long finger soft and a short one stiff. The guess gives
-    the median finger's pad :data:`PAD_STIFFNESS`, measured half closed (among
-    the fingers that have revolute joints: a prismatic finger keeps
-    ``kp_prismatic``).
+    the median finger's pad :data:`PAD_STIFFNESS` (:data:`PAD_STIFFNESS_THREE`
+    for a hand of three fingers), measured half closed (among the fingers that
+    have revolute joints: a prismatic finger keeps ``kp_prismatic``).
     """
     if len(fingers) < DRIVE_MIN_FINGERS:
         return None
+    stiffness = pad_stiffness(len(fingers))
     mid = {
         j: 0.5 * (pregrasp.get(j, 0.0) + closed.get(j, pregrasp.get(j, 0.0)))
         for j in u.actuated
@@ -1811,7 +1825,7 @@ def _drive(
     revolute = [c for c in compliance if c > 0.0]  # fingers a revolute joint moves
     if not revolute:
         return None
-    kp = float(f"{PAD_STIFFNESS * float(np.median(revolute)):.2g}")
+    kp = float(f"{stiffness * float(np.median(revolute)):.2g}")
     each = ", ".join(
         f"{n} {c * 1e4:.0f}" for n, c in zip(names, compliance, strict=True)
     )
@@ -1819,7 +1833,7 @@ def _drive(
         "the fingers' position gains in simulation (`wsgrasp eval`; planning does "
         "not read them). A URDF carries no controller gains, so kp_revolute "
         f"(N·m/rad) is guessed from the fingers' size: {kp:g} gives the median "
-        f"finger's pad, half closed, a stiffness of {PAD_STIFFNESS:g} N/m when each "
+        f"finger's pad, half closed, a stiffness of {stiffness:g} N/m when each "
         "of its joints gives way under its actuator (the sum over its joints of "
         "the squared speed at which each moves the pad, cm²/rad²: "
         f"{each}); the same gain on every hand would make long fingers soft and "
