@@ -144,9 +144,14 @@ def test_results_page_splits_success_by_object_height(
             }
         ],
     }
-    rows = docs_results._by_height_rows(report)
-    assert rows == [["hand", "default", "25.0 % of 4 (random 50.0 %)", "–"]]
-    assert docs_results._by_height_rows({"results": report["results"][1:]}) == []
+    bands, rows = docs_results._by_height(report)
+    assert bands == ["objects under 3 cm high", "the others"]
+    assert rows == [["hand", "default", "25.0 % of 4 (random 50.0 %)", "– of 0"]]
+    assert docs_results._by_height({"results": report["results"][1:]})[1] == []
+    # the band's height as the run recorded it
+    at_5cm = {**split, "low_below_m": 0.05}
+    r5 = {"results": [{"gripper": "hand", "spec": "default", "by_height": at_5cm}]}
+    assert docs_results._by_height(r5)[0][0] == "objects under 5 cm high"
     # a folder of runs: a row per run that splits, none for one that does not
     folder = tmp_path / "runs"
     folder.mkdir()
@@ -154,7 +159,7 @@ def test_results_page_splits_success_by_object_height(
     (folder / "b.json").write_text(json.dumps({"results": report["results"][1:]}))
     monkeypatch.setattr(docs_results, "RESULTS", tmp_path)
     out = docs_results._height_table("runs")
-    assert "`a.json` | `hand` | `default` | 25.0 % of 4 (random 50.0 %) | –" in out
+    assert "`a.json` | `hand` | `default` | 25.0 % of 4 (random 50.0 %) | – of 0" in out
     assert "b.json" not in out
     (folder / "a.json").unlink()
     assert docs_results._height_table("runs") == ""

@@ -398,39 +398,24 @@ def render_results_eval() -> str:
                         brow,
                     )
                 )
-        heights = _by_height_rows(r)
+        bands, heights = _by_height(r)
         if heights:
             out.append("By how high the object stood on the table:\n")
-            header = ["gripper", "spec", "objects under 3 cm high", "the others"]
-            out.append(table(header, heights))
+            out.append(table(["gripper", "spec", *bands], heights))
     return "\n".join(out)
 
 
-def _by_height_rows(r: dict[str, Any]) -> list[list[Any]]:
-    """Per gripper and spec of the eval report ``r``: success on the objects
-    under 3 cm high and on the others (``by_height``), with chance beside each
-    where the run had a random baseline; none for a report without the split."""
-    base = {
-        (b["gripper"], b.get("spec")): b.get("by_height", {})
-        for b in r.get("baseline") or []
-        if isinstance(b, dict) and "gripper" in b
-    }
-    rows = []
-    for res in r.get("results", []):
-        split = res.get("by_height")
-        if not split:
-            continue
-        chance = base.get((res["gripper"], res["spec"]), {})
-        cells = []
-        for band in ("low", "tall"):
-            b = split[band]
-            rate = b["success_rate"]
-            cell = "–" if rate is None else f"{100 * rate:.1f} % of {b['trials']}"
-            if chance.get(band, {}).get("random_rate") is not None:
-                cell += f" (random {100 * chance[band]['random_rate']:.1f} %)"
-            cells.append(cell)
-        rows.append([short(res["gripper"]), res["spec"], *cells])
-    return rows
+def _by_height(r: dict[str, Any]) -> tuple[list[str], list[list[Any]]]:
+    """The eval report ``r``'s split of success by the objects' height
+    (``wsgrasp.sim.report.height_rows``, rates to one decimal, gripper paths
+    shortened): the two bands' column names, and a row per gripper and spec."""
+    from wsgrasp.sim.report import height_header, height_rows
+
+    def pct(x: float | None) -> str:
+        return "–" if x is None else f"{100 * x:.1f} %"
+
+    below, rows = height_rows(r, pct)
+    return height_header(below), [[short(g), spec, *cells] for g, spec, *cells in rows]
 
 
 def _per_object(results: list[dict[str, Any]]) -> str:
@@ -636,15 +621,16 @@ def render_thumb_drive_runs() -> str:
 def _height_table(folder: str) -> str:
     """Per run in ``docs/results/<folder>/`` that splits success by height
     (``by_height``), a row per gripper and spec; empty without such runs."""
-    rows = [
-        [f"`{path.name}`", f"`{gripper}`", f"`{spec}`", low, tall]
-        for path in sorted((RESULTS / folder).glob("*.json"))
-        for gripper, spec, low, tall in _by_height_rows(json.loads(path.read_text()))
-    ]
+    rows, bands = [], []
+    for path in sorted((RESULTS / folder).glob("*.json")):
+        bands, split = _by_height(json.loads(path.read_text()))
+        rows += [
+            [f"`{path.name}`", f"`{gripper}`", f"`{spec}`", low, tall]
+            for gripper, spec, low, tall in split
+        ]
     if not rows:
         return ""
-    header = ["file", "gripper", "setting", "objects under 3 cm high", "the others"]
-    return "\n" + table(header, rows)
+    return "\n" + table(["file", "gripper", "setting", *bands], rows)
 
 
 def render_drive_guess_runs() -> str:

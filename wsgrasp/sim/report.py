@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 import statistics
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from wsgrasp._version import library_versions
@@ -411,13 +411,18 @@ def _baseline_table(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]
     return header, rows
 
 
-def _height_table(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
+def height_rows(
+    report: dict[str, Any], pct: Callable[[float | None], str] = _pct
+) -> tuple[float, list[list[str]]]:
     """Success on the low objects and on the tall ones (``by_height``), a row
-    per gripper and spec; with a random baseline, chance beside each."""
-    base = {(b["gripper"], b["spec"]): b for b in report.get("baseline") or []}
+    ``[gripper, spec, low, tall]`` per gripper and spec of an eval report, with
+    chance beside each where the run had a random baseline, and the height (m)
+    the split is at; no rows for a report without the split. ``pct`` formats a
+    rate (the documentation's tables give one decimal)."""
+    base = {(b["gripper"], b.get("spec")): b for b in report.get("baseline") or []}
     rows = []
     below = LOW_OBJECT
-    for res in report["results"]:
+    for res in report.get("results", []):
         split = res.get("by_height")
         if not split:
             continue
@@ -426,13 +431,22 @@ def _height_table(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
         cells = []
         for band in ("low", "tall"):
             b = split[band]
-            cell = f"{_pct(b['success_rate'])} of {b['trials']}"
-            if band in chance:
-                cell += f" (random {_pct(chance[band]['random_rate'])})"
+            cell = f"{pct(b['success_rate'])} of {b['trials']}"
+            if chance.get(band, {}).get("random_rate") is not None:
+                cell += f" (random {pct(chance[band]['random_rate'])})"
             cells.append(cell)
         rows.append([res["gripper"], res["spec"], *cells])
-    header = ["gripper", "spec", f"objects under {100 * below:g} cm high", "the others"]
-    return header, rows
+    return below, rows
+
+
+def height_header(below: float) -> list[str]:
+    """The two columns of :func:`height_rows`' bands."""
+    return [f"objects under {100 * below:g} cm high", "the others"]
+
+
+def _height_table(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
+    below, rows = height_rows(report)
+    return ["gripper", "spec", *height_header(below)], rows
 
 
 #: the report's comparisons, each as (key, title, table builder, columns on the left)
