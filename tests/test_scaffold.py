@@ -879,3 +879,38 @@ def test_a_gripper_yaml_whose_urdf_is_sdformat_names_the_format(tmp_path):
     src.write_text('<sdf version="1.6"><model name="g"/></sdf>')
     with pytest.raises(GripperError, match="an SDFormat .* not a URDF"):
         load_kinematics(src, "g")
+
+
+def test_gripper_new_points_a_mimic_at_the_joint_it_means(tmp_path):
+    """A robot's URDF that prefixes its hand's joints but not its mimics
+    (``<mimic joint="left_joint">`` where the joint is ``L_left_joint``): `gripper
+    new` points the copy's mimic at the joint it clearly means and says so; the
+    reader, given the URDF itself, names the joint it likely meant."""
+    text = jaw_urdf().replace('name="left_joint"', 'name="L_left_joint"')
+    text = text.replace('name="right_joint"', 'name="L_right_joint"')
+    urdf = _write(tmp_path, text, "robot_with_hand.urdf")
+    with pytest.raises(GripperError) as err:
+        guess_description(urdf, "jaw")
+    assert "mimicking unknown joint 'left_joint'" in err.value.message
+    assert "did you mean 'L_left_joint'" in err.value.message
+    yaml_path, sc = scaffold_plugin("jaw", urdf, tmp_path / "out")
+    copied = (yaml_path.parent / "jaw.urdf").read_text()
+    assert '<mimic joint="L_left_joint"' in copied
+    assert "L_right_joint ('left_joint' -> L_left_joint)" in yaml_path.read_text()
+    assert any("L_left_joint" in w for w in sc.warnings)
+    assert sc.data["fingers"]  # both fingers follow the one actuated joint
+    assert [j for f in sc.data["fingers"] for j in f["joints"]] == ["L_left_joint"] * 2
+
+
+def test_gripper_new_names_the_users_urdf_in_its_errors(tmp_path):
+    """An error found reading the package's copy of the URDF names the file the
+    user gave (the copy goes with the half-written package) and a fix to it."""
+    text = jaw_urdf().replace('name="left_joint"', 'name="first_joint"')
+    text = text.replace('<mimic joint="left_joint"', '<mimic joint="no_such_joint"')
+    urdf = _write(tmp_path, text, "vendor_gripper.urdf")
+    with pytest.raises(GripperError) as err:
+        scaffold_plugin("jaw", urdf, tmp_path / "out")
+    assert str(urdf) in err.value.message and "jaw.urdf" not in err.value.message
+    assert "no_such_joint" in err.value.message
+    assert err.value.hint == "fix the URDF, then run `wsgrasp gripper new` again"
+    assert not (tmp_path / "out").exists()

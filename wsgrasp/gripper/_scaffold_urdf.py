@@ -456,6 +456,56 @@ def narrow_limits(path: Path, limits: dict[str, tuple[float, float]]) -> None:
     Path(path).write_text(_JOINT.sub(rewrite, text))
 
 
+_MIMIC = re.compile(rf"""(<mimic{_END}[^>]*?\bjoint\s*=\s*)(["'])(.*?)\2""", re.S)
+
+
+def joint_names(path: Path) -> list[str]:
+    """The names of the joints of the URDF at ``path``, in file order."""
+    import html
+
+    return [
+        html.unescape(n.group(2))
+        for m in _JOINT.finditer(Path(path).read_text())
+        if (n := _NAME.search(m.group(0))) is not None
+    ]
+
+
+def repair_mimics(path: Path) -> dict[str, str]:
+    """Point each ``<mimic joint>`` of the URDF at ``path`` that names no joint
+    at the joint it clearly means (:func:`~wsgrasp.gripper._urdf.mimic_meant`:
+    a robot's URDF whose hands' joints are prefixed, ``Left_index_q1``, and
+    whose mimics are not, ``index_q1``), rewriting the file; one note per
+    repair. A mimic without a clear meaning is left for the URDF's reader to
+    refuse, naming the joint. Returns, per joint repaired, ``"'named' -> meant"``."""
+    import html
+
+    from wsgrasp.gripper._urdf import mimic_meant
+
+    text = Path(path).read_text()
+    names = joint_names(path)
+    known = set(names)
+    notes: dict[str, str] = {}
+
+    def rewrite(m: re.Match[str]) -> str:
+        element = m.group(0)
+        name, tag = _NAME.search(element), _MIMIC.search(element)
+        if name is None or tag is None:
+            return element
+        target = html.unescape(tag.group(3))
+        mine = html.unescape(name.group(2))
+        meant = None if target in known else mimic_meant(target, mine, names)
+        if meant is None:
+            return element
+        notes[mine] = f"{target!r} -> {meant}"
+        new = f"{tag.group(1)}{tag.group(2)}{html.escape(meant)}{tag.group(2)}"
+        return element.replace(tag.group(0), new, 1)
+
+    new_text = _JOINT.sub(rewrite, text)
+    if notes:
+        Path(path).write_text(new_text)
+    return notes
+
+
 def prune_urdf(urdf: Path, keep: set[str]) -> tuple[list[str], list[str]]:
     """Leave out of a copied URDF every link not in ``keep`` and every joint
     that joins one (the arm above a gripper that ``gripper new`` found in a

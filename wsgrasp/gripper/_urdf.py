@@ -330,6 +330,32 @@ def not_urdf(root: ET.Element) -> str | None:
     return _OTHER_FORMATS.get(tag, f"XML whose root element is <{tag}>")
 
 
+def mimic_meant(target: str, mimicking: str, names: Iterable[str]) -> str | None:
+    """The joint a ``<mimic joint="target">`` of joint ``mimicking`` means where
+    no joint is named ``target``, when one is clear: of the joints whose names
+    end with ``target`` (a robot's URDF that prefixes each hand's joints,
+    ``Left_index_q1`` where its mimic says ``index_q1``), the one sharing a
+    longer prefix with ``mimicking`` than every other; else None."""
+    ends = [n for n in names if n != mimicking and n.endswith(target)]
+    shared = sorted(
+        ((len(os.path.commonprefix([n, mimicking])), n) for n in ends), reverse=True
+    )
+    if not shared or (len(shared) > 1 and shared[0][0] == shared[1][0]):
+        return None
+    return shared[0][1]
+
+
+def _closest_joint(target: str, mimicking: str, names: list[str]) -> str | None:
+    """:func:`mimic_meant`, else the joint of the closest spelling, or None."""
+    import difflib
+
+    meant = mimic_meant(target, mimicking, names)
+    if meant is not None:
+        return meant
+    near = difflib.get_close_matches(target, names, n=1, cutoff=0.75)
+    return near[0] if near else None
+
+
 def load_kinematics(
     path: Path, gripper: str, *, package_paths: Sequence[Path] = ()
 ) -> Kinematics:
@@ -455,7 +481,11 @@ def load_kinematics(
         parent_joint[j.child] = j.name
     for j in joints.values():
         if j.mimic is not None and j.mimic[0] not in joints:
-            raise fail(f"has joint {j.name!r} mimicking unknown joint {j.mimic[0]!r}")
+            near = _closest_joint(j.mimic[0], j.name, list(joints))
+            raise fail(
+                f"has joint {j.name!r} mimicking unknown joint {j.mimic[0]!r}"
+                + (f" (did you mean {near!r}?)" if near else "")
+            )
     kin = Kinematics(robot.name, path, joints, links, parent_joint)
     for j in joints:
         kin.master(j)  # cycles

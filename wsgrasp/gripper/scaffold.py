@@ -34,8 +34,10 @@ from wsgrasp.gripper._scaffold_urdf import (
     copy_urdf,
     expand_xacro,
     is_xacro,
+    joint_names,
     narrow_limits,
     prune_urdf,
+    repair_mimics,
 )
 
 __all__ = [
@@ -391,11 +393,24 @@ def scaffold_plugin(
                 check,
                 package_paths,
                 xacro_note=note,
+                shown=Path(urdf),
             )
     except BaseException:
         if fresh:  # leave nothing half-written behind
             shutil.rmtree(out, ignore_errors=True)
         raise
+
+
+def _naming_source(exc: GripperError, copy: Path, source: Path) -> GripperError:
+    """``exc``, raised reading the package's copy of the URDF, as the user should
+    read it: naming the file they gave (the copy goes with the half-written
+    package), with a fix to the URDF rather than to a YAML not yet written."""
+    message = exc.message.replace(str(copy), str(source))
+    message = message.replace(copy.name, source.name)
+    hint = exc.hint
+    if hint and "`urdf` field of the gripper YAML" in hint:
+        hint = "fix the URDF, then run `wsgrasp gripper new` again"
+    return GripperError(message, hint=hint)
 
 
 def _below_base(urdf_copy: Path, scaffold: Scaffold) -> str:
@@ -424,7 +439,10 @@ def _write_package(
     check: bool,
     package_paths: list[Path] | None = None,
     xacro_note: str | None = None,
+    shown: Path | None = None,
 ) -> tuple[Path, Scaffold]:
+    """The package of :func:`scaffold_plugin`; ``shown`` is the file the user
+    gave (a xacro file expanded into ``urdf``), named in errors."""
     module = module_name(name)
     pkg = out / module
     pkg.mkdir(parents=True, exist_ok=True)
@@ -438,7 +456,11 @@ def _write_package(
         package_paths=package_paths,
         warnings=mesh_warnings,
     )
-    scaffold = guess_description(urdf_copy, name, base_link=base_link)
+    mimics = repair_mimics(urdf_copy)
+    try:
+        scaffold = guess_description(urdf_copy, name, base_link=base_link)
+    except GripperError as exc:
+        raise _naming_source(exc, urdf_copy, shown or urdf) from None
     scaffold.warnings[:0] = mesh_warnings
     pruned = _below_base(urdf_copy, scaffold)
     if pruned:  # the notes of the meshes still there; no warning on links
@@ -454,6 +476,15 @@ def _write_package(
     fit_sphere_count(scaffold, pkg)
     choose_approach(scaffold, pkg)
     header = [xacro_note] if xacro_note else []
+    kept = set(joint_names(urdf_copy))  # those of the hand, where an arm went
+    if any(j in kept for j in mimics):
+        repaired = (
+            "mimics that name no joint, pointed at the joint they mean in the "
+            "copied URDF: "
+            + ", ".join(f"{j} ({m})" for j, m in mimics.items() if j in kept)
+        )
+        header.append(repaired)
+        scaffold.warnings.append(repaired)
     if mesh_notes:
         header.append("meshes copied: " + "; ".join(mesh_notes))
     if pruned:
