@@ -230,6 +230,16 @@ def test_a_grippers_drive_sets_its_gains_and_leaves_its_model_alone():
     assert g.gains["revolute"] == (7.5, "gripper")
     assert {float(k) for k in re.findall(r'kp="([^"]+)"', g.actuator_xml)} == {7.5}
     assert source_hash(own, base) == source_hash(desc, base)  # no model rebuild
+    # `eval --sim kp_revolute=...` on a gripper whose YAML sets it: said, not
+    # silently ignored; on one without, nothing to say
+    from wsgrasp.cli._eval import gains_not_applied
+
+    sim = ["kp_revolute=3"]
+    (line,) = gains_not_applied(sim, "hand", g.notes_json()["gains"])
+    assert "--sim kp_revolute=3 does not apply to hand" in line
+    assert "drive sets kp_revolute 7.5 N·m/rad" in line
+    assert gains_not_applied(sim, "hand", plain.notes_json()["gains"]) == []
+    assert gains_not_applied(["views=2"], "hand", g.notes_json()["gains"]) == []
     for bad in (0.0, -1.0, float("nan")):
         with pytest.raises(ValidationError):
             DriveSettings(kp_revolute=bad)

@@ -57,6 +57,7 @@ def clutter_eval(
     json_out: Path | None,
     quiet: bool,
     baseline: bool = False,
+    sim: list[str] | None = None,
 ) -> dict[str, Any]:
     """Run ``scenes`` clutter scenes of ``objects_per_scene`` objects drawn from
     ``objects`` for each gripper (the same objects and seeds for every
@@ -66,6 +67,7 @@ def clutter_eval(
     choice with the paired differences over scenes (:func:`baseline_pairs`)."""
     from wsgrasp._version import library_versions
     from wsgrasp.api import Pipeline
+    from wsgrasp.cli._eval import gains_not_applied
     from wsgrasp.errors import InputError
     from wsgrasp.sim import load_sim_gripper
     from wsgrasp.sim.clutter import (
@@ -115,6 +117,9 @@ def clutter_eval(
         data = clutter_spec(g, specs[0] if specs else None)
         pipeline = Pipeline(load_spec(data))
         sim_gripper = load_sim_gripper(g, params)
+        if not as_json:
+            for line in gains_not_applied(sim, g, sim_gripper.notes_json()["gains"]):
+                err_console.print(line)
         results: dict[str, list[dict[str, Any]]] = {"plan": [], "random": []}
         for i, draw in enumerate(draws):
             for pick in ("plan", "random") if baseline else ("plan",):

@@ -210,6 +210,7 @@ def eval_command(
             json_out=json_out,
             quiet=quiet,
             baseline=baseline == "random",
+            sim=sim,
         )
         return
     resolved = resolve_objects(
@@ -224,6 +225,10 @@ def eval_command(
     # fail early (unknown gripper, URDF, no closed posture); the report lists
     # what each took from its URDF and what was repaired
     sim_grippers = {g: load_sim_gripper(g, params).notes_json() for g in grippers}
+    if not as_json:
+        for g, notes in sim_grippers.items():
+            for line in gains_not_applied(sim, g, notes.get("gains") or {}):
+                err_console.print(line)
     entries = spec_entries(
         list(grippers), list(specs) or None, paper=paper, followup=followup
     )
@@ -315,6 +320,28 @@ def sim_params(
         if value is not None:
             over[key] = value
     return SimParams.for_protocol(protocol, **over)
+
+
+def gains_not_applied(
+    sim: list[str] | None, gripper: str, gains: dict[str, dict[str, Any]]
+) -> list[str]:
+    """A warning per finger gain that ``--sim`` sets and the gripper's YAML
+    sets too (``drive``), which wins: the run does not use the ``--sim`` value
+    for that gripper. ``gains`` is :meth:`SimGripper.notes_json`'s."""
+    from wsgrasp.sim.params import parse_overrides
+
+    over = parse_overrides(sim or ())
+    lines = []
+    for kind, unit in (("revolute", "N·m/rad"), ("prismatic", "N/m")):
+        key, own = f"kp_{kind}", gains.get(kind) or {}
+        if key in over and own.get("source") == "gripper":
+            lines.append(
+                f"warning: --sim {key}={over[key]:g} does not apply to {gripper}: "
+                f"its YAML's drive sets {key} {own['kp']:g} {unit}, which the "
+                "trials use (to compare gains, evaluate a copy of the YAML with "
+                "its drive changed)"
+            )
+    return lines
 
 
 def object_masses(objects: list[Any], params: SimParams) -> dict[str, dict[str, Any]]:
