@@ -313,16 +313,28 @@ def markdown(report: dict[str, Any]) -> str:
     ]
     for r in report["rows"]:
         scaf = (
-            "built in"
+            _ours(r)
             if r["source"] == "built-in"
             else ("yes" if r.get("scaffolds") else "no: " + r.get("scaffold_error", ""))
         )
         lines.append(
-            f"| {r['name']} | {r['source']} | {r.get('fingers', '–')} | {scaf} | "
+            f"| {r['name']} | {_source(r)} | {r.get('fingers', '–')} | {scaf} | "
             f"{_cell_check(r)} | {_cell_plans(r)} | {_cell_commands(r)} | "
             f"{_cell_success(r)} | {_cell_heights(r)} | {_cell_drive(r)} |"
         )
     return "\n".join(lines) + "\n"
+
+
+def _ours(r: dict[str, Any]) -> str:
+    """How one of wsgrasp's own grippers (``source`` ``built-in`` in the rows)
+    comes: registered by wsgrasp, or an example plugin's YAML under
+    ``examples/plugins`` (its ``gripper`` a path, not its name)."""
+    return "built in" if r.get("gripper", r["name"]) == r["name"] else "example"
+
+
+def _source(r: dict[str, Any]) -> str:
+    """Where a row's gripper comes from, as the full table names it."""
+    return "examples/plugins" if _ours(r) == "example" else str(r["source"])
 
 
 def _cell_drive(r: dict[str, Any]) -> str:
@@ -361,7 +373,7 @@ def readme_table(report: dict[str, Any]) -> str:
     ]
     for r in report["rows"]:
         built_in = r["source"] == "built-in"
-        scaf = "built in" if built_in else ("yes" if r.get("scaffolds") else "no")
+        scaf = _ours(r) if built_in else ("yes" if r.get("scaffolds") else "no")
         source = "wsgrasp" if built_in else r["source"].split("/")[0]
         held = f"{100 * r['success_rate']:.1f} %" if "success_rate" in r else "–"
         lines.append(

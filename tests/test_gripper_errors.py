@@ -137,3 +137,24 @@ def test_more_spheres_than_the_workspace_can_place(franka):
     err = _fails(franka, "finger 'left'", "spheres_per_finger asks for 200")
     assert "unreachable" in err.message
     assert "spheres_per_finger" in (err.hint or "")
+
+
+def test_every_error_class_is_exported_from_the_package():
+    """Each error wsgrasp raises on purpose can be caught as ``wsgrasp.X``, as
+    the errors page lists them."""
+    import inspect
+
+    import wsgrasp
+    import wsgrasp.errors as errors
+
+    mine = [
+        name
+        for name, obj in vars(errors).items()
+        if inspect.isclass(obj)
+        and issubclass(obj, errors.WsgraspError)
+        and obj.__module__ == errors.__name__
+    ]
+    assert "SimulationError" in mine
+    for name in mine:
+        assert getattr(wsgrasp, name) is getattr(errors, name), name
+        assert name in wsgrasp.__all__, name

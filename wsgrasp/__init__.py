@@ -13,6 +13,7 @@ from wsgrasp.errors import (
     InputError,
     PluginError,
     RecordingError,
+    SimulationError,
     SpecError,
     WsgraspError,
 )
@@ -23,6 +24,7 @@ __all__ = [
     "InputError",
     "PluginError",
     "RecordingError",
+    "SimulationError",
     "SpecError",
     "WsgraspError",
     "__version__",
