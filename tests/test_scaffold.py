@@ -914,3 +914,55 @@ def test_gripper_new_names_the_users_urdf_in_its_errors(tmp_path):
     assert "no_such_joint" in err.value.message
     assert err.value.hint == "fix the URDF, then run `wsgrasp gripper new` again"
     assert not (tmp_path / "out").exists()
+
+
+def test_gripper_new_warns_of_a_collision_mesh_placed_apart_from_its_visual(tmp_path):
+    """A link whose collision element is its visual's mesh file at another
+    origin (a visual turned into place, its collision copy not) gets one
+    warning naming the link and the fix; the same mesh in the same place none."""
+    import trimesh
+
+    box = trimesh.creation.box((0.02, 0.015, 0.05))
+    box.apply_translation((0.0, 0.0075, 0.025))
+    box.export(tmp_path / "finger.obj")
+
+    def mesh(tag: str, rpy: str) -> str:
+        return (
+            f'<{tag}><origin xyz="0 0 0" rpy="{rpy}"/>'
+            f'<geometry><mesh filename="finger.obj"/></geometry></{tag}>'
+        )
+
+    left = '<link name="left_finger">'
+    text = jaw_urdf()
+    start = text.index(left)
+    end = text.index("</link>", start) + len("</link>")
+    for rpy, warned in (("0 0 1.5708", True), ("0 0 0", False)):
+        body = mesh("visual", rpy) + mesh("collision", "0 0 0")
+        urdf = _write(tmp_path, text[:start] + left + body + "</link>" + text[end:])
+        sc = guess_description(urdf, "jaw")
+        found = [w for w in sc.warnings if "collision mesh 'finger.obj'" in w]
+        assert bool(found) == warned, sc.warnings
+        if warned:
+            (w,) = found
+            assert "link 'left_finger'" in w and "placed 90 deg and 0 mm" in w
+            assert "fix the collision element's <origin>" in w
+
+
+def test_a_urdf_element_without_its_name_is_one_error_naming_it(tmp_path):
+    """yourdfpy fails on an unnamed <robot> or link with a bare KeyError: the
+    reader names the element instead."""
+    for old, new, what in (
+        ('<robot name="jaw">', "<robot>", "its <robot> element without a name"),
+        ('<link name="palm">', "<link>", "its <link> number 1 without a name"),
+        (
+            '<child link="left_finger"/>',
+            "<child/>",
+            "joint 'left_joint''s <child> without a link attribute",
+        ),
+        ('<mimic joint="left_joint"/>', "<mimic/>", "<mimic> without a joint"),
+    ):
+        urdf = _write(tmp_path, jaw_urdf().replace(old, new, 1))
+        with pytest.raises(GripperError) as err:
+            guess_description(urdf, "jaw")
+        assert what in err.value.message, err.value.message
+        assert "which URDF requires" in err.value.message

@@ -1942,7 +1942,9 @@ def guess_description(
     return Scaffold(
         data,
         u.notes,
-        u.kin.warnings + u.warnings,
+        u.kin.warnings
+        + [u.kin.misplaced[link] for link in u.below if link in u.kin.misplaced]
+        + u.warnings,
         limits=limits,
         fingertips_first=alternative,
         links_below=list(u.below),

@@ -111,6 +111,9 @@ class Kinematics:
     warnings : list of str
         Geometry left out while reading (a visual mesh, not found, of a link
         without collision geometry), naming the link and the file.
+    misplaced : dict of str to str
+        Per link whose collision mesh is a visual's mesh placed elsewhere, a
+        sentence saying so (``gripper new`` warns of those in the gripper).
     """
 
     robot_name: str
@@ -121,6 +124,7 @@ class Kinematics:
     shapes: dict[str, list[Shape]] = field(default_factory=dict)
     inertials: dict[str, Inertial] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    misplaced: dict[str, str] = field(default_factory=dict)
 
     # -- names -------------------------------------------------------------------
     def check_link(self, link: str, gripper: str, where: str) -> None:
@@ -356,6 +360,27 @@ def _closest_joint(target: str, mimicking: str, names: list[str]) -> str | None:
     return near[0] if near else None
 
 
+def _unnamed(root: ET.Element) -> str | None:
+    """The first element a URDF must name and does not (``<robot>``, a
+    ``<link>``, a ``<joint>``, a ``<joint>``'s ``<parent link>``, ``<child
+    link>`` or ``<mimic joint>``), described for a message; None if all are
+    named (yourdfpy fails on those with a bare ``KeyError``)."""
+    if not root.get("name"):
+        return "its <robot> element without a name attribute"
+    for tag in ("link", "joint"):
+        for i, el in enumerate(root.findall(tag)):
+            if not el.get("name"):
+                return f"its <{tag}> number {i + 1} without a name attribute"
+    for el in root.findall("joint"):
+        for tag, attr in (("parent", "link"), ("child", "link"), ("mimic", "joint")):
+            sub = el.find(tag)
+            if sub is None and tag != "mimic":
+                return f"joint {el.get('name')!r} without a <{tag}> element"
+            if sub is not None and not sub.get(attr):
+                return f"joint {el.get('name')!r}'s <{tag}> without a {attr} attribute"
+    return None
+
+
 def load_kinematics(
     path: Path, gripper: str, *, package_paths: Sequence[Path] = ()
 ) -> Kinematics:
@@ -396,6 +421,9 @@ def load_kinematics(
     other = not_urdf(root)
     if other is not None:
         raise fail(f"is {other}, not a URDF (whose root element is <robot>)")
+    unnamed = _unnamed(root)
+    if unnamed:
+        raise fail(f"has {unnamed}, which URDF requires")
     sink = io.StringIO()
     try:
         with contextlib.redirect_stdout(sink), contextlib.redirect_stderr(sink):
@@ -493,6 +521,9 @@ def load_kinematics(
         kin.shapes[link.name] = _shapes(
             link, path.parent, fail, kin.warnings, package_paths
         )
+        twin = _misplaced_collision(link)
+        if twin:
+            kin.misplaced[link.name] = twin
         inertial = link.inertial
         if inertial is not None and inertial.mass is not None:
             inertia = (
@@ -552,6 +583,59 @@ def _shapes(
                 sc = (float(s[0]), float(s[1]), float(s[2]))
             out.append(Shape(link.name, "mesh", T, (), mesh_path, sc))
     return out
+
+
+#: a collision mesh placed this far (degrees, metres) from the same mesh as the
+#: link's visual is reported as likely misplaced
+TWIN_ANGLE_DEG = 1.0
+TWIN_OFFSET = 0.001
+
+
+def _misplaced_collision(link: Any) -> str | None:
+    """Where one of a link's collision meshes is the very file of one of its
+    visuals, at the same scale, but placed elsewhere, a sentence saying so (one
+    of the two origins is likely wrong: a visual turned into place and its
+    collision copy not turned), else None. wsgrasp takes the link's shape from
+    its collision elements."""
+
+    def scale(m: Any) -> Array:
+        return np.broadcast_to(np.asarray(1.0 if m.scale is None else m.scale), 3)
+
+    for c in link.collisions or []:
+        cm = c.geometry.mesh if c.geometry is not None else None
+        if cm is None:
+            continue
+        twins = [
+            v
+            for v in link.visuals or []
+            if v.geometry is not None
+            and v.geometry.mesh is not None
+            and v.geometry.mesh.filename == cm.filename
+            and np.allclose(scale(v.geometry.mesh), scale(cm))
+        ]
+        if not twins:
+            continue
+        Tc = _origin(c.origin)
+        apart = []
+        for v in twins:
+            Tv = _origin(v.origin)
+            R = Tv[:3, :3].T @ Tc[:3, :3]
+            cos = np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)
+            angle = float(np.degrees(np.arccos(cos)))
+            offset = float(np.linalg.norm(Tv[:3, 3] - Tc[:3, 3]))
+            if angle <= TWIN_ANGLE_DEG and offset <= TWIN_OFFSET:
+                break  # a visual in the same place
+            apart.append((angle, offset))
+        else:
+            angle, offset = apart[0]
+            return (
+                f"link {link.name!r}: its collision mesh {Path(cm.filename).name!r} "
+                f"is its visual's mesh placed {angle:.0f} deg and "
+                f"{offset * 1000:.0f} mm from it; wsgrasp takes the link's shape "
+                "from the collision element, so if the visual is where the link "
+                "is, fix the collision element's <origin> in the URDF"
+            )
+    return None
 
 
 #: how deep below a package search folder a ``package.xml`` is looked for
