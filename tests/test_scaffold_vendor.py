@@ -207,6 +207,56 @@ def test_thumb_is_held_where_it_closes_against_the_fingers(tmp_path):
     assert d["pregrasp"]["THJ_TURN"] == d["closed"]["THJ_TURN"] == 0.0
 
 
+def test_a_held_thumb_has_a_turning_alternative_and_choose_thumb_picks(
+    tmp_path, monkeypatch
+):
+    """Beside the thumb held opposed, the guess carries the same hand with the
+    thumb's turn joint closing with it: open at its hold value (beside the
+    palm), closed where it was held. ``choose_thumb`` keeps the held thumb
+    where it finds grasps on half the low test objects or more, and turns it
+    where it finds fewer and turning finds more; the note says which and why."""
+    from wsgrasp.gripper import _approach
+
+    urdf = tmp_path / "hand.urdf"
+    urdf.write_text(forearm_hand_urdf())
+    sc = guess_description(urdf, "hand")
+    alt = sc.thumb_turning
+    assert alt is not None
+    held, opposed = sc.data["pregrasp"]["THJ_TURN"], sc.data["closed"]["THJ_TURN"]
+    assert alt["turned"] == {"THJ_TURN": (0.0, opposed)}
+    thumb = next(f for f in alt["data"]["fingers"] if f["pad"]["link"] == "th_distal")
+    assert thumb["joints"] == ["THJ_TURN", "THJ2", "THJ1"]
+    assert alt["data"]["pregrasp"]["THJ_TURN"] == 0.0 != held
+    assert alt["data"]["closed"] == sc.data["closed"]
+    for k in ("approach_axis", "closing_axis", "tool_frame"):
+        assert alt["data"][k] == sc.data[k]
+    n = len(_approach.low_object_scenes())
+    for counts, turns, says in (
+        ({"held": n // 2, "turning": n}, False, "so it is not turned"),
+        ({"held": 0, "turning": n}, True, "it turns (THJ_TURN from 0 to"),
+        ({"held": 1, "turning": 0}, False, "it stays held"),
+    ):
+        guess = guess_description(urdf, "hand")
+        monkeypatch.setattr(
+            _approach,
+            "grasps_on_low_objects",
+            lambda path, scenes, c=counts: c[path.stem.rsplit("-", 1)[-1]],
+        )
+        _approach.choose_thumb(guess, tmp_path)
+        joints = next(
+            f["joints"]
+            for f in guess.data["fingers"]
+            if f["pad"]["link"] == "th_distal"
+        )
+        assert ("THJ_TURN" in joints) == turns
+        assert says in guess.notes["pregrasp"]
+        assert not list(tmp_path.glob(".hand-thumb-*.yaml"))  # trial files removed
+    # a gripper without a thumb held opposed has no alternative
+    jaw = tmp_path / "jaw.urdf"
+    jaw.write_text(named_jaw_urdf(("a", "b"), ("base", "l", "r")))
+    assert guess_description(jaw, "jaw").thumb_turning is None
+
+
 def test_pinch_brings_the_pads_nearer_a_common_point(tmp_path):
     """The pinch search over each finger's joints between its pregrasp and
     closed values finds a posture whose pads lie no farther from their centroid

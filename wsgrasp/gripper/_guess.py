@@ -10,6 +10,7 @@ joints that carry several of them (:func:`_fingers`), the open and closed postur
 
 from __future__ import annotations
 
+import copy
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -152,6 +153,11 @@ class Scaffold:
     #: a second approach for a hand, fingertips first: ``approach_axis``,
     #: ``closing_axis`` and their notes; :func:`choose_approach` picks one
     fingertips_first: dict[str, Any] | None = None
+    #: a hand whose thumb is held opposed: the same guess with the thumb's
+    #: opposition joints closing with it instead, from where they were held
+    #: (``data`` and ``notes`` as the guess's, and ``turned``: joint -> (open,
+    #: closed)); :func:`~wsgrasp.gripper._approach.choose_thumb` picks one
+    thumb_turning: dict[str, Any] | None = None
     #: the URDF's links below ``base_link`` (it included), and those above or
     #: beside it, which are no part of the gripper (an arm), in file order
     links_below: list[str] = field(default_factory=list)
@@ -1040,7 +1046,7 @@ def _hold_postures(
     targets: dict[str, Array],
     pregrasp: dict[str, float],
     closed: dict[str, float],
-) -> None:
+) -> dict[str, dict[str, float]]:
     """Hold a thumb's posture joints where it, closing, gets nearest the other
     fingers: its opposition.
 
@@ -1059,8 +1065,15 @@ def _hold_postures(
     than the hold value by at least ``POSTURE_FRACTION`` of its strongest
     closer's effect, the held joints take the values that gain nearly the
     most (``HOLD_TIE``) while moving least. Its closing joints keep the ends
-    :func:`_postures` gave them (a thumb still closes by flexing).
-    ``pregrasp``, ``closed`` and ``u.default`` are updated in place.
+    :func:`_postures` gave them. ``pregrasp``, ``closed`` and ``u.default`` are
+    updated in place: the postures that follow are found with the thumb held
+    opposed.
+
+    Returns
+    -------
+    dict
+        Per thumb, the held joints moved and the value each was held at:
+        :func:`_turn_thumbs` makes them close with the thumb, from there.
 
     Parameters
     ----------
@@ -1102,6 +1115,7 @@ def _hold_postures(
         )
 
     how = []
+    turned: dict[str, dict[str, float]] = {}
     for link, ms in joints.items():
         closers = closing[link]
         if not closers or any(side_by_side(link, o) for o in joints if o != link):
@@ -1144,8 +1158,11 @@ def _hold_postures(
         )  # (V,) how far each posture moves the held joints, in ranges
         good = near <= near.min() + HOLD_TIE * gain
         pick = int(np.argmin(np.where(good, moved, np.inf)))
+        turned[link] = {}
         for m in own:
             value = float(held[m][pick])
+            if value != u.default[m]:
+                turned[link][m] = u.default[m]
             pregrasp[m] = closed[m] = u.default[m] = value
         how.append(
             ", ".join(f"{m} at {u.default[m]:g}" for m in own)
@@ -1159,6 +1176,29 @@ def _hold_postures(
             "joints: its opposition) are held where it, closing, gets nearest "
             "where the others reach: " + "; ".join(how)
         )
+    return turned
+
+
+def _turn_thumbs(
+    turned: dict[str, dict[str, float]],
+    joints: dict[str, list[str]],
+    fingers: dict[str, list[str]],
+    pregrasp: dict[str, float],
+) -> None:
+    """Make a thumb's opposition joints (:func:`_hold_postures`' ``turned``)
+    close with it: open at the value they were held at, closed where they
+    oppose it, so that the open hand's thumb lies beside the palm rather than
+    in front of it. Held opposed, the vendor Allegro URDF's thumb stuck out
+    in front of the palm, into the table under a low object: 3 of
+    ``random:000-019`` held (strict protocol), 12 without a grasp; turning in
+    as it closes, 13. ``pregrasp`` and ``fingers`` (the joints in the chain's
+    order) are updated in place, after every posture was found with the thumb
+    opposed; :func:`~wsgrasp.gripper._approach.choose_thumb` decides whether
+    the guess takes it."""
+    for link, hold in turned.items():
+        for m, value in hold.items():
+            pregrasp[m] = value
+        fingers[link] = [m for m in joints[link] if m in fingers[link] or m in hold]
 
 
 def _stop_at_palm(
@@ -1895,7 +1935,7 @@ def guess_description(
         targets = {distal[0]: jaw.point}
     joints = {link: list(ms) for link, ms in fingers.items()}
     pregrasp, closed = _postures(u, fingers, targets)
-    _hold_postures(u, joints, fingers, targets, pregrasp, closed)
+    turned = _hold_postures(u, joints, fingers, targets, pregrasp, closed)
     if jaw is None:
         limits = _stop_at_palm(u, fingers, pregrasp, closed)
     else:
@@ -1915,38 +1955,64 @@ def guess_description(
         u, pads, pregrasp, closed, rigid=jaw is not None
     )
     contact = _contact_fingers(u, pads, names, pregrasp, closed, np.asarray(closing))
-    data: dict[str, Any] = {
-        "version": 1,
-        "name": name,
-        "urdf": urdf_field or path.name,
-        "base_link": u.base,
-        "tool_frame": {"link": u.base, "xyz": _r(tcp)},
-        "approach_axis": _r(approach, 6),
-        "closing_axis": _r(closing, 6),
-        "fingers": [
-            {"name": n, "joints": fingers[link], "pad": pad}
-            for n, link, pad in zip(names, distal, pads, strict=True)
-        ],
-        **_settings(u, fingers, pads),
-        "ellipsoids": {"count": 5, "exponent": 10.0},
-        "cloud_points": 500,
-        # full precision: a rounded limit may fall outside the joint's range
-        "pregrasp": {k: float(v) for k, v in pregrasp.items()},
-        "closed": {k: float(v) for k, v in closed.items()},
-    }
-    if contact is not None:
-        data["contact_fingers"] = contact
-    drive = _drive(u, fingers, pads, names, pregrasp, closed)
-    if drive is not None:
-        data["drive"] = drive
+
+    def assemble(
+        fingers: dict[str, list[str]], pregrasp: dict[str, float]
+    ) -> tuple[dict[str, Any], dict[str, str]]:
+        """The YAML's data for these finger joints and pre-grasp posture, and
+        the notes as they then read (sizes and the drive follow the joints)."""
+        own_pads = copy.deepcopy(pads)
+        data: dict[str, Any] = {
+            "version": 1,
+            "name": name,
+            "urdf": urdf_field or path.name,
+            "base_link": u.base,
+            "tool_frame": {"link": u.base, "xyz": _r(tcp)},
+            "approach_axis": _r(approach, 6),
+            "closing_axis": _r(closing, 6),
+            "fingers": [
+                {"name": n, "joints": fingers[link], "pad": pad}
+                for n, link, pad in zip(names, distal, own_pads, strict=True)
+            ],
+            **_settings(u, fingers, own_pads),
+            "ellipsoids": {"count": 5, "exponent": 10.0},
+            "cloud_points": 500,
+            # full precision: a rounded limit may fall outside the joint's range
+            "pregrasp": {k: float(v) for k, v in pregrasp.items()},
+            "closed": {k: float(v) for k, v in closed.items()},
+        }
+        if contact is not None:
+            data["contact_fingers"] = contact
+        drive = _drive(u, fingers, own_pads, names, pregrasp, closed)
+        if drive is not None:
+            data["drive"] = drive
+        return data, dict(u.notes)
+
+    thumb_turning = None
+    if any(turned.values()):
+        before = dict(u.notes)
+        turned_fingers = {link: list(ms) for link, ms in fingers.items()}
+        turned_pregrasp = dict(pregrasp)
+        _turn_thumbs(turned, joints, turned_fingers, turned_pregrasp)
+        alt, alt_notes = assemble(turned_fingers, turned_pregrasp)
+        thumb_turning = {
+            "data": alt,
+            "notes": alt_notes,
+            "turned": {
+                m: (v, closed[m]) for hold in turned.values() for m, v in hold.items()
+            },
+        }
+        u.notes = before
+    data, notes = assemble(fingers, pregrasp)
     return Scaffold(
         data,
-        u.notes,
+        notes,
         u.kin.warnings
         + [u.kin.misplaced[link] for link in u.below if link in u.kin.misplaced]
         + u.warnings,
         limits=limits,
         fingertips_first=alternative,
+        thumb_turning=thumb_turning,
         links_below=list(u.below),
         links_outside=_outside(u.kin, u.below),
     )

@@ -21,7 +21,7 @@ from typing import Any
 
 from wsgrasp.default_specs import generic_spec_text
 from wsgrasp.errors import GripperError, WsgraspError
-from wsgrasp.gripper._approach import choose_approach
+from wsgrasp.gripper._approach import choose_approach, choose_thumb
 from wsgrasp.gripper._guess import (
     Scaffold,
     clear_rigid_pads,
@@ -473,6 +473,7 @@ def _write_package(
             if (pkg / n.split(" -> ")[-1].split(" (")[0]).is_file()
         ]
     narrow_limits(urdf_copy, scaffold.limits)
+    choose_thumb(scaffold, pkg)
     fit_sphere_count(scaffold, pkg)
     choose_approach(scaffold, pkg)
     header = [xacro_note] if xacro_note else []
