@@ -84,14 +84,15 @@ def scenes() -> dict[str, Any]:
 
 
 def scaffold(urdf: Path, out: Path) -> tuple[str | None, dict[str, Any]]:
-    """Scaffold ``urdf`` into ``out``: the gripper YAML, or None, and the row."""
+    """Scaffold ``urdf`` into ``out`` as ``wsgrasp gripper new`` does (its
+    check's refits included): the gripper YAML, or None, and the row."""
     from wsgrasp.errors import WsgraspError
     from wsgrasp.gripper.scaffold import scaffold_plugin
 
     name = package_name(urdf)
     t0 = time.perf_counter()
     try:
-        yaml, sc = scaffold_plugin(name, urdf, out / name, force=True, check=False)
+        yaml, sc = scaffold_plugin(name, urdf, out / name, force=True)
     except WsgraspError as exc:
         return None, {"scaffolds": False, "scaffold_error": str(exc)}
     row = {
