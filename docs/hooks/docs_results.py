@@ -746,6 +746,12 @@ def render_reach_down_runs() -> str:
     return _runs_in("reach-down")
 
 
+def render_thumb_turn_runs() -> str:
+    """The runs that measured a thumb held opposed against one turning into
+    opposition as it closes, then each hand's success by object height."""
+    return _runs_in("thumb-turn") + _height_table("thumb-turn")
+
+
 def render_pose_margin_runs() -> str:
     """The runs that measured the pose_margin scorer beside a default spec."""
     return _runs_in("pose-margin")

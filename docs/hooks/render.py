@@ -55,6 +55,7 @@ from docs_results import (
     render_results_scorers,
     render_simulator_versions_runs,
     render_thumb_drive_runs,
+    render_thumb_turn_runs,
 )
 
 MARKER = re.compile(r"^<!-- render: ([a-z0-9-]+) -->$", re.M)
@@ -87,6 +88,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "simulator-versions-runs": render_simulator_versions_runs,
     "drive-guess-runs": render_drive_guess_runs,
     "thumb-drive-runs": render_thumb_drive_runs,
+    "thumb-turn-runs": render_thumb_turn_runs,
     "graze-depth-runs": render_graze_depth_runs,
     "results-scorers": render_results_scorers,
 }

@@ -19,6 +19,7 @@ boxes and cylinders, yet holds fewer of the taller random objects in MuJoCo).
 from __future__ import annotations
 
 import copy
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -50,10 +51,9 @@ def low_object_scenes() -> list[Any]:
     ]
 
 
-def feasible_on_low_objects(yaml_path: Path, scenes: list[Any]) -> int:
-    """Feasible candidates summed over ``scenes`` (:func:`low_object_scenes`) for
-    the gripper YAML at ``yaml_path``, planned with wsgrasp's generic default
-    spec."""
+def _generic_pipeline(yaml_path: Path) -> Any:
+    """A pipeline of wsgrasp's generic default spec for the gripper YAML at
+    ``yaml_path``, recording nothing."""
     from wsgrasp._loading import load_document
     from wsgrasp.api import Pipeline
     from wsgrasp.default_specs import GENERIC_DEFAULT
@@ -61,22 +61,41 @@ def feasible_on_low_objects(yaml_path: Path, scenes: list[Any]) -> int:
 
     data, _ = load_document(GENERIC_DEFAULT)
     spec = {**dict(data), "gripper": str(yaml_path), "record": {"enabled": False}}
-    pipeline = Pipeline(PipelineSpec.model_validate(spec))
+    return Pipeline(PipelineSpec.model_validate(spec))
+
+
+def feasible_on_low_objects(yaml_path: Path, scenes: list[Any]) -> int:
+    """Feasible candidates summed over ``scenes`` (:func:`low_object_scenes`) for
+    the gripper YAML at ``yaml_path``, planned with wsgrasp's generic default
+    spec."""
+    pipeline = _generic_pipeline(yaml_path)
     return sum(int(pipeline.plan(s).candidates.feasible.sum()) for s in scenes)
+
+
+def _trial(
+    option: Scaffold,
+    label: str,
+    base_dir: Path,
+    scenes: list[Any],
+    count: Callable[[Path, list[Any]], int],
+) -> int:
+    """``count`` for the guess ``option``, written for the trial as a hidden
+    YAML in ``base_dir`` (beside the URDF it names) and removed after."""
+    from wsgrasp.gripper.scaffold import render_yaml
+
+    path = Path(base_dir) / f".{option.data['name']}-{label}.yaml"
+    path.write_text(render_yaml(option))
+    try:
+        return count(path, scenes)
+    finally:
+        path.unlink(missing_ok=True)
 
 
 def grasps_on_low_objects(yaml_path: Path, scenes: list[Any]) -> int:
     """How many of ``scenes`` (:func:`low_object_scenes`) the gripper YAML at
     ``yaml_path`` finds a grasp on, planned with wsgrasp's generic default spec
     (a grasp its fingers close on: ``found``)."""
-    from wsgrasp._loading import load_document
-    from wsgrasp.api import Pipeline
-    from wsgrasp.default_specs import GENERIC_DEFAULT
-    from wsgrasp.spec import PipelineSpec
-
-    data, _ = load_document(GENERIC_DEFAULT)
-    spec = {**dict(data), "gripper": str(yaml_path), "record": {"enabled": False}}
-    pipeline = Pipeline(PipelineSpec.model_validate(spec))
+    pipeline = _generic_pipeline(yaml_path)
     return sum(bool(pipeline.plan(s).found) for s in scenes)
 
 
@@ -94,8 +113,6 @@ def choose_thumb(scaffold: Scaffold, base_dir: Path) -> None:
     the 6 renderings held and on all 6 turning, held 25 of ``random:000-119``
     held and 8 turning. The choice and the counts are noted on ``pregrasp``.
     The trial YAMLs are written into ``base_dir`` and removed."""
-    from wsgrasp.gripper.scaffold import render_yaml
-
     alternative = scaffold.thumb_turning
     if alternative is None:
         return
@@ -106,18 +123,18 @@ def choose_thumb(scaffold: Scaffold, base_dir: Path) -> None:
     counts: list[int] = []
     options = [scaffold.data, alternative["data"]]
     for label, data in zip(("held", "turning"), options, strict=True):
-        path = Path(base_dir) / f".{scaffold.data['name']}-thumb-{label}.yaml"
-        path.write_text(render_yaml(replace(scaffold, data=data)))
+        option = replace(scaffold, data=data)
         try:
-            counts.append(grasps_on_low_objects(path, scenes))
+            count = _trial(
+                option, f"thumb-{label}", base_dir, scenes, grasps_on_low_objects
+            )
         except WsgraspError as exc:  # a guess that does not build: keep it held
             scaffold.notes["pregrasp"] += (
                 f"; turning the thumb ({turned}) was not tried: the thumb-{label} "
                 f"guess cannot plan ({str(exc).splitlines()[0]})"
             )
             return
-        finally:
-            path.unlink(missing_ok=True)
+        counts.append(count)
         if label == "held" and 2 * counts[0] >= len(scenes):
             scaffold.notes["pregrasp"] += (
                 f"; held so, it finds a grasp on {counts[0]} of {len(scenes)} "
@@ -144,8 +161,6 @@ def choose_approach(scaffold: Scaffold, base_dir: Path) -> None:
     on :data:`LOW_OBJECTS`; a tie keeps palm first. Notes the counts. The two
     trial YAMLs are written into ``base_dir`` (beside the URDF they name) and
     removed."""
-    from wsgrasp.gripper.scaffold import render_yaml
-
     alternative = scaffold.fingertips_first
     if alternative is None:
         return
@@ -158,18 +173,18 @@ def choose_approach(scaffold: Scaffold, base_dir: Path) -> None:
     scenes = low_object_scenes()  # rendered once, planned on by both
     counts: list[int] = []
     for label, option in (("palm", scaffold), ("fingertips", fingers)):
-        path = Path(base_dir) / f".{scaffold.data['name']}-{label}-first.yaml"
-        path.write_text(render_yaml(option))
         try:
-            counts.append(feasible_on_low_objects(path, scenes))
+            counts.append(
+                _trial(
+                    option, f"{label}-first", base_dir, scenes, feasible_on_low_objects
+                )
+            )
         except WsgraspError as exc:  # a guess that does not build: keep palm first
             scaffold.notes["approach_axis"] += (
                 f"; fingertips first was not tried: the {label}-first guess "
                 f"cannot plan ({str(exc).splitlines()[0]})"
             )
             return
-        finally:
-            path.unlink(missing_ok=True)
     palm, tips = counts
     what = (
         f"; planned on {len(LOW_OBJECTS) * len(SEEDS)} renderings of "
