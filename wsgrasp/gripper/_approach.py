@@ -107,11 +107,11 @@ def choose_thumb(scaffold: Scaffold, base_dir: Path) -> None:
     far enough out, it meets the table before the fingers reach an object lying
     flat, and the hand finds no grasp there (the vendor Allegro URDF's thumb:
     no grasp on any of the renderings of :data:`LOW_OBJECTS`; turning in as it
-    closes, a grasp on every one, and 13 of ``random:000-019`` held against 3
+    closes, a grasp on every one, and 36 of ``random:000-059`` held against 7
     under the strict protocol). Where the held thumb leaves grasps on half of
     them or more, it is kept: the Shadow hand's, which finds grasps on 4 of
     the 6 renderings held and on all 6 turning, held 25 of ``random:000-119``
-    held and 8 turning. The choice and the counts are noted on ``pregrasp``.
+    held and 8 turning (``docs/results/thumb-turn/``). The choice and the counts are noted on ``pregrasp``.
     The trial YAMLs are written into ``base_dir`` and removed."""
     alternative = scaffold.thumb_turning
     if alternative is None:

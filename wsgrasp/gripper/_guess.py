@@ -1189,9 +1189,9 @@ def _turn_thumbs(
     close with it: open at the value they were held at, closed where they
     oppose it, so that the open hand's thumb lies beside the palm rather than
     in front of it. Held opposed, the vendor Allegro URDF's thumb stuck out
-    in front of the palm, into the table under a low object: 3 of
-    ``random:000-019`` held (strict protocol), 12 without a grasp; turning in
-    as it closes, 13. ``pregrasp`` and ``fingers`` (the joints in the chain's
+    in front of the palm, into the table under a low object: 7 of
+    ``random:000-059`` held (strict protocol), 31 without a grasp; turning in
+    as it closes, 36. ``pregrasp`` and ``fingers`` (the joints in the chain's
     order) are updated in place, after every posture was found with the thumb
     opposed; :func:`~wsgrasp.gripper._approach.choose_thumb` decides whether
     the guess takes it."""
