@@ -1878,7 +1878,8 @@ def _drive(
         "the squared speed at which each moves the pad, cm²/rad²: "
         f"{each}); the same gain on every hand would make long fingers soft and "
         "short ones stiff. Where the hand's own controller or grip force is known, "
-        "set it to match; compare runs with `wsgrasp eval --sim kp_revolute=...`"
+        "set it to match; to compare gains, evaluate copies of this YAML with "
+        "other drives (this drive wins over `wsgrasp eval --sim kp_revolute`)"
     )
     return {"kp_revolute": kp}
 
