@@ -111,8 +111,9 @@ def choose_thumb(scaffold: Scaffold, base_dir: Path) -> None:
     under the strict protocol). Where the held thumb leaves grasps on half of
     them or more, it is kept: the Shadow hand's, which finds grasps on 4 of
     the 6 renderings held and on all 6 turning, held 25 of ``random:000-119``
-    held and 8 turning (``docs/results/thumb-turn/``). The choice and the counts are noted on ``pregrasp``.
-    The trial YAMLs are written into ``base_dir`` and removed."""
+    held and 8 turning (``docs/results/thumb-turn/``). The choice and the counts
+    are noted on ``pregrasp``. The trial YAMLs are written into ``base_dir`` and
+    removed."""
     alternative = scaffold.thumb_turning
     if alternative is None:
         return
