@@ -752,6 +752,12 @@ def render_thumb_turn_runs() -> str:
     return _runs_in("thumb-turn") + _height_table("thumb-turn")
 
 
+def render_other_descriptions_runs() -> str:
+    """Grippers scaffolded from descriptions outside the development set, as
+    other packages ship them, then each one's success by object height."""
+    return _runs_in("other-descriptions") + _height_table("other-descriptions")
+
+
 def render_pose_margin_runs() -> str:
     """The runs that measured the pose_margin scorer beside a default spec."""
     return _runs_in("pose-margin")

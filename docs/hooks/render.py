@@ -45,6 +45,7 @@ from docs_results import (
     render_generic_scorers_runs,
     render_graze_depth_runs,
     render_on_table_runs,
+    render_other_descriptions_runs,
     render_pose_margin_runs,
     render_reach_down_runs,
     render_results_bench,
@@ -89,6 +90,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "drive-guess-runs": render_drive_guess_runs,
     "thumb-drive-runs": render_thumb_drive_runs,
     "thumb-turn-runs": render_thumb_turn_runs,
+    "other-descriptions-runs": render_other_descriptions_runs,
     "graze-depth-runs": render_graze_depth_runs,
     "results-scorers": render_results_scorers,
 }
