@@ -31,6 +31,7 @@ from wsgrasp.geometry._transforms import (
     rot_x,
     rot_y,
     rot_z,
+    rotation_angle_deg,
     transform_from,
     transform_points,
 )
@@ -59,6 +60,7 @@ __all__ = [
     "rot_x",
     "rot_y",
     "rot_z",
+    "rotation_angle_deg",
     "spheres_hit_by_points",
     "superellipsoid_surface",
     "superellipsoid_values",

@@ -129,3 +129,12 @@ def plane_basis(normal: ArrayLike) -> Array:
     u = np.cross(n, helper)
     u /= np.linalg.norm(u)
     return np.stack([u, np.cross(n, u)], axis=1)
+
+
+def rotation_angle_deg(Ra: ArrayLike, Rb: ArrayLike) -> float:
+    """The angle (degrees) of the rotation between rotation matrices ``Ra`` and
+    ``Rb`` ``(3, 3)``: ``arccos((trace(Ra^T Rb) - 1) / 2)``, the cosine clipped
+    to [-1, 1] against rounding."""
+    R = np.asarray(Ra, dtype=np.float64).T @ np.asarray(Rb, dtype=np.float64)
+    c = (np.trace(R) - 1.0) / 2.0
+    return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))

@@ -35,6 +35,7 @@ from wsgrasp.geometry import (
     PRIMITIVES,
     chain_forward_kinematics,
     primitive_mesh,
+    rotation_angle_deg,
 )
 
 Array = NDArray[np.float64]
@@ -619,9 +620,7 @@ def _misplaced_collision(link: Any) -> str | None:
         apart = []
         for v in twins:
             Tv = _origin(v.origin)
-            R = Tv[:3, :3].T @ Tc[:3, :3]
-            cos = np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)
-            angle = float(np.degrees(np.arccos(cos)))
+            angle = rotation_angle_deg(Tv[:3, :3], Tc[:3, :3])
             offset = float(np.linalg.norm(Tv[:3, 3] - Tc[:3, 3]))
             if angle <= TWIN_ANGLE_DEG and offset <= TWIN_OFFSET:
                 break  # a visual in the same place

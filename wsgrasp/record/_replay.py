@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from wsgrasp.errors import RecordingError, WsgraspError
+from wsgrasp.geometry import rotation_angle_deg
 from wsgrasp.record._reader import open_run
 from wsgrasp.record._run import Run
 from wsgrasp.record._summary import reason_counts
@@ -114,10 +115,9 @@ def _pose_delta(a: PlanResult | None, b: PlanResult | None) -> dict[str, float] 
         return None
     A = np.asarray(a.T_world_ee, dtype=np.float64)
     B = np.asarray(b.T_world_ee, dtype=np.float64)
-    cos = (np.trace(A[:3, :3].T @ B[:3, :3]) - 1.0) / 2.0
     return {
         "translation_m": float(np.linalg.norm(B[:3, 3] - A[:3, 3])),
-        "angle_deg": float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))),
+        "angle_deg": rotation_angle_deg(A[:3, :3], B[:3, :3]),
     }
 
 

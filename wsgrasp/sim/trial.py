@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from wsgrasp.geometry import rotation_angle_deg
 from wsgrasp.sim._mujoco import require_mujoco
 from wsgrasp.sim.objects import SimObject
 from wsgrasp.sim.params import SimParams
@@ -352,11 +353,6 @@ def _contacts(scene: SimScene) -> tuple[bool, bool]:
     return grip, table
 
 
-def _angle_deg(Ra: Array, Rb: Array) -> float:
-    c = (np.trace(Ra.T @ Rb) - 1.0) / 2.0
-    return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
-
-
 def execute_grasp(
     scene: SimScene,
     T_world_object: Array,
@@ -500,7 +496,7 @@ def execute_grasp(
     root = d.xpos[scene.root_body]
     blocked = float(np.linalg.norm(root - T_goal[:3, 3]))
     disp = float(np.linalg.norm(d.xpos[obj] - p0))
-    rot = _angle_deg(R0, d.xmat[obj].reshape(3, 3))
+    rot = rotation_angle_deg(R0, d.xmat[obj].reshape(3, 3))
     collided = (
         disp > p.displaced_distance
         or rot > p.displaced_angle_deg
@@ -547,7 +543,7 @@ def execute_grasp(
             held_end = held()[0]
     c_end, R_end = in_grip()
     slip = float(np.linalg.norm(c_end - c_closed))
-    slip_deg = _angle_deg(R_closed, R_end)
+    slip_deg = rotation_angle_deg(R_closed, R_end)
     still = (p.slip_distance <= 0.0 or slip <= p.slip_distance) and (
         p.slip_angle_deg <= 0.0 or slip_deg <= p.slip_angle_deg
     )
@@ -597,7 +593,7 @@ def execute_grasp(
             "slip_distance": slip,
             "slip_angle_deg": slip_deg,
             "slip_distance_hold": float(np.linalg.norm(c_hold - c_closed)),
-            "slip_angle_deg_hold": _angle_deg(R_closed, R_hold),
+            "slip_angle_deg_hold": rotation_angle_deg(R_closed, R_hold),
             "execution_offset": offset,
             "execution_angle_deg": angle,
         },
