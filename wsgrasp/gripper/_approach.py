@@ -21,6 +21,7 @@ from __future__ import annotations
 import copy
 from collections.abc import Callable
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -78,15 +79,27 @@ def _trial(
     base_dir: Path,
     scenes: list[Any],
     count: Callable[[Path, list[Any]], int],
-) -> int:
+    *,
+    into: Scaffold,
+    field: str,
+    what: str,
+) -> int | None:
     """``count`` for the guess ``option``, written for the trial as a hidden
-    YAML in ``base_dir`` (beside the URDF it names) and removed after."""
+    YAML in ``base_dir`` (beside the URDF it names) and removed after; None
+    where that guess cannot plan, which ``into``'s note on ``field`` then says
+    (``what`` was not tried)."""
     from wsgrasp.gripper.scaffold import render_yaml
 
     path = Path(base_dir) / f".{option.data['name']}-{label}.yaml"
     path.write_text(render_yaml(option))
     try:
         return count(path, scenes)
+    except WsgraspError as exc:  # a guess that does not build: keep the first
+        into.notes[field] += (
+            f"; {what} was not tried: the {label} guess cannot plan "
+            f"({str(exc).splitlines()[0]})"
+        )
+        return None
     finally:
         path.unlink(missing_ok=True)
 
@@ -121,28 +134,27 @@ def choose_thumb(scaffold: Scaffold, base_dir: Path) -> None:
     turned = ", ".join(
         f"{m} from {a:g} to {b:g}" for m, (a, b) in alternative["turned"].items()
     )
-    counts: list[int] = []
-    options = [scaffold.data, alternative["data"]]
-    for label, data in zip(("held", "turning"), options, strict=True):
-        option = replace(scaffold, data=data)
-        try:
-            count = _trial(
-                option, f"thumb-{label}", base_dir, scenes, grasps_on_low_objects
-            )
-        except WsgraspError as exc:  # a guess that does not build: keep it held
-            scaffold.notes["pregrasp"] += (
-                f"; turning the thumb ({turned}) was not tried: the thumb-{label} "
-                f"guess cannot plan ({str(exc).splitlines()[0]})"
-            )
-            return
-        counts.append(count)
-        if label == "held" and 2 * counts[0] >= len(scenes):
-            scaffold.notes["pregrasp"] += (
-                f"; held so, it finds a grasp on {counts[0]} of {len(scenes)} "
-                "renderings of objects lying flat, so it is not turned as it closes"
-            )
-            return
-    held, turning = counts
+    trial = partial(
+        _trial,
+        base_dir=base_dir,
+        scenes=scenes,
+        count=grasps_on_low_objects,
+        into=scaffold,
+        field="pregrasp",
+        what=f"turning the thumb ({turned})",
+    )
+    held = trial(scaffold, "thumb-held")
+    if held is None:
+        return
+    if 2 * held >= len(scenes):
+        scaffold.notes["pregrasp"] += (
+            f"; held so, it finds a grasp on {held} of {len(scenes)} "
+            "renderings of objects lying flat, so it is not turned as it closes"
+        )
+        return
+    turning = trial(replace(scaffold, data=alternative["data"]), "thumb-turning")
+    if turning is None:
+        return
     what = (
         f"; held so, the open thumb finds a grasp on {held} of {len(scenes)} "
         f"renderings of objects lying flat (it stands in front of the palm), "
@@ -174,18 +186,19 @@ def choose_approach(scaffold: Scaffold, base_dir: Path) -> None:
     scenes = low_object_scenes()  # rendered once, planned on by both
     counts: list[int] = []
     for label, option in (("palm", scaffold), ("fingertips", fingers)):
-        try:
-            counts.append(
-                _trial(
-                    option, f"{label}-first", base_dir, scenes, feasible_on_low_objects
-                )
-            )
-        except WsgraspError as exc:  # a guess that does not build: keep palm first
-            scaffold.notes["approach_axis"] += (
-                f"; fingertips first was not tried: the {label}-first guess "
-                f"cannot plan ({str(exc).splitlines()[0]})"
-            )
+        n = _trial(
+            option,
+            f"{label}-first",
+            base_dir,
+            scenes,
+            feasible_on_low_objects,
+            into=scaffold,
+            field="approach_axis",
+            what="fingertips first",
+        )
+        if n is None:  # a guess that does not build: palm first stays
             return
+        counts.append(n)
     palm, tips = counts
     what = (
         f"; planned on {len(LOW_OBJECTS) * len(SEEDS)} renderings of "

@@ -1961,7 +1961,9 @@ def guess_description(
         fingers: dict[str, list[str]], pregrasp: dict[str, float]
     ) -> tuple[dict[str, Any], dict[str, str]]:
         """The YAML's data for these finger joints and pre-grasp posture, and
-        the notes as they then read (sizes and the drive follow the joints)."""
+        the notes as they then read (sizes and the drive follow the joints);
+        ``u.notes`` is left as it was."""
+        before = dict(u.notes)
         own_pads = copy.deepcopy(pads)
         data: dict[str, Any] = {
             "version": 1,
@@ -1987,11 +1989,11 @@ def guess_description(
         drive = _drive(u, fingers, own_pads, names, pregrasp, closed)
         if drive is not None:
             data["drive"] = drive
-        return data, dict(u.notes)
+        notes, u.notes = u.notes, before
+        return data, notes
 
     thumb_turning = None
     if any(turned.values()):
-        before = dict(u.notes)
         turned_fingers = {link: list(ms) for link, ms in fingers.items()}
         turned_pregrasp = dict(pregrasp)
         _turn_thumbs(turned, joints, turned_fingers, turned_pregrasp)
@@ -2003,7 +2005,6 @@ def guess_description(
                 m: (v, closed[m]) for hold in turned.values() for m, v in hold.items()
             },
         }
-        u.notes = before
     data, notes = assemble(fingers, pregrasp)
     return Scaffold(
         data,

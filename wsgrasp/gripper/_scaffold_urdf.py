@@ -461,11 +461,16 @@ _MIMIC = re.compile(rf"""(<mimic{_END}[^>]*?\bjoint\s*=\s*)(["'])(.*?)\2""", re.
 
 def joint_names(path: Path) -> list[str]:
     """The names of the joints of the URDF at ``path``, in file order."""
+    return _joint_names(Path(path).read_text())
+
+
+def _joint_names(text: str) -> list[str]:
+    """The names of the joints of a URDF's ``text``, in file order."""
     import html
 
     return [
         html.unescape(n.group(2))
-        for m in _JOINT.finditer(Path(path).read_text())
+        for m in _JOINT.finditer(text)
         if (n := _NAME.search(m.group(0))) is not None
     ]
 
@@ -482,7 +487,7 @@ def repair_mimics(path: Path) -> dict[str, str]:
     from wsgrasp.gripper._urdf import mimic_meant
 
     text = Path(path).read_text()
-    names = joint_names(path)
+    names = _joint_names(text)
     known = set(names)
     notes: dict[str, str] = {}
 
