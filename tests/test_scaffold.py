@@ -966,3 +966,42 @@ def test_a_urdf_element_without_its_name_is_one_error_naming_it(tmp_path):
             guess_description(urdf, "jaw")
         assert what in err.value.message, err.value.message
         assert "which URDF requires" in err.value.message
+
+
+def test_mirrored_jaws_the_urdf_drives_apart_move_together(tmp_path):
+    """Two jaws, each on its own joint, whose paths mirror each other: the
+    package's URDF makes the second follow the first (a mimic), the YAML's
+    fingers share the first's joint and the header says so; with
+    ``couple_jaws=False`` (``--independent-jaws``) they stay apart. Jaws whose
+    ranges differ are left apart."""
+    from wsgrasp.gripper._jaws import independent_jaws
+    from wsgrasp.gripper._urdf import load_kinematics
+
+    urdf = _write(tmp_path, jaw_urdf(mimic=False))
+    sc = guess_description(urdf, "jaw")
+    coupling = independent_jaws(load_kinematics(urdf, "jaw"), sc.data)
+    assert coupling is not None
+    assert (coupling.leader, coupling.follower) == ("left_joint", "right_joint")
+    assert (coupling.multiplier, coupling.offset) == (1.0, 0.0)
+    yaml_path, sc = scaffold_plugin("jaw", urdf, tmp_path / "out")
+    assert [f["joints"] for f in sc.data["fingers"]] == [["left_joint"]] * 2
+    kin = load_kinematics(yaml_path.parent / "jaw.urdf", "jaw")
+    assert kin.joints["right_joint"].mimic == ("left_joint", 1.0, 0.0)
+    assert "right_joint follows left_joint" in yaml_path.read_text()
+    assert any("--independent-jaws" in w for w in sc.warnings)
+    yaml_path, sc = scaffold_plugin("jaw", urdf, tmp_path / "apart", couple_jaws=False)
+    assert [f["joints"] for f in sc.data["fingers"]] == [
+        ["left_joint"],
+        ["right_joint"],
+    ]
+    assert "<mimic" not in (yaml_path.parent / "jaw.urdf").read_text()
+    # ... and `gripper check` says how to couple them
+    assert any("driven apart" in w and "(field fingers)" in w for w in sc.warnings)
+    assert 'add <mimic joint="left_joint" multiplier="1" offset="0"/>' in (
+        " ".join(line.lstrip("# ") for line in yaml_path.read_text().splitlines())
+    )
+    # one jaw travels farther than the other: no single drive moves both
+    longer = jaw_urdf(mimic=False).replace('upper="0.04"', 'upper="0.05"', 1)
+    urdf = _write(tmp_path, longer, "longer.urdf")
+    sc = guess_description(urdf, "jaw")
+    assert independent_jaws(load_kinematics(urdf, "jaw"), sc.data) is None

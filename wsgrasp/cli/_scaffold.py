@@ -51,6 +51,13 @@ def new(
         help="NAME:=VALUE for a xacro file's <xacro:arg> (repeatable).",
     ),
     force: bool = typer.Option(False, "--force", help="Write into a non-empty --out."),
+    independent_jaws: bool = typer.Option(
+        False,
+        "--independent-jaws",
+        help="Leave two mirrored jaws that the URDF drives apart as they are "
+        "(by default they are made to move together, as one drive moves a "
+        "parallel gripper's jaws).",
+    ),
 ) -> None:
     """Write a pip-installable plugin package for a gripper, guessed from its URDF
     (or a xacro file, expanded first: the `xacro` extra)."""
@@ -68,6 +75,7 @@ def new(
             force=force,
             package_paths=list(package_path),
             xacro_args=xacro_args(list(xacro_arg)),
+            couple_jaws=not independent_jaws,
         )
     d = scaffold.data
     fingers = ", ".join(

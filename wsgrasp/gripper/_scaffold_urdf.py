@@ -21,6 +21,7 @@ from wsgrasp.gripper._urdf import load_mesh, not_urdf, parse_xml, resolve_mesh
 
 __all__ = [
     "MAX_MESH_EXTENT",
+    "add_mimic",
     "MESH_UNITS",
     "copy_urdf",
     "expand_xacro",
@@ -509,6 +510,31 @@ def repair_mimics(path: Path) -> dict[str, str]:
     if notes:
         Path(path).write_text(new_text)
     return notes
+
+
+def add_mimic(
+    path: Path, joint: str, leader: str, multiplier: float, offset: float
+) -> None:
+    """Make ``joint`` of the URDF at ``path`` follow ``leader`` (``<mimic>``:
+    ``q = multiplier * q_leader + offset``), rewriting the file; the rest of
+    the file as it was."""
+    import html
+
+    text = Path(path).read_text()
+    tag = (
+        f'<mimic joint="{html.escape(leader)}" multiplier="{float(multiplier)!r}" '
+        f'offset="{float(offset)!r}"/>'
+    )
+
+    def rewrite(m: re.Match[str]) -> str:
+        element = m.group(0)
+        name = _NAME.search(element)
+        if name is None or html.unescape(name.group(2)) != joint:
+            return element
+        end = element.rindex("</joint")
+        return element[:end] + f"  {tag}\n    " + element[end:]
+
+    Path(path).write_text(_JOINT.sub(rewrite, text))
 
 
 def prune_urdf(urdf: Path, keep: set[str]) -> tuple[list[str], list[str]]:

@@ -319,6 +319,7 @@ def _check_kinematics(report: CheckReport, desc: Any, base_dir: Path) -> None:
     from scipy.spatial import cKDTree
 
     from wsgrasp.gripper._build import urdf_path
+    from wsgrasp.gripper._jaws import independent_jaws
     from wsgrasp.gripper._urdf import load_kinematics
     from wsgrasp.gripper._workspace import sample_workspace
 
@@ -618,6 +619,22 @@ def _check_kinematics(report: CheckReport, desc: Any, base_dir: Path) -> None:
             "the finger workspaces lie behind the base along approach_axis "
             f"{np.round(approach, 3).tolist()}",
             "flip approach_axis: it points from the base towards the fingertips",
+        )
+    coupling = independent_jaws(kin, desc.model_dump())
+    if coupling is not None:
+        _add(
+            report,
+            "warning",
+            "fingers",
+            f"the jaws on joints {coupling.leader!r} and {coupling.follower!r} "
+            "mirror each other but are driven apart: planned apart, they may stop "
+            "at openings a one-drive gripper cannot make; simulated, both at their "
+            "force limit on an object, they float together under a side push",
+            f'if one drive moves both, add <mimic joint="{coupling.leader}" '
+            f'multiplier="{coupling.multiplier:g}" offset="{coupling.offset:g}"/> '
+            f"to joint {coupling.follower!r} in the URDF and give both fingers "
+            f"joints: [{coupling.leader}] (`wsgrasp gripper new` does this unless "
+            "--independent-jaws)",
         )
     if len(desc.fingers) > 1:
         motion = p_closed - p_open  # (F, 3)

@@ -28,8 +28,10 @@ from wsgrasp.gripper._guess import (
     fit_sphere_count,
     guess_description,
 )
+from wsgrasp.gripper._jaws import independent_jaws
 from wsgrasp.gripper._scaffold_urdf import (
     MESH_UNITS,
+    add_mimic,
     check_is_urdf,
     copy_urdf,
     expand_xacro,
@@ -39,6 +41,7 @@ from wsgrasp.gripper._scaffold_urdf import (
     prune_urdf,
     repair_mimics,
 )
+from wsgrasp.gripper._urdf import load_kinematics
 
 __all__ = [
     "MESH_UNITS",
@@ -331,12 +334,16 @@ def scaffold_plugin(
     check: bool = True,
     package_paths: list[Path] | None = None,
     xacro_args: dict[str, str] | None = None,
+    couple_jaws: bool = True,
 ) -> tuple[Path, Scaffold]:
     """Write a pip-installable gripper plugin package into ``out_dir``.
 
     ``mesh_dirs`` are extra folders holding mesh files; ``package_paths`` are
     folders holding ROS packages, for ``package://`` URIs (as ``ROS_PACKAGE_PATH``).
     A xacro file is expanded first (:func:`expand_xacro`, with ``xacro_args``).
+    Two jaws that the URDF drives apart but whose paths mirror each other are
+    made to move together in the copied URDF unless ``couple_jaws`` is false
+    (:func:`~wsgrasp.gripper._jaws.independent_jaws`).
 
     Returns
     -------
@@ -394,6 +401,7 @@ def scaffold_plugin(
                 package_paths,
                 xacro_note=note,
                 shown=Path(urdf),
+                couple_jaws=couple_jaws,
             )
     except BaseException:
         if fresh:  # leave nothing half-written behind
@@ -440,6 +448,7 @@ def _write_package(
     package_paths: list[Path] | None = None,
     xacro_note: str | None = None,
     shown: Path | None = None,
+    couple_jaws: bool = True,
 ) -> tuple[Path, Scaffold]:
     """The package of :func:`scaffold_plugin`; ``shown`` is the file the user
     gave (a xacro file expanded into ``urdf``), named in errors."""
@@ -459,6 +468,20 @@ def _write_package(
     mimics = repair_mimics(urdf_copy)
     try:
         scaffold = guess_description(urdf_copy, name, base_link=base_link)
+        coupling = (
+            independent_jaws(load_kinematics(urdf_copy, name), scaffold.data)
+            if couple_jaws
+            else None
+        )
+        if coupling is not None:  # guessed again, with the jaws moving together
+            add_mimic(
+                urdf_copy,
+                coupling.follower,
+                coupling.leader,
+                coupling.multiplier,
+                coupling.offset,
+            )
+            scaffold = guess_description(urdf_copy, name, base_link=base_link)
     except GripperError as exc:
         raise _naming_source(exc, urdf_copy, shown or urdf) from None
     scaffold.warnings[:0] = mesh_warnings
@@ -486,6 +509,9 @@ def _write_package(
         )
         header.append(repaired)
         scaffold.warnings.append(repaired)
+    if coupling is not None:
+        header.append(coupling.note())
+        scaffold.warnings.append(coupling.note())
     if mesh_notes:
         header.append("meshes copied: " + "; ".join(mesh_notes))
     if pruned:
