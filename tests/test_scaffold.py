@@ -1000,6 +1000,17 @@ def test_mirrored_jaws_the_urdf_drives_apart_move_together(tmp_path):
     assert 'add <mimic joint="left_joint" multiplier="1" offset="0"/>' in (
         " ".join(line.lstrip("# ") for line in yaml_path.read_text().splitlines())
     )
+    # jaws on either side of the approach axis (one turned half a turn about
+    # it, as the EGK 40's), each on its own joint: coupled too
+    turned = (
+        jaw_urdf(mimic=False)
+        .replace('xyz="0 0.005 0.05"', 'xyz="0.01 0.005 0.05"', 1)
+        .replace('xyz="0 -0.005 0.05"', 'xyz="-0.01 -0.005 0.05"', 1)
+    )
+    assert turned.count('xyz="0.01 0.005 0.05"') == 1
+    urdf = _write(tmp_path, turned, "turned.urdf")
+    sc = guess_description(urdf, "jaw")
+    assert independent_jaws(load_kinematics(urdf, "jaw"), sc.data) == coupling
     # one jaw travels farther than the other: no single drive moves both
     longer = jaw_urdf(mimic=False).replace('upper="0.04"', 'upper="0.05"', 1)
     urdf = _write(tmp_path, longer, "longer.urdf")
