@@ -319,11 +319,18 @@ def markdown(report: dict[str, Any]) -> str:
             else ("yes" if r.get("scaffolds") else "no: " + r.get("scaffold_error", ""))
         )
         lines.append(
-            f"| {r['name']} | {_source(r)} | {r.get('fingers', '–')} | {scaf} | "
+            f"| {_name(r)} | {_source(r)} | {r.get('fingers', '–')} | {scaf} | "
             f"{_cell_check(r)} | {_cell_plans(r)} | {_cell_commands(r)} | "
             f"{_cell_success(r)} | {_cell_heights(r)} | {_cell_drive(r)} |"
         )
     return "\n".join(lines) + "\n"
+
+
+def _name(r: dict[str, Any]) -> str:
+    """A row's gripper, with the commit it ran at where that is not the
+    table's (a row re-run into it: ``--merge``)."""
+    rerun = r.get("rerun")
+    return r["name"] + (f" (run at {rerun['commit']})" if rerun else "")
 
 
 def _ours(r: dict[str, Any]) -> str:
@@ -378,7 +385,7 @@ def readme_table(report: dict[str, Any]) -> str:
         source = "wsgrasp" if built_in else r["source"].split("/")[0]
         held = f"{100 * r['success_rate']:.1f} %" if "success_rate" in r else "–"
         lines.append(
-            f"| {r['name']} | {r.get('fingers', '–')} | {source} | {scaf} | "
+            f"| {_name(r)} | {r.get('fingers', '–')} | {source} | {scaf} | "
             f"{_cell_check(r)} | {_cell_plans(r).split(' (')[0]} | {held} | "
             f"{_cell_heights(r)} |"
         )
@@ -397,6 +404,29 @@ def write_readme(report: dict[str, Any], readme: Path) -> None:
         )
     head = text[: start + len(README_START)]
     readme.write_text(head + "\n" + readme_table(report) + text[end:])
+
+
+def merged(old: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
+    """``old`` with its rows named in ``new`` replaced by ``new``'s, each of
+    those carrying ``new``'s commit and date (``rerun``); the run's settings
+    must match, or the table would mix protocols."""
+    for key in ("objects", "trials", "seed", "protocol"):
+        if old.get(key) != new.get(key):
+            raise SystemExit(
+                f"--merge: the report's {key} is {old.get(key)!r}, this run's "
+                f"{new.get(key)!r}; run the same settings, or the whole table"
+            )
+    fresh = {r["name"]: r for r in new["rows"]}
+    missing = set(fresh) - {r["name"] for r in old["rows"]}
+    if missing:
+        raise SystemExit(f"--merge: no row {sorted(missing)} in the report")
+    rows = [
+        {**fresh[r["name"]], "rerun": {"commit": new["commit"], "date": new["date"]}}
+        if r["name"] in fresh
+        else r
+        for r in old["rows"]
+    ]
+    return {**old, "rows": rows}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -440,6 +470,13 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--no-eval", action="store_true", help="skip the trials")
     ap.add_argument("--only", action="append", help="only these gripper names")
+    ap.add_argument(
+        "--merge",
+        action="store_true",
+        help="with --only: put the rows run into the --results report in place of "
+        "the rows of the same name there, each marked with the commit it ran at "
+        "(the report's objects, trials, seed and protocol must match)",
+    )
     ap.add_argument(
         "--render", type=Path, help="only print the table of this grippers.json"
     )
@@ -530,6 +567,8 @@ def main(argv: list[str] | None = None) -> int:
         "protocol": args.protocol,
         "rows": rows,
     }
+    if args.merge:
+        report = merged(json.loads(args.results.read_text()), report)
     text = json.dumps(report, indent=2) + "\n"
     (args.out / "grippers.json").write_text(text)
     (args.out / "grippers.md").write_text(markdown(report))

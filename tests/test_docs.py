@@ -382,3 +382,34 @@ def test_gripper_table_names_each_grippers_finger_drive():
     assert eval_grippers._cell_drive({"sim_notes": hand}) == "1.4 N·m/rad (YAML)"
     assert eval_grippers._cell_drive({"sim_notes": jaw}) == "5000 N/m (default)"
     assert eval_grippers._cell_drive({"sim_notes": {}}) == "–"  # an older table
+
+
+def test_a_gripper_row_rerun_replaces_its_row_marked_with_its_commit():
+    """``eval_grippers.py --only NAME --merge``: the row run replaces the row of
+    that name in the published report and the tables name the commit it ran
+    at; a run under other settings is refused."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        import eval_grippers
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    settings = {"objects": "random:000-299", "trials": 1, "seed": 0}
+    old = {
+        **settings,
+        "protocol": "strict",
+        "commit": "aaaaaaa",
+        "date": "2026-12-01",
+        "rows": [{"name": "a", "source": "x"}, {"name": "b", "source": "y"}],
+    }
+    new = {**old, "commit": "bbbbbbb", "date": "2026-12-06"}
+    new["rows"] = [{"name": "b", "source": "y", "trials": 3}]
+    out = eval_grippers.merged(old, new)
+    assert [r["name"] for r in out["rows"]] == ["a", "b"]
+    assert out["commit"] == "aaaaaaa" and "rerun" not in out["rows"][0]
+    assert out["rows"][1]["trials"] == 3
+    assert out["rows"][1]["rerun"] == {"commit": "bbbbbbb", "date": "2026-12-06"}
+    assert eval_grippers._name(out["rows"][1]) == "b (run at bbbbbbb)"
+    with pytest.raises(SystemExit, match="protocol"):
+        eval_grippers.merged(old, {**new, "protocol": "lift"})
+    with pytest.raises(SystemExit, match="no row"):
+        eval_grippers.merged(old, {**new, "rows": [{"name": "c"}]})

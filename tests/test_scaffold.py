@@ -987,6 +987,14 @@ def test_mirrored_jaws_the_urdf_drives_apart_move_together(tmp_path):
     assert [f["joints"] for f in sc.data["fingers"]] == [["left_joint"]] * 2
     kin = load_kinematics(yaml_path.parent / "jaw.urdf", "jaw")
     assert kin.joints["right_joint"].mimic == ("left_joint", 1.0, 0.0)
+    # the joint that moves both jaws carries both jaws' drive: each jaw is held
+    # as a jaw on a joint of its own (gain halved through the coupling), and
+    # their efforts (1 N each) are summed
+    from wsgrasp.sim.params import SimParams
+
+    assert sc.data["drive"] == {"joints": {"left_joint": 2 * SimParams().kp_prismatic}}
+    assert kin.joints["left_joint"].effort == 2.0
+    assert kin.joints["right_joint"].effort == 1.0
     assert "right_joint follows left_joint" in yaml_path.read_text()
     assert any("--independent-jaws" in w for w in sc.warnings)
     yaml_path, sc = scaffold_plugin("jaw", urdf, tmp_path / "apart", couple_jaws=False)

@@ -28,6 +28,7 @@ __all__ = [
     "is_xacro",
     "narrow_limits",
     "prune_urdf",
+    "set_limits",
     "unlimited_continuous",
     "xacro_args",
 ]
@@ -430,23 +431,29 @@ def unlimited_continuous(path: Path) -> list[str]:
 def narrow_limits(path: Path, limits: dict[str, tuple[float, float]]) -> None:
     """Rewrite the ``<limit lower upper>`` of the named joints in the URDF at
     ``path`` (values at full precision; the rest of the file as it was)."""
+    set_limits(path, {j: {"lower": lo, "upper": hi} for j, (lo, hi) in limits.items()})
+
+
+def set_limits(path: Path, values: dict[str, dict[str, float]]) -> None:
+    """Set attributes of the ``<limit>`` of the named joints in the URDF at
+    ``path`` (joint -> attribute -> value: ``lower``, ``upper``, ``effort``; at
+    full precision), the rest of the file as it was."""
     import html
 
-    if not limits:
+    if not values:
         return
     text = Path(path).read_text()
 
     def rewrite(m: re.Match[str]) -> str:
         element = m.group(0)
         name = _NAME.search(element)
-        if name is None or html.unescape(name.group(2)) not in limits:
+        if name is None or html.unescape(name.group(2)) not in values:
             return element
-        lower, upper = limits[html.unescape(name.group(2))]
         tag = _LIMIT.search(element)
         if tag is None:
             return element
         new = tag.group(0)
-        for attr, value in (("lower", lower), ("upper", upper)):
+        for attr, value in values[html.unescape(name.group(2))].items():
             pat = re.compile(rf"""\b{attr}\s*=\s*(["']).*?\1""", re.S)
             if pat.search(new):
                 new = pat.sub(f'{attr}="{float(value)!r}"', new, count=1)

@@ -28,7 +28,7 @@ from wsgrasp.gripper._guess import (
     fit_sphere_count,
     guess_description,
 )
-from wsgrasp.gripper._jaws import independent_jaws
+from wsgrasp.gripper._jaws import both_jaws_drive, independent_jaws
 from wsgrasp.gripper._scaffold_urdf import (
     MESH_UNITS,
     add_mimic,
@@ -40,6 +40,7 @@ from wsgrasp.gripper._scaffold_urdf import (
     narrow_limits,
     prune_urdf,
     repair_mimics,
+    set_limits,
 )
 from wsgrasp.gripper._urdf import load_kinematics
 
@@ -474,6 +475,11 @@ def _write_package(
             else None
         )
         if coupling is not None:  # guessed again, with the jaws moving together
+            drive, effort, drive_note = both_jaws_drive(
+                load_kinematics(urdf_copy, name), coupling
+            )
+            if effort is not None:
+                set_limits(urdf_copy, {coupling.leader: {"effort": effort}})
             add_mimic(
                 urdf_copy,
                 coupling.follower,
@@ -482,6 +488,8 @@ def _write_package(
                 coupling.offset,
             )
             scaffold = guess_description(urdf_copy, name, base_link=base_link)
+            scaffold.data["drive"] = drive
+            scaffold.notes["drive"] = drive_note
     except GripperError as exc:
         raise _naming_source(exc, urdf_copy, shown or urdf) from None
     scaffold.warnings[:0] = mesh_warnings
