@@ -342,7 +342,9 @@ def _ours(r: dict[str, Any]) -> str:
 
 def _source(r: dict[str, Any]) -> str:
     """Where a row's gripper comes from, as the full table names it."""
-    return "examples/plugins" if _ours(r) == "example" else str(r["source"])
+    if r["source"] != "built-in":
+        return str(r["source"])
+    return "examples/plugins" if _ours(r) == "example" else "built-in"
 
 
 def _cell_drive(r: dict[str, Any]) -> str:

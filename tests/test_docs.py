@@ -413,3 +413,20 @@ def test_a_gripper_row_rerun_replaces_its_row_marked_with_its_commit():
         eval_grippers.merged(old, {**new, "protocol": "lift"})
     with pytest.raises(SystemExit, match="no row"):
         eval_grippers.merged(old, {**new, "rows": [{"name": "c"}]})
+
+
+def test_the_gripper_table_names_where_each_gripper_comes_from():
+    """A vendor description's row names its file, a built-in gripper's
+    ``built-in`` and an example plugin's ``examples/plugins``."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        import eval_grippers
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    vendor = {"name": "bhand_model", "source": "barrett_hand/bhand_model.urdf"}
+    vendor["gripper"] = "eval-results/packages/bhand_model/bhand_model.yaml"
+    assert eval_grippers._source(vendor) == "barrett_hand/bhand_model.urdf"
+    ours = {"name": "franka_hand", "source": "built-in", "gripper": "franka_hand"}
+    assert eval_grippers._source(ours) == "built-in"
+    example = {"name": "x", "source": "built-in", "gripper": "examples/plugins/x.yaml"}
+    assert eval_grippers._source(example) == "examples/plugins"

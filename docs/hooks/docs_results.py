@@ -758,6 +758,12 @@ def render_other_descriptions_runs() -> str:
     return _runs_in("other-descriptions") + _height_table("other-descriptions")
 
 
+def render_coupled_jaws_runs() -> str:
+    """Two-jaw grippers whose URDF drives the jaws apart, apart and moved
+    together by ``gripper new``, then each one's success by object height."""
+    return _runs_in("coupled-jaws") + _height_table("coupled-jaws")
+
+
 def render_pose_margin_runs() -> str:
     """The runs that measured the pose_margin scorer beside a default spec."""
     return _runs_in("pose-margin")

@@ -38,6 +38,7 @@ from docs_results import (
     render_chart_grippers,
     render_clutter_segments,
     render_contact_fingers_runs,
+    render_coupled_jaws_runs,
     render_default_spec_runs,
     render_defaults_effect,
     render_defaults_success,
@@ -91,6 +92,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "thumb-drive-runs": render_thumb_drive_runs,
     "thumb-turn-runs": render_thumb_turn_runs,
     "other-descriptions-runs": render_other_descriptions_runs,
+    "coupled-jaws-runs": render_coupled_jaws_runs,
     "graze-depth-runs": render_graze_depth_runs,
     "results-scorers": render_results_scorers,
 }
