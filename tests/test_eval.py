@@ -183,27 +183,3 @@ def test_report_gives_the_held_grasps_friction_use():
     md = report_markdown(report)
     assert "held: friction use" in md
     assert "| 0.40 |" in md and "| – |" in md
-
-
-def test_finger_gains_name_a_joints_own_gain():
-    """A report's finger gains: the kind's gain, and a joint's own gain from
-    the YAML's ``drive.joints`` (two coupled jaws: the one joint that moves
-    both); the kind's gain is left out where every joint has its own."""
-    from wsgrasp.sim.report import finger_gains
-
-    notes = {
-        "efforts": {"a": {"effort": 5.0, "unit": "N·m", "source": "urdf"}},
-        "gains": {
-            "revolute": {"kp": 2.0, "source": "params"},
-            "prismatic": {"kp": 5000.0, "source": "params"},
-        },
-    }
-    assert finger_gains(notes) == [(2.0, "N·m/rad", "params")]
-    coupled = {**notes, "joint_gains": {"a": {"kp": 4.0}}}
-    assert finger_gains(coupled) == [(4.0, "N·m/rad", "gripper")]
-    notes["efforts"]["b"] = {"effort": 5.0, "unit": "N·m", "source": "urdf"}
-    some = {**notes, "joint_gains": {"a": {"kp": 4.0}}}
-    assert finger_gains(some) == [
-        (2.0, "N·m/rad", "params"),
-        (4.0, "N·m/rad", "gripper"),
-    ]

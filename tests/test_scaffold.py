@@ -525,7 +525,9 @@ def _pad_speeds(urdf_path, d):
     return out
 
 
-def test_a_hand_gets_a_drive_for_its_size_a_jaw_none(tmp_path, monkeypatch):
+def test_a_gripper_gets_a_drive_for_its_size_a_prismatic_jaw_none(
+    tmp_path, monkeypatch
+):
     import hand_factory
 
     from wsgrasp.gripper._guess import PAD_STIFFNESS, PAD_STIFFNESS_THREE
@@ -549,8 +551,13 @@ def test_a_hand_gets_a_drive_for_its_size_a_jaw_none(tmp_path, monkeypatch):
     assert guess_description(big, "big").data["drive"]["kp_revolute"] == (
         pytest.approx(4 * kp, rel=0.06)
     )
-    # a two-finger gripper keeps the simulator's default
+    # a prismatic jaw keeps the simulator's default; revolute jaws (the same
+    # hand with two fingers) get their pads the stiffness of three fingers'
     assert "drive" not in guess_description(_write(tmp_path, jaw_urdf()), "jaw").data
+    path2 = _write(tmp_path, hand_factory.hand_urdf(2), "hand2.urdf")
+    d2 = guess_description(path2, "hand2").data
+    want2 = PAD_STIFFNESS_THREE * float(np.median(_pad_speeds(path2, d2)))
+    assert d2["drive"]["kp_revolute"] == pytest.approx(want2, rel=0.03)
 
 
 def test_a_hands_prismatic_finger_leaves_the_drive_to_its_revolute_ones(tmp_path):
@@ -987,12 +994,9 @@ def test_mirrored_jaws_the_urdf_drives_apart_move_together(tmp_path):
     assert [f["joints"] for f in sc.data["fingers"]] == [["left_joint"]] * 2
     kin = load_kinematics(yaml_path.parent / "jaw.urdf", "jaw")
     assert kin.joints["right_joint"].mimic == ("left_joint", 1.0, 0.0)
-    # the joint that moves both jaws carries both jaws' drive: each jaw is held
-    # as a jaw on a joint of its own (gain halved through the coupling), and
-    # their efforts (1 N each) are summed
-    from wsgrasp.sim.params import SimParams
-
-    assert sc.data["drive"] == {"joints": {"left_joint": 2 * SimParams().kp_prismatic}}
+    # the joint that moves both jaws gets their efforts (1 N each) summed; a
+    # prismatic jaw's gain stays the simulator's
+    assert "drive" not in sc.data
     assert kin.joints["left_joint"].effort == 2.0
     assert kin.joints["right_joint"].effort == 1.0
     assert "right_joint follows left_joint" in yaml_path.read_text()
@@ -1019,6 +1023,17 @@ def test_mirrored_jaws_the_urdf_drives_apart_move_together(tmp_path):
     urdf = _write(tmp_path, turned, "turned.urdf")
     sc = guess_description(urdf, "jaw")
     assert independent_jaws(load_kinematics(urdf, "jaw"), sc.data) == coupling
+    # revolute jaws (the claw): the joint that moves both holds each pad with
+    # half its gain, so the guessed gain doubles
+    claw = write_claw(tmp_path / "claw")
+    _, apart = scaffold_plugin(
+        "claw", claw, tmp_path / "claw_apart", check=False, couple_jaws=False
+    )
+    _, moved = scaffold_plugin("claw", claw, tmp_path / "claw_moved", check=False)
+    assert [f["joints"] for f in moved.data["fingers"]] == [["upper_knuckle"]] * 2
+    assert moved.data["drive"]["kp_revolute"] == pytest.approx(
+        2 * apart.data["drive"]["kp_revolute"], rel=0.05
+    )
     # one jaw travels farther than the other: no single drive moves both
     longer = jaw_urdf(mimic=False).replace('upper="0.04"', 'upper="0.05"', 1)
     urdf = _write(tmp_path, longer, "longer.urdf")

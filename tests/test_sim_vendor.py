@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 pytest.importorskip("mujoco")
 
@@ -428,9 +429,11 @@ def test_eval_reports_the_repairs(
     }
     assert notes["efforts"]["left_knuckle_joint"]["source"] == "default"
     assert "| left_pad_joint | mimic limits |" in md.read_text()
-    # two fingers: no drive guessed, the simulator's gain, and the report says so
-    assert "claw.yaml: finger position gains 2 N·m/rad (the simulator's)" in (
-        md.read_text()
+    # two revolute jaws: a drive guessed, and the report says whose gain it is
+    kp = yaml.safe_load(yaml_path.read_text())["drive"]["kp_revolute"]
+    assert (
+        f"claw.yaml: finger position gains {kp:g} N·m/rad (the gripper YAML's drive)"
+        in md.read_text()
     )
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import copy
 import re
+from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -106,8 +107,13 @@ PAD_STIFFNESS = 300.0
 #: the stiffness held 94 against 83 of 120 objects (BarrettHand), 87 against 82
 #: (D'Claw), 45 against 42 (Robotiq 3F); the five-finger hands gained nothing
 PAD_STIFFNESS_THREE = 600.0
-#: a gripper of at least this many fingers gets a drive guessed from its size
-DRIVE_MIN_FINGERS = 3
+#: a gripper of at least this many fingers gets a drive guessed from its size:
+#: a two-finger gripper's revolute jaws get ``PAD_STIFFNESS_THREE`` too. The
+#: simulator's default gain (2 N·m/rad) gives the pads of the Robotiq 2F-85, the
+#: Robotiq C2 and the xArm gripper about that (0.98, 0.98 and 0.91 N·m/rad give
+#: them 300 N/m), and the PR2 gripper's, on fingers twice as long, 160 N/m: held
+#: at the default, it dropped what the others held
+DRIVE_MIN_FINGERS = 2
 #: a moving link whose geometry is smaller than this (m) along every axis is no
 #: finger (a placeholder box on an actuator's or a sensor's link)
 MIN_FINGER_SIZE = 0.005
@@ -1818,10 +1824,10 @@ def _settings(
 
 
 def pad_stiffness(n_fingers: int) -> float:
-    """The pad stiffness (N/m) a hand of ``n_fingers`` fingers gets its drive
-    guessed for: :data:`PAD_STIFFNESS_THREE` for three, :data:`PAD_STIFFNESS`
-    for more."""
-    return PAD_STIFFNESS_THREE if n_fingers == 3 else PAD_STIFFNESS
+    """The pad stiffness (N/m) a gripper of ``n_fingers`` fingers gets its
+    drive guessed for: :data:`PAD_STIFFNESS_THREE` for two or three,
+    :data:`PAD_STIFFNESS` for more."""
+    return PAD_STIFFNESS_THREE if n_fingers <= 3 else PAD_STIFFNESS
 
 
 def _drive(
@@ -1832,16 +1838,18 @@ def _drive(
     pregrasp: dict[str, float],
     closed: dict[str, float],
 ) -> dict[str, float] | None:
-    """The revolute finger joints' position gain (N·m/rad) of a hand of
+    """The revolute finger joints' position gain (N·m/rad) of a gripper of
     :data:`DRIVE_MIN_FINGERS` or more fingers, from the size of its fingers; None
     for a gripper of fewer fingers or without revolute finger joints.
 
     A position actuator of gain ``kp`` on each of a finger's joints lets its pad
-    give way by ``sum_j |dp/dq_j|^2 / kp`` metres per newton, where ``dp/dq_j``
-    (m/rad, mimics following their master) is how fast joint ``j`` moves the pad:
+    give way by ``sum_j k_j |dp/dq_j|^2 / kp`` metres per newton, where
+    ``dp/dq_j`` (m/rad, mimics following their master) is how fast joint ``j``
+    moves the pad and ``k_j`` how many fingers it moves (two jaws on one joint
+    share its actuator: pressed together, each is held with half its gain):
     the same gain makes a long finger soft and a short one stiff. The guess gives
     the median finger's pad :data:`PAD_STIFFNESS` (:data:`PAD_STIFFNESS_THREE`
-    for a hand of three fingers), measured half closed (among the fingers that
+    for a gripper of two or three fingers), measured half closed (among the fingers that
     have revolute joints: a prismatic finger keeps ``kp_prismatic``).
     """
     if len(fingers) < DRIVE_MIN_FINGERS:
@@ -1852,7 +1860,10 @@ def _drive(
         for j in u.actuated
     }
     h = 1e-4
-    compliance = []  # (F,) m²/rad², each finger's sum_j |dp/dq_j|^2
+    # a joint that moves several fingers (two jaws one drive moves) holds each
+    # of their pads with its gain divided among them
+    shared = Counter(j for js in fingers.values() for j in set(js))
+    compliance = []  # (F,) m²/rad², each finger's sum_j k_j |dp/dq_j|^2
     for link, pad in zip(fingers, pads, strict=True):
         total = 0.0
         for j in fingers[link]:
@@ -1860,7 +1871,7 @@ def _drive(
                 continue
             lo, hi = _pad_points(u, pad, {**mid, j: mid[j] + np.array([-h, h])}, 2)
             d = (hi - lo) / (2 * h)  # (3,) m/rad
-            total += float(d @ d)
+            total += shared[j] * float(d @ d)
         compliance.append(total)
     revolute = [c for c in compliance if c > 0.0]  # fingers a revolute joint moves
     if not revolute:

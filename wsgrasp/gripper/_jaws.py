@@ -33,7 +33,7 @@ import numpy as np
 from wsgrasp.geometry import JOINT_PRISMATIC, JOINT_REVOLUTE
 from wsgrasp.gripper._urdf import Kinematics
 
-__all__ = ["JawCoupling", "both_jaws_drive", "independent_jaws"]
+__all__ = ["JawCoupling", "independent_jaws", "summed_effort"]
 
 #: matched values sampled over the leading jaw's range
 _SAMPLES = 9
@@ -54,11 +54,20 @@ class JawCoupling:
     multiplier: float
     offset: float
 
-    def note(self) -> str:
+    def note(self, effort: float | None = None) -> str:
+        """What ``gripper new`` did, for the YAML's header (``effort``: the
+        leader's, summed)."""
+        summed = (
+            f", and {self.leader}'s effort is the two jaws' summed, {effort:g}, so "
+            "that each presses as hard as on a joint of its own"
+            if effort is not None
+            else ""
+        )
         return (
             f"{self.follower} follows {self.leader} (a <mimic>, multiplier "
-            f"{self.multiplier:g}, offset {self.offset:g}) in the copied URDF: the "
-            "two jaws' paths mirror each other, as in a gripper whose jaws one "
+            f"{self.multiplier:g}, offset {self.offset:g}) in the copied URDF"
+            f"{summed}: the two jaws' paths mirror each other, as in a gripper whose "
+            "jaws one "
             "drive moves, and the URDF drives them apart (planned apart, the jaws "
             "stop at different openings; simulated apart, both at their force "
             "limit, they float together under a side push). If yours are driven "
@@ -114,41 +123,17 @@ def independent_jaws(kin: Kinematics, data: dict[str, Any]) -> JawCoupling | Non
     return min(found, key=lambda t: t[0])[1] if found else None
 
 
-def both_jaws_drive(
-    kin: Kinematics, coupling: JawCoupling
-) -> tuple[dict[str, Any], float | None, str]:
-    """What the joint that moves both jaws of ``coupling`` needs so that each
-    jaw presses as it did on a joint of its own (``kin``: the URDF before the
-    coupling): the YAML's ``drive`` (its position gain, ``1 + multiplier²``
-    times the simulator's default for its kind: a position actuator on the
-    leader holds each of the two jaws with the gain divided by that), the
-    leader's ``<limit effort>`` (the two summed, through the multiplier; None
-    where the URDF gives either none) and the note on ``drive``."""
-    from wsgrasp.sim.params import SimParams
-
+def summed_effort(kin: Kinematics, coupling: JawCoupling) -> float | None:
+    """The ``<limit effort>`` of the joint that moves both jaws of
+    ``coupling``, so that each presses as hard as on a joint of its own: the
+    two jaws' efforts summed through the multiplier (``kin``: the URDF before
+    the coupling); None where the URDF gives either none. The gain needs no
+    such care: the drive guessed for revolute jaws counts the jaws a joint
+    moves (``wsgrasp.gripper._guess``)."""
     leader, follower = kin.joints[coupling.leader], kin.joints[coupling.follower]
-    prismatic = leader.kind == JOINT_PRISMATIC
-    default = SimParams().kp_prismatic if prismatic else SimParams().kp_revolute
-    share = 1.0 + coupling.multiplier**2
-    kp = float(f"{share * default:.3g}")
-    effort = None
-    if leader.effort > 0.0 and follower.effort > 0.0:
-        effort = leader.effort + abs(coupling.multiplier) * follower.effort
-    unit = "N/m" if prismatic else "N·m/rad"
-    note = (
-        "the fingers' position gains in simulation (`wsgrasp eval`; planning does "
-        f"not read them). One joint, {coupling.leader}, moves both jaws, so it "
-        f"carries both jaws' drive: {kp:g} {unit}, {share:g} times the simulator's "
-        f"default, holds each jaw as the default holds a jaw on a joint of its own"
-        + (
-            f", and its effort in the copied URDF is the two jaws' summed, {effort:g}"
-            if effort is not None
-            else ""
-        )
-        + ". Where the gripper's own controller or grip force is known, set it to "
-        "match (this drive wins over `wsgrasp eval --sim kp_...`)"
-    )
-    return {"joints": {coupling.leader: kp}}, effort, note
+    if leader.effort <= 0.0 or follower.effort <= 0.0:
+        return None
+    return leader.effort + abs(coupling.multiplier) * follower.effort
 
 
 def _joint_origin(kin: Kinematics, base: str, joint: str) -> Any:

@@ -28,7 +28,7 @@ from wsgrasp.gripper._guess import (
     fit_sphere_count,
     guess_description,
 )
-from wsgrasp.gripper._jaws import both_jaws_drive, independent_jaws
+from wsgrasp.gripper._jaws import independent_jaws, summed_effort
 from wsgrasp.gripper._scaffold_urdf import (
     MESH_UNITS,
     add_mimic,
@@ -474,10 +474,9 @@ def _write_package(
             if couple_jaws
             else None
         )
+        effort = None
         if coupling is not None:  # guessed again, with the jaws moving together
-            drive, effort, drive_note = both_jaws_drive(
-                load_kinematics(urdf_copy, name), coupling
-            )
+            effort = summed_effort(load_kinematics(urdf_copy, name), coupling)
             if effort is not None:
                 set_limits(urdf_copy, {coupling.leader: {"effort": effort}})
             add_mimic(
@@ -488,8 +487,6 @@ def _write_package(
                 coupling.offset,
             )
             scaffold = guess_description(urdf_copy, name, base_link=base_link)
-            scaffold.data["drive"] = drive
-            scaffold.notes["drive"] = drive_note
     except GripperError as exc:
         raise _naming_source(exc, urdf_copy, shown or urdf) from None
     scaffold.warnings[:0] = mesh_warnings
@@ -518,8 +515,8 @@ def _write_package(
         header.append(repaired)
         scaffold.warnings.append(repaired)
     if coupling is not None:
-        header.append(coupling.note())
-        scaffold.warnings.append(coupling.note())
+        header.append(coupling.note(effort))
+        scaffold.warnings.append(coupling.note(effort))
     if mesh_notes:
         header.append("meshes copied: " + "; ".join(mesh_notes))
     if pruned:

@@ -498,29 +498,17 @@ def finger_gains(notes: dict[str, Any]) -> list[tuple[float, str, str]]:
     simulated gripper has, from its entry in a report's ``sim_grippers``
     (:meth:`~wsgrasp.sim.gripper.SimGripper.notes_json`): revolute in N·m/rad,
     prismatic in N/m; ``source`` ``gripper`` (its YAML's ``drive``) or
-    ``params`` (the simulator's). Joints with a gain of their own (the
-    ``drive``'s ``joints``) add theirs, and the kind's gain is left out where
-    every joint of the kind has its own."""
-    efforts = notes.get("efforts") or {}
+    ``params`` (the simulator's)."""
+    units = {e["unit"] for e in (notes.get("efforts") or {}).values()}
     gains = notes.get("gains") or {}
-    own = {j: float(v["kp"]) for j, v in (notes.get("joint_gains") or {}).items()}
-    out = []
-    for kind, unit, gain_unit in (
-        ("revolute", "N·m", "N·m/rad"),
-        ("prismatic", "N", "N/m"),
-    ):
-        joints = [j for j, e in efforts.items() if e["unit"] == unit]
-        if not joints or kind not in gains:
-            continue
-        if not all(j in own for j in joints):
-            out.append(
-                (float(gains[kind]["kp"]), gain_unit, str(gains[kind]["source"]))
-            )
-        out += [
-            (kp, gain_unit, "gripper")
-            for kp in sorted({own[j] for j in joints if j in own})
-        ]
-    return out
+    return [
+        (float(gains[kind]["kp"]), gain_unit, str(gains[kind]["source"]))
+        for kind, unit, gain_unit in (
+            ("revolute", "N·m", "N·m/rad"),
+            ("prismatic", "N", "N/m"),
+        )
+        if unit in units and kind in gains
+    ]
 
 
 def _repair_markdown(report: dict[str, Any]) -> list[str]:
