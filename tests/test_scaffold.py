@@ -1007,7 +1007,13 @@ def test_mirrored_jaws_the_urdf_drives_apart_move_together(tmp_path):
         ["right_joint"],
     ]
     assert "<mimic" not in (yaml_path.parent / "jaw.urdf").read_text()
-    # ... and `gripper check` says how to couple them
+    # ... `wsgrasp eval` warns of them, and `gripper check` says how to couple
+    from wsgrasp.sim.gripper import load_sim_gripper
+
+    apart_notes = load_sim_gripper(str(yaml_path)).notes_json()
+    assert "float together" in apart_notes["warnings"][0]
+    coupled_notes = load_sim_gripper(str(tmp_path / "out" / "wsgrasp_jaw" / "jaw.yaml"))
+    assert "warnings" not in coupled_notes.notes_json()
     assert any("driven apart" in w and "(field fingers)" in w for w in sc.warnings)
     assert 'add <mimic joint="left_joint" multiplier="1" offset="0"/>' in (
         " ".join(line.lstrip("# ") for line in yaml_path.read_text().splitlines())

@@ -229,6 +229,8 @@ def eval_command(
         for g, notes in sim_grippers.items():
             for line in gains_not_applied(sim, g, notes.get("gains") or {}):
                 err_console.print(line)
+            for line in notes.get("warnings", []):
+                err_console.print(f"warning: {line}", markup=False, highlight=False)
     entries = spec_entries(
         list(grippers), list(specs) or None, paper=paper, followup=followup
     )

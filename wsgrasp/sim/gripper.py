@@ -31,6 +31,7 @@ from numpy.typing import NDArray
 from wsgrasp._names import is_gripper_path
 from wsgrasp.errors import SimulationError
 from wsgrasp.geometry import JOINT_FIXED, JOINT_PRISMATIC
+from wsgrasp.gripper._jaws import independent_jaws
 from wsgrasp.gripper._urdf import Joint, Kinematics, Shape, load_kinematics, shape_mesh
 from wsgrasp.sim._mujoco import require_mujoco
 from wsgrasp.sim._repairs import (
@@ -119,6 +120,9 @@ class SimGripper:
     gains: dict[str, tuple[float, str]] = field(default_factory=dict)
     joint_gains: dict[str, float] = field(default_factory=dict)
     repairs: list[Repair] = field(default_factory=list)
+    #: what the trials will show that the description could change (two
+    #: mirrored jaws driven apart, which float together at their force limit)
+    warnings: list[str] = field(default_factory=list)
 
     def notes_json(self) -> dict[str, Any]:
         """The efforts and repairs as plain data (what a report carries)."""
@@ -136,6 +140,7 @@ class SimGripper:
                 else {}
             ),
             "repairs": [r.to_json() for r in self.repairs],
+            **({"warnings": list(self.warnings)} if self.warnings else {}),
         }
 
     def targets(
@@ -347,6 +352,16 @@ def sim_gripper_from_files(
     if weak:
         gripper.repairs += weak
         gripper.actuator_xml = _actuators(gripper, actuated)
+    coupling = independent_jaws(kin, description)
+    if coupling is not None:
+        gripper.warnings.append(
+            f"gripper {name!r}: its jaws on joints {coupling.leader!r} and "
+            f"{coupling.follower!r} mirror each other but are driven apart: under a "
+            "side push each gives way on its own (at their force limit on an "
+            "object, they float together), and the object moves in the grip "
+            "(slipped_in_grip). If one drive moves both, `wsgrasp gripper check` "
+            "says how to couple them"
+        )
     return gripper
 
 
