@@ -66,9 +66,9 @@ class JawCoupling:
         return (
             f"{self.follower} follows {self.leader} (a <mimic>, multiplier "
             f"{self.multiplier:g}, offset {self.offset:g}) in the copied URDF"
-            f"{summed}: the two jaws' paths mirror each other, as in a gripper whose "
-            "jaws one "
-            "drive moves, and the URDF drives them apart (planned apart, the jaws "
+            f"{summed}: the two jaws' paths mirror each other, as in a gripper "
+            "whose jaws one drive moves, and the URDF drives them apart (planned "
+            "apart, the jaws "
             "stop at different openings; simulated apart, both at their force "
             "limit, they float together under a side push). If yours are driven "
             "independently, run `wsgrasp gripper new` again with --independent-jaws"
@@ -100,15 +100,16 @@ def independent_jaws(kin: Kinematics, data: dict[str, Any]) -> JawCoupling | Non
     pre = data.get("pregrasp", {})
     # the plane across the closing axis midway between the two joints
     middle = 0.5 * (_joint_origin(kin, base, a.name) + _joint_origin(kin, base, b.name))
+    lead = fingers[0]["pad"]
+    path = _pad_path(kin, base, lead["link"], lead["center"], a.name, q)
+    images = _images(path, middle, approach, closing)
     found = []
     for mult in (1.0, -1.0):
         offset = b.lower - a.lower if mult > 0 else b.upper + a.lower
-        lead = fingers[0]["pad"]
-        path = _pad_path(kin, base, lead["link"], lead["center"], a.name, q)
         follow = kin.chain_poses(
             base, fingers[1]["pad"]["link"], {b.name: mult * q + offset}
         )  # (n, 4, 4)
-        for image in _images(path, middle, approach, closing):
+        for image in images:
             # the point of the second jaw that lies at the image at the first
             # sample, followed over the range
             local = np.linalg.solve(follow[0], np.append(image[0], 1.0))[:3]
