@@ -501,6 +501,37 @@ def test_random_candidates_are_finished_and_executed_as_the_choice():
         assert ex.metrics == got
 
 
+def test_random_draws_follow_the_grippers_name_not_its_folder(tmp_path):
+    """The same gripper YAML in two folders draws the same random candidates
+    (the draws are keyed by the gripper's name and the spec's label), so a
+    run reproduces wherever its packages lie."""
+    import shutil
+
+    from wsgrasp.sim import spec_entries
+    from wsgrasp.sim.runner import Task, run_task
+
+    src = Path(__file__).resolve().parents[1] / "plugins" / "grippers"
+    src = src / "wsgrasp_grippers" / "franka_hand"
+    yamls = []
+    for folder in ("a", "b"):
+        shutil.copytree(src, tmp_path / folder)
+        yamls.append(str(tmp_path / folder / "franka_hand.yaml"))
+    (obj,) = resolve_objects(["realsense_box"]).objects
+    entries = spec_entries(yamls, None, paper=False)
+    p = SimParams(hold_time=0.2, disturbance_time=0.3)
+    records = run_task(Task(obj, trial=0, seed=5, specs=entries, params=p, baseline=2))
+    drawn = {
+        g: [
+            r["candidate"]
+            for r in records
+            if r["gripper"] == g and r["pick"] == "random"
+        ]
+        for g in yamls
+    }
+    assert len(drawn[yamls[0]]) == 2
+    assert drawn[yamls[0]] == drawn[yamls[1]]
+
+
 def test_a_long_random_selection_resolves():
     """A selection longer than a file name may be (a comma list of 300 objects)
     is read as the set's selection, not tried as a path."""

@@ -184,13 +184,14 @@ def _plans(
     pipeline = _pipeline(entry)
     if task.baseline <= 0:
         return pipeline.plan(scene, observers=observers), []
-    # the draws depend on the task and the spec only, so every protocol draws
-    # the same candidates of the same plan
+    # the draws depend on the task, the gripper's name and the spec's label
+    # only, so every protocol draws the same candidates of the same plan, and a
+    # gripper YAML draws the same wherever its folder lies
     rng = np.random.default_rng(
         [
             *task_seed(task.seed, task.object.name, task.trial),
             BASELINE_STREAM,
-            zlib.crc32(f"{entry.gripper}|{entry.label}".encode()),
+            zlib.crc32(f"{pipeline.gripper.name}|{entry.label}".encode()),
         ]
     )
     drawn: list[int] = []
