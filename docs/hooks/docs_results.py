@@ -764,6 +764,12 @@ def render_coupled_jaws_runs() -> str:
     return _runs_in("coupled-jaws") + _height_table("coupled-jaws")
 
 
+def render_jaw_drive_runs() -> str:
+    """The two-finger grippers with revolute jaws on the held-out objects, at
+    the simulator's default gain and at the drive ``gripper new`` guesses."""
+    return _runs_in("jaw-drive") + _height_table("jaw-drive")
+
+
 def render_pose_margin_runs() -> str:
     """The runs that measured the pose_margin scorer beside a default spec."""
     return _runs_in("pose-margin")

@@ -45,6 +45,7 @@ from docs_results import (
     render_drive_guess_runs,
     render_generic_scorers_runs,
     render_graze_depth_runs,
+    render_jaw_drive_runs,
     render_on_table_runs,
     render_other_descriptions_runs,
     render_pose_margin_runs,
@@ -93,6 +94,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "thumb-turn-runs": render_thumb_turn_runs,
     "other-descriptions-runs": render_other_descriptions_runs,
     "coupled-jaws-runs": render_coupled_jaws_runs,
+    "jaw-drive-runs": render_jaw_drive_runs,
     "graze-depth-runs": render_graze_depth_runs,
     "results-scorers": render_results_scorers,
 }
