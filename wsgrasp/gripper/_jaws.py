@@ -78,9 +78,15 @@ class JawCoupling:
 def independent_jaws(kin: Kinematics, data: dict[str, Any]) -> JawCoupling | None:
     """The coupling of the two jaws of the guessed description ``data`` (the
     gripper YAML as plain data, read from the URDF ``kin``), where they are
-    driven apart and mirror each other (module docstring); else None."""
-    fingers = data["fingers"]
-    if len(fingers) != 2 or any(len(f["joints"]) != 1 for f in fingers):
+    driven apart and mirror each other (module docstring); else None, also
+    where ``data`` lacks what the test reads (a simulator's description
+    without fingers or axes)."""
+    fingers = data.get("fingers") or []
+    if len(fingers) != 2 or any(len(f.get("joints") or []) != 1 for f in fingers):
+        return None
+    if any(k not in data for k in ("base_link", "approach_axis", "closing_axis")):
+        return None
+    if any("link" not in (f.get("pad") or {}) for f in fingers):
         return None
     names = [f["joints"][0] for f in fingers]
     if names[0] == names[1] or any(n not in kin.joints for n in names):
@@ -101,7 +107,8 @@ def independent_jaws(kin: Kinematics, data: dict[str, Any]) -> JawCoupling | Non
     # the plane across the closing axis midway between the two joints
     middle = 0.5 * (_joint_origin(kin, base, a.name) + _joint_origin(kin, base, b.name))
     lead = fingers[0]["pad"]
-    path = _pad_path(kin, base, lead["link"], lead["center"], a.name, q)
+    centre = lead.get("center", (0.0, 0.0, 0.0))
+    path = _pad_path(kin, base, lead["link"], centre, a.name, q)
     images = _images(path, middle, approach, closing)
     found = []
     for mult in (1.0, -1.0):
