@@ -1045,3 +1045,34 @@ def test_mirrored_jaws_the_urdf_drives_apart_move_together(tmp_path):
     urdf = _write(tmp_path, longer, "longer.urdf")
     sc = guess_description(urdf, "jaw")
     assert independent_jaws(load_kinematics(urdf, "jaw"), sc.data) is None
+
+
+def test_a_robots_joint_without_limits_outside_the_gripper_is_held(tmp_path):
+    """A robot's URDF with a wheel on a revolute joint without limits (invalid
+    URDF, as some robots ship): refused naming the joint, unless ``--base-link``
+    puts the gripper below another link, when the wheel is held at 0 with a
+    warning and left out of the package; a finger joint without limits is
+    refused either way."""
+    from wsgrasp.gripper._urdf import load_kinematics
+
+    wheel = (
+        '<link name="wheel"><collision><geometry><cylinder radius="0.05" '
+        'length="0.02"/></geometry></collision></link>'
+        '<joint name="wheel_joint" type="revolute"><parent link="arm_base"/>'
+        '<child link="wheel"/><origin xyz="0 0 -0.1"/><axis xyz="0 1 0"/></joint>'
+    )
+    robot = _on_arm(6).replace("</robot>", wheel + "</robot>")
+    urdf = _write(tmp_path, robot, "robot.urdf")
+    with pytest.raises(GripperError, match="'wheel_joint' without <limit lower upper>"):
+        guess_description(urdf, "jaw")
+    sc = guess_description(urdf, "jaw", base_link="palm")
+    assert [f["joints"] for f in sc.data["fingers"]] == [["left_joint"]] * 2
+    assert any("'wheel_joint'" in w and "held at 0" in w for w in sc.warnings)
+    yaml_path, _ = scaffold_plugin("jaw", urdf, tmp_path / "out", base_link="palm")
+    assert "wheel_joint" not in (yaml_path.parent / "jaw.urdf").read_text()
+    # a finger's joint without limits is refused whatever the base
+    bad = robot.replace(
+        '<limit lower="0" upper="0.04" effort="1" velocity="1"/>', "", 1
+    )
+    with pytest.raises(GripperError, match="'left_joint' without <limit lower upper>"):
+        load_kinematics(_write(tmp_path, bad, "bad.urdf"), "jaw", below="palm")

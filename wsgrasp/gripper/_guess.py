@@ -301,7 +301,7 @@ def _read(
 ) -> _Urdf:
     """The URDF: base link (``why`` says how ``base_link`` was chosen), actuated
     joints, link geometry; its size is checked by :func:`_check_extent`."""
-    kin = kin or load_kinematics(path, name)
+    kin = kin or load_kinematics(path, name, below=base_link)
     notes: dict[str, str] = {}
     warnings: list[str] = []
     roots = [link for link in kin.links if link not in kin.parent_joint]

@@ -383,7 +383,11 @@ def _unnamed(root: ET.Element) -> str | None:
 
 
 def load_kinematics(
-    path: Path, gripper: str, *, package_paths: Sequence[Path] = ()
+    path: Path,
+    gripper: str,
+    *,
+    package_paths: Sequence[Path] = (),
+    below: str | None = None,
 ) -> Kinematics:
     """Read a URDF with yourdfpy into :class:`Kinematics`.
 
@@ -396,6 +400,11 @@ def load_kinematics(
     package_paths
         Folders holding ROS packages, searched for ``package://`` URIs (see
         :func:`package_roots`).
+    below
+        The gripper's base link, where it is known (``gripper new
+        --base-link``): a revolute or prismatic joint without limits outside
+        the tree below it (a robot's wheel) is held at 0 with a warning, not
+        refused; one below it still is.
 
     Raises
     ------
@@ -443,6 +452,7 @@ def load_kinematics(
         raise fail("has no links")
     joints: dict[str, Joint] = {}
     parent_joint: dict[str, str] = {}
+    unlimited: dict[str, str] = {}  # joint -> type, movable without limits
     for j in robot.joints:
         if j.type not in _KINDS:
             raise fail(
@@ -470,8 +480,9 @@ def load_kinematics(
                 lower, upper = float(j.limit.lower), float(j.limit.upper)
         elif kind != JOINT_FIXED:
             if j.limit is None or j.limit.lower is None or j.limit.upper is None:
-                raise fail(f"has {j.type} joint {j.name!r} without <limit lower upper>")
-            lower, upper = float(j.limit.lower), float(j.limit.upper)
+                unlimited[j.name] = j.type
+            else:
+                lower, upper = float(j.limit.lower), float(j.limit.upper)
         numbers = [*axis, lower, upper, effort, *_origin(j.origin).ravel()]
         if not np.isfinite(numbers).all():
             raise fail(
@@ -518,6 +529,16 @@ def load_kinematics(
     kin = Kinematics(robot.name, path, joints, links, parent_joint)
     for j in joints:
         kin.master(j)  # cycles
+    gripper_links = (
+        set(kin.subtree(below)) if below is not None and below in links else set(links)
+    )
+    for name, kind_name in unlimited.items():
+        if joints[name].parent in gripper_links:
+            raise fail(f"has {kind_name} joint {name!r} without <limit lower upper>")
+        kin.warnings.append(
+            f"{kind_name} joint {name!r} has no <limit lower upper>; it is outside "
+            f"the gripper below {below!r} and held at 0"
+        )
     for link in robot.links:
         kin.shapes[link.name] = _shapes(
             link, path.parent, fail, kin.warnings, package_paths

@@ -469,14 +469,19 @@ def _write_package(
     mimics = repair_mimics(urdf_copy)
     try:
         scaffold = guess_description(urdf_copy, name, base_link=base_link)
+        base = scaffold.data["base_link"]
         coupling = (
-            independent_jaws(load_kinematics(urdf_copy, name), scaffold.data)
+            independent_jaws(
+                load_kinematics(urdf_copy, name, below=base), scaffold.data
+            )
             if couple_jaws
             else None
         )
         effort = None
         if coupling is not None:  # guessed again, with the jaws moving together
-            effort = summed_effort(load_kinematics(urdf_copy, name), coupling)
+            effort = summed_effort(
+                load_kinematics(urdf_copy, name, below=base), coupling
+            )
             if effort is not None:
                 set_limits(urdf_copy, {coupling.leader: {"effort": effort}})
             add_mimic(
