@@ -1076,3 +1076,39 @@ def test_a_robots_joint_without_limits_outside_the_gripper_is_held(tmp_path):
     )
     with pytest.raises(GripperError, match="'left_joint' without <limit lower upper>"):
         load_kinematics(_write(tmp_path, bad, "bad.urdf"), "jaw", below="palm")
+
+
+def test_a_collision_envelope_round_the_fingers_gives_way_to_the_visual(tmp_path):
+    """A palm whose collision shape is an envelope drawn round the fingers (as
+    for arm motion planning) and whose visual is its own form: the package's
+    URDF gives the palm its visual as collision, says so, and the model checks
+    without the envelope's error; the fingers' joints are guessed as before."""
+    from wsgrasp.gripper._urdf import load_kinematics
+
+    own = jaw_urdf()
+    palm = '<link name="palm"><collision><origin xyz="0 0 0.025" rpy="0 0 0"/>'
+    palm += '<geometry><box size="0.04 0.16 0.05"/></geometry></collision></link>'
+    assert palm in own
+    envelope = (
+        '<link name="palm"><visual><origin xyz="0 0 0.025" rpy="0 0 0"/>'
+        '<geometry><box size="0.04 0.16 0.05"/></geometry>'
+        '<material name="grey"><color rgba="0.5 0.5 0.5 1"/></material></visual>'
+        '<collision><origin xyz="0 0 0.07" rpy="0 0 0"/>'
+        '<geometry><box size="0.06 0.2 0.14"/></geometry></collision></link>'
+    )
+    urdf = _write(tmp_path, own.replace(palm, envelope), "enveloped.urdf")
+    yaml_path, sc = scaffold_plugin("env", urdf, tmp_path / "out")
+    note = [w for w in sc.warnings if "envelop the fingers" in w]
+    assert note and note[0].endswith("palm")
+    assert not [w for w in sc.warnings if w.startswith("error")]
+    kin = load_kinematics(yaml_path.parent / "env.urdf", "env")
+    (shape,) = kin.shapes["palm"]
+    assert shape.kind == "box" and shape.size == pytest.approx((0.04, 0.16, 0.05))
+    assert (
+        "<material"
+        not in (yaml_path.parent / "env.urdf")
+        .read_text()
+        .split("<collision")[1]
+        .split("</collision>")[0]
+    )
+    assert [f["joints"] for f in sc.data["fingers"]] == [["left_joint"]] * 2

@@ -22,6 +22,7 @@ from wsgrasp.gripper._urdf import load_mesh, not_urdf, parse_xml, resolve_mesh
 __all__ = [
     "MAX_MESH_EXTENT",
     "add_mimic",
+    "collisions_from_visuals",
     "MESH_UNITS",
     "copy_urdf",
     "expand_xacro",
@@ -47,6 +48,12 @@ _JOINT = re.compile(rf"<joint{_END}[^>]*?(?<!/)>.*?</joint\s*>", re.S)
 _NAME = re.compile(r"""\bname\s*=\s*(["'])(.*?)\1""", re.S)
 _LIMIT = re.compile(rf"<limit{_END}[^>]*>", re.S)
 _VISUAL = re.compile(rf"<visual{_END}[^>]*?(?<!/)>.*?</visual\s*>", re.S)
+_COLLISION = re.compile(
+    rf"<collision{_END}[^>]*?/>|<collision{_END}[^>]*?(?<!/)>.*?</collision\s*>", re.S
+)
+_MATERIAL = re.compile(
+    rf"<material{_END}[^>]*?/>|<material{_END}[^>]*?(?<!/)>.*?</material\s*>", re.S
+)
 _LINK = re.compile(rf"<link{_END}[^>]*?/>|<link{_END}[^>]*?(?<!/)>.*?</link\s*>", re.S)
 _CHILD = re.compile(rf"""<child{_END}[^>]*?\blink\s*=\s*(["'])(.*?)\1""", re.S)
 _PARENT = re.compile(rf"""<parent{_END}[^>]*?\blink\s*=\s*(["'])(.*?)\1""", re.S)
@@ -542,6 +549,42 @@ def add_mimic(
         return element[:end] + f"  {tag}\n    " + element[end:]
 
     Path(path).write_text(_JOINT.sub(rewrite, text))
+
+
+def collisions_from_visuals(path: Path, links: set[str]) -> list[str]:
+    """Give each of ``links`` in the URDF at ``path`` its ``<visual>`` shapes
+    as its ``<collision>`` shapes (materials left out), in place of the ones it
+    had; a link without a visual keeps its own. Rewrites the file; returns the
+    links changed."""
+    import html
+
+    text = Path(path).read_text()
+    changed: list[str] = []
+
+    def rewrite(m: re.Match[str]) -> str:
+        element = m.group(0)
+        name = _NAME.search(element)
+        if name is None or html.unescape(name.group(2)) not in links:
+            return element
+        visuals = _VISUAL.findall(element)
+        if not visuals:
+            return element
+        changed.append(html.unescape(name.group(2)))
+        shapes = "".join(
+            "\n    "
+            + _MATERIAL.sub("", v)
+            .replace("<visual", "<collision", 1)
+            .replace("</visual", "</collision")
+            for v in visuals
+        )
+        kept = _COLLISION.sub("", element)
+        end = kept.rindex("</link")
+        return kept[:end] + shapes + "\n  " + kept[end:]
+
+    new_text = _LINK.sub(rewrite, text)
+    if changed:
+        Path(path).write_text(new_text)
+    return changed
 
 
 def prune_urdf(urdf: Path, keep: set[str]) -> tuple[list[str], list[str]]:

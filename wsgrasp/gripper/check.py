@@ -280,6 +280,46 @@ def _check_cloud(report: CheckReport) -> None:
         )
 
 
+def enveloping_links(kin: Any, data: dict[str, Any]) -> set[str]:
+    """The links whose own shapes hold most of some finger's workspace (see
+    :func:`_enveloping_link`) in the guessed description ``data`` read from the
+    URDF ``kin``: an envelope drawn round the fingers for arm motion planning.
+    Only fingers whose pad centre, open, lies inside some link's shapes off its
+    chain have their workspaces sampled."""
+    from wsgrasp.gripper._urdf import shape_mesh
+    from wsgrasp.gripper._workspace import sample_workspace
+    from wsgrasp.spec import GripperDescription
+
+    desc = GripperDescription.model_validate(data)
+    pre = dict(desc.pregrasp)
+    poses = kin.link_poses(desc.base_link, pre)
+    out: set[str] = set()
+    for finger in desc.fingers:
+        chain = {j.child for j in kin.chain(desc.base_link, finger.pad.link)}
+        chain.add(finger.pad.link)
+        T = _pad_frame(kin, desc.base_link, finger.pad.link, pre)
+        pad = T[:3, :3] @ np.asarray(finger.pad.center) + T[:3, 3]
+        suspect = False
+        for link, shapes in kin.shapes.items():
+            if link in chain or link not in poses or not shapes:
+                continue
+            Tl = poses[link]
+            local = (pad - Tl[:3, 3]) @ Tl[:3, :3]
+            if any(
+                shape_mesh(sh).convex_hull.contains(local[None])[0] for sh in shapes
+            ):
+                suspect = True
+                break
+        if not suspect:
+            continue
+        ws = sample_workspace(kin, desc, finger)
+        pts = ws.centers(np.argwhere(ws.occupied))
+        hit = _enveloping_link(kin, desc, finger, pts, pre)
+        if hit is not None:
+            out.add(hit[0])
+    return out
+
+
 def _enveloping_link(
     kin: Any,
     desc: Any,

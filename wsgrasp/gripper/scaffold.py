@@ -33,6 +33,7 @@ from wsgrasp.gripper._scaffold_urdf import (
     MESH_UNITS,
     add_mimic,
     check_is_urdf,
+    collisions_from_visuals,
     copy_urdf,
     expand_xacro,
     is_xacro,
@@ -492,6 +493,17 @@ def _write_package(
                 coupling.offset,
             )
             scaffold = guess_description(urdf_copy, name, base_link=base_link)
+        # a link whose collision shapes envelop the fingers (drawn round them
+        # for arm motion planning) takes its visual shapes, and the guess is
+        # made again
+        from wsgrasp.gripper.check import enveloping_links
+
+        enveloped = enveloping_links(
+            load_kinematics(urdf_copy, name, below=base), scaffold.data
+        )
+        from_visuals = collisions_from_visuals(urdf_copy, enveloped)
+        if from_visuals:
+            scaffold = guess_description(urdf_copy, name, base_link=base_link)
     except GripperError as exc:
         raise _naming_source(exc, urdf_copy, shown or urdf) from None
     scaffold.warnings[:0] = mesh_warnings
@@ -519,6 +531,14 @@ def _write_package(
         )
         header.append(repaired)
         scaffold.warnings.append(repaired)
+    if from_visuals:
+        note = (
+            "collision shapes that envelop the fingers (drawn round them for arm "
+            "motion planning), replaced in the copied URDF by the link's visual "
+            "shapes: " + ", ".join(from_visuals)
+        )
+        header.append(note)
+        scaffold.warnings.append(note)
     if coupling is not None:
         header.append(coupling.note(effort))
         scaffold.warnings.append(coupling.note(effort))
