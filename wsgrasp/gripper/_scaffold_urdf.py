@@ -435,6 +435,15 @@ def unlimited_continuous(path: Path) -> list[str]:
     return out
 
 
+def _element_name(element: str) -> str | None:
+    """The ``name`` attribute of the URDF element ``element`` (its text, the
+    name's entities unescaped), or None where it has none."""
+    import html
+
+    name = _NAME.search(element)
+    return None if name is None else html.unescape(name.group(2))
+
+
 def narrow_limits(path: Path, limits: dict[str, tuple[float, float]]) -> None:
     """Rewrite the ``<limit lower upper>`` of the named joints in the URDF at
     ``path`` (values at full precision; the rest of the file as it was)."""
@@ -445,7 +454,6 @@ def set_limits(path: Path, values: dict[str, dict[str, float]]) -> None:
     """Set attributes of the ``<limit>`` of the named joints in the URDF at
     ``path`` (joint -> attribute -> value: ``lower``, ``upper``, ``effort``; at
     full precision), the rest of the file as it was."""
-    import html
 
     if not values:
         return
@@ -453,14 +461,12 @@ def set_limits(path: Path, values: dict[str, dict[str, float]]) -> None:
 
     def rewrite(m: re.Match[str]) -> str:
         element = m.group(0)
-        name = _NAME.search(element)
-        if name is None or html.unescape(name.group(2)) not in values:
-            return element
+        name = _element_name(element)
         tag = _LIMIT.search(element)
-        if tag is None:
+        if name not in values or tag is None:
             return element
         new = tag.group(0)
-        for attr, value in values[html.unescape(name.group(2))].items():
+        for attr, value in values[name].items():
             pat = re.compile(rf"""\b{attr}\s*=\s*(["']).*?\1""", re.S)
             if pat.search(new):
                 new = pat.sub(f'{attr}="{float(value)!r}"', new, count=1)
@@ -542,8 +548,7 @@ def add_mimic(
 
     def rewrite(m: re.Match[str]) -> str:
         element = m.group(0)
-        name = _NAME.search(element)
-        if name is None or html.unescape(name.group(2)) != joint:
+        if _element_name(element) != joint:
             return element
         end = element.rindex("</joint")
         return element[:end] + f"  {tag}\n    " + element[end:]
@@ -556,20 +561,17 @@ def collisions_from_visuals(path: Path, links: set[str]) -> list[str]:
     as its ``<collision>`` shapes (materials left out), in place of the ones it
     had; a link without a visual keeps its own. Rewrites the file; returns the
     links changed."""
-    import html
 
     text = Path(path).read_text()
     changed: list[str] = []
 
     def rewrite(m: re.Match[str]) -> str:
         element = m.group(0)
-        name = _NAME.search(element)
-        if name is None or html.unescape(name.group(2)) not in links:
-            return element
+        name = _element_name(element)
         visuals = _VISUAL.findall(element)
-        if not visuals:
+        if name not in links or not visuals:
             return element
-        changed.append(html.unescape(name.group(2)))
+        changed.append(str(name))
         shapes = "".join(
             "\n    "
             + _MATERIAL.sub("", v)
