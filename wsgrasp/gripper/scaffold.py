@@ -471,18 +471,22 @@ def _write_package(
     try:
         scaffold = guess_description(urdf_copy, name, base_link=base_link)
         base = scaffold.data["base_link"]
-        coupling = (
-            independent_jaws(
-                load_kinematics(urdf_copy, name, below=base), scaffold.data
-            )
-            if couple_jaws
-            else None
+        kin = load_kinematics(urdf_copy, name, below=base)
+        # a link whose collision shapes envelop the fingers (drawn round them
+        # for arm motion planning) takes its visual shapes, and the guess is
+        # made again; so is it with two jaws moved together
+        from wsgrasp.gripper.check import enveloping_links
+
+        from_visuals = collisions_from_visuals(
+            urdf_copy, enveloping_links(kin, scaffold.data)
         )
+        if from_visuals:
+            scaffold = guess_description(urdf_copy, name, base_link=base_link)
+            kin = load_kinematics(urdf_copy, name, below=base)
+        coupling = independent_jaws(kin, scaffold.data) if couple_jaws else None
         effort = None
-        if coupling is not None:  # guessed again, with the jaws moving together
-            effort = summed_effort(
-                load_kinematics(urdf_copy, name, below=base), coupling
-            )
+        if coupling is not None:
+            effort = summed_effort(kin, coupling)
             if effort is not None:
                 set_limits(urdf_copy, {coupling.leader: {"effort": effort}})
             add_mimic(
@@ -492,17 +496,6 @@ def _write_package(
                 coupling.multiplier,
                 coupling.offset,
             )
-            scaffold = guess_description(urdf_copy, name, base_link=base_link)
-        # a link whose collision shapes envelop the fingers (drawn round them
-        # for arm motion planning) takes its visual shapes, and the guess is
-        # made again
-        from wsgrasp.gripper.check import enveloping_links
-
-        enveloped = enveloping_links(
-            load_kinematics(urdf_copy, name, below=base), scaffold.data
-        )
-        from_visuals = collisions_from_visuals(urdf_copy, enveloped)
-        if from_visuals:
             scaffold = guess_description(urdf_copy, name, base_link=base_link)
     except GripperError as exc:
         raise _naming_source(exc, urdf_copy, shown or urdf) from None
