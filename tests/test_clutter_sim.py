@@ -182,9 +182,9 @@ def test_a_target_lifted_but_slipping_in_the_grip_counts_as_lifted_not_held():
         ],
     }
     scene["steps"][0]["touched"] = ["c"]  # a success that brushed a neighbour
-    scene["steps"][3]["touched"] = ["b"]
+    scene["steps"][3]["touched"] = scene["steps"][3]["touched_first"] = ["b"]
     s = clutter_summary([scene])
-    assert s["touched_neighbour"] == 2
+    assert s["touched_neighbour"] == 2 and s["touched_neighbour_first"] == 1
     assert s["successes"] == 1 and s["grasp_success_rate"] == 0.25
     # the other object that came up with the last attempt is not its target
     assert s["target_lifted"] == 2 and s["lift_rate"] == 0.5
@@ -331,3 +331,45 @@ def test_a_grasp_that_lands_on_a_neighbour_touches_it(franka_clutter):
 
     assert touched_at(poses[1][:2, 3]) == [1]
     assert touched_at((0.5, 0.5)) == []
+
+
+def test_a_neighbour_touched_before_the_target_is_in_the_way(franka_clutter):
+    """Execution tells the neighbours the gripper touched before it touched the
+    target (``touched_first``) and names the gripper's links that touched
+    each: a hand brought down onto the other box of a pair moved apart meets
+    that box, and never the target."""
+    from wsgrasp.sim.clutter import _target_scene, _touched_by
+    from wsgrasp.sim.trial import execute_grasp
+
+    _, gripper, p = franka_clutter
+    settle = ClutterWorld.build(_boxes(2), p)
+    place_objects(settle, "packed", np.random.default_rng(0), p)
+    poses = settle.poses()
+    poses[0][1, 3] += 0.2  # the target well away from the hand
+    world = ClutterWorld.build(_boxes(2), p, gripper)
+    world.set_poses(poses, np.ones(2, dtype=bool))
+    T = np.eye(4)
+    T[:3, :3] = [[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]]
+    T[:3, 3] = (*poses[1][:2, 3], 0.12)
+    ex = execute_grasp(_target_scene(world, 0), poses[0], T, p)
+    assert ex.touched.tolist() == ex.touched_first.tolist() == [world.bodies[1]]
+    by = _touched_by(world, ["box0", "box1"], ex.touched_by)
+    assert list(by) == ["box1"] and by["box1"]
+    assert all(not name.startswith("g/") for name in by["box1"])
+
+
+@pytest.mark.parametrize(
+    ("outcome", "in_the_way", "kind"),
+    [
+        ("slipped_lifting", True, "neighbour_collision"),
+        ("slipped_lifting", False, "slip"),  # neighbours met around the target
+        ("approach_collision", False, "neighbour_collision"),
+        ("success", True, None),
+    ],
+)
+def test_only_a_neighbour_in_the_way_makes_a_failure_a_collision(
+    outcome, in_the_way, kind
+):
+    from wsgrasp.sim.clutter import _kind
+
+    assert _kind(outcome, 0.0, 1, in_the_way) == kind

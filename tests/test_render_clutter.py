@@ -125,6 +125,24 @@ def test_a_run_that_did_not_record_touches_shows_none(
     assert [c.strip() for c in row.strip("|").split("|")][8] == "–"
 
 
+def test_a_run_that_recorded_neighbours_in_the_way_counts_them_apart(
+    docs_results: ModuleType, tmp_path: Path
+) -> None:
+    report = _report("pile")
+    scene = report["grippers"]["franka_hand"]["scenes"][0]
+    # the first attempt met its neighbour around the target, the second not at all
+    scene["steps"] = [
+        {"touched": ["b"], "touched_first": []},
+        {"touched": [], "touched_first": []},
+        {"touched": ["c", "d"], "touched_first": ["d"]},
+    ]
+    (tmp_path / "clutter").mkdir()
+    (tmp_path / "clutter" / "pile.json").write_text(json.dumps(report))
+    md = docs_results.render_results_clutter()
+    row = next(ln for ln in md.splitlines() if ln.startswith("| `franka_hand`"))
+    assert [c.strip() for c in row.strip("|").split("|")][8] == "2 (1)"
+
+
 def test_no_published_run_says_which_target_writes_it(
     docs_results: ModuleType,
 ) -> None:

@@ -957,9 +957,13 @@ def _clutter_run(name: str, r: dict[str, Any]) -> list[str]:
             fell += len(scene.get("fell_off") or [])
             steps += scene.get("steps") or []
         # attempts whose gripper touched another object while it approached
-        # and closed, successes included (where the run recorded it)
+        # and closed, successes included, and those that touched it before
+        # the target (where the run recorded them)
         recorded = [st["touched"] for st in steps if "touched" in st]
-        touched = sum(bool(t) for t in recorded) if recorded else "–"
+        touched: str | int = sum(bool(t) for t in recorded) if recorded else "–"
+        ahead = [st["touched_first"] for st in steps if "touched_first" in st]
+        if ahead:
+            touched = f"{touched} ({sum(bool(t) for t in ahead)})"
         p90 = s.get("first_plan_ms_p90")
         first = _ms(s.get("first_plan_ms_median")) + (
             f" / {_ms(p90)}" if p90 is not None else ""
@@ -992,7 +996,7 @@ def _clutter_run(name: str, r: dict[str, Any]) -> list[str]:
                 "plans per step, median",
                 "first plan, median / p90",
                 "failed attempts by kind",
-                "touched a neighbour",
+                "touched a neighbour (before the target)",
                 "two lifted at once",
                 "knocked off the table",
                 "scenes ended",

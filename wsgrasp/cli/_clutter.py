@@ -231,7 +231,7 @@ def _print_table(report: dict[str, Any]) -> None:
         "declutter",
         "plan ms (median / p90)",
         "failures",
-        "touched a neighbour",
+        "touched a neighbour (before the target)",
     ):
         table.add_column(col)
     rows = []
@@ -252,7 +252,8 @@ def _print_table(report: dict[str, Any]) -> None:
             if s["first_plan_ms_median"] is None
             else f"{s['first_plan_ms_median']:.0f} / {s['first_plan_ms_p90']:.0f}",
             ", ".join(f"{k} {v}" for k, v in sorted(s["failure_kinds"].items())),
-            str(s.get("touched_neighbour", "-")),
+            f"{s.get('touched_neighbour', '-')} "
+            f"({s.get('touched_neighbour_first', '-')})",
         )
     console.print(table)
     for g, r in report["grippers"].items():

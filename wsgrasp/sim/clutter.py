@@ -32,9 +32,10 @@ is an attempt that failed); declutter rate = objects removed (lifted off the
 table by a grasp; one pushed or knocked off the table is gone but not removed)
 / objects. Each failure gets a kind: ``no_grasp``, ``wrong_split`` (the
 target's points lie on two objects), ``neighbour_collision`` (the approach was
-flagged, or the gripper touched another object while it approached and closed;
-a neighbour the target moves, or knocks as it falls back onto the pile, does
-not count),
+flagged, or the gripper touched another object while it approached and closed,
+before it touched the target: a neighbour in its way; a neighbour the fingers
+meet around the target they hold, one the target moves, or one it knocks as it
+falls back onto the pile, does not count),
 ``slip`` (dropped, slipped, not lifted) and ``two_lifted`` (more objects than
 the target came up).
 """
@@ -363,6 +364,11 @@ class Step:
     pushed: list[str] = field(default_factory=list)
     #: the neighbours the gripper touched while it approached and closed
     touched: list[str] = field(default_factory=list)
+    #: those it touched before it first touched the target (all of them where
+    #: it never did): in its way, not met around the target
+    touched_first: list[str] = field(default_factory=list)
+    #: per neighbour touched, the gripper's links that touched it
+    touched_by: dict[str, list[str]] = field(default_factory=dict)
     #: wall-clock time of the step's plans (ms), recording included
     plan_ms: float = 0.0
     #: the candidate executed (index into the plan's candidates) where the
@@ -522,12 +528,15 @@ def run_clutter_scene(
             )
             pushed[k_target] = False
             touched = np.isin(grip.bodies, ex.touched)
+            first = np.isin(grip.bodies, ex.touched_first)
             step.outcome = ex.outcome
             step.success = ex.outcome == "success"
             step.lifted = [names[k] for k in np.flatnonzero(lifted)]
             step.pushed = [names[k] for k in np.flatnonzero(pushed)]
             step.touched = [names[k] for k in np.flatnonzero(touched)]
-            step.kind = _kind(ex.outcome, share, int(lifted.sum()), bool(touched.any()))
+            step.touched_first = [names[k] for k in np.flatnonzero(first)]
+            step.touched_by = _touched_by(grip, names, ex.touched_by)
+            step.kind = _kind(ex.outcome, share, int(lifted.sum()), bool(first.any()))
             # what is left settles where the attempt left it
             poses = grip.poses()
             present = present & ~lifted
@@ -695,17 +704,40 @@ def _target(
     return int(order[0]), second
 
 
-def _kind(outcome: str, share: float, lifted: int, touched: bool) -> str | None:
-    """The failure kind of an executed attempt (None for a success)."""
+def _kind(outcome: str, share: float, lifted: int, in_the_way: bool) -> str | None:
+    """The failure kind of an executed attempt (None for a success);
+    ``in_the_way``: the gripper touched a neighbour before the target."""
     if lifted > 1:
         return "two_lifted"
     if outcome == "success":
         return None
     if share >= WRONG_SPLIT_SHARE:
         return "wrong_split"
-    if outcome == "approach_collision" or touched:
+    if outcome == "approach_collision" or in_the_way:
         return "neighbour_collision"
     return "slip"
+
+
+def _touched_by(
+    grip: ClutterWorld, names: list[str], touched_by: dict[int, NDArray[np.int64]]
+) -> dict[str, list[str]]:
+    """Per neighbour touched (its name in ``names``, as ``grip.bodies`` orders
+    them), the names of the gripper's links that touched it."""
+    mujoco = require_mujoco()
+    from wsgrasp.sim.gripper import PREFIX
+
+    bodies = list(grip.bodies)
+    out: dict[str, list[str]] = {}
+    for body, links in sorted(touched_by.items()):
+        if body not in bodies:
+            continue
+        out[names[bodies.index(body)]] = [
+            str(
+                mujoco.mj_id2name(grip.model, mujoco.mjtObj.mjOBJ_BODY, int(b))
+            ).removeprefix(PREFIX)
+            for b in links
+        ]
+    return out
 
 
 def _target_scene(world: ClutterWorld, k: int) -> Any:
@@ -748,7 +780,8 @@ def clutter_summary(scenes: list[dict[str, Any]]) -> dict[str, Any]:
     grasp that slipped in the grip under the ``strict`` disturbances included),
     declutter rate (removed / objects), the failed attempts by kind, the
     attempts whose gripper touched a neighbour while it approached and closed
-    (``touched_neighbour``) and the attempts that lifted two objects or more
+    (``touched_neighbour``), those of them that touched it before the target
+    (``touched_neighbour_first``) and the attempts that lifted two objects or more
     (``two_lifted``; both successes too) over
     ``scenes`` (:func:`run_clutter_scene`'s results), with the steps' planning
     times (ms):
@@ -762,11 +795,12 @@ def clutter_summary(scenes: list[dict[str, Any]]) -> dict[str, Any]:
     times, own, first = [], [], []
     two = 0
     target_lifted = 0
-    touched = 0
+    touched = touched_first = 0
     for s in scenes:
         for st in s["steps"]:
             times.append(st["plan_ms"])
             touched += bool(st.get("touched"))
+            touched_first += bool(st.get("touched_first"))
             target_lifted += bool(st.get("target")) and st["target"] in st["lifted"]
             if st.get("first_plan_ms"):
                 own.append(st["pipeline_ms"])
@@ -787,6 +821,7 @@ def clutter_summary(scenes: list[dict[str, Any]]) -> dict[str, Any]:
         "failure_kinds": kinds,
         "two_lifted": two,
         "touched_neighbour": touched,
+        "touched_neighbour_first": touched_first,
         "plan_ms_median": float(np.median(times)) if times else None,
         "plan_ms_max": float(np.max(times)) if times else None,
         "pipeline_ms_median": float(np.median(own)) if own else None,

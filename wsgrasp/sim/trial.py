@@ -299,6 +299,12 @@ class Execution:
         The bodies other than the object, the gripper's and the table's that
         the gripper touched during the approach and the closing (a world of
         several objects: the neighbours it collided with), ascending.
+    touched_first : (j,) int
+        Those of ``touched`` that the gripper touched before it first touched
+        the object (all of them where it never did): the neighbours in its
+        way, not those its fingers met around the object they held.
+    touched_by : dict of int to (i,) int
+        For each body of ``touched``, the gripper's bodies that touched it.
     """
 
     outcome: str
@@ -307,6 +313,10 @@ class Execution:
     touched: NDArray[np.int64] = field(
         default_factory=lambda: np.zeros(0, dtype=np.int64)
     )
+    touched_first: NDArray[np.int64] = field(
+        default_factory=lambda: np.zeros(0, dtype=np.int64)
+    )
+    touched_by: dict[int, NDArray[np.int64]] = field(default_factory=dict)
 
 
 def close_fingers(
@@ -444,8 +454,14 @@ def execute_grasp(
     is_other[[0, obj]] = False  # the world's (the table) and the object's
     is_other &= ~is_grip
     touched = np.zeros(m.nbody, dtype=bool)
+    # the step of the approach and closing at which each body was first touched
+    # (-1: never; the object's own too), and which gripper body touched which
+    first = np.full(m.nbody, -1, dtype=np.int64)
+    by = np.zeros((m.nbody, m.nbody), dtype=bool)  # (gripper body, other body)
+    count = [0]
 
     def watch() -> None:
+        count[0] += 1
         n = d.ncon
         if n:
             pair = m.geom_bodyid[d.contact.geom[:n]]  # (n, 2) bodies
@@ -453,7 +469,13 @@ def execute_grasp(
             one = grip[:, 0] != grip[:, 1]
             if one.any():
                 other = np.where(grip[:, 0], pair[:, 1], pair[:, 0])[one]
-                touched[other[is_other[other]]] = True
+                mine = np.where(grip[:, 0], pair[:, 0], pair[:, 1])[one]
+                keep = is_other[other] | (other == obj)
+                other, mine = other[keep], mine[keep]
+                touched[other[other != obj]] = True
+                by[mine, other] = True
+                new = other[first[other] < 0]
+                first[new] = count[0]
 
     def move(
         start: Array,
@@ -599,6 +621,13 @@ def execute_grasp(
         },
         xipos_closed,
         np.flatnonzero(touched).astype(np.int64),
+        np.flatnonzero(
+            touched & ((first[obj] < 0) | ((first >= 0) & (first < first[obj])))
+        ).astype(np.int64),
+        {
+            int(b): np.flatnonzero(by[:, b]).astype(np.int64)
+            for b in np.flatnonzero(touched)
+        },
     )
 
 
