@@ -304,6 +304,16 @@ def test_a_replayed_step_names_the_random_candidate_it_executed():
     assert "candidate" not in SequenceStep(info, []).line()
     line = SequenceStep({**info, "candidate": 7}, []).line()
     assert "target box0 (random feasible candidate 7): success" in line
+    assert "touched" not in line
+    touches = {
+        "touched": ["box1", "box2"],
+        "touched_first": ["box2"],
+        "touched_by": {"box1": ["link_11.0_tip"], "box2": ["palm", "link_3.0"]},
+    }
+    line = SequenceStep({**info, **touches}, []).line()
+    assert line.endswith(
+        "; touched box1 by link_11.0_tip; box2 by palm, link_3.0 before the target"
+    )
 
 
 def test_a_grasp_that_lands_on_a_neighbour_touches_it(franka_clutter):

@@ -41,8 +41,22 @@ class SequenceStep:
         return (
             f"step {i.get('step')}: {i.get('objects_left')} objects left, "
             f"{i.get('segments')} instances seen, {i.get('tries')} plan(s), "
-            f"target {target}{took}: {what}; lifted {lifted}"
+            f"target {target}{took}: {what}; lifted {lifted}{_touches(i)}"
         )
+
+
+def _touches(info: dict[str, Any]) -> str:
+    """The neighbours a step's gripper touched, in a clause: each with the
+    links that touched it, and whether before the target."""
+    by = info.get("touched_by") or {}
+    first = set(info.get("touched_first") or [])
+    parts = [
+        name
+        + (f" by {', '.join(by[name])}" if by.get(name) else "")
+        + (" before the target" if name in first else "")
+        for name in info.get("touched") or []
+    ]
+    return f"; touched {'; '.join(parts)}" if parts else ""
 
 
 def open_sequence(folder: str | Path) -> tuple[dict[str, Any], list[SequenceStep]]:
