@@ -143,6 +143,39 @@ def test_a_run_that_recorded_neighbours_in_the_way_counts_them_apart(
     assert [c.strip() for c in row.strip("|").split("|")][8] == "2 (1)"
 
 
+def test_the_attempts_that_held_are_split_by_what_the_gripper_touched(
+    docs_results: ModuleType, tmp_path: Path
+) -> None:
+    report = _report("pile")
+    scene = report["grippers"]["franka_hand"]["scenes"][0]
+    step = {"found": True, "touched": [], "touched_first": []}
+    scene["steps"] = [
+        {**step, "success": True},
+        {**step, "success": False},
+        {**step, "success": True, "touched": ["b"]},  # met around the target
+        {**step, "success": False, "touched": ["b"], "touched_first": ["b"]},
+        {"found": False, "success": False, "touched": [], "touched_first": []},
+    ]
+    (tmp_path / "clutter").mkdir()
+    (tmp_path / "clutter" / "pile.json").write_text(json.dumps(report))
+    md = docs_results.render_results_clutter()
+    assert "by what the gripper touched" in md
+    row = [ln for ln in md.splitlines() if ln.startswith("| `franka_hand`")][-1]
+    assert [c.strip() for c in row.strip("|").split("|")] == [
+        "`franka_hand`",
+        "50.0 % (1 of 2)",
+        "100.0 % (1 of 1)",
+        "0.0 % (0 of 1)",
+    ]
+
+
+def test_a_run_from_before_the_split_has_no_table_of_touches(
+    docs_results: ModuleType, tmp_path: Path
+) -> None:
+    _publish(tmp_path, "pile")  # its steps record touched alone
+    assert "by what the gripper touched" not in docs_results.render_results_clutter()
+
+
 def test_no_published_run_says_which_target_writes_it(
     docs_results: ModuleType,
 ) -> None:

@@ -1035,7 +1035,59 @@ def _clutter_run(name: str, r: dict[str, Any]) -> list[str]:
                 rows,
             )
         )
+    out.extend(_touch_table(runs))
     return out
+
+
+def _touch_table(runs: list[tuple[str, dict[str, Any]]]) -> list[str]:
+    """Where a run recorded the neighbours touched before the target: per
+    gripper (and chance), the executed attempts that held, split by what the
+    gripper touched while it approached and closed."""
+    rows = []
+    for label, g in runs:
+        steps = [
+            st
+            for scene in g.get("scenes") or []
+            for st in scene.get("steps") or []
+            if st.get("found") and "touched_first" in st
+        ]
+        if not steps:
+            continue
+        row = [label]
+        for kind in ("none", "after", "before"):
+            some = [
+                st
+                for st in steps
+                if kind
+                == (
+                    "before"
+                    if st["touched_first"]
+                    else "after"
+                    if st.get("touched")
+                    else "none"
+                )
+            ]
+            held = sum(bool(st.get("success")) for st in some)
+            row.append(_share(held / len(some) if some else None, held, len(some)))
+        rows.append(row)
+    if not rows:
+        return []
+    return [
+        "\nThe executed attempts that held, by what the gripper touched while it "
+        "approached and closed: no other object; neighbours only after it had "
+        "touched its target (fingers meeting them around the target); a "
+        "neighbour before the target (one in its way: a failure there counts as "
+        "`neighbour_collision`):\n",
+        table(
+            [
+                "gripper",
+                "touched no neighbour",
+                "only after the target",
+                "one before the target",
+            ],
+            rows,
+        ),
+    ]
 
 
 def render_clutter_segments() -> str:
