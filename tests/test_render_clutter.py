@@ -77,6 +77,28 @@ def _report(scene: str) -> dict[str, Any]:
     }
 
 
+def _rendered(docs_results: ModuleType, root: Path, report: dict[str, Any]) -> str:
+    """The clutter page with ``report`` published alone, as the pile run."""
+    (root / "clutter").mkdir()
+    (root / "clutter" / "pile.json").write_text(json.dumps(report))
+    return docs_results.render_results_clutter()  # type: ignore[no-any-return]
+
+
+def _cells(md: str) -> list[str]:
+    """The cells of the page's first ``franka_hand`` row."""
+    row = next(ln for ln in md.splitlines() if ln.startswith("| `franka_hand`"))
+    return [c.strip() for c in row.strip("|").split("|")]
+
+
+def _rendered_steps(
+    docs_results: ModuleType, root: Path, steps: list[dict[str, Any]]
+) -> str:
+    """The clutter page with the pile run's first scene made of ``steps``."""
+    report = _report("pile")
+    report["grippers"]["franka_hand"]["scenes"][0]["steps"] = steps
+    return _rendered(docs_results, root, report)
+
+
 def _publish(root: Path, scene: str) -> None:
     folder = root / "clutter"
     folder.mkdir(exist_ok=True)
@@ -118,47 +140,35 @@ def test_a_run_that_did_not_record_touches_shows_none(
     report = _report("pile")
     for scene in report["grippers"]["franka_hand"]["scenes"]:
         scene["steps"] = [{} for _ in scene["steps"]]
-    (tmp_path / "clutter").mkdir()
-    (tmp_path / "clutter" / "pile.json").write_text(json.dumps(report))
-    md = docs_results.render_results_clutter()
-    row = next(ln for ln in md.splitlines() if ln.startswith("| `franka_hand`"))
-    assert [c.strip() for c in row.strip("|").split("|")][8] == "–"
+    md = _rendered(docs_results, tmp_path, report)
+    assert _cells(md)[8] == "–"
 
 
 def test_a_run_that_recorded_neighbours_in_the_way_counts_them_apart(
     docs_results: ModuleType, tmp_path: Path
 ) -> None:
-    report = _report("pile")
-    scene = report["grippers"]["franka_hand"]["scenes"][0]
     # the first attempt met its neighbour around the target, the second not at all
-    scene["steps"] = [
+    steps = [
         {"touched": ["b"], "touched_first": []},
         {"touched": [], "touched_first": []},
         {"touched": ["c", "d"], "touched_first": ["d"]},
     ]
-    (tmp_path / "clutter").mkdir()
-    (tmp_path / "clutter" / "pile.json").write_text(json.dumps(report))
-    md = docs_results.render_results_clutter()
-    row = next(ln for ln in md.splitlines() if ln.startswith("| `franka_hand`"))
-    assert [c.strip() for c in row.strip("|").split("|")][8] == "2 (1)"
+    md = _rendered_steps(docs_results, tmp_path, steps)
+    assert _cells(md)[8] == "2 (1)"
 
 
 def test_the_attempts_that_held_are_split_by_what_the_gripper_touched(
     docs_results: ModuleType, tmp_path: Path
 ) -> None:
-    report = _report("pile")
-    scene = report["grippers"]["franka_hand"]["scenes"][0]
     step = {"found": True, "touched": [], "touched_first": []}
-    scene["steps"] = [
+    steps = [
         {**step, "success": True},
         {**step, "success": False},
         {**step, "success": True, "touched": ["b"]},  # met around the target
         {**step, "success": False, "touched": ["b"], "touched_first": ["b"]},
         {"found": False, "success": False, "touched": [], "touched_first": []},
     ]
-    (tmp_path / "clutter").mkdir()
-    (tmp_path / "clutter" / "pile.json").write_text(json.dumps(report))
-    md = docs_results.render_results_clutter()
+    md = _rendered_steps(docs_results, tmp_path, steps)
     assert "by what the gripper touched" in md
     row = [ln for ln in md.splitlines() if ln.startswith("| `franka_hand`")][-1]
     assert [c.strip() for c in row.strip("|").split("|")] == [
