@@ -1053,23 +1053,21 @@ def _touch_table(runs: list[tuple[str, dict[str, Any]]]) -> list[str]:
         ]
         if not steps:
             continue
-        row = [label]
-        for kind in ("none", "after", "before"):
-            some = [
-                st
-                for st in steps
-                if kind
-                == (
-                    "before"
-                    if st["touched_first"]
-                    else "after"
-                    if st.get("touched")
-                    else "none"
-                )
-            ]
-            held = sum(bool(st.get("success")) for st in some)
-            row.append(_share(held / len(some) if some else None, held, len(some)))
-        rows.append(row)
+        # (held, attempts) per what was touched: nothing, only after, before
+        tally = {kind: [0, 0] for kind in ("none", "after", "before")}
+        for st in steps:
+            kind = (
+                "before"
+                if st["touched_first"]
+                else "after"
+                if st.get("touched")
+                else "none"
+            )
+            tally[kind][0] += bool(st.get("success"))
+            tally[kind][1] += 1
+        rows.append(
+            [label] + [_share(h / n if n else None, h, n) for h, n in tally.values()]
+        )
     if not rows:
         return []
     return [

@@ -453,7 +453,6 @@ def execute_grasp(
     is_other[m.geom_bodyid] = True
     is_other[[0, obj]] = False  # the world's (the table) and the object's
     is_other &= ~is_grip
-    touched = np.zeros(m.nbody, dtype=bool)
     # the step of the approach and closing at which each body was first touched
     # (-1: never; the object's own too), and which gripper body touched which
     first = np.full(m.nbody, -1, dtype=np.int64)
@@ -472,7 +471,6 @@ def execute_grasp(
                 mine = np.where(grip[:, 0], pair[:, 0], pair[:, 1])[one]
                 keep = is_other[other] | (other == obj)
                 other, mine = other[keep], mine[keep]
-                touched[other[other != obj]] = True
                 by[mine, other] = True
                 new = other[first[other] < 0]
                 first[new] = count[0]
@@ -582,6 +580,9 @@ def execute_grasp(
     else:
         outcome = "slipped_in_grip"
     object_geoms = np.flatnonzero(m.geom_bodyid == obj)  # (k,) the object's geoms
+    # the other objects touched, and those touched before the object
+    touched = is_other & (first >= 0)
+    ahead = touched & ((first[obj] < 0) | (first < first[obj]))
     offset, angle = (
         (0.0, 0.0)
         if error is None
@@ -621,9 +622,7 @@ def execute_grasp(
         },
         xipos_closed,
         np.flatnonzero(touched).astype(np.int64),
-        np.flatnonzero(
-            touched & ((first[obj] < 0) | ((first >= 0) & (first < first[obj])))
-        ).astype(np.int64),
+        np.flatnonzero(ahead).astype(np.int64),
         {
             int(b): np.flatnonzero(by[:, b]).astype(np.int64)
             for b in np.flatnonzero(touched)
