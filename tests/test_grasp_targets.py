@@ -159,7 +159,9 @@ def test_model_keeps_each_spheres_configurations():
 
 def test_close_to_closed_takes_the_closed_posture_and_keeps_the_contacts():
     """``approach.close_to: closed``: joints_grasp is the gripper's closed
-    posture (within limits); each finger's contact posture is still reported."""
+    posture (within limits); each finger's contact posture is still reported,
+    its grasp posture is its part of joints_grasp, and its squeeze is how far
+    the URDF's pad travels from the contact posture to there."""
     g = load_gripper("allegro_right")
     spec = load_spec(SPECS["allegro_right"]).model_dump()
     spec["approach"] = {"squeeze": 0.06, "close_to": "closed"}
@@ -170,6 +172,14 @@ def test_close_to_closed_takes_the_closed_posture_and_keeps_the_contacts():
         assert v == pytest.approx(g.closed.get(j, result.joints_pregrasp[j]))
     assert len(result.finger_targets) == g.num_fingers
     assert all(t["contact"] for t in result.finger_targets)
+    desc, kin = _kinematics(g)
+    for finger, target in zip(desc.fingers, result.finger_targets, strict=True):
+        assert target["grasp"] == {j: result.joints_grasp[j] for j in finger.joints}
+        posture_c = {**result.joints_pregrasp, **target["contact"]}
+        pad_c = _pad_world(kin, desc, finger, posture_c, result.T_world_ee)
+        pad_g = _pad_world(kin, desc, finger, result.joints_grasp, result.T_world_ee)
+        moved = float(np.linalg.norm(pad_g - pad_c))
+        assert target["squeeze"] == pytest.approx(moved, abs=3e-3), finger.name
 
 
 def test_a_model_without_configurations_closes_to_closed():

@@ -130,14 +130,19 @@ def grasp_targets(
         How far (m) each pad is driven through its contact.
     close_to : {"contacts", "closed"}
         ``joints_grasp`` from the contacts, or the gripper's ``closed`` posture
-        (the fingers' contact postures are still reported). A model that keeps
-        no finger configurations (format 1) closes to ``closed`` either way.
+        (the fingers' contact postures are still reported, each finger's grasp
+        posture is its part of ``closed`` and its squeeze the pad's travel from
+        the contact to there). A model that keeps no finger configurations
+        (format 1) closes to ``closed`` either way.
     """
     g = gripper
     T = np.asarray(T_world_gripper, dtype=np.float64)
     T_pre = pregrasp_pose(g, T, approach_distance)
     pre = _within_limits(g, {j: g.pregrasp.get(j, 0.0) for j in g.actuated_joints})
-    grasp = dict(pre)
+    closed: dict[str, float] | None = None
+    if close_to == "closed" or not g.has_configurations:
+        closed = _within_limits(g, {j: g.closed.get(j, v) for j, v in pre.items()})
+    grasp = dict(pre) if closed is None else closed
     fingers: list[FingerTarget] = []
     if g.has_configurations:
         T_gripper_world = invert_transforms(T)
@@ -146,18 +151,19 @@ def grasp_targets(
         centre = np.mean([h.mean(axis=0) for h in held_all if len(h)], axis=0)
         for f, contact in enumerate(contacts):
             held = held_all[f]  # (k, 3)
-            ft = _finger_target(g, f, held, contact.spheres, squeeze, pre, centre)
+            ft = _finger_target(
+                g, f, held, contact.spheres, squeeze, pre, centre, closed
+            )
             ft.pad_world = transform_points(T, ft.pad_world[None])[0]
             fingers.append(ft)
-        asked: dict[str, list[float]] = {}
-        for ft in fingers:
-            for j, v in ft.grasp.items():
-                asked.setdefault(j, []).append(v)
-        for j, values in asked.items():
-            # a joint several fingers share closes as far as any of them asks
-            grasp[j] = max(values, key=lambda v: _closure(g, j, v))
-    if close_to == "closed" or not g.has_configurations:
-        grasp = _within_limits(g, {j: g.closed.get(j, v) for j, v in pre.items()})
+        if closed is None:
+            asked: dict[str, list[float]] = {}
+            for ft in fingers:
+                for j, v in ft.grasp.items():
+                    asked.setdefault(j, []).append(v)
+            for j, values in asked.items():
+                # a joint several fingers share closes as far as any of them asks
+                grasp[j] = max(values, key=lambda v: _closure(g, j, v))
     return GraspTargets(T_pre, pre, grasp, fingers)
 
 
@@ -189,9 +195,12 @@ def _finger_target(
     squeeze: float,
     pre: dict[str, float],
     centre: Array,
+    posture: dict[str, float] | None = None,
 ) -> FingerTarget:
     """The contact and grasp postures of finger ``f`` holding ``held`` (k, 3),
-    gripper frame, in a grasp whose contacts centre on ``centre`` (3,).
+    gripper frame, in a grasp whose contacts centre on ``centre`` (3,); with
+    a ``posture`` to close to (every actuated joint), the grasp posture is the
+    finger's part of it.
 
     The contact posture is the configuration whose pad centre lies nearest the
     held points among those whose pad stays on the outer side of them (not
@@ -238,6 +247,12 @@ def _finger_target(
         break
     pad = g.config_pad[start + local[best]].copy()  # (3,)
     q_contact = q_grid[local[best]]  # (d,)
+    contact = {j: float(v) for j, v in zip(joints, q_contact, strict=True)}
+    if posture is not None:
+        q_end = np.array([[posture[j] for j in joints]])  # (1, d)
+        moved = float(np.linalg.norm(pad_positions(g, f, q_end)[0] - pad))
+        grasp = {j: posture[j] for j in joints}
+        return FingerTarget(g.finger_names[f], contact, grasp, pad, gap, moved)
     closed = np.array(
         [g.closed.get(j, pre.get(j, q)) for j, q in zip(joints, q_contact, strict=True)]
     )
@@ -259,7 +274,7 @@ def _finger_target(
     k = int(reach[0]) if len(reach) else len(t) - 1
     return FingerTarget(
         finger=g.finger_names[f],
-        contact={j: float(v) for j, v in zip(joints, q_contact, strict=True)},
+        contact=contact,
         grasp={j: float(v) for j, v in zip(joints, ray[k], strict=True)},
         pad_world=pad,
         gap=gap,
