@@ -16,6 +16,7 @@ from wsgrasp.geometry import (
     enclosing_scale,
     farthest_point_indices,
     grid_configurations,
+    points_in_spheres,
     points_in_superellipsoids,
     rot_x,
     rot_z,
@@ -75,6 +76,27 @@ def test_points_in_superellipsoids_is_strict_and_batched():
     np.testing.assert_array_equal(inside, np.any(values < 1.0, axis=-1))
     boundary = CENTER + [AXES[0], 0.0, 0.0]
     assert not points_in_superellipsoids(boundary[None], centers[:1], axes[:1])[0]
+
+
+def test_points_in_spheres_is_strict_batched_and_the_plain_sum_bit_for_bit():
+    """Strictly inside, any leading dimensions, and the squared distance summed
+    as ``np.sum`` over the three coordinates sums it: points placed on the
+    spheres' surfaces get the same verdict as the plain (n, m, 3) formula."""
+    rng = np.random.default_rng(3)
+    centers = rng.uniform(-0.1, 0.1, size=(40, 3))
+    radii = rng.uniform(0.002, 0.05, size=40)
+    pts = rng.uniform(-0.15, 0.15, size=(3, 300, 3))
+    # a point on each sphere's surface, along a random direction
+    u = rng.normal(size=(40, 3))
+    pts[0, :40] = centers + radii[:, None] * u / np.linalg.norm(u, axis=1)[:, None]
+    inside = points_in_spheres(pts, centers, radii)
+    plain = np.sum((pts[..., :, None, :] - centers) ** 2, axis=-1) < radii**2
+    assert inside.shape == (3, 300, 40)
+    np.testing.assert_array_equal(inside, plain)
+    assert inside.any() and not inside.all()
+    assert not points_in_spheres(
+        centers[:1] + [radii[0], 0, 0], centers[:1], radii[:1]
+    )[0, 0]
 
 
 def test_box_corner_factors_put_the_corners_on_the_surface():

@@ -26,8 +26,12 @@ def points_in_spheres(
     p = np.asarray(points, dtype=np.float64)
     c = np.asarray(centers, dtype=np.float64).reshape(-1, 3)
     r = np.asarray(radii, dtype=np.float64).reshape(-1)
-    # (..., n, 1, 3) - (m, 3) -> (..., n, m, 3) -> squared distance (..., n, m)
-    d2 = np.sum((p[..., :, None, :] - c) ** 2, axis=-1)
+    # squared distance (..., n, m), one coordinate at a time: the sum in the
+    # order np.sum over a last axis of three takes, bit for bit, without its
+    # (..., n, m, 3) temporary (300 points and 40 spheres: 450 -> 85 us)
+    d2 = (p[..., :, 0, None] - c[:, 0]) ** 2
+    d2 += (p[..., :, 1, None] - c[:, 1]) ** 2
+    d2 += (p[..., :, 2, None] - c[:, 2]) ** 2
     return d2 < r * r
 
 
