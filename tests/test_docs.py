@@ -430,3 +430,26 @@ def test_the_gripper_table_names_where_each_gripper_comes_from():
     assert eval_grippers._source(ours) == "built-in"
     example = {"name": "x", "source": "built-in", "gripper": "examples/plugins/x.yaml"}
     assert eval_grippers._source(example) == "examples/plugins"
+
+
+def test_the_allegro_fingertips_rise_as_the_docs_say():
+    """The Allegro hand's pad centres along its approach over the closing path
+    (pre-grasp to closed): the deepest point and the end that the evaluation
+    guide and the defaults' rationale give, read from the model."""
+    import numpy as np
+
+    from wsgrasp.gripper import load_gripper
+    from wsgrasp.planning.closing import closing_paths
+
+    g = load_gripper("allegro_right")
+    depth = closing_paths(g)[1:] @ np.asarray(g.approach_axis)  # (3 fingers, K)
+    deepest, end = depth.max(axis=1), depth[:, -1]
+    for value, text in (
+        (deepest, "9.6 cm"),
+        (end, "6.3 cm"),
+        (deepest - end, "3.3 cm"),
+    ):
+        assert np.allclose(value * 100, float(text.split()[0]), atol=0.05), text
+    guide = (DOCS / "how-to" / "evaluate-a-gripper.md").read_text()
+    assert "9.6 cm" in guide and "6.3 cm" in guide and "3.3 cm" in guide
+    assert "3.3 cm" in (DOCS / "explanation" / "defaults.md").read_text()

@@ -134,6 +134,13 @@ def eval_command(
     record_dir: Path | None = typer.Option(
         None, "--record-dir", help="Record every plan to MCAP files in this folder."
     ),
+    film_dir: Path | None = typer.Option(
+        None,
+        "--film",
+        help="Draw every executed grasp's trial step by step (approach, closing, "
+        "lift, hold, each pull) as a PNG in this folder, named as --record-dir "
+        "names its plan.",
+    ),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     scene: str = typer.Option(
         "single",
@@ -192,6 +199,12 @@ def eval_command(
         friction=friction,
         sim=sim,
     )
+    if scene != "single" and film_dir is not None:
+        raise InputError(
+            "--film draws single-object trials",
+            hint="drop --film; a clutter run records every step with --record-dir, "
+            "and `wsgrasp view` draws them",
+        )
     if scene != "single":
         from wsgrasp.cli._clutter import clutter_eval
 
@@ -234,8 +247,9 @@ def eval_command(
     entries = spec_entries(
         list(grippers), list(specs) or None, paper=paper, followup=followup
     )
-    if record_dir is not None:
-        record_dir.mkdir(parents=True, exist_ok=True)
+    for folder in (record_dir, film_dir):
+        if folder is not None:
+            folder.mkdir(parents=True, exist_ok=True)
     config = EvalConfig(
         objects=objs,
         specs=entries,
@@ -245,6 +259,7 @@ def eval_command(
         workers=workers,
         record_dir=record_dir,
         baseline=baseline_n if baseline == "random" else 0,
+        film_dir=film_dir,
     )
     with eng:  # Ray starts (and stops) here
         records, wall = run_eval(config, progress=not quiet and not as_json, engine=eng)

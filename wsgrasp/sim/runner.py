@@ -75,6 +75,8 @@ class EvalConfig:
     record_dir: Path | None = None
     #: random feasible candidates executed beside each plan's choice (0: none)
     baseline: int = 0
+    #: where each executed grasp's trial is drawn step by step (None: nowhere)
+    film_dir: Path | None = None
 
 
 @dataclass
@@ -86,6 +88,7 @@ class Task:
     params: SimParams
     record_dir: str | None = None
     baseline: int = 0
+    film_dir: str | None = None
 
 
 def task_seed(seed: int, object_name: str, trial: int) -> list[int]:
@@ -382,10 +385,18 @@ def _execute(
             joints_pregrasp=joints_pre,
             joints_grasp=joints_grasp,
             error=error,
+            film=task.film_dir is not None,
         )
         ex.metrics["cpu_s"] = time.process_time() - c0
         executed[key] = ex
+        if task.film_dir is not None:  # drawn once, named by every record of it
+            executed[(key[0], key[1] + b"|film")] = _draw_film(
+                task, entry, rec, ex, world, T
+            )
     ex = executed[key]
+    film = executed.get((key[0], key[1] + b"|film"))
+    if film is not None:
+        rec["film"] = film
     rec.update(
         outcome=ex.outcome,
         metrics=ex.metrics,
@@ -395,6 +406,31 @@ def _execute(
     )
     if joints_grasp:
         rec["joints_grasp"] = joints_grasp
+
+
+def _draw_film(
+    task: Task, entry: SpecEntry, rec: dict[str, Any], ex: Any, world: Any, T: Any
+) -> str:
+    """Draw a filmed execution into ``task.film_dir``, named as its plan's
+    recording is (a random pick with its draw); returns the file's path."""
+    from wsgrasp.sim.film import draw_film, film_geometry
+
+    name = record_name(entry.gripper, entry.label, task.object.name, task.trial)
+    stem = name[: -len(".mcap")]
+    if rec.get("pick") == "random":
+        stem += f"-random{rec.get('draw', 0)}"
+    path = Path(task.film_dir or ".") / f"{stem}.png"
+    g = world.gripper
+    closing = np.asarray(T, dtype=np.float64)[:3, :3] @ np.asarray(g.closing_axis)
+    draw_film(
+        ex.film,
+        film_geometry(world.model, world.object_body, world.gripper_bodies),
+        path,
+        closing=closing,
+        title=f"{entry.gripper} ({entry.label}) on {task.object.name}, "
+        f"trial {task.trial}: {ex.outcome}",
+    )
+    return str(path)
 
 
 def _joints_key(joints: dict[str, float]) -> bytes:
@@ -439,6 +475,7 @@ def run_eval(
             params=config.params,
             record_dir=str(config.record_dir) if config.record_dir else None,
             baseline=config.baseline,
+            film_dir=str(config.film_dir) if config.film_dir else None,
         )
         for obj in config.objects
         for t in range(config.trials)

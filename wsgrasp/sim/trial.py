@@ -46,6 +46,7 @@ from numpy.typing import NDArray
 
 from wsgrasp.geometry import rotation_angle_deg
 from wsgrasp.sim._mujoco import require_mujoco
+from wsgrasp.sim.film import Frame, film_geometry, snapshot
 from wsgrasp.sim.objects import SimObject
 from wsgrasp.sim.params import SimParams
 from wsgrasp.sim.scene import SimScene
@@ -305,6 +306,9 @@ class Execution:
         way, not those its fingers met around the object they held.
     touched_by : dict of int to (i,) int
         For each body of ``touched``, the gripper's bodies that touched it.
+    film : list of Frame
+        The world at each step of the protocol (``execute_grasp(...,
+        film=True)``; empty otherwise), for :func:`wsgrasp.sim.film.draw_film`.
     """
 
     outcome: str
@@ -317,6 +321,7 @@ class Execution:
         default_factory=lambda: np.zeros(0, dtype=np.int64)
     )
     touched_by: dict[int, NDArray[np.int64]] = field(default_factory=dict)
+    film: list[Frame] = field(default_factory=list)
 
 
 def close_fingers(
@@ -373,6 +378,7 @@ def execute_grasp(
     joints_pregrasp: Mapping[str, float] | None = None,
     joints_grasp: Mapping[str, float] | None = None,
     error: ExecutionError | None = None,
+    film: bool = False,
 ) -> Execution:
     """Run steps 4–7 of the protocol for a planned base pose ``(4, 4)``.
 
@@ -397,6 +403,9 @@ def execute_grasp(
     error : ExecutionError, optional
         Moves the grasp and pre-grasp poses about the object's centre of mass
         (:func:`execution_error`); none when not given.
+    film : bool
+        Keep the world at each step of the protocol in ``Execution.film``
+        (:mod:`wsgrasp.sim.film`).
     """
     mujoco = require_mujoco()
     g = scene.gripper
@@ -509,10 +518,19 @@ def execute_grasp(
         c = R_root.T @ (d.xipos[obj] - d.xpos[scene.root_body])
         return c, R_root.T @ d.xmat[obj].reshape(3, 3)
 
+    frames: list[Frame] = []
+    geometry = film_geometry(m, obj, scene.gripper_bodies) if film else None
+
+    def snap(label: str) -> None:
+        if geometry is not None:
+            frames.append(snapshot(d, geometry, label))
+
+    snap("pre-grasp")
     # 4. approach
     on_step = watch if is_other.any() else None
     move(T_start[:3, 3], T_goal[:3, 3], p.approach_speed, on_step)
     wait(0.1)
+    snap("grasp pose")
     root = d.xpos[scene.root_body]
     blocked = float(np.linalg.norm(root - T_goal[:3, 3]))
     disp = float(np.linalg.norm(d.xpos[obj] - p0))
@@ -524,7 +542,22 @@ def execute_grasp(
     )
     # 5. close: ramp the targets, then let the grip build up
     p_approached = d.xipos[obj].copy()  # centre of mass
-    close_fingers(m, d, ctrl_pre, ctrl_grasp, p, on_step)
+    if geometry is not None:  # a third and two thirds into the ramp
+        ramp = max(1, int(round(p.close_time / p.timestep)))
+        at = {ramp // 3: "closing 33 %", (2 * ramp) // 3: "closing 67 %"}
+        steps = [0]
+
+        def filmed() -> None:
+            if on_step is not None:
+                on_step()
+            steps[0] += 1
+            if steps[0] in at:
+                snap(at[steps[0]])
+
+        close_fingers(m, d, ctrl_pre, ctrl_grasp, p, filmed)
+    else:
+        close_fingers(m, d, ctrl_pre, ctrl_grasp, p, on_step)
+    snap("closed")
     joints_closed = {
         jn: float(d.qpos[scene.joint_qpos[jn]]) for jn in g.actuated
     }  # where the fingers stopped
@@ -538,10 +571,12 @@ def execute_grasp(
     top = T_goal[:3, 3] + np.array([0.0, 0.0, p.lift_height])
     move(T_goal[:3, 3], top, p.lift_speed)
     wait(0.2)
+    snap("lifted")
     lifted, grip, rise_lift = held()
     use_lifted = _friction_use(scene)
     wait(p.hold_time)
     held_hold, grip2, rise_hold = held()
+    snap("held")
     use_held = _friction_use(scene)
     c_hold, R_hold = in_grip()  # where the lift and the hold left it
     # 7. disturb: the six directions in turn, stopping once the object is lost
@@ -553,6 +588,7 @@ def execute_grasp(
         for direction in DISTURBANCE_DIRECTIONS:
             d.xfrc_applied[obj, :3] = force * direction
             wait(p.disturbance_time)
+            snap("pulled " + _direction_name(direction))
             held_end = held()[0]
             if not held_end:
                 break
@@ -561,6 +597,7 @@ def execute_grasp(
         if held_end:
             wait(p.rest_time)
             held_end = held()[0]
+            snap("rested")
     c_end, R_end = in_grip()
     slip = float(np.linalg.norm(c_end - c_closed))
     slip_deg = rotation_angle_deg(R_closed, R_end)
@@ -627,7 +664,14 @@ def execute_grasp(
             int(b): np.flatnonzero(by[:, b]).astype(np.int64)
             for b in np.flatnonzero(touched)
         },
+        frames,
     )
+
+
+def _direction_name(direction: Array) -> str:
+    """``"+x"``, ``"-z"``, ...: a disturbance's axis and sign."""
+    k = int(np.argmax(np.abs(direction)))
+    return ("+" if direction[k] > 0 else "-") + "xyz"[k]
 
 
 #: contacts pressing with less than this share of the object's weight are left
