@@ -542,6 +542,7 @@ def execute_grasp(
     )
     # 5. close: ramp the targets, then let the grip build up
     p_approached = d.xipos[obj].copy()  # centre of mass
+    after = on_step
     if geometry is not None:  # a third and two thirds into the ramp
         ramp = max(1, int(round(p.close_time / p.timestep)))
         at = {ramp // 3: "closing 33 %", (2 * ramp) // 3: "closing 67 %"}
@@ -554,9 +555,8 @@ def execute_grasp(
             if steps[0] in at:
                 snap(at[steps[0]])
 
-        close_fingers(m, d, ctrl_pre, ctrl_grasp, p, filmed)
-    else:
-        close_fingers(m, d, ctrl_pre, ctrl_grasp, p, on_step)
+        after = filmed
+    close_fingers(m, d, ctrl_pre, ctrl_grasp, p, after)
     snap("closed")
     joints_closed = {
         jn: float(d.qpos[scene.joint_qpos[jn]]) for jn in g.actuated
