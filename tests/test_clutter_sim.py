@@ -103,13 +103,22 @@ def _eval_packed(tmp_path, *extra: str) -> dict:
 
 
 def test_eval_scene_packed_writes_rates_per_gripper(tmp_path, capsys):
-    report = _eval_packed(tmp_path)
+    """The rates per gripper; with ``--film``, each attempt drawn step by step
+    (a folder per scene, a PNG per step, which the step names)."""
+    films = tmp_path / "films"
+    report = _eval_packed(tmp_path, "--film", str(films))
     s = report["grippers"]["franka_hand"]["summary"]
     assert report["scene"] == "packed" and s["scenes"] == 1 and s["objects"] == 2
     assert s["attempts"] >= 1 and 0.0 <= s["declutter_rate"] <= 1.0
     assert report["grippers"]["franka_hand"]["spec"]["segmenter"]["name"] == "clutter"
     assert report["libraries"]["mujoco"] == __import__("mujoco").__version__
     assert "clutter removal: packed" in capsys.readouterr().out
+    steps = report["grippers"]["franka_hand"]["scenes"][0]["steps"]
+    executed = [st for st in steps if st["found"]]
+    assert executed
+    for st in executed:
+        png = films / "franka_hand" / "packed-000" / f"step-{st['step']:02d}.png"
+        assert st["film"] == str(png) and png.stat().st_size > 0
 
 
 @pytest.mark.parametrize(

@@ -58,6 +58,7 @@ def clutter_eval(
     quiet: bool,
     baseline: bool = False,
     sim: list[str] | None = None,
+    film_dir: Path | None = None,
 ) -> dict[str, Any]:
     """Run ``scenes`` clutter scenes of ``objects_per_scene`` objects drawn from
     ``objects`` for each gripper (the same objects and seeds for every
@@ -123,10 +124,12 @@ def clutter_eval(
         results: dict[str, list[dict[str, Any]]] = {"plan": [], "random": []}
         for i, draw in enumerate(draws):
             for pick in ("plan", "random") if baseline else ("plan",):
-                folder = None
+                sub = f"{scene}-{i:03d}" + ("-random" if pick == "random" else "")
+                folder = film = None
                 if record_dir is not None:
-                    sub = f"{scene}-{i:03d}" + ("-random" if pick == "random" else "")
                     folder = record_dir / g.replace("/", "_") / sub
+                if film_dir is not None:
+                    film = film_dir / g.replace("/", "_") / sub
                 r = run_clutter_scene(
                     [pool[k] for k in draw],
                     scene,
@@ -137,6 +140,7 @@ def clutter_eval(
                     max_steps=max_steps,
                     record_dir=folder,
                     pick=pick,
+                    film_dir=film,
                 )
                 results[pick].append(r)
                 if not quiet and not as_json:

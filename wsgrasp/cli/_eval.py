@@ -139,7 +139,7 @@ def eval_command(
         "--film",
         help="Draw every executed grasp's trial step by step (approach, closing, "
         "lift, hold, each pull) as a PNG in this folder, named as --record-dir "
-        "names its plan.",
+        "names its plan (a clutter run: a folder per scene, a PNG per step).",
     ),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     scene: str = typer.Option(
@@ -199,12 +199,6 @@ def eval_command(
         friction=friction,
         sim=sim,
     )
-    if scene != "single" and film_dir is not None:
-        raise InputError(
-            "--film draws single-object trials",
-            hint="drop --film; a clutter run records every step with --record-dir, "
-            "and `wsgrasp view` draws them",
-        )
     if scene != "single":
         from wsgrasp.cli._clutter import clutter_eval
 
@@ -224,6 +218,7 @@ def eval_command(
             quiet=quiet,
             baseline=baseline == "random",
             sim=sim,
+            film_dir=film_dir,
         )
         return
     resolved = resolve_objects(

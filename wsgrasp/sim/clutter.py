@@ -384,6 +384,8 @@ class Step:
     tries: int = 0
     records: list[str] = field(default_factory=list)
     error: str | None = None
+    #: the attempt drawn step by step (``film_dir``), a PNG's path
+    film: str | None = None
 
 
 def render_world(
@@ -436,13 +438,15 @@ def run_clutter_scene(
     max_steps: int | None = None,
     record_dir: str | Path | None = None,
     pick: str = "plan",
+    film_dir: str | Path | None = None,
 ) -> dict[str, Any]:
     """Clear one ``pile`` or ``packed`` scene of ``objects`` with ``pipeline``
     (see the module docstring); with ``record_dir``, every step's plan is
     recorded there (``step-NN.mcap``) and ``clutter.json`` lists the steps with
     their outcomes. ``pick`` ``"random"`` executes a random feasible candidate
     of each step's plan instead of its choice (the module docstring's
-    *Chance*).
+    *Chance*). With ``film_dir``, each attempt is drawn step by step there
+    (``step-NN.png``, :mod:`wsgrasp.sim.film`).
 
     Returns
     -------
@@ -476,8 +480,9 @@ def run_clutter_scene(
     grip = ClutterWorld.build(objects, p, sim_gripper)
     limit = max_steps if max_steps is not None else 2 * len(start)
     out_dir = None if record_dir is None else Path(record_dir)
-    if out_dir is not None:
-        out_dir.mkdir(parents=True, exist_ok=True)
+    for folder in (out_dir, film_dir):
+        if folder is not None:
+            Path(folder).mkdir(parents=True, exist_ok=True)
     steps: list[Step] = []
     end = "step_limit"
     for i in range(limit):
@@ -513,7 +518,10 @@ def run_clutter_scene(
                 joints_pregrasp=dict(result.joints_pregrasp),
                 joints_grasp=dict(result.joints_grasp),
                 error=execution_error(rng, p),
+                film=film_dir is not None,
             )
+            if film_dir is not None:
+                step.film = _draw_step(world, ex, result, step, Path(film_dir))
             after = grip.data.xipos[grip.bodies].copy()
             rise = after[:, 2] - before[:, 2]
             lifted = present & (rise > p.lifted_fraction * p.lift_height)
@@ -573,6 +581,24 @@ def run_clutter_scene(
     if out_dir is not None:
         (out_dir / "clutter.json").write_text(json.dumps(summary, indent=1) + "\n")
     return summary
+
+
+def _draw_step(world: Any, ex: Any, result: Any, step: Step, folder: Path) -> str:
+    """Draw a filmed attempt (``folder/step-NN.png``; the objects off the
+    table, parked far from it, fall outside every frame); returns the path."""
+    from wsgrasp.sim.film import draw_film, film_geometry
+
+    R = np.asarray(result.T_world_ee, dtype=np.float64)[:3, :3]
+    path = folder / f"step-{step.step:02d}.png"
+    draw_film(
+        ex.film,
+        film_geometry(world.model, world.object_body, world.gripper_bodies),
+        path,
+        closing=R @ np.asarray(world.gripper.closing_axis),
+        title=f"step {step.step}: {step.target} of {step.objects_left} left, "
+        f"{ex.outcome}",
+    )
+    return str(path)
 
 
 def _two_failures(steps: list[Step]) -> bool:
