@@ -187,11 +187,9 @@ def draw_film(
     Path
         The file written.
     """
-    import matplotlib
+    from wsgrasp.view._png import pyplot
 
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     c = np.array([1.0, 0.0, 0.0] if closing is None else closing, dtype=np.float64)
     c[2] = 0.0
     if np.linalg.norm(c) < 1e-6:

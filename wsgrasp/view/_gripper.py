@@ -80,11 +80,9 @@ def render_gripper(
     Path
         The file written.
     """
-    import matplotlib
+    from wsgrasp.view._png import pyplot
 
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     dirs = _sphere_directions(SPHERE_POINTS)  # (P, 3)
     # sphere surface points: (S, 1, 3) + (S, 1, 1) * (1, P, 3) -> (S, P, 3)
     shells = (

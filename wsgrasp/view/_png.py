@@ -33,6 +33,17 @@ LIGHT = np.array([0.4, -0.6, 0.7]) / np.linalg.norm([0.4, -0.6, 0.7])
 AXIS_COLOURS = ("#e41a1c", "#4daf4a", "#377eb8")
 
 
+def pyplot() -> Any:
+    """matplotlib's ``pyplot`` drawing off screen (the Agg backend, unless one
+    was chosen already): pictures are written on machines without a display."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
 def _shaded(vertices: Array, faces: NDArray[np.int64], colour: str) -> Array:
     """``(F, 4)`` RGBA of each face: ``colour`` lit by :data:`LIGHT`."""
     from matplotlib.colors import to_rgba
@@ -268,11 +279,7 @@ def render_png(run: Run, path: str | Path, *, dpi: int = 100) -> Path:
     Path
         The file written.
     """
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     L = run_layers(run)
     centre, half = _focus(L)
     fig = plt.figure(figsize=(14, 11.5))
