@@ -465,7 +465,7 @@ def test_a_filmed_execution_keeps_each_step_and_is_drawn(
     ``draw_film`` draws them as a column each."""
     from PIL import Image
 
-    from wsgrasp.sim.film import OBJECT_COLOUR, draw_film, film_geometry
+    from wsgrasp.sim.film import OBJECT_COLOUR, draw_film
 
     p = SimParams(hold_time=0.5, disturbance_time=0.2, rest_time=0.1)
     g = sim_gripper_from_files(jaw_description(), jaw_dir)
@@ -473,9 +473,11 @@ def test_a_filmed_execution_keeps_each_step_and_is_drawn(
     T_world_base = _T((0.0, 0.0, 0.16), R_DOWN)
     plain = execute_grasp(scene, _T(), T_world_base, p)
     ex = execute_grasp(scene, _T(), T_world_base, p, film=True)
-    assert plain.film == [] and ex.outcome == plain.outcome == "success"
+    assert plain.film is None and ex.film is not None
+    assert ex.outcome == plain.outcome == "success"
     assert ex.metrics == plain.metrics  # filming changes nothing
-    labels = [f.label for f in ex.film]
+    frames = ex.film.frames
+    labels = [f.label for f in frames]
     pulls = [f"pulled {s}{a}" for a in "xyz" for s in "-+"]
     assert labels == [
         "pre-grasp",
@@ -488,18 +490,20 @@ def test_a_filmed_execution_keeps_each_step_and_is_drawn(
         *pulls,
         "rested",
     ]
-    geometry = film_geometry(scene.model, scene.object_body, scene.gripper_bodies)
+    geometry = ex.film.geometry
     box = [i for i, c in enumerate(geometry.colours) if c == OBJECT_COLOUR]
-    assert len(box) == len(box_object.parts)
+    assert len(box) == len(box_object.parts) and box == list(geometry.target)
     assert len(geometry.geoms) > len(box)  # the jaw's geoms too, not the table
-    at = {f.label: f for f in ex.film}
+    at = {f.label: f for f in frames}
     rise = at["lifted"].xpos[box, 2] - at["closed"].xpos[box, 2]
     assert (rise > 0.15).all()
-    times = [f.time for f in ex.film]
+    times = [f.time for f in frames]
     assert times == sorted(times) and times[0] == 0.0
-    png = draw_film(ex.film, geometry, tmp_path / "film.png", title="jaw on box")
+    # the views turn with the closing direction: the jaw's y axis, world x
+    np.testing.assert_allclose(ex.film.closing, R_DOWN @ [0.0, 1.0, 0.0], atol=0.05)
+    png = draw_film(ex.film, tmp_path / "film.png", title="jaw on box")
     width, height = Image.open(png).size
-    assert width > height * len(ex.film) / 3  # a column per frame, two rows
+    assert width > height * len(frames) / 3  # a column per frame, two rows
 
 
 def test_eval_film_draws_each_executed_grasp(tmp_path: Path):

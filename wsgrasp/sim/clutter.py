@@ -521,7 +521,7 @@ def run_clutter_scene(
                 film=film_dir is not None,
             )
             if film_dir is not None:
-                step.film = _draw_step(world, ex, result, step, Path(film_dir))
+                step.film = _draw_step(ex, step, Path(film_dir))
             after = grip.data.xipos[grip.bodies].copy()
             rise = after[:, 2] - before[:, 2]
             lifted = present & (rise > p.lifted_fraction * p.lift_height)
@@ -583,21 +583,14 @@ def run_clutter_scene(
     return summary
 
 
-def _draw_step(world: Any, ex: Any, result: Any, step: Step, folder: Path) -> str:
+def _draw_step(ex: Any, step: Step, folder: Path) -> str:
     """Draw a filmed attempt (``folder/step-NN.png``; the objects off the
     table, parked far from it, fall outside every frame); returns the path."""
-    from wsgrasp.sim.film import draw_film, film_geometry
+    from wsgrasp.sim.film import draw_film
 
-    R = np.asarray(result.T_world_ee, dtype=np.float64)[:3, :3]
     path = folder / f"step-{step.step:02d}.png"
-    draw_film(
-        ex.film,
-        film_geometry(world.model, world.object_body, world.gripper_bodies),
-        path,
-        closing=R @ np.asarray(world.gripper.closing_axis),
-        title=f"step {step.step}: {step.target} of {step.objects_left} left, "
-        f"{ex.outcome}",
-    )
+    title = f"step {step.step}: {step.target} of {step.objects_left} left, "
+    draw_film(ex.film, path, title=title + ex.outcome)
     return str(path)
 
 

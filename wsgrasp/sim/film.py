@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["Frame", "FilmGeometry", "draw_film", "film_geometry", "snapshot"]
+__all__ = ["Film", "Frame", "FilmGeometry", "draw_film", "film_geometry", "snapshot"]
 
 Array = NDArray[np.float64]
 
@@ -69,12 +69,33 @@ class FilmGeometry:
     vertices, faces : list of arrays
         Per drawn geom, ``(v, 3)`` float and ``(f, 3)`` int.
     colours : list of str
+    target : (t,) int
+        The drawn geoms (positions in ``geoms``) of the target object.
     """
 
     geoms: NDArray[np.int64]
     vertices: list[Array]
     faces: list[NDArray[np.int64]]
     colours: list[str]
+    target: NDArray[np.int64]
+
+
+@dataclass(frozen=True)
+class Film:
+    """A filmed trial: what is drawn, the world at each step, and the closing
+    direction the views are turned by.
+
+    Attributes
+    ----------
+    geometry : FilmGeometry
+    frames : list of Frame
+    closing : (3,) float
+        The gripper's closing direction (world) at its executed grasp pose.
+    """
+
+    geometry: FilmGeometry
+    frames: list[Frame]
+    closing: Array
 
 
 def film_geometry(model: Any, object_body: int, gripper_bodies: Any) -> FilmGeometry:
@@ -86,7 +107,11 @@ def film_geometry(model: Any, object_body: int, gripper_bodies: Any) -> FilmGeom
     T = mujoco.mjtGeom
     grip = np.zeros(model.nbody, dtype=bool)
     grip[np.asarray(gripper_bodies, dtype=np.int64)] = True
-    ids, verts, faces, colours = [], [], [], []
+    ids: list[int] = []
+    target: list[int] = []
+    verts: list[Array] = []
+    faces: list[NDArray[np.int64]] = []
+    colours: list[str] = []
     for i in range(model.ngeom):
         body = int(model.geom_bodyid[i])
         kind = int(model.geom_type[i])
@@ -95,6 +120,8 @@ def film_geometry(model: Any, object_body: int, gripper_bodies: Any) -> FilmGeom
         shape = _geom_mesh(model, i, kind)
         if shape is None:
             continue
+        if body == object_body:
+            target.append(len(ids))
         ids.append(i)
         verts.append(shape[0])
         faces.append(shape[1])
@@ -105,7 +132,13 @@ def film_geometry(model: Any, object_body: int, gripper_bodies: Any) -> FilmGeom
             if grip[body]
             else OTHER_COLOUR
         )
-    return FilmGeometry(np.asarray(ids, dtype=np.int64), verts, faces, colours)
+    return FilmGeometry(
+        np.asarray(ids, dtype=np.int64),
+        verts,
+        faces,
+        colours,
+        np.asarray(target, dtype=np.int64),
+    )
 
 
 def _geom_mesh(model: Any, i: int, kind: int) -> tuple[Array, NDArray[np.int64]] | None:
@@ -154,29 +187,18 @@ def snapshot(data: Any, geometry: FilmGeometry, label: str) -> Frame:
     )
 
 
-def draw_film(
-    frames: list[Frame],
-    geometry: FilmGeometry,
-    path: str | Path,
-    *,
-    closing: Array | None = None,
-    title: str = "",
-    dpi: int = 80,
-) -> Path:
-    """Draw ``frames`` into a PNG: a column per frame, two rows of views.
+def draw_film(film: Film, path: str | Path, *, title: str = "", dpi: int = 80) -> Path:
+    """Draw a filmed trial into a PNG: a column per frame, two rows of views.
+    The top row looks across the gripper's closing direction, so the fingers
+    close left and right; the bottom row looks along it.
 
     Parameters
     ----------
-    frames
-        From a filmed :func:`~wsgrasp.sim.trial.execute_grasp`.
-    geometry
-        The world's drawn geoms (:func:`film_geometry`).
+    film
+        From a filmed :func:`~wsgrasp.sim.trial.execute_grasp`
+        (``Execution.film``).
     path
         Output ``.png``.
-    closing : (3,) float, optional
-        The gripper's closing direction (world): the top row looks across it,
-        so the fingers close left and right; the bottom row looks along it.
-        By default the world's x axis.
     title
         Printed above the frames (the trial and its outcome).
     dpi
@@ -190,7 +212,8 @@ def draw_film(
     from wsgrasp.view._png import pyplot
 
     plt = pyplot()
-    c = np.array([1.0, 0.0, 0.0] if closing is None else closing, dtype=np.float64)
+    frames, geometry = film.frames, film.geometry
+    c = np.array(film.closing, dtype=np.float64)
     c[2] = 0.0
     if np.linalg.norm(c) < 1e-6:
         c = np.array([1.0, 0.0, 0.0])
@@ -230,10 +253,11 @@ def _posed(frame: Frame, geometry: FilmGeometry) -> list[Array]:
 _MIN_HALF = 0.1
 
 
-def _target(geometry: FilmGeometry) -> list[int]:
+def _target(geometry: FilmGeometry) -> NDArray[np.int64]:
     """The drawn geoms of the target object (all of them without one)."""
-    red = [i for i, col in enumerate(geometry.colours) if col == OBJECT_COLOUR]
-    return red or list(range(len(geometry.geoms)))
+    if len(geometry.target):
+        return geometry.target
+    return np.arange(len(geometry.geoms))
 
 
 def _centre(frame: Frame, geometry: FilmGeometry) -> Array:
@@ -246,8 +270,8 @@ def _centre(frame: Frame, geometry: FilmGeometry) -> Array:
 def _half_edge(geometry: FilmGeometry) -> float:
     """Half the edge (m) of the cube every frame shows: the target object with
     room around it for the fingers, at least :data:`_MIN_HALF`."""
-    red = _target(geometry)
-    reach = [float(np.abs(geometry.vertices[i]).max()) for i in red] or [0.0]
+    reach = [float(np.abs(geometry.vertices[i]).max()) for i in _target(geometry)]
+    reach = reach or [0.0]
     return max(_MIN_HALF, 2.0 * max(reach))
 
 

@@ -390,9 +390,7 @@ def _execute(
         ex.metrics["cpu_s"] = time.process_time() - c0
         executed[key] = ex
         if task.film_dir is not None:  # drawn once, named by every record of it
-            executed[(key[0], key[1] + b"|film")] = _draw_film(
-                task, entry, rec, ex, world, T
-            )
+            executed[(key[0], key[1] + b"|film")] = _draw_film(task, entry, rec, ex)
     ex = executed[key]
     film = executed.get((key[0], key[1] + b"|film"))
     if film is not None:
@@ -408,25 +406,19 @@ def _execute(
         rec["joints_grasp"] = joints_grasp
 
 
-def _draw_film(
-    task: Task, entry: SpecEntry, rec: dict[str, Any], ex: Any, world: Any, T: Any
-) -> str:
+def _draw_film(task: Task, entry: SpecEntry, rec: dict[str, Any], ex: Any) -> str:
     """Draw a filmed execution into ``task.film_dir``, named as its plan's
     recording is (a random pick with its draw); returns the file's path."""
-    from wsgrasp.sim.film import draw_film, film_geometry
+    from wsgrasp.sim.film import draw_film
 
     name = record_name(entry.gripper, entry.label, task.object.name, task.trial)
     stem = name[: -len(".mcap")]
     if rec.get("pick") == "random":
         stem += f"-random{rec.get('draw', 0)}"
-    path = Path(task.film_dir or ".") / f"{stem}.png"
-    g = world.gripper
-    closing = np.asarray(T, dtype=np.float64)[:3, :3] @ np.asarray(g.closing_axis)
+    path = Path(str(task.film_dir)) / f"{stem}.png"
     draw_film(
         ex.film,
-        film_geometry(world.model, world.object_body, world.gripper_bodies),
         path,
-        closing=closing,
         title=f"{entry.gripper} ({entry.label}) on {task.object.name}, "
         f"trial {task.trial}: {ex.outcome}",
     )

@@ -46,7 +46,7 @@ from numpy.typing import NDArray
 
 from wsgrasp.geometry import rotation_angle_deg
 from wsgrasp.sim._mujoco import require_mujoco
-from wsgrasp.sim.film import Frame, film_geometry, snapshot
+from wsgrasp.sim.film import Film, Frame, film_geometry, snapshot
 from wsgrasp.sim.objects import SimObject
 from wsgrasp.sim.params import SimParams
 from wsgrasp.sim.scene import SimScene
@@ -306,9 +306,9 @@ class Execution:
         way, not those its fingers met around the object they held.
     touched_by : dict of int to (i,) int
         For each body of ``touched``, the gripper's bodies that touched it.
-    film : list of Frame
+    film : Film, optional
         The world at each step of the protocol (``execute_grasp(...,
-        film=True)``; empty otherwise), for :func:`wsgrasp.sim.film.draw_film`.
+        film=True)``; None otherwise), for :func:`wsgrasp.sim.film.draw_film`.
     """
 
     outcome: str
@@ -321,7 +321,7 @@ class Execution:
         default_factory=lambda: np.zeros(0, dtype=np.int64)
     )
     touched_by: dict[int, NDArray[np.int64]] = field(default_factory=dict)
-    film: list[Frame] = field(default_factory=list)
+    film: Film | None = None
 
 
 def close_fingers(
@@ -664,7 +664,9 @@ def execute_grasp(
             int(b): np.flatnonzero(by[:, b]).astype(np.int64)
             for b in np.flatnonzero(touched)
         },
-        frames,
+        None
+        if geometry is None
+        else Film(geometry, frames, T_world_base[:3, :3] @ np.asarray(g.closing_axis)),
     )
 
 
