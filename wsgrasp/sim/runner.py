@@ -163,10 +163,13 @@ def record_name(gripper: str, label: str, object_name: str, trial: int) -> str:
     (a YAML path by its file's stem), the spec's label, the object and the trial,
     with anything but letters, digits, ``.``, ``_`` and ``-`` made ``_``, so that
     every recording lands in the folder whatever the gripper or label is."""
-    if gripper.endswith((".yaml", ".yml")):
-        gripper = Path(gripper).stem
-    name = f"{gripper}-{label}-{object_name}-{trial:03d}"
+    name = f"{_gripper_label(gripper)}-{label}-{object_name}-{trial:03d}"
     return re.sub(r"[^A-Za-z0-9._-]", "_", name) + ".mcap"
+
+
+def _gripper_label(gripper: str) -> str:
+    """A gripper as files and titles name it: a YAML path by its file's stem."""
+    return Path(gripper).stem if gripper.endswith((".yaml", ".yml")) else gripper
 
 
 def random_candidates(result: Any, rng: np.random.Generator, count: int) -> list[int]:
@@ -419,7 +422,7 @@ def _draw_film(task: Task, entry: SpecEntry, rec: dict[str, Any], ex: Any) -> st
     draw_film(
         ex.film,
         path,
-        title=f"{entry.gripper} ({entry.label}) on {task.object.name}, "
+        title=f"{_gripper_label(entry.gripper)} ({entry.label}) on {task.object.name}, "
         f"trial {task.trial}: {ex.outcome}",
     )
     return str(path)
