@@ -66,11 +66,17 @@ def plan_recorded(
     gripper: GripperModel | None = None,
     scene: Scene | None = None,
 ) -> Any:
-    """Plan with the real pipeline and the fake gripper, recording to ``path``."""
+    """Plan with the real pipeline and the fake gripper, recording to ``path``;
+    the file is finished when this returns (the writer thread writes its views
+    and summary after the plan: a test that reads the bytes would otherwise race
+    it)."""
     from wsgrasp.api import Pipeline
     from wsgrasp.record import RunRecorder
 
     spec = spec or fake_spec()
     gripper = gripper or fake_gripper()
     scene = scene or box_scene()
-    return Pipeline(spec, gripper=gripper).plan(scene, observers=[RunRecorder(path)])
+    rec = RunRecorder(path)
+    result = Pipeline(spec, gripper=gripper).plan(scene, observers=[rec])
+    rec.close()
+    return result
