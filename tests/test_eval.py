@@ -108,6 +108,32 @@ def test_report_counts_outcomes_per_object_and_gripper():
     assert "**allegro_right**" in md
 
 
+def test_a_gripper_given_as_a_file_is_shown_by_its_stem():
+    """Tables, titles and file names show a gripper given as a YAML path by the
+    file's stem (a table column would cut a path to its first letters); the
+    report keeps the path, which says which file ran."""
+    from wsgrasp._names import gripper_label
+    from wsgrasp.sim.report import report_table
+    from wsgrasp.sim.runner import record_name
+
+    path = "/tmp/pkgs/wsgrasp_my_hand/my_hand.yaml"
+    assert gripper_label(path) == "my_hand" and gripper_label("franka_hand") == (
+        "franka_hand"
+    )
+    assert record_name(path, "default", "mug", 3) == "my_hand-default-mug-003.mcap"
+    report = build_report([_rec(path, "default", "mug", "success", 100.0)])
+    assert report["results"][0]["gripper"] == path
+    md = report_markdown(report)
+    assert "**my_hand**" in md and "| my_hand | default |" in md and path not in md
+    from rich.console import Console
+
+    console = Console(width=200, record=True)
+    for part in report_table(report):
+        console.print(part)
+    text = console.export_text()
+    assert "my_hand: median plan time" in text and "/tmp/pkgs" not in text
+
+
 def test_spec_entries_default_paper_and_files(tmp_path: Path):
     entries = spec_entries(["franka_hand", "allegro_right"])
     assert [(e.gripper, e.label) for e in entries] == [

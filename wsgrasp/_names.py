@@ -1,5 +1,6 @@
-"""Two rules about what a user types: whether a gripper reference is a file or a
-registered name, and the "did you mean" of a name that is not known.
+"""Rules about what a user types: whether a gripper reference is a file or a
+registered name, how either is shown, and the "did you mean" of a name that is
+not known.
 
 Every layer (``gripper`` included) uses these, so this module imports nothing of
 wsgrasp.
@@ -12,7 +13,13 @@ import os
 from collections.abc import Iterable
 from pathlib import Path
 
-__all__ = ["GRIPPER_SUFFIXES", "did_you_mean", "gripper_ref", "is_gripper_path"]
+__all__ = [
+    "GRIPPER_SUFFIXES",
+    "did_you_mean",
+    "gripper_label",
+    "gripper_ref",
+    "is_gripper_path",
+]
 
 #: Suffixes of gripper description files.
 GRIPPER_SUFFIXES = (".yaml", ".yml", ".json", ".toml")
@@ -25,6 +32,12 @@ def is_gripper_path(ref: str | Path) -> bool:
     if isinstance(ref, Path):
         return True
     return ref.endswith(GRIPPER_SUFFIXES) or "/" in ref or os.sep in ref
+
+
+def gripper_label(ref: str) -> str:
+    """A gripper as file names, titles and tables show it: a gripper file by its
+    stem (``pkg/wsgrasp_x/x.yaml`` is ``x``), a registered name as it is."""
+    return Path(ref).stem if is_gripper_path(ref) else ref
 
 
 def gripper_ref(ref: str, base: str | Path) -> str:

@@ -26,6 +26,7 @@ import statistics
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from wsgrasp._names import gripper_label
 from wsgrasp._version import library_versions
 from wsgrasp.sim.trial import OUTCOMES
 
@@ -293,7 +294,7 @@ def _pairs_table(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
     header.append("difference")
     rows = [
         [
-            p["gripper"],
+            gripper_label(p["gripper"]),
             p["spec"],
             p["against"],
             str(p["scenes"]),
@@ -379,7 +380,7 @@ def _failure_rows(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
     header = ["gripper", "spec", "trials", "success", *FAILURES, "held: friction use"]
     rows = [
         [
-            c["gripper"],
+            gripper_label(c["gripper"]),
             c["spec"],
             str(c["trials"]),
             str(c["successes"]),
@@ -399,7 +400,7 @@ def _baseline_table(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]
     header = ["gripper", "spec", "scenes", "chosen", "random feasible", "difference"]
     rows = [
         [
-            b["gripper"],
+            gripper_label(b["gripper"]),
             b["spec"],
             f"{b['scenes']} × {b['random_per_scene']} random",
             _pct(b["chosen_rate"]),
@@ -435,7 +436,7 @@ def height_rows(
             if chance.get(band, {}).get("random_rate") is not None:
                 cell += f" (random {pct(chance[band]['random_rate'])})"
             cells.append(cell)
-        rows.append([res["gripper"], res["spec"], *cells])
+        rows.append([gripper_label(res["gripper"]), res["spec"], *cells])
     return below, rows
 
 
@@ -587,7 +588,10 @@ def report_table(report: dict[str, Any]) -> list[Any]:
     out: list[Any] = []
     for gripper in _grippers(report):
         header, rows = _table_rows(report, gripper)
-        t = Table(title=f"{gripper}: median plan time (ET) and success rate (SR)")
+        t = Table(
+            title=f"{gripper_label(gripper)}: median plan time (ET) and success "
+            "rate (SR)"
+        )
         for i, h in enumerate(header):
             t.add_column(h, justify="left" if i == 0 else "right")
         for i, row in enumerate(rows):
@@ -620,7 +624,7 @@ def report_markdown(report: dict[str, Any]) -> str:
     for gripper in _grippers(report):
         header, rows = _table_rows(report, gripper)
         lines += [
-            f"**{gripper}**",
+            f"**{gripper_label(gripper)}**",
             "",
             "| " + " | ".join(header) + " |",
             "|" + "|".join(["---"] + ["---:"] * (len(header) - 1)) + "|",

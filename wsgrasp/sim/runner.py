@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from wsgrasp._names import gripper_label
 from wsgrasp.sim._pool import progress_bar
 from wsgrasp.sim.objects import SimObject
 from wsgrasp.sim.params import SimParams
@@ -163,13 +164,8 @@ def record_name(gripper: str, label: str, object_name: str, trial: int) -> str:
     (a YAML path by its file's stem), the spec's label, the object and the trial,
     with anything but letters, digits, ``.``, ``_`` and ``-`` made ``_``, so that
     every recording lands in the folder whatever the gripper or label is."""
-    name = f"{_gripper_label(gripper)}-{label}-{object_name}-{trial:03d}"
+    name = f"{gripper_label(gripper)}-{label}-{object_name}-{trial:03d}"
     return re.sub(r"[^A-Za-z0-9._-]", "_", name) + ".mcap"
-
-
-def _gripper_label(gripper: str) -> str:
-    """A gripper as files and titles name it: a YAML path by its file's stem."""
-    return Path(gripper).stem if gripper.endswith((".yaml", ".yml")) else gripper
 
 
 def random_candidates(result: Any, rng: np.random.Generator, count: int) -> list[int]:
@@ -422,7 +418,7 @@ def _draw_film(task: Task, entry: SpecEntry, rec: dict[str, Any], ex: Any) -> st
     draw_film(
         ex.film,
         path,
-        title=f"{_gripper_label(entry.gripper)} ({entry.label}) on {task.object.name}, "
+        title=f"{gripper_label(entry.gripper)} ({entry.label}) on {task.object.name}, "
         f"trial {task.trial}: {ex.outcome}",
     )
     return str(path)
