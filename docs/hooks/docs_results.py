@@ -608,6 +608,14 @@ def render_graze_depth_runs() -> str:
     return _runs_in("graze-depth") + _height_table("graze-depth")
 
 
+def render_closed_past_meet_runs() -> str:
+    """The runs that measured a scaffolded hand closing on past where its pads
+    meet (``docs/results/closed-past-meet/``): each hand's ``closed`` as
+    ``gripper new`` guesses it and moved on along the closing line; then each
+    one's success on the objects under 3 cm high and on the others."""
+    return _runs_in("closed-past-meet") + _height_table("closed-past-meet")
+
+
 def render_thumb_drive_runs() -> str:
     """The runs that measured the Allegro hand's drive
     (``docs/results/thumb-drive/``): the hand as it is beside the same YAML

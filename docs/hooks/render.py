@@ -36,6 +36,7 @@ from docs_results import (
     render_angles_from_runs,
     render_approach_direction_runs,
     render_chart_grippers,
+    render_closed_past_meet_runs,
     render_clutter_segments,
     render_contact_fingers_runs,
     render_coupled_jaws_runs,
@@ -96,6 +97,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "coupled-jaws-runs": render_coupled_jaws_runs,
     "jaw-drive-runs": render_jaw_drive_runs,
     "graze-depth-runs": render_graze_depth_runs,
+    "closed-past-meet-runs": render_closed_past_meet_runs,
     "results-scorers": render_results_scorers,
 }
 
