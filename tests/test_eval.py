@@ -132,6 +132,16 @@ def test_a_gripper_given_as_a_file_is_shown_by_its_stem():
         console.print(part)
     text = console.export_text()
     assert "my_hand: median plan time" in text and "/tmp/pkgs" not in text
+    # two files of one stem stay apart, by their paths
+    other = "/tmp/other/wsgrasp_my_hand/my_hand.yaml"
+    both = build_report(
+        [
+            _rec(path, "default", "mug", "success", 100.0),
+            _rec(other, "default", "mug", "no_grasp", 100.0),
+        ]
+    )
+    md = report_markdown(both)
+    assert f"**{path}**" in md and f"**{other}**" in md
 
 
 def test_spec_entries_default_paper_and_files(tmp_path: Path):

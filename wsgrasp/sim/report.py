@@ -294,7 +294,7 @@ def _pairs_table(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
     header.append("difference")
     rows = [
         [
-            gripper_label(p["gripper"]),
+            _shown(report, p["gripper"]),
             p["spec"],
             p["against"],
             str(p["scenes"]),
@@ -321,6 +321,15 @@ def _pct(x: float | None) -> str:
 
 def _sec(ms: float | None) -> str:
     return "–" if ms is None else f"{ms / 1e3:.2f} s"
+
+
+def _shown(report: dict[str, Any], gripper: str) -> str:
+    """``gripper`` as the report's tables show it: a gripper file by its stem
+    (:func:`~wsgrasp._names.gripper_label`), unless another gripper of the
+    report has the same one (two packages' ``hand.yaml``): then by its path."""
+    label = gripper_label(gripper)
+    others = {r["gripper"] for r in report.get("results", [])} - {gripper}
+    return gripper if label in {gripper_label(o) for o in others} else label
 
 
 def _columns(report: dict[str, Any]) -> list[dict[str, Any]]:
@@ -380,7 +389,7 @@ def _failure_rows(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
     header = ["gripper", "spec", "trials", "success", *FAILURES, "held: friction use"]
     rows = [
         [
-            gripper_label(c["gripper"]),
+            _shown(report, c["gripper"]),
             c["spec"],
             str(c["trials"]),
             str(c["successes"]),
@@ -400,7 +409,7 @@ def _baseline_table(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]
     header = ["gripper", "spec", "scenes", "chosen", "random feasible", "difference"]
     rows = [
         [
-            gripper_label(b["gripper"]),
+            _shown(report, b["gripper"]),
             b["spec"],
             f"{b['scenes']} × {b['random_per_scene']} random",
             _pct(b["chosen_rate"]),
@@ -436,7 +445,7 @@ def height_rows(
             if chance.get(band, {}).get("random_rate") is not None:
                 cell += f" (random {pct(chance[band]['random_rate'])})"
             cells.append(cell)
-        rows.append([gripper_label(res["gripper"]), res["spec"], *cells])
+        rows.append([_shown(report, res["gripper"]), res["spec"], *cells])
     return below, rows
 
 
@@ -589,7 +598,7 @@ def report_table(report: dict[str, Any]) -> list[Any]:
     for gripper in _grippers(report):
         header, rows = _table_rows(report, gripper)
         t = Table(
-            title=f"{gripper_label(gripper)}: median plan time (ET) and success "
+            title=f"{_shown(report, gripper)}: median plan time (ET) and success "
             "rate (SR)"
         )
         for i, h in enumerate(header):
@@ -624,7 +633,7 @@ def report_markdown(report: dict[str, Any]) -> str:
     for gripper in _grippers(report):
         header, rows = _table_rows(report, gripper)
         lines += [
-            f"**{gripper_label(gripper)}**",
+            f"**{_shown(report, gripper)}**",
             "",
             "| " + " | ".join(header) + " |",
             "|" + "|".join(["---"] + ["---:"] * (len(header) - 1)) + "|",
