@@ -357,7 +357,9 @@ def test_claw_with_odd_conventions(tmp_path):
     # fingers open outwards at the lower limit, close at the upper one
     assert d["pregrasp"] == {"upper_knuckle": -0.3, "lower_knuckle": -0.3}
     # ... and their pads meet 70 % of the way there: past it the fingers cross,
-    # so the closing path stops where they meet
+    # so the closing path stops where they meet (they do meet: no advice to
+    # close further)
+    assert "without meeting" not in guess_description(copy, "claw").notes["closed"]
     assert d["closed"] == pytest.approx(
         {"upper_knuckle": 0.403, "lower_knuckle": 0.403}, abs=0.01
     )

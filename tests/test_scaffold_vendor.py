@@ -153,6 +153,10 @@ def test_wrist_joints_are_held_and_each_finger_closes_its_own_way(tmp_path):
         assert sign * closed[j] > sign * pre[j], link
         assert abs(closed[j]) < 1.2, link
     assert "stopped where the pads meet" in sc.notes["closed"]
+    # their pads pass each other 17 mm from their centroid at the nearest: the
+    # comment says so, and what to compare
+    assert "pass each other without meeting" in sc.notes["closed"]
+    assert "Closing past the meeting" in sc.notes["closed"]
     assert d["approach_axis"] == [0.0, 0.0, 1.0]
     # the palm turned 0.4 rad about z by the held wrist joint WRJ1
     np.testing.assert_allclose(
@@ -571,6 +575,9 @@ def test_vendor_gripper_scaffolds_and_checks(tmp_path, name):
         assert d["approach_axis"] == [1.0, 0.0, 0.0] and "palm" in note
     if name in ("barrett", "dclaw", "robotiq_3f"):  # tips that cross or part
         assert "closing all joints together" in sc.notes["closed"]
+        # the D'Claw's pads meet; the others' pass each other apart
+        apart = "pass each other without meeting" in sc.notes["closed"]
+        assert apart == (name != "dclaw")
     if name == "robotiq_3f":
         assert sum("visual mesh" in w for w in sc.warnings) == 5
 

@@ -1377,6 +1377,16 @@ def _stop_where_pads_meet(
         f"{spread[-1] * 1000:.1f} mm at the end), past which the fingers part "
         "again or close over the object"
     )
+    if least > MEET_DISTANCE:
+        # measured on five development hands (docs/results/closed-past-meet/):
+        # closing further held more only for the one whose pads pass farthest
+        # apart, so the guess stays and the comment says what to compare
+        u.notes["closed"] += (
+            "; they pass each other without meeting, so an object narrower than "
+            "their gap is pressed only as far as the fingers wrap it: compare "
+            "this YAML with a copy closed further in one `wsgrasp eval` run "
+            "(docs: Add a gripper, Closing past the meeting)"
+        )
 
 
 def _pad_points(u: _Urdf, pad: dict[str, Any], values: dict[str, Any], n: int) -> Array:
