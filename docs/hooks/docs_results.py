@@ -608,6 +608,13 @@ def render_graze_depth_runs() -> str:
     return _runs_in("graze-depth") + _height_table("graze-depth")
 
 
+def render_allegro_closings_runs() -> str:
+    """The Allegro hand's closing as shipped beside other postures that keep
+    its fingertips low (``docs/results/allegro-closings/``), paired over the
+    same drops; then each one's success by object height."""
+    return _runs_in("allegro-closings") + _height_table("allegro-closings")
+
+
 def render_closed_past_meet_runs() -> str:
     """The runs that measured a scaffolded hand closing on past where its pads
     meet (``docs/results/closed-past-meet/``): each hand's ``closed`` as

@@ -33,6 +33,7 @@ from docs_results import (
     chart_eval,
     chart_grippers,
     eval_files,
+    render_allegro_closings_runs,
     render_angles_from_runs,
     render_approach_direction_runs,
     render_chart_grippers,
@@ -98,6 +99,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "jaw-drive-runs": render_jaw_drive_runs,
     "graze-depth-runs": render_graze_depth_runs,
     "closed-past-meet-runs": render_closed_past_meet_runs,
+    "allegro-closings-runs": render_allegro_closings_runs,
     "results-scorers": render_results_scorers,
 }
 
