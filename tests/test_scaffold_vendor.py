@@ -261,6 +261,97 @@ def test_a_held_thumb_has_a_turning_alternative_and_choose_thumb_picks(
     assert guess_description(jaw, "jaw").thumb_turning is None
 
 
+def _pad_centres(urdf: Path, data: dict, posture: dict) -> np.ndarray:
+    """Each finger's pad centre (base frame) at ``posture``, ``(F, 3)``."""
+    from wsgrasp.gripper import _guess as G
+
+    u = G._read(urdf, "hand", None)
+    return np.stack(
+        [G._pad_points(u, f["pad"], posture, 1)[0] for f in data["fingers"]]
+    )
+
+
+def test_close_past_moves_closed_on_along_the_closing_line(tmp_path):
+    """``--close-past``: a hand stopped where its pads come nearest closes on,
+    along the same line in joint space, until the pads have travelled that
+    much more on average; the comment says so instead of advising it."""
+    urdf = tmp_path / "hand.urdf"
+    urdf.write_text(hand_urdf())
+    at = guess_description(urdf, "hand")
+    on = guess_description(urdf, "hand", close_past=0.03)
+    pre, c0, c1 = at.data["pregrasp"], at.data["closed"], on.data["closed"]
+    moving = [j for j in pre if c0[j] != pre[j]]
+    assert moving
+    # the same line, farther along it: one fraction for every joint
+    frac = {j: (c1[j] - pre[j]) / (c0[j] - pre[j]) for j in moving}
+    assert min(frac.values()) > 1.0
+    assert max(frac.values()) - min(frac.values()) < 1e-9
+    # the pads' mean path from one posture to the other: 3 cm, to a step
+    steps = np.linspace(0.0, 1.0, 400)
+    path = [
+        _pad_centres(
+            urdf, at.data, {**c0, **{j: c0[j] + s * (c1[j] - c0[j]) for j in moving}}
+        )
+        for s in steps
+    ]
+    travel = np.linalg.norm(np.diff(np.stack(path), axis=0), axis=2).mean(axis=1).sum()
+    assert 0.03 <= travel < 0.033
+    assert "--close-past 0.03" in on.notes["closed"]
+    assert "without meeting" in at.notes["closed"]
+    assert "without meeting" not in on.notes["closed"]
+
+
+def test_close_past_from_a_pinch_moves_each_finger_on(tmp_path):
+    """From the posture where a hand's pads come nearest a common point, each
+    finger goes on along its own line from ``pregrasp`` until its pad has
+    travelled ``close_past`` more, or to the end of its joints' range."""
+    urdf = tmp_path / "hand.urdf"
+    urdf.write_text(forearm_hand_urdf())
+    at = guess_description(urdf, "hand")
+    on = guess_description(urdf, "hand", close_past=0.02)
+    assert "nearest a common point" in at.notes["closed"]
+    assert "--close-past 0.02" in on.notes["closed"]
+    pre, c0, c1 = at.data["pregrasp"], at.data["closed"], on.data["closed"]
+    moved = np.linalg.norm(
+        _pad_centres(urdf, on.data, c1) - _pad_centres(urdf, at.data, c0), axis=1
+    )
+    for f, d in zip(at.data["fingers"], moved, strict=True):
+        js = [j for j in f["joints"] if c0[j] != pre[j]]
+        ratio = {j: (c1[j] - pre[j]) / (c0[j] - pre[j]) for j in js}
+        # on along the finger's own line (or stopped at a limit) ...
+        assert all(r >= 1.0 - 1e-9 for r in ratio.values()), f["name"]
+        # ... its pad no farther than 2 cm of path (a chord is shorter)
+        assert d <= 0.0205, f["name"]
+    assert moved.max() > 0.015
+
+
+def test_close_past_out_of_range_is_refused(tmp_path):
+    urdf = tmp_path / "hand.urdf"
+    urdf.write_text(hand_urdf())
+    with pytest.raises(GripperError, match="close-past"):
+        scaffold_plugin("hand", urdf, tmp_path / "out", close_past=-0.01)
+    assert (
+        main(
+            [
+                "gripper",
+                "new",
+                "hand",
+                "--urdf",
+                str(urdf),
+                "-o",
+                str(tmp_path / "o2"),
+                "--close-past",
+                "0.5",
+            ]
+        )
+        != 0
+    )
+    yaml_path, _ = scaffold_plugin(
+        "hand", urdf, tmp_path / "ok", close_past=0.03, check=False
+    )
+    assert "scaffolded with --close-past 0.03" in yaml_path.read_text()
+
+
 def test_pinch_brings_the_pads_nearer_a_common_point(tmp_path):
     """The pinch search over each finger's joints between its pregrasp and
     closed values finds a posture whose pads lie no farther from their centroid

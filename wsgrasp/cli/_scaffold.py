@@ -58,6 +58,13 @@ def new(
         "(by default they are made to move together, as one drive moves a "
         "parallel gripper's jaws).",
     ),
+    close_past: float = typer.Option(
+        0.0,
+        "--close-past",
+        help="Where the fingers close only to where their pads meet, close on "
+        "until the pads have travelled this much more (m, e.g. 0.06): for a hand "
+        "whose pads pass each other without meeting, to compare in `wsgrasp eval`.",
+    ),
 ) -> None:
     """Write a pip-installable plugin package for a gripper, guessed from its URDF
     (or a xacro file, expanded first: the `xacro` extra)."""
@@ -76,6 +83,7 @@ def new(
             package_paths=list(package_path),
             xacro_args=xacro_args(list(xacro_arg)),
             couple_jaws=not independent_jaws,
+            close_past=close_past,
         )
     d = scaffold.data
     fingers = ", ".join(

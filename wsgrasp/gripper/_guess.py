@@ -73,6 +73,10 @@ MEET_STEPS = 129
 MEET_MARGIN = 0.001
 #: pads whose spread (m) on the closing line falls to this meet there
 MEET_DISTANCE = 0.005
+#: ``--close-past`` from a pinch: each finger's line is followed up to this many
+#: times its length from ``pregrasp`` to the pinch, in this many steps
+PAST_REACH = 2.0
+PAST_STEPS = 201
 #: postures per finger at most, and grid points per joint at most, when looking
 #: for where the pads come nearest a common point; and the rounds of that search
 PINCH_GRID = 4096
@@ -1311,8 +1315,9 @@ def _stop_where_pads_meet(
     pads: list[dict[str, Any]],
     pregrasp: dict[str, float],
     closed: dict[str, float],
+    past: float = 0.0,
 ) -> None:
-    """Close the hand only to where its pads meet.
+    """Close the hand only to where its pads meet (and ``past`` metres on).
 
     A hand closes all its joints together, along the straight line in joint space
     from ``pregrasp`` to ``closed`` (what a position-controlled hand ramping its
@@ -1332,7 +1337,10 @@ def _stop_where_pads_meet(
     - else at the line's least spread, where there is one.
 
     A jaw whose pads get nearer all the way to its limits, or a single finger,
-    keeps its ``closed``.
+    keeps its ``closed``. With ``past`` (``gripper new --close-past``), ``closed``
+    moves on from there until the pads have travelled ``past`` more on average
+    (on the line) or each pad has (from the pinch, along each finger's own line
+    from ``pregrasp`` through it), within the joints' ranges.
     """
     if len(pads) < 2:
         return
@@ -1357,36 +1365,89 @@ def _stop_where_pads_meet(
         pinch = _pinch(u, fingers, pads, pregrasp, closed, start.mean(axis=0))
         if pinch is not None and pinch[1] <= least - MEET_MARGIN:
             posture, gap, point = pinch
+            if past > 0.0:
+                posture = _past_pinch(u, fingers, pads, pregrasp, closed, posture, past)
             closed.update(posture)
             u.notes["closed"] += (
                 "; stopped where the pads meet: the posture at which they come "
                 "nearest a common point (each finger's joints searched between "
                 f"their pregrasp and closed values), {_r(point * 1000, 1)} mm, the "
                 f"pads {gap * 1000:.1f} mm from it on average ({least * 1000:.1f} mm "
-                "at best closing all joints together)"
+                "at best closing all joints together)" + _past_note(past)
             )
             return
     if k is None:
         return
+    end = k
+    if past > 0.0:  # on along the line until the pads' mean travel reaches it
+        step = np.linalg.norm(np.diff(P, axis=1), axis=2).mean(axis=0)  # (S - 1,)
+        travel = np.concatenate([[0.0], np.cumsum(step)])  # (S,)
+        far = np.flatnonzero(travel - travel[k] >= past)
+        end = int(far[0]) if len(far) else len(t) - 1
     for m in moving:
-        closed[m] = float(pregrasp[m] + t[k] * (closed[m] - pregrasp[m]))
+        closed[m] = float(pregrasp[m] + t[end] * (closed[m] - pregrasp[m]))
     u.notes["closed"] += (
         f"; stopped where the pads meet: closing all joints together, the pads' "
         f"centres come nearest each other {t[k]:.0%} of the way (their mean "
         f"distance from their centroid {spread[k] * 1000:.1f} mm, "
         f"{spread[-1] * 1000:.1f} mm at the end), past which the fingers part "
-        "again or close over the object"
+        "again or close over the object" + _past_note(past)
     )
-    if least > MEET_DISTANCE:
+    if least > MEET_DISTANCE and past <= 0.0:
         # measured on five development hands (docs/results/closed-past-meet/):
         # closing further held more only for the one whose pads pass farthest
         # apart, so the guess stays and the comment says what to compare
         u.notes["closed"] += (
             "; they pass each other without meeting, so an object narrower than "
             "their gap is pressed only as far as the fingers wrap it: compare "
-            "this YAML with a copy closed further in one `wsgrasp eval` run "
-            "(docs: Add a gripper, Closing past the meeting)"
+            "this YAML with one scaffolded with --close-past 0.06 in one `wsgrasp "
+            "eval` run (docs: Add a gripper, Closing past the meeting)"
         )
+
+
+def _past_note(past: float) -> str:
+    """The comment's words for ``--close-past``; empty without it."""
+    if past <= 0.0:
+        return ""
+    return (
+        f"; then on past it until the pads had travelled {past * 1000:.0f} mm more "
+        f"(gripper new --close-past {past:g}), within the joints' ranges"
+    )
+
+
+def _past_pinch(
+    u: _Urdf,
+    fingers: dict[str, list[str]],
+    pads: list[dict[str, Any]],
+    pregrasp: dict[str, float],
+    closed: dict[str, float],
+    posture: dict[str, float],
+    past: float,
+) -> dict[str, float]:
+    """``posture`` (the pinch, each finger's closing joints) moved on along each
+    finger's own line from ``pregrasp`` through it until its pad has travelled
+    ``past`` (m) more, or to where the line leaves the joints' range between
+    ``pregrasp`` and ``closed``."""
+    out = dict(posture)
+    scale = np.linspace(0.0, PAST_REACH, PAST_STEPS)[:, None]  # (A, 1)
+    for p in pads:
+        js = [m for m in fingers[p["link"]] if m in posture]
+        if not js:
+            continue
+        q0 = np.array([pregrasp[m] for m in js])
+        qp = np.array([posture[m] for m in js])
+        qc = np.array([closed[m] for m in js])
+        Q = np.clip(qp + scale * (qp - q0), np.minimum(q0, qc), np.maximum(q0, qc))
+        values: dict[str, Any] = {**pregrasp, **posture}
+        values.update({m: Q[:, i] for i, m in enumerate(js)})
+        P = _pad_points(u, p, values, len(Q))  # (A, 3)
+        travel = np.concatenate(
+            [[0.0], np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))]
+        )
+        far = np.flatnonzero(travel >= past)
+        j = int(far[0]) if len(far) else len(Q) - 1
+        out.update({m: float(Q[j, i]) for i, m in enumerate(js)})
+    return out
 
 
 def _pad_points(u: _Urdf, pad: dict[str, Any], values: dict[str, Any], n: int) -> Array:
@@ -1913,6 +1974,7 @@ def guess_description(
     *,
     base_link: str | None = None,
     urdf_field: str | None = None,
+    close_past: float = 0.0,
 ) -> Scaffold:
     """Guess a gripper description from a URDF (meshes must resolve from it).
 
@@ -1926,6 +1988,9 @@ def guess_description(
         The link the arm's flange holds; the URDF's root if omitted.
     urdf_field
         Value of the ``urdf`` field (relative to the YAML); the file name if omitted.
+    close_past
+        Where the fingers are stopped where their pads meet, close on until the
+        pads have travelled this much more (m; ``gripper new --close-past``).
 
     Raises
     ------
@@ -1974,7 +2039,7 @@ def guess_description(
             f"; {names[-1]}: a rigid jaw, the part of {jaw.link!r} (a link no "
             f"joint moves) that {names[0]} closes against"
         )
-    _stop_where_pads_meet(u, fingers, pads, pregrasp, closed)
+    _stop_where_pads_meet(u, fingers, pads, pregrasp, closed, close_past)
     approach, closing, tcp, alternative = _axes(
         u, pads, pregrasp, closed, rigid=jaw is not None
     )

@@ -59,6 +59,8 @@ __all__ = [
 #: the scaffolder tries up to this many body superellipsoids
 MAX_ELLIPSOIDS = 9
 _NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_\-]*$")
+#: the most (m) ``--close-past`` moves a hand's pads on past where they meet
+MAX_CLOSE_PAST = 0.2
 
 
 # ------------------------------------------------------------------------------
@@ -337,6 +339,7 @@ def scaffold_plugin(
     package_paths: list[Path] | None = None,
     xacro_args: dict[str, str] | None = None,
     couple_jaws: bool = True,
+    close_past: float = 0.0,
 ) -> tuple[Path, Scaffold]:
     """Write a pip-installable gripper plugin package into ``out_dir``.
 
@@ -345,7 +348,9 @@ def scaffold_plugin(
     A xacro file is expanded first (:func:`expand_xacro`, with ``xacro_args``).
     Two jaws that the URDF drives apart but whose paths mirror each other are
     made to move together in the copied URDF unless ``couple_jaws`` is false
-    (:func:`~wsgrasp.gripper._jaws.independent_jaws`).
+    (:func:`~wsgrasp.gripper._jaws.independent_jaws`). Fingers stopped where
+    their pads meet close on until the pads have travelled ``close_past`` (m)
+    more (:func:`guess_description`).
 
     Returns
     -------
@@ -362,6 +367,11 @@ def scaffold_plugin(
         raise GripperError(
             f"gripper name {name!r} is not usable as a package name",
             hint="use letters, digits, '_' and '-', starting with a letter",
+        )
+    if not 0.0 <= close_past <= MAX_CLOSE_PAST:
+        raise GripperError(
+            f"--close-past {close_past:g} is outside 0 to {MAX_CLOSE_PAST:g} m",
+            hint="give how far (m) the pads travel on past where they meet, e.g. 0.06",
         )
     if mesh_units is not None and mesh_units not in MESH_UNITS:
         raise GripperError(
@@ -404,6 +414,7 @@ def scaffold_plugin(
                 xacro_note=note,
                 shown=Path(urdf),
                 couple_jaws=couple_jaws,
+                close_past=close_past,
             )
     except BaseException:
         if fresh:  # leave nothing half-written behind
@@ -451,6 +462,7 @@ def _write_package(
     xacro_note: str | None = None,
     shown: Path | None = None,
     couple_jaws: bool = True,
+    close_past: float = 0.0,
 ) -> tuple[Path, Scaffold]:
     """The package of :func:`scaffold_plugin`; ``shown`` is the file the user
     gave (a xacro file expanded into ``urdf``), named in errors."""
@@ -469,7 +481,9 @@ def _write_package(
     )
     mimics = repair_mimics(urdf_copy)
     try:
-        scaffold = guess_description(urdf_copy, name, base_link=base_link)
+        scaffold = guess_description(
+            urdf_copy, name, base_link=base_link, close_past=close_past
+        )
         base = scaffold.data["base_link"]
         kin = load_kinematics(urdf_copy, name, below=base)
         # a link whose collision shapes envelop the fingers (drawn round them
@@ -481,7 +495,9 @@ def _write_package(
             urdf_copy, enveloping_links(kin, scaffold.data)
         )
         if from_visuals:
-            scaffold = guess_description(urdf_copy, name, base_link=base_link)
+            scaffold = guess_description(
+                urdf_copy, name, base_link=base_link, close_past=close_past
+            )
             kin = load_kinematics(urdf_copy, name, below=base)
         coupling = independent_jaws(kin, scaffold.data) if couple_jaws else None
         effort = None
@@ -496,7 +512,9 @@ def _write_package(
                 coupling.multiplier,
                 coupling.offset,
             )
-            scaffold = guess_description(urdf_copy, name, base_link=base_link)
+            scaffold = guess_description(
+                urdf_copy, name, base_link=base_link, close_past=close_past
+            )
     except GripperError as exc:
         raise _naming_source(exc, urdf_copy, shown or urdf) from None
     scaffold.warnings[:0] = mesh_warnings
@@ -515,6 +533,13 @@ def _write_package(
     fit_sphere_count(scaffold, pkg)
     choose_approach(scaffold, pkg)
     header = [xacro_note] if xacro_note else []
+    if close_past > 0.0:
+        header.append(
+            f"scaffolded with --close-past {close_past:g}: where the fingers stop "
+            "where their pads meet, they close on until the pads have travelled "
+            f"{close_past * 1000:.0f} mm more (the comment on closed says whether "
+            "they did)"
+        )
     kept = set(joint_names(urdf_copy))  # those of the hand, where an arm went
     if any(j in kept for j in mimics):
         repaired = (
