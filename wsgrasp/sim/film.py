@@ -31,7 +31,7 @@ Array = NDArray[np.float64]
 GRIPPER_COLOUR, OBJECT_COLOUR, OTHER_COLOUR = "#8c8c8c", "#d62728", "#1f77b4"
 #: icosphere subdivisions of spheres and ellipsoids (80 faces)
 _SPHERE_SUBDIVISIONS = 1
-#: faces of a round primitive's side (capsules, cylinders)
+#: faces of a cylinder's side
 _SECTIONS = 12
 
 
@@ -144,7 +144,8 @@ def film_geometry(model: Any, object_body: int, gripper_bodies: Any) -> FilmGeom
 def _geom_mesh(model: Any, i: int, kind: int) -> tuple[Array, NDArray[np.int64]] | None:
     """Geom ``i``'s triangles in its own frame, or None for a kind not drawn."""
     import mujoco
-    import trimesh
+
+    from wsgrasp.geometry import primitive_mesh
 
     T = mujoco.mjtGeom
     size = np.asarray(model.geom_size[i], dtype=np.float64)
@@ -154,22 +155,21 @@ def _geom_mesh(model: Any, i: int, kind: int) -> tuple[Array, NDArray[np.int64]]
         f0, nf = int(model.mesh_faceadr[m]), int(model.mesh_facenum[m])
         v = np.asarray(model.mesh_vert[v0 : v0 + nv], dtype=np.float64)
         return v, np.asarray(model.mesh_face[f0 : f0 + nf], dtype=np.int64)
-    if kind == int(T.mjGEOM_BOX):
-        mesh = trimesh.creation.box(extents=2.0 * size)
-    elif kind in (int(T.mjGEOM_SPHERE), int(T.mjGEOM_ELLIPSOID)):
-        mesh = trimesh.creation.icosphere(subdivisions=_SPHERE_SUBDIVISIONS)
-        scale = size if kind == int(T.mjGEOM_ELLIPSOID) else np.full(3, size[0])
-        mesh.vertices = mesh.vertices * scale
-    elif kind == int(T.mjGEOM_CAPSULE):
-        mesh = trimesh.creation.capsule(
-            radius=size[0], height=2.0 * size[1], count=[_SECTIONS, _SECTIONS]
-        )
-    elif kind == int(T.mjGEOM_CYLINDER):
-        mesh = trimesh.creation.cylinder(
-            radius=size[0], height=2.0 * size[1], sections=_SECTIONS
-        )
-    else:
+    # MuJoCo gives half sizes: a box's half extents, a capsule's or a
+    # cylinder's radius and half length
+    shapes: dict[int, tuple[str, Any]] = {
+        int(T.mjGEOM_BOX): ("box", 2.0 * size),
+        int(T.mjGEOM_SPHERE): ("sphere", size[:1]),
+        int(T.mjGEOM_ELLIPSOID): ("ellipsoid", size),
+        int(T.mjGEOM_CAPSULE): ("capsule", [size[0], 2.0 * size[1]]),
+        int(T.mjGEOM_CYLINDER): ("cylinder", [size[0], 2.0 * size[1]]),
+    }
+    if kind not in shapes:
         return None
+    name, dims = shapes[kind]
+    mesh = primitive_mesh(
+        name, dims, subdivisions=_SPHERE_SUBDIVISIONS, sections=_SECTIONS
+    )
     return (
         np.asarray(mesh.vertices, dtype=np.float64),
         np.asarray(mesh.faces, dtype=np.int64),
