@@ -149,6 +149,7 @@ def run_task(task: Task) -> list[dict[str, Any]]:
     scene = scene_from_arrays([(v.points, v.T_world_camera) for v in views])
     prep_s = time.perf_counter() - t0
     records: list[dict[str, Any]] = []
+    # each distinct execution once: (Execution, its film PNG or None) by key
     executed: dict[tuple[str, bytes], Any] = {}
     recorders: list[Any] = []
     try:
@@ -387,11 +388,10 @@ def _execute(
             film=task.film_dir is not None,
         )
         ex.metrics["cpu_s"] = time.process_time() - c0
-        executed[key] = ex
-        if task.film_dir is not None:  # drawn once, named by every record of it
-            executed[(key[0], key[1] + b"|film")] = _draw_film(task, entry, rec, ex)
-    ex = executed[key]
-    film = executed.get((key[0], key[1] + b"|film"))
+        # with its film, drawn once and named by every record of it
+        film = None if task.film_dir is None else _draw_film(task, entry, rec, ex)
+        executed[key] = (ex, film)
+    ex, film = executed[key]
     if film is not None:
         rec["film"] = film
     rec.update(
