@@ -292,7 +292,7 @@ def _pad_at(g: GripperModel, f: int, q: tuple[float, ...]) -> Array:
     )
     key = (f, q)
     if key not in cache:
-        if len(cache) >= 64:  # postures from contacts differ: keep a few
+        if len(cache) >= 64:  # a model whose closed posture is changed: bounded
             cache.clear()
         cache[key] = pad_positions(g, f, np.array([q]))[0]
     return cache[key]
