@@ -1381,9 +1381,7 @@ def _stop_where_pads_meet(
     end = k
     if past > 0.0:  # on along the line until the pads' mean travel reaches it
         step = np.linalg.norm(np.diff(P, axis=1), axis=2).mean(axis=0)  # (S - 1,)
-        travel = np.concatenate([[0.0], np.cumsum(step)])  # (S,)
-        far = np.flatnonzero(travel - travel[k] >= past)
-        end = int(far[0]) if len(far) else len(t) - 1
+        end = k + _travelled(step[k:], past)
     for m in moving:
         closed[m] = float(pregrasp[m] + t[end] * (closed[m] - pregrasp[m]))
     u.notes["closed"] += (
@@ -1441,13 +1439,17 @@ def _past_pinch(
         values: dict[str, Any] = {**pregrasp, **posture}
         values.update({m: Q[:, i] for i, m in enumerate(js)})
         P = _pad_points(u, p, values, len(Q))  # (A, 3)
-        travel = np.concatenate(
-            [[0.0], np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))]
-        )
-        far = np.flatnonzero(travel >= past)
-        j = int(far[0]) if len(far) else len(Q) - 1
+        j = _travelled(np.linalg.norm(np.diff(P, axis=0), axis=1), past)
         out.update({m: float(Q[j, i]) for i, m in enumerate(js)})
     return out
+
+
+def _travelled(steps: Array, distance: float) -> int:
+    """The first point of a path, given the lengths of its ``steps`` ``(n,)``,
+    at least ``distance`` along it from its start; its last point (``n``) when
+    the path is shorter."""
+    far = np.flatnonzero(np.cumsum(steps) >= distance)
+    return int(far[0]) + 1 if len(far) else len(steps)
 
 
 def _pad_points(u: _Urdf, pad: dict[str, Any], values: dict[str, Any], n: int) -> Array:
