@@ -496,6 +496,30 @@ def test_the_unit_check_names_the_likely_unit(scale, unit):
         scene_from_arrays(box_scene(views=1).points * scale)
 
 
+def test_a_cloud_in_inches_gets_a_units_hint_where_nothing_is_found(capsys, tmp_path):
+    # a 0.5 m scene in inches spans about 20 units, which the unit check lets
+    # through; every object then looks 39 times too large
+    points = box_scene(views=1).points
+    cloud = tmp_path / "inches.npy"
+    np.save(cloud, points / 0.0254)
+    code, text = run_cli(capsys, "plan", cloud, "--spec", SPEC, "--no-record")
+    assert code == 2, text
+    assert "inches" in text and "0.0254" in text and "Traceback" not in text
+    # the same scene in metres needs no such hint, and the same scene in a
+    # scene YAML with `units: in` plans as the metres one does
+    np.save(cloud, points / 0.0254)
+    (tmp_path / "scene.yaml").write_text(
+        yaml.safe_dump(
+            {"version": 1, "units": "in", "views": [{"cloud": "inches.npy"}]}
+        )
+    )
+    from wsgrasp.perception.io import load_scene, units_hint
+
+    assert units_hint(points) is None
+    scene = load_scene(tmp_path / "scene.yaml")
+    np.testing.assert_allclose(scene.points, points, atol=1e-12)
+
+
 def test_empty_cloud_files_through_the_cli_exit_2(capsys, tmp_path):
     for name, write in (
         ("empty.npy", lambda p: p.write_bytes(b"")),

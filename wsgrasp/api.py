@@ -164,6 +164,7 @@ class Pipeline:
             table_frame,
             table_superellipsoid,
         )
+        from wsgrasp.perception.io import units_hint
         from wsgrasp.perception.process import crop, downsample, select_target, thin
 
         spec = self.spec
@@ -190,6 +191,12 @@ class Pipeline:
             segmentation = self._segmenter.segment(
                 points, self._segmenter_options, seed=spec.seed, **kwargs
             )
+        except InputError as exc:
+            units = units_hint(points)
+            if units is None:
+                raise
+            hint = f"{exc.hint}; or {units}" if exc.hint else units
+            raise InputError(exc.message, hint=hint) from exc
         except WsgraspError:
             raise
         except Exception as exc:  # noqa: BLE001 - a plugin's failure, reported

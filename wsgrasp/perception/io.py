@@ -7,7 +7,7 @@ A scene is one or several views. Accepted inputs:
   frame and the camera pose ``T_world_camera``::
 
       version: 1
-      units: m            # m (default), cm or mm; applies to clouds and translations
+      units: m            # m (default), cm, mm or in: clouds and translations
       views:
         - cloud: view_0.npz
           T_world_camera: [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]
@@ -42,6 +42,7 @@ __all__ = [
     "MAX_SCENE_EXTENT",
     "NUMPY_READ_ERRORS",
     "check_units",
+    "units_hint",
     "load_cloud",
     "load_scene",
     "refine_views_icp",
@@ -55,7 +56,10 @@ CLOUD_SUFFIXES = (".ply", ".pcd", ".xyz", ".txt", ".csv", ".npy", ".npz")
 SCENE_SUFFIXES = (".yaml", ".yml")
 #: a scene wider than this (metres, robust extent) is taken to be in millimetres
 MAX_SCENE_EXTENT = 20.0
-_UNIT_SCALE = {"m": 1.0, "cm": 0.01, "mm": 0.001}
+#: a cloud that nothing could be segmented in, wider than this (m), may not be
+#: in metres: a tabletop crop spans a metre or two
+WIDE_SCENE_EXTENT = 3.0
+_UNIT_SCALE = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254}
 
 
 # --------------------------------------------------------------------------------
@@ -309,7 +313,7 @@ class SceneFile(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
     version: Literal[1] = 1
-    units: Literal["m", "cm", "mm"] = Field(
+    units: Literal["m", "cm", "mm", "in"] = Field(
         "m", description="unit of the clouds and of the pose translations"
     )
     views: list[_ViewEntry] = Field(min_length=1)
@@ -516,6 +520,24 @@ def check_units(points: Array, name: str = "points") -> None:
             hint=f"divide the points by {scale:g}, or set `units: {short}` in a "
             "scene YAML",
         )
+
+
+def units_hint(points: Array) -> str | None:
+    """A hint for a cloud that nothing could be segmented in: when it is wider
+    than ``WIDE_SCENE_EXTENT`` (plain extent), what it spans and how to give it
+    in metres; ``None`` for a narrower one. A cloud in inches passes
+    :func:`check_units` (a 50 cm scene spans 20 units) and then finds no object
+    (each looks 39 times too large)."""
+    if points.shape[0] == 0:
+        return None
+    extent = float(np.max(points.max(axis=0) - points.min(axis=0)))
+    if extent <= WIDE_SCENE_EXTENT:
+        return None
+    return (
+        f"the cloud spans {extent:.3g} units, wide for a tabletop scene in metres: "
+        "if it is in inches, centimetres or millimetres, multiply the points by "
+        "0.0254, 0.01 or 0.001 (or set `units: in`, `cm` or `mm` in a scene YAML)"
+    )
 
 
 # --------------------------------------------------------------------------------
