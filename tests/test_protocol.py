@@ -205,6 +205,8 @@ def test_sim_settings_reach_the_model_and_bad_ones_are_named():
         ("timestep=0", "above zero", "the default"),
         ("mimic_impedance=1.5", "must be below 1", "the default is 0.99"),
         ("mimic_timeconst=0", "above zero", "the default is 0.005"),
+        ("camera_elevation_deg=95", "must be at most 90", "the default is 45.0"),
+        ("camera_elevation_deg=0", "above zero", "the default is 45.0"),
     ]:
         with pytest.raises(InputError, match=message) as info:
             parse_overrides([item])

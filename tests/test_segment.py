@@ -102,6 +102,55 @@ def test_object_standing_under_a_wall_is_not_taken_for_the_wall() -> None:
     assert np.ptp(seg.clusters[0], axis=0).max() < 0.2
 
 
+def one_view(
+    kind: str, size: tuple[float, ...], lift: float, elevation_deg: float, seed: int
+) -> np.ndarray:
+    """``kind`` standing on a 0.6 m table (or ``lift`` above it), seen by one
+    camera at ``elevation_deg`` above the table; the cloud in the camera's frame
+    (the table tilted), downsampled."""
+    rng = np.random.default_rng(seed)
+    mesh = make_object(kind, size)
+    base = -float(mesh.vertices[:, 2].min())
+    cams = default_cameras(
+        1, (0, 0, 0.05), elevation=np.radians(elevation_deg), rng=rng
+    )
+    (view,) = render_scene(
+        [(mesh, transform_from(None, [0.0, 0.0, base + lift]))], 0.6, cams, 0.001, rng
+    )
+    return downsample(view.points, VOXEL)
+
+
+@pytest.mark.parametrize("seed", range(2))
+@pytest.mark.parametrize(
+    "kind,size",
+    [("box", (0.06, 0.08, 0.16)), ("cylinder", (0.04, 0.1)), ("sphere", (0.04,))],
+    ids=["box", "can", "ball"],
+)
+def test_an_object_seen_from_straight_above_stands_on_the_table(
+    kind: str, size: tuple[float, ...], seed: int
+) -> None:
+    # its top alone is seen, 4 to 16 cm above the table: the gap under it is
+    # hidden, not seen, so it stands
+    points = one_view(kind, size, 0.0, 85.0, seed)
+    seg = segment(points)
+    assert len(seg.clusters) == 1
+    heights = seg.table.signed_distance(seg.clusters[0])
+    assert heights.min() > RansacDbscanOptions().contact_distance
+    top = 2.0 * size[0] if kind == "sphere" else size[-1]  # (r,), (r, h), (x, y, z)
+    assert heights.max() == pytest.approx(top, abs=0.01)
+
+
+@pytest.mark.parametrize("elevation", [45.0, 60.0])
+@pytest.mark.parametrize("lift", [0.05, 0.15])
+def test_an_object_hanging_over_the_table_does_not_stand_on_it(
+    elevation: float, lift: float
+) -> None:
+    # a camera that looks in under it sees the table below its middle
+    points = one_view("box", (0.06, 0.08, 0.05), lift, elevation, 0)
+    with pytest.raises(InputError, match="nothing stands on the table.*not touching"):
+        segment(points)
+
+
 def two_objects() -> np.ndarray:
     """A box at (0.1, 0, 0) and a smaller cylinder at (-0.1, 0.05, 0), z up."""
     rng = np.random.default_rng(5)

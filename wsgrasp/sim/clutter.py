@@ -400,7 +400,12 @@ def render_world(
     present = [int(k) for k in np.flatnonzero(world.present)]
     poses = world.poses()
     meshes = [(world.objects[k].mesh(), poses[k]) for k in present]
-    cams = default_cameras(p.views, target=(0.0, 0.0, 0.05), rng=rng)
+    cams = default_cameras(
+        p.views,
+        target=(0.0, 0.0, 0.05),
+        elevation=np.radians(p.camera_elevation_deg),
+        rng=rng,
+    )
     views = render_scene(meshes, p.table_size, cams, p.depth_noise, rng)
     points = np.concatenate(
         [transform_points(v.T_world_camera, v.points) for v in views]

@@ -273,6 +273,9 @@ class SimParams:
     # rendering (the camera model of ``scene synth``)
     views: int = 3
     depth_noise: float = 0.001
+    #: the cameras' elevation above the table (degrees, each jittered by up to
+    #: 5 degrees; 90: looking straight down)
+    camera_elevation_deg: float = 45.0
 
     def __post_init__(self) -> None:
         if self.protocol not in PROTOCOLS:
@@ -318,11 +321,15 @@ POSITIVE = frozenset(
         "approach_speed",
         "lift_speed",
         "views",
+        "camera_elevation_deg",
     }
 )
 
 #: parameters that must be below 1 (an impedance)
 BELOW_ONE = frozenset({"mimic_impedance"})
+#: parameters with an upper bound (a camera above the table looks down at most
+#: straight down)
+AT_MOST = {"camera_elevation_deg": 90.0}
 
 
 def parse_overrides(items: Sequence[str]) -> dict[str, Any]:
@@ -374,6 +381,12 @@ def parse_overrides(items: Sequence[str]) -> dict[str, Any]:
                 f"--sim {key}={text} is out of range: {key} must be below 1",
                 hint=f"the default is {getattr(SimParams(), key)} (MuJoCo's solimp "
                 "impedance lies between 0 and 1)",
+            )
+        if key in AT_MOST and value > AT_MOST[key]:
+            raise InputError(
+                f"--sim {key}={text} is out of range: {key} must be at most "
+                f"{AT_MOST[key]:g}",
+                hint=f"the default is {getattr(SimParams(), key)}",
             )
         out[key] = value
     return out

@@ -256,7 +256,12 @@ def render_views(
     table centre; returns ``View`` objects (points in camera frames)."""
     from wsgrasp.perception.synth import default_cameras, render_scene
 
-    cams = default_cameras(p.views, target=(0.0, 0.0, 0.05), rng=rng)
+    cams = default_cameras(
+        p.views,
+        target=(0.0, 0.0, 0.05),
+        elevation=np.radians(p.camera_elevation_deg),
+        rng=rng,
+    )
     return render_scene(
         [(obj.mesh(), T_world_object)], p.table_size, cams, p.depth_noise, rng
     )

@@ -3,8 +3,9 @@
 Nothing assumes the input frame has z up. Planes are found largest first (RANSAC on
 what the previous planes left); the table is the first plane with at least one
 cluster *standing* on one side of it: within ``contact_distance`` of the plane at
-its lowest, no larger than ``max_object_extent``, with ``min_points`` points or
-more. The normal is turned to the side with more standing points. Without the
+its lowest, or higher where no camera sees the plane under its middle (a top seen
+from straight above: :func:`_hidden_below`), no larger than
+``max_object_extent``, with ``min_points`` points or more. The normal is turned to the side with more standing points. Without the
 cameras' poses, a cluster that hangs along the table's border (the table's own
 side faces, a cloth over its edge: within ``_BORDER_BAND`` of the outline of its
 inliers, or outside it) does not decide that side, and is no object on the other
@@ -66,7 +67,8 @@ class RansacDbscanOptions(BaseModel):
     contact_distance: float = Field(
         0.03,
         gt=0.0,
-        description="a cluster stands on the plane if its lowest point is this close",
+        description="a cluster stands on the plane if its lowest point is this "
+        "close, or if the plane under its middle is hidden from view",
     )
     max_object_extent: float = Field(
         0.6, gt=0.0, description="larger clusters are not objects (walls, table legs)"
@@ -242,6 +244,13 @@ class RansacDbscan:
         extent = np.linalg.norm(hi - lo, axis=1)
         small = counts < o.min_points
         far = ~small & (low > o.contact_distance)
+        if plane_uv is not None and far.any():
+            # a gap to the plane that no camera sees is no gap: a box, a can or a
+            # ball seen from straight above shows its top alone
+            hidden = _hidden_below(
+                plane_uv, normal, p, idx, lab, np.flatnonzero(far), o.cluster_eps
+            )
+            far &= ~hidden
         large = ~small & ~far & (extent > o.max_object_extent)
         why.update(
             {
@@ -344,6 +353,58 @@ def _along_border(
         np.bincount(lab, minlength=nlab), 1
     )
     return share >= _BORDER_SHARE  # type: ignore[no-any-return]
+
+
+#: a cluster higher than ``contact_distance`` above the plane stands on it where
+#: the plane's inliers are seen in less than this share of its footprint's core
+_SEEN_BELOW = 0.2
+#: the core: the footprint's cells at least this share of its greatest depth
+#: (distance to its border) inside it
+_CORE_DEPTH = 0.5
+
+
+def _hidden_below(
+    plane_uv: Array,
+    normal: Array,
+    p: Array,
+    idx: NDArray[np.int64],
+    lab: NDArray[np.int64],
+    clusters: NDArray[np.int64],
+    cell: float,
+) -> NDArray[np.bool_]:
+    """Per cluster ``(nlab,)``: whether the plane under the middle of one of
+    ``clusters`` is hidden, its inliers (``plane_uv`` ``(m, 2)``, projected on
+    ``plane_basis(normal)``) in less than ``_SEEN_BELOW`` of the core of its
+    footprint: of the cells of side ``cell`` its points project into (holes
+    filled), those at least ``_CORE_DEPTH`` of the deepest one's distance from
+    its border.
+
+    An object standing on the plane hides the plane under its middle, where
+    it touches it, from every camera above the plane; a camera that sees it
+    from straight above sees its top alone, which then seems to hang over the
+    plane. A cluster that does hang over the plane shows the plane under its
+    middle to a camera that looks in under it (from 45 degrees, once the gap
+    is about as high as half the cluster is wide); from straight above, hanging
+    and standing look the same."""
+    from scipy.ndimage import binary_fill_holes, distance_transform_edt
+
+    basis = plane_basis(normal)  # (3, 2)
+    out = np.zeros(int(lab.max()) + 1, dtype=bool)
+    for c in clusters:
+        uv = p[idx[lab == c]] @ basis  # (k, 2)
+        lo = uv.min(axis=0) - cell  # a cell of border on each side
+        shape = tuple(int(n) for n in np.floor((uv.max(axis=0) - lo) / cell) + 2)
+        foot = np.zeros(shape, dtype=bool)
+        i, j = np.floor((uv - lo) / cell).astype(np.int64).T
+        foot[i, j] = True
+        depth = distance_transform_edt(binary_fill_holes(foot))
+        core = depth >= _CORE_DEPTH * depth.max()
+        t = np.floor((plane_uv - lo) / cell).astype(np.int64)  # (m, 2)
+        ok = (t >= 0).all(axis=1) & (t < shape).all(axis=1)
+        seen = np.zeros(shape, dtype=bool)
+        seen[t[ok, 0], t[ok, 1]] = True
+        out[c] = np.count_nonzero(seen & core) < _SEEN_BELOW * core.sum()
+    return out
 
 
 #: a table reaches at least this far (m) past a standing cluster's footprint ...
