@@ -11,7 +11,7 @@ from wsgrasp_segmenters.given_table import GivenTable, GivenTableOptions
 from wsgrasp_segmenters.ransac_dbscan import RansacDbscan, RansacDbscanOptions
 
 from wsgrasp.errors import InputError
-from wsgrasp.geometry import transform_from
+from wsgrasp.geometry import plane_basis, transform_from
 from wsgrasp.perception.process import downsample, select_target
 from wsgrasp.perception.synth import default_cameras, make_object, render_scene
 from wsgrasp.perception.types import Segmentation
@@ -130,14 +130,27 @@ def test_an_object_seen_from_straight_above_stands_on_the_table(
     kind: str, size: tuple[float, ...], seed: int
 ) -> None:
     # its top alone is seen, 4 to 16 cm above the table: the gap under it is
-    # hidden, not seen, so it stands
+    # hidden, not seen, so it stands, and its sides are filled in under its
+    # outline down to the table
     points = one_view(kind, size, 0.0, 85.0, seed)
+    o = RansacDbscanOptions()
+    # what the camera sees of it (a contact distance that takes it as it is)
+    plain = segment(points, contact_distance=1.0)
+    seen = plain.clusters[0]
+    assert plain.table.signed_distance(seen).min() > o.contact_distance
     seg = segment(points)
     assert len(seg.clusters) == 1
-    heights = seg.table.signed_distance(seg.clusters[0])
-    assert heights.min() > RansacDbscanOptions().contact_distance
+    obj = seg.clusters[0]
+    heights = seg.table.signed_distance(obj)
+    assert heights.min() == pytest.approx(o.min_height, abs=0.002)
     top = 2.0 * size[0] if kind == "sphere" else size[-1]  # (r,), (r, h), (x, y, z)
     assert heights.max() == pytest.approx(top, abs=0.01)
+    # the filled-in sides stand under the object's outline: as wide as it is
+    basis = plane_basis(seg.table.normal)
+    width = np.ptp(seen @ basis, axis=0)
+    assert_allclose(np.ptp(obj @ basis, axis=0), width, atol=1e-9)
+    low = obj[heights < 0.5 * heights.max()]
+    assert len(low) > 0.2 * len(obj)
 
 
 @pytest.mark.parametrize("elevation", [45.0, 60.0])

@@ -4,8 +4,10 @@ Nothing assumes the input frame has z up. Planes are found largest first (RANSAC
 what the previous planes left); the table is the first plane with at least one
 cluster *standing* on one side of it: within ``contact_distance`` of the plane at
 its lowest, or higher where no camera sees the plane under its middle (a top seen
-from straight above: :func:`_hidden_below`), no larger than
-``max_object_extent``, with ``min_points`` points or more. The normal is turned to the side with more standing points. Without the
+from straight above: :func:`_hidden_below`; its sides are then filled in down to
+the plane under its outline, :func:`_hidden_sides`), no larger than
+``max_object_extent``, with ``min_points`` points or more. The normal is turned to
+the side with more standing points. Without the
 cameras' poses, a cluster that hangs along the table's border (the table's own
 side faces, a cloth over its edge: within ``_BORDER_BAND`` of the outline of its
 inliers, or outside it) does not decide that side, and is no object on the other
@@ -244,6 +246,7 @@ class RansacDbscan:
         extent = np.linalg.norm(hi - lo, axis=1)
         small = counts < o.min_points
         far = ~small & (low > o.contact_distance)
+        hidden = np.zeros(nlab, dtype=bool)
         if plane_uv is not None and far.any():
             # a gap to the plane that no camera sees is no gap: a box, a can or a
             # ball seen from straight above shows its top alone
@@ -320,7 +323,17 @@ class RansacDbscan:
             lab_full[foot[hit]] = lab_full[members[j[hit]]]
         kept = np.flatnonzero(keep)
         order = kept[np.argsort(-counts[kept], kind="stable")]
-        clusters = [p[lab_full == c] for c in order]
+        clusters = []
+        for c in order:
+            points = p[lab_full == c]
+            if hidden[c]:
+                # its sides down to the table, under its outline
+                sides = _hidden_sides(
+                    points, h[lab_full == c], normal, 0.5 * o.cluster_eps, o.min_height
+                )
+                why["sides filled in"] = why.get("sides filled in", 0) + len(sides)
+                points = np.concatenate([points, sides])
+            clusters.append(points)
         clusters.sort(key=lambda c: -c.shape[0])
         return {"clusters": clusters, "why": why, "normal": normal, "offset": offset}
 
@@ -405,6 +418,46 @@ def _hidden_below(
         seen[t[ok, 0], t[ok, 1]] = True
         out[c] = np.count_nonzero(seen & core) < _SEEN_BELOW * core.sum()
     return out
+
+
+def _hidden_sides(
+    points: Array, heights: Array, normal: Array, cell: float, floor: float
+) -> Array:
+    """Points ``(m, 3)`` on the sides of a cluster whose gap to the plane is
+    hidden (:func:`_hidden_below`): under each cell of side ``cell`` on the
+    outline of its footprint, a column from the cluster's lowest point there
+    down to ``floor`` above the plane, a point every ``cell``.
+
+    A camera straight above a box, a can or a ball sees its top, down to its
+    outline; what stands under that outline is hidden from it, and a prism is
+    what the camera cannot tell apart from it. Without its sides, the object
+    is its top alone, its middle (which a grasp aims at) at the top."""
+    from scipy.ndimage import binary_erosion, binary_fill_holes
+
+    basis = plane_basis(normal)  # (3, 2)
+    uv = points @ basis  # (k, 2)
+    lo = uv.min(axis=0) - cell
+    shape = tuple(int(n) for n in np.floor((uv.max(axis=0) - lo) / cell) + 2)
+    i, j = np.floor((uv - lo) / cell).astype(np.int64).T
+    foot = np.zeros(shape, dtype=bool)
+    foot[i, j] = True
+    foot = binary_fill_holes(foot)
+    rim = foot & ~binary_erosion(foot)
+    on_rim = np.flatnonzero(rim[i, j])  # points in the outline's cells
+    # the lowest of them in each cell
+    cell_of = i[on_rim] * shape[1] + j[on_rim]
+    order = np.lexsort((heights[on_rim], cell_of))
+    first = np.ones(len(order), dtype=bool)
+    first[1:] = cell_of[order[1:]] != cell_of[order[:-1]]
+    low = on_rim[order[first]]  # (r,) into points
+    drops = [np.arange(floor, float(heights[k]), cell) for k in low]
+    n = np.fromiter((len(d) for d in drops), dtype=np.int64, count=len(drops))
+    if not n.sum():
+        return np.zeros((0, 3))
+    # each point lowered from its own height to the column's heights
+    top = np.repeat(points[low], n, axis=0)  # (m, 3)
+    down = np.repeat(heights[low], n) - np.concatenate(drops)  # (m,)
+    return top - down[:, None] * normal
 
 
 #: a table reaches at least this far (m) past a standing cluster's footprint ...
