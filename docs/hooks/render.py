@@ -61,6 +61,7 @@ from docs_results import (
     render_simulator_versions_runs,
     render_thumb_drive_runs,
     render_thumb_turn_runs,
+    render_top_down_runs,
 )
 
 MARKER = re.compile(r"^<!-- render: ([a-z0-9-]+) -->$", re.M)
@@ -100,6 +101,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "graze-depth-runs": render_graze_depth_runs,
     "closed-past-meet-runs": render_closed_past_meet_runs,
     "allegro-closings-runs": render_allegro_closings_runs,
+    "top-down-runs": render_top_down_runs,
     "results-scorers": render_results_scorers,
 }
 
