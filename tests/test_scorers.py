@@ -149,6 +149,85 @@ def test_centroid_distance_is_monotone_in_distance():
     assert s[0] > s[1] > s[2] > s[3]
 
 
+def _cap(toward: np.ndarray, r: float = 0.035, n: int = 2000) -> np.ndarray:
+    """The points of a ball of radius ``r`` resting on the table z = 0 at the
+    origin that a camera in direction ``toward`` (unit, from the ball) sees."""
+    rng = np.random.default_rng(0)
+    d = rng.normal(size=(n, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    return (r * d + [0.0, 0.0, r])[d @ toward > 0.0]
+
+
+def _seen_from(*cameras):
+    """The ball's centroid as the scorers see it, from ``cameras`` (each a
+    direction from the ball, unit), and the ball's centre."""
+    from wsgrasp.planning.scoring import behind_the_side
+
+    seen = np.concatenate([_cap(np.asarray(c) / np.linalg.norm(c)) for c in cameras])
+    centroid = seen.mean(axis=0)
+    viewpoints = np.array([0.0, 0.0, 0.035]) + 0.5 * np.asarray(cameras, float)
+    shift = behind_the_side(seen, centroid, np.array([0.0, 0.0, 1.0]), viewpoints)
+    return centroid, centroid + shift, np.array([0.0, 0.0, 0.035])
+
+
+@pytest.mark.parametrize("camera", [(1.0, 0.0, 1.0), (0.3, -0.8, 0.5), (1.0, 1.0, 0.2)])
+def test_a_ball_seen_from_one_side_is_centred_behind_what_is_seen(camera):
+    # the seen cap's centroid lies towards the camera; the ball is as deep as wide
+    centroid, shifted, centre = _seen_from(camera)
+    assert np.linalg.norm((centroid - centre)[:2]) > 0.008
+    assert np.linalg.norm((shifted - centre)[:2]) < 0.002
+
+
+def test_a_ball_seen_from_around_or_above_is_left_as_seen():
+    for cameras in (
+        [(1.0, 0.0, 1.0), (-1.0, 0.1, 1.0)],  # two sides
+        [(1.0, 0.0, 1.0), (-0.5, 0.87, 1.0), (-0.5, -0.87, 1.0)],  # all round
+        [(0.05, 0.0, 1.0)],  # straight above
+    ):
+        centroid, shifted, _ = _seen_from(*cameras)
+        np.testing.assert_array_equal(shifted, centroid)
+    # a box seen from one side at least as deep as it is wide: as seen
+    from wsgrasp.planning.scoring import behind_the_side
+
+    box = np.random.default_rng(1).uniform(
+        [-0.02, -0.05, 0.0], [0.02, 0.05, 0.1], (500, 3)
+    )
+    shift = behind_the_side(
+        box, box.mean(axis=0), np.array([0.0, 0.0, 1.0]), np.array([[0.0, -0.5, 0.3]])
+    )
+    np.testing.assert_array_equal(shift, np.zeros(3))
+
+
+def test_centroid_distance_scores_from_the_centroid_behind_one_side():
+    scorer, opts = _scorer("centroid_distance")
+    seen = _cap(np.array([1.0, 0.0, 1.0]) / np.sqrt(2.0))
+    T_object = np.eye(4)
+    T_object[:3, 3] = seen.mean(axis=0)
+    T = np.tile(np.eye(4), (2, 1, 1))
+    T[0, :3, 3] = seen.mean(axis=0)  # at the seen points' centroid
+    T[1, :3, 3] = [0.0, 0.0, T_object[2, 3]]  # over the ball's centre
+    batch = CandidateBatch(
+        gripper=make_jaw_gripper(),
+        T_world_gwc=T,
+        T_world_gripper=T,
+        theta=np.zeros(2),
+        holding=np.zeros((2, len(seen), 2), dtype=bool),
+        object_points=seen,
+        T_world_object=T_object,
+        extents=np.array([0.07, 0.07, 0.07]),
+        table_normal=np.array([0.0, 0.0, 1.0]),
+        min_table_height=np.zeros(2),
+        T_world_table=np.eye(4),
+        viewpoints=np.array([[0.4, 0.0, 0.4]]),
+    )
+    s = scorer.score(batch, opts)
+    assert s[1] > s[0]
+    batch.viewpoints = None  # no camera poses: the points' centroid
+    del batch.__dict__["centroid"]
+    s = scorer.score(batch, opts)
+    assert s[0] > s[1]
+
+
 def test_weighted_sum_and_a_failing_scorer_named():
     b = _batch(HOLD, NORMALS)
     cd, cd_opts = _scorer("centroid_distance")

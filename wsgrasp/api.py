@@ -276,6 +276,7 @@ class Pipeline:
             object_points=object_points,
             obstacle_points=obstacle_points,
             table=table,
+            viewpoints=viewpoints,
         )
         return Prepared(
             search_input=search_input,

@@ -59,6 +59,9 @@ class CandidateBatch:
         gripper, ``(M,)`` bool, whether each passes the search's checks on this
         scene (table, body against the object and its neighbours, every contact
         finger holding object points), as a candidate at that pose would.
+    viewpoints : (k, 3) float, optional
+        The centres of the cameras that saw the scene, where their poses were
+        given (for :attr:`mass_center`).
     """
 
     gripper: GripperModel
@@ -82,6 +85,7 @@ class CandidateBatch:
     feasible_fn: Callable[[Array], NDArray[np.bool_]] | None = field(
         default=None, repr=False
     )
+    viewpoints: Array | None = None
 
     def __len__(self) -> int:
         return int(self.T_world_gwc.shape[0])
@@ -179,7 +183,9 @@ class CandidateBatch:
 
         The middle of the object's box in the object frame, lowered or raised
         along the table normal to half the object's height above the table (a
-        resting object reaches down to the table, whatever the camera saw).
+        resting object reaches down to the table, whatever the camera saw), and
+        moved away from cameras that saw one side of it alone
+        (:func:`behind_the_side`).
         """
         R = self.T_world_object[:3, :3]
         p = (self.object_points - self.T_world_object[:3, 3]) @ R  # (no, 3) object
@@ -189,7 +195,26 @@ class CandidateBatch:
         n = self.T_world_table[:3, 2]
         origin = self.T_world_table[:3, 3]
         top = float(((self.object_points - origin) @ n).max())
-        return mid + (0.5 * top - float((mid - origin) @ n)) * n
+        mid = mid + (0.5 * top - float((mid - origin) @ n)) * n
+        return mid + self._behind_the_side(mid)
+
+    @cached_property
+    def centroid(self) -> Array:
+        """The object's centroid, world frame, ``(3,)``: the object frame's
+        origin (the centroid of the points), moved away from cameras that saw
+        one side of it alone (:func:`behind_the_side`)."""
+        c = np.asarray(self.T_world_object[:3, 3], dtype=np.float64)
+        return c + self._behind_the_side(c)
+
+    def _behind_the_side(self, middle: Array) -> Array:
+        """:func:`behind_the_side` of ``middle`` ``(3,)``; zeros without the
+        table or the cameras' poses."""
+        if self.T_world_table is None or self.viewpoints is None:
+            return np.zeros(3)
+        if not len(self.viewpoints):
+            return np.zeros(3)
+        n = self.T_world_table[:3, 2]
+        return behind_the_side(self.object_points, middle, n, self.viewpoints)
 
     @property
     def approach(self) -> Array:
@@ -200,6 +225,49 @@ class CandidateBatch:
     def closing(self) -> Array:
         """Closing direction of each candidate, ``(F, 3)`` (GWC y)."""
         return self.T_world_gwc[:, :3, 1]
+
+
+#: cameras whose directions to an object, along the table, all lie within this
+#: angle (degrees) of their mean see one side of it ...
+ONE_SIDE_DEG = 60.0
+#: ... when they look at it from the side: their direction along the table at
+#: least this share of the whole (a camera straight above sees no one side)
+FROM_THE_SIDE = 0.3
+
+
+def behind_the_side(points: Array, mid: Array, n: Array, viewpoints: Array) -> Array:
+    """How far ``(3,)`` the middle ``mid`` of an object seen from one side
+    alone lies behind where its points ``(no, 3)`` put it: along the cameras'
+    mean direction along the table (normal ``n``), half of what the object's
+    seen depth falls short of its width across that direction; zeros where the
+    cameras ``viewpoints`` ``(k, 3)`` see several sides of it, look down on it
+    from above, or see it at least as deep as it is wide.
+
+    One camera sees the near side of a ball, a can or a cup: the seen points
+    end near the object's outline as seen from the camera, halfway through it,
+    and the middle of what is seen lies between the camera and the object's
+    middle. What lies behind is hidden; an object is taken to be as deep, seen
+    from the side, as it is wide (a ball, a can standing, a cup), never
+    shallower than seen."""
+    d = mid - np.asarray(viewpoints, dtype=np.float64)  # (k, 3) camera to object
+    side = d - np.outer(d @ n, n)  # (k, 3) along the table
+    length = np.linalg.norm(side, axis=1)
+    if np.any(length < FROM_THE_SIDE * np.linalg.norm(d, axis=1)):
+        return np.zeros(3)
+    u = side / length[:, None]
+    mean = u.sum(axis=0)
+    norm = float(np.linalg.norm(mean))
+    if norm < 1e-9:
+        return np.zeros(3)
+    mean /= norm
+    if np.any(u @ mean < np.cos(np.radians(ONE_SIDE_DEG))):
+        return np.zeros(3)
+    s = (points - mid) @ mean  # (no,) depth from the middle, away from the cameras
+    width = float(np.ptp(points @ np.cross(n, mean)))
+    depth = float(np.ptp(s))
+    if depth >= width:
+        return np.zeros(3)
+    return max(0.0, float(s.min()) + 0.5 * width) * mean
 
 
 class Scorer(Protocol):

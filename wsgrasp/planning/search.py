@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -51,6 +51,8 @@ class SearchInput:
     object_points : (no, 3) float
     obstacle_points : (k, 3) float
     table : TableSE
+    viewpoints : (k, 3) float
+        The centres of the cameras whose poses were given (none: ``(0, 3)``).
     """
 
     gripper: GripperModel
@@ -61,6 +63,7 @@ class SearchInput:
     object_points: Array
     obstacle_points: Array
     table: TableSE
+    viewpoints: Array = field(default_factory=lambda: np.zeros((0, 3)))
 
     @property
     def num_candidates(self) -> int:
@@ -149,6 +152,7 @@ def run_search(
             normals_of=normals_of,
             T_world_table=inp.table.T_world_table,
             feasible_fn=feasible_at,
+            viewpoints=inp.viewpoints,
         )
         total, terms = combine_scores(batch, scorers)
         score[f] = total

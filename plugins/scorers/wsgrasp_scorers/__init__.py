@@ -52,16 +52,16 @@ class CentroidDistanceScorer:
     """The paper's criterion: the GWC frame's origin close to the object centroid.
 
     ``1 / (1 + d / d_ref)`` with ``d`` the distance and ``d_ref`` half the object's
-    diagonal: monotone in ``d``, so the best candidate is the paper's.
+    diagonal: monotone in ``d``, so the best candidate is the paper's. The
+    centroid is ``batch.centroid``: that of the points, or behind it where the
+    cameras saw one side of the object alone.
     """
 
     class Options(_Options):
         pass
 
     def score(self, batch: Any, options: Options) -> np.ndarray:
-        d = np.linalg.norm(
-            batch.T_world_gwc[:, :3, 3] - batch.T_world_object[:3, 3], axis=-1
-        )
+        d = np.linalg.norm(batch.T_world_gwc[:, :3, 3] - batch.centroid, axis=-1)
         return _nearness(d, batch)
 
 
