@@ -623,12 +623,13 @@ def render_closed_past_meet_runs() -> str:
     return _runs_in("closed-past-meet") + _height_table("closed-past-meet")
 
 
-def render_top_down_runs() -> str:
-    """The runs that planned from one camera looking down from nearly straight
-    above (``docs/results/top-down/``): objects refused as hanging over the
-    table, taken as standing, and with their sides filled in; then each one's
-    success on the objects under 3 cm high and on the others."""
-    return _runs_in("top-down") + _height_table("top-down")
+def render_one_camera_runs() -> str:
+    """The runs that planned from one camera (``docs/results/one-camera/``):
+    looking down from nearly straight above, with the objects refused as
+    hanging over the table, taken as standing, and with their sides filled in;
+    and at 45 degrees; then each one's success on the objects under 3 cm high
+    and on the others."""
+    return _runs_in("one-camera") + _height_table("one-camera")
 
 
 def render_thumb_drive_runs() -> str:

@@ -49,6 +49,7 @@ from docs_results import (
     render_graze_depth_runs,
     render_jaw_drive_runs,
     render_on_table_runs,
+    render_one_camera_runs,
     render_other_descriptions_runs,
     render_pose_margin_runs,
     render_reach_down_runs,
@@ -61,7 +62,6 @@ from docs_results import (
     render_simulator_versions_runs,
     render_thumb_drive_runs,
     render_thumb_turn_runs,
-    render_top_down_runs,
 )
 
 MARKER = re.compile(r"^<!-- render: ([a-z0-9-]+) -->$", re.M)
@@ -101,7 +101,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "graze-depth-runs": render_graze_depth_runs,
     "closed-past-meet-runs": render_closed_past_meet_runs,
     "allegro-closings-runs": render_allegro_closings_runs,
-    "top-down-runs": render_top_down_runs,
+    "one-camera-runs": render_one_camera_runs,
     "results-scorers": render_results_scorers,
 }
 
