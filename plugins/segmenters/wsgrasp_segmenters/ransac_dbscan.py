@@ -399,25 +399,37 @@ def _hidden_below(
     middle to a camera that looks in under it (from 45 degrees, once the gap
     is about as high as half the cluster is wide); from straight above, hanging
     and standing look the same."""
-    from scipy.ndimage import binary_fill_holes, distance_transform_edt
+    from scipy.ndimage import distance_transform_edt
 
     basis = plane_basis(normal)  # (3, 2)
     out = np.zeros(int(lab.max()) + 1, dtype=bool)
     for c in clusters:
-        uv = p[idx[lab == c]] @ basis  # (k, 2)
-        lo = uv.min(axis=0) - cell  # a cell of border on each side
-        shape = tuple(int(n) for n in np.floor((uv.max(axis=0) - lo) / cell) + 2)
-        foot = np.zeros(shape, dtype=bool)
-        i, j = np.floor((uv - lo) / cell).astype(np.int64).T
-        foot[i, j] = True
-        depth = distance_transform_edt(binary_fill_holes(foot))
+        foot, lo, _ = _footprint(p[idx[lab == c]] @ basis, cell)
+        depth = distance_transform_edt(foot)
         core = depth >= _CORE_DEPTH * depth.max()
         t = np.floor((plane_uv - lo) / cell).astype(np.int64)  # (m, 2)
-        ok = (t >= 0).all(axis=1) & (t < shape).all(axis=1)
-        seen = np.zeros(shape, dtype=bool)
+        ok = (t >= 0).all(axis=1) & (t < foot.shape).all(axis=1)
+        seen = np.zeros(foot.shape, dtype=bool)
         seen[t[ok, 0], t[ok, 1]] = True
         out[c] = np.count_nonzero(seen & core) < _SEEN_BELOW * core.sum()
     return out
+
+
+def _footprint(
+    uv: Array, cell: float
+) -> tuple[NDArray[np.bool_], Array, NDArray[np.int64]]:
+    """The footprint of points projected on a plane, ``uv`` ``(k, 2)``: the
+    cells of side ``cell`` they fall into, holes filled, on a grid with a cell
+    of border on each side; the grid's corner ``lo`` ``(2,)`` and each point's
+    cell ``(k, 2)``."""
+    from scipy.ndimage import binary_fill_holes
+
+    lo = uv.min(axis=0) - cell
+    shape = tuple(int(n) for n in np.floor((uv.max(axis=0) - lo) / cell) + 2)
+    ij = np.floor((uv - lo) / cell).astype(np.int64)  # (k, 2)
+    foot = np.zeros(shape, dtype=bool)
+    foot[ij[:, 0], ij[:, 1]] = True
+    return binary_fill_holes(foot), lo, ij
 
 
 def _hidden_sides(
@@ -432,20 +444,14 @@ def _hidden_sides(
     outline; what stands under that outline is hidden from it, and a prism is
     what the camera cannot tell apart from it. Without its sides, the object
     is its top alone, its middle (which a grasp aims at) at the top."""
-    from scipy.ndimage import binary_erosion, binary_fill_holes
+    from scipy.ndimage import binary_erosion
 
-    basis = plane_basis(normal)  # (3, 2)
-    uv = points @ basis  # (k, 2)
-    lo = uv.min(axis=0) - cell
-    shape = tuple(int(n) for n in np.floor((uv.max(axis=0) - lo) / cell) + 2)
-    i, j = np.floor((uv - lo) / cell).astype(np.int64).T
-    foot = np.zeros(shape, dtype=bool)
-    foot[i, j] = True
-    foot = binary_fill_holes(foot)
+    foot, _, ij = _footprint(points @ plane_basis(normal), cell)
+    i, j = ij.T
     rim = foot & ~binary_erosion(foot)
     on_rim = np.flatnonzero(rim[i, j])  # points in the outline's cells
     # the lowest of them in each cell
-    cell_of = i[on_rim] * shape[1] + j[on_rim]
+    cell_of = i[on_rim] * foot.shape[1] + j[on_rim]
     order = np.lexsort((heights[on_rim], cell_of))
     first = np.ones(len(order), dtype=bool)
     first[1:] = cell_of[order[1:]] != cell_of[order[:-1]]
