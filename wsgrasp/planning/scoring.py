@@ -237,18 +237,17 @@ FROM_THE_SIDE = 0.3
 
 def behind_the_side(points: Array, mid: Array, n: Array, viewpoints: Array) -> Array:
     """How far ``(3,)`` the middle ``mid`` of an object seen from one side
-    alone lies behind where its points ``(no, 3)`` put it: along the cameras'
-    mean direction along the table (normal ``n``), half of what the object's
-    seen depth falls short of its width across that direction; zeros where the
-    cameras ``viewpoints`` ``(k, 3)`` see several sides of it, look down on it
-    from above, or see it at least as deep as it is wide.
+    alone lies behind where its points ``(no, 3)`` put it, along the cameras'
+    mean direction along the table (normal ``n``): to the depth of its crest,
+    the points within ``_CREST`` of the highest in their slice across that
+    direction (median), never nearer the cameras and never deeper than the
+    object is wide; zeros where the cameras ``viewpoints`` ``(k, 3)`` see
+    several sides of it or look down on it from above.
 
-    One camera sees the near side of a ball, a can or a cup: the seen points
-    end near the object's outline as seen from the camera, halfway through it,
-    and the middle of what is seen lies between the camera and the object's
-    middle. What lies behind is hidden; an object is taken to be as deep, seen
-    from the side, as it is wide (a ball, a can standing, a cup), never
-    shallower than seen."""
+    One camera sees the near side of a ball, a can or a cup: the middle of the
+    points lies between the camera and the object's middle. The top of a
+    resting object, which a camera above the table sees, runs over its middle:
+    a ball's or a can's crest, a box's or a cup's whole top face or rim."""
     d = mid - np.asarray(viewpoints, dtype=np.float64)  # (k, 3) camera to object
     side = d - np.outer(d @ n, n)  # (k, 3) along the table
     length = np.linalg.norm(side, axis=1)
@@ -263,11 +262,23 @@ def behind_the_side(points: Array, mid: Array, n: Array, viewpoints: Array) -> A
     if np.any(u @ mean < np.cos(np.radians(ONE_SIDE_DEG))):
         return np.zeros(3)
     s = (points - mid) @ mean  # (no,) depth from the middle, away from the cameras
-    width = float(np.ptp(points @ np.cross(n, mean)))
-    depth = float(np.ptp(s))
-    if depth >= width:
-        return np.zeros(3)
-    return max(0.0, float(s.min()) + 0.5 * width) * mean
+    x = points @ np.cross(n, mean)  # (no,) across
+    z = points @ n  # (no,) height
+    width = float(np.ptp(x))
+    # the highest point of each slice across, and those within _CREST of it
+    step = max(width / _SLICES, 1e-6)
+    slice_of = np.minimum(((x - x.min()) / step).astype(np.int64), _SLICES - 1)
+    top = np.full(_SLICES, -np.inf)
+    np.maximum.at(top, slice_of, z)
+    crest = z >= top[slice_of] - _CREST
+    depth = float(np.median(s[crest]))
+    return float(np.clip(depth, 0.0, max(0.0, float(s.min()) + 0.5 * width))) * mean
+
+
+#: slices across the cameras' direction in :func:`behind_the_side` ...
+_SLICES = 16
+#: ... and how far (m) below a slice's highest point its crest reaches
+_CREST = 0.005
 
 
 class Scorer(Protocol):
