@@ -456,14 +456,15 @@ def _hidden_sides(
     first = np.ones(len(order), dtype=bool)
     first[1:] = cell_of[order[1:]] != cell_of[order[:-1]]
     low = on_rim[order[first]]  # (r,) into points
-    drops = [np.arange(floor, float(heights[k]), cell) for k in low]
-    n = np.fromiter((len(d) for d in drops), dtype=np.int64, count=len(drops))
+    # each column's heights floor, floor + cell, ... below the point's own
+    n = np.maximum(np.ceil((heights[low] - floor) / cell), 0).astype(np.int64)
     if not n.sum():
         return np.zeros((0, 3))
-    # each point lowered from its own height to the column's heights
+    k = np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)  # (m,) 0, 1, ... per column
+    column = floor + k * cell  # (m,)
+    # each point lowered from its own height to its column's heights
     top = np.repeat(points[low], n, axis=0)  # (m, 3)
-    down = np.repeat(heights[low], n) - np.concatenate(drops)  # (m,)
-    return top - down[:, None] * normal
+    return top - (np.repeat(heights[low], n) - column)[:, None] * normal
 
 
 #: a table reaches at least this far (m) past a standing cluster's footprint ...
