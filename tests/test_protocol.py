@@ -453,6 +453,21 @@ def test_report_pairs_each_spec_with_the_primary_over_the_same_scenes():
     assert "specs_paired" not in build_report(records[:5])
 
 
+@pytest.mark.parametrize(("views", "elevation"), [(3, 45.0), (1, 85.0)])
+def test_the_cameras_look_down_from_the_elevation_asked_for(views, elevation):
+    from wsgrasp.sim.trial import render_views
+
+    (obj,) = resolve_objects(["realsense_box"]).objects
+    p = SimParams(views=views, camera_elevation_deg=elevation)
+    rendered = render_views(obj, np.eye(4), np.random.default_rng(3), p)
+    assert len(rendered) == views
+    for view in rendered:
+        # the camera's viewing axis (its z) points down at the table
+        down = -view.T_world_camera[2, 2]
+        assert np.degrees(np.arcsin(down)) == pytest.approx(elevation, abs=5.0 + 1e-9)
+        assert view.T_world_camera[2, 3] > 0.3
+
+
 def test_random_candidates_are_finished_and_executed_as_the_choice():
     """Each random candidate of ``--baseline random`` is the plan
     ``Pipeline.plan(scene, choose=i)`` gives (its pose, pre-grasp pose and joint
