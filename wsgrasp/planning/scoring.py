@@ -61,7 +61,7 @@ class CandidateBatch:
         finger holding object points), as a candidate at that pose would.
     viewpoints : (k, 3) float, optional
         The centres of the cameras that saw the scene, where their poses were
-        given (for :attr:`mass_center`).
+        given (for :attr:`centroid` and :attr:`mass_center`).
     """
 
     gripper: GripperModel
@@ -240,8 +240,9 @@ def behind_the_side(points: Array, mid: Array, n: Array, viewpoints: Array) -> A
     alone lies behind where its points ``(no, 3)`` put it, along the cameras'
     mean direction along the table (normal ``n``): to the depth of its crest,
     the points within ``_CREST`` of the highest in their slice across that
-    direction (median), never nearer the cameras and never deeper than the
-    object is wide; zeros where the cameras ``viewpoints`` ``(k, 3)`` see
+    direction (median), never nearer the cameras and never so deep that the
+    object would be deeper than it is wide; zeros where the cameras
+    ``viewpoints`` ``(k, 3)`` see
     several sides of it or look down on it from above.
 
     One camera sees the near side of a ball, a can or a cup: the middle of the
