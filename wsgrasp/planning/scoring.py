@@ -242,8 +242,8 @@ def behind_the_side(points: Array, mid: Array, n: Array, viewpoints: Array) -> A
     the points within ``_CREST`` of the highest in their slice across that
     direction (median), never nearer the cameras and never so deep that the
     object would be deeper than it is wide; zeros where the cameras
-    ``viewpoints`` ``(k, 3)`` see
-    several sides of it or look down on it from above.
+    ``viewpoints`` ``(k, 3)`` see several sides of it or look down on it from
+    above.
 
     One camera sees the near side of a ball, a can or a cup: the middle of the
     points lies between the camera and the object's middle. The top of a
