@@ -394,19 +394,13 @@ def render_world(
     """The cameras' ``Scene`` of the present objects, their indices and their
     meshes at their poses."""
     from wsgrasp.geometry import transform_points
-    from wsgrasp.perception.synth import default_cameras, render_scene
     from wsgrasp.perception.types import Scene
+    from wsgrasp.sim.trial import render_meshes
 
     present = [int(k) for k in np.flatnonzero(world.present)]
     poses = world.poses()
     meshes = [(world.objects[k].mesh(), poses[k]) for k in present]
-    cams = default_cameras(
-        p.views,
-        target=(0.0, 0.0, 0.05),
-        elevation=np.radians(p.camera_elevation_deg),
-        rng=rng,
-    )
-    views = render_scene(meshes, p.table_size, cams, p.depth_noise, rng)
+    views = render_meshes(meshes, rng, p)
     points = np.concatenate(
         [transform_points(v.T_world_camera, v.points) for v in views]
     )

@@ -252,8 +252,19 @@ def _run_until_still(
 def render_views(
     obj: SimObject, T_world_object: Array, rng: np.random.Generator, p: SimParams
 ) -> list[Any]:
-    """The three noisy depth views of ``scene synth``'s camera model, aimed at the
-    table centre; returns ``View`` objects (points in camera frames)."""
+    """The object's views (:func:`render_meshes`)."""
+    return render_meshes([(obj.mesh(), T_world_object)], rng, p)
+
+
+def render_meshes(
+    meshes_with_poses: Sequence[tuple[Any, Array]],
+    rng: np.random.Generator,
+    p: SimParams,
+) -> list[Any]:
+    """The noisy depth views of ``scene synth``'s camera model of meshes at
+    their poses on the table: ``p.views`` cameras at ``p.camera_elevation_deg``,
+    aimed at the table centre; returns ``View`` objects (points in camera
+    frames)."""
     from wsgrasp.perception.synth import default_cameras, render_scene
 
     cams = default_cameras(
@@ -262,9 +273,7 @@ def render_views(
         elevation=np.radians(p.camera_elevation_deg),
         rng=rng,
     )
-    return render_scene(
-        [(obj.mesh(), T_world_object)], p.table_size, cams, p.depth_noise, rng
-    )
+    return render_scene(meshes_with_poses, p.table_size, cams, p.depth_noise, rng)
 
 
 @dataclass
