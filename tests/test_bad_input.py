@@ -54,6 +54,7 @@ USAGE = [
     ["scene", "synth", "--out", "x.npz", "--width", "0"],
     ["scene", "synth", "--out", "x.npz", "--elevation", "100"],
     ["scene", "synth", "--out", "x.npz", "--noise", "inf"],
+    ["scene", "synth", "--out", "x.npz", "--flying", "1.5"],
 ]
 
 

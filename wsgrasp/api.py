@@ -158,6 +158,7 @@ class Pipeline:
         """Run the stages before the search: cropping (``preprocess.crop_radius``)
         and downsampling, segmentation, target choice, object frame, samples and
         table; report each to ``observers``."""
+        from wsgrasp.perception.flying import without_flying
         from wsgrasp.perception.frame import (
             object_frame,
             sample_box,
@@ -179,9 +180,10 @@ class Pipeline:
                 o.on_stage(stage, data)
             t = time.perf_counter()
 
-        cropped = crop(scene.points, spec.preprocess.crop_radius)
+        scene_points, flying = without_flying(scene, spec.preprocess.flying_pixels)
+        cropped = crop(scene_points, spec.preprocess.crop_radius)
         points = downsample(cropped, spec.preprocess.voxel_size)
-        lap("preprocess", {"points": points})
+        lap("preprocess", {"points": points, "flying_pixels": flying})
 
         viewpoints = scene.viewpoints()
         kwargs: dict[str, Any] = {}

@@ -369,6 +369,12 @@ class Preprocess(_Model):
     crop_radius: float | None = Field(
         None, gt=0.0, description="drop points farther than this from the origin"
     )
+    flying_pixels: bool = Field(
+        True,
+        description="drop flying pixels: points of a view, still its camera's "
+        "image, that lie between their neighbours along a row or column, one "
+        "nearer and one farther (the veil a depth edge leaves)",
+    )
 
 
 class ObjectFrame(_Model):

@@ -85,6 +85,11 @@ def inspect(
                 f"; {inp['dropped_nonfinite']} NaN/inf dropped"
                 if inp["dropped_nonfinite"]
                 else ""
+            )
+            + (
+                f"; {inp['flying_pixels']} flying pixels dropped"
+                if inp.get("flying_pixels")
+                else ""
             ),
         )
     if s["timing_ms"]:

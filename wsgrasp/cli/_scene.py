@@ -56,6 +56,14 @@ def synth(
     noise: float = typer.Option(
         0.001, "--noise", callback=number(0.0, 0.1), help="Depth noise std (m)."
     ),
+    flying: float = typer.Option(
+        0.0,
+        "--flying",
+        callback=number(0.0, 1.0),
+        help="Share (0-1) of the pixels along depth edges that come back as "
+        "flying pixels, hanging between an object's outline and the surface "
+        "behind it.",
+    ),
     seed: int = typer.Option(0, "--seed", help="Random seed."),
     table_size: float = typer.Option(
         0.6,
@@ -109,6 +117,7 @@ def synth(
         pose=pose,  # type: ignore[arg-type]
         views=views,
         noise=noise,
+        flying=flying,
         seed=seed,
         table_size=table_size,
         width=width,
@@ -156,6 +165,7 @@ def info(
     """Load a scene and show the table plane, objects and object frame found."""
     import time
 
+    from wsgrasp.perception.flying import without_flying
     from wsgrasp.perception.frame import object_frame
     from wsgrasp.perception.io import load_scene
     from wsgrasp.perception.process import crop, downsample, select_target, thin
@@ -182,9 +192,8 @@ def info(
 
     scene = load_scene(clouds, icp=icp or ps.preprocess.icp, registered=registered)
     lap("load")
-    points = downsample(
-        crop(scene.points, ps.preprocess.crop_radius), ps.preprocess.voxel_size
-    )
+    kept, flying = without_flying(scene, ps.preprocess.flying_pixels)
+    points = downsample(crop(kept, ps.preprocess.crop_radius), ps.preprocess.voxel_size)
     lap("downsample")
     seg = entry.obj().segment(points, options, seed=ps.seed)
     lap("segment")
@@ -195,6 +204,7 @@ def info(
     summary = {
         "points": int(scene.points.shape[0]),
         "dropped_nonfinite": scene.dropped_nonfinite,
+        "flying_pixels": flying,
         "downsampled": int(points.shape[0]),
         "table_normal": seg.table.normal,
         "table_offset": seg.table.offset,
@@ -211,8 +221,9 @@ def info(
         return
     n = seg.table.normal
     console.print(
-        f"{summary['points']} points ({scene.dropped_nonfinite} non-finite dropped), "
-        f"{summary['downsampled']} after voxel {ps.preprocess.voxel_size:g} m"
+        f"{summary['points']} points ({scene.dropped_nonfinite} non-finite dropped, "
+        f"{flying} flying pixels), {summary['downsampled']} after voxel "
+        f"{ps.preprocess.voxel_size:g} m"
     )
     console.print(
         f"table: normal ({n[0]:.3f}, {n[1]:.3f}, {n[2]:.3f}), offset "

@@ -233,6 +233,7 @@ def render_scene(
     cameras: Sequence[Camera],
     noise: float,
     rng: np.random.Generator,
+    flying: float = 0.0,
 ) -> list[View]:
     """Render depth views of meshes on a table.
 
@@ -248,7 +249,11 @@ def render_scene(
     noise
         Standard deviation (m) of the Gaussian depth noise.
     rng
-        For the noise.
+        For the noise and the flying pixels.
+    flying
+        Share (0-1) of the pixels along depth edges that come back as flying
+        pixels (:func:`flying_pixels`), as a time-of-flight or stereo camera's
+        raw depth does; 0 for none.
 
     Returns
     -------
@@ -277,6 +282,9 @@ def render_scene(
         rays = np.concatenate([origin, d_cam @ R.T], axis=1)  # (h*w, 6) world
         hit = scene.cast_rays(o3d.core.Tensor.from_numpy(rays.astype(np.float32)))
         depth = hit["t_hit"].numpy().astype(np.float64)  # (h*w,), inf for misses
+        if flying > 0:
+            depth = flying_pixels(depth.reshape(cam.height, cam.width), flying, rng)
+            depth = depth.reshape(-1)
         ok = np.isfinite(depth)
         z = (
             depth[ok] + rng.normal(0.0, noise, int(ok.sum()))
@@ -292,6 +300,41 @@ def render_scene(
             )
         )
     return views
+
+
+#: neighbouring pixels whose depths differ by more than this (m) straddle a
+#: depth edge
+EDGE_JUMP = 0.02
+
+
+def flying_pixels(depth: Array, share: float, rng: np.random.Generator) -> Array:
+    """A depth image ``(h, w)`` (inf where nothing was hit) with flying pixels:
+    of the pixels on either side of a depth edge (a neighbour, across or down,
+    more than :data:`EDGE_JUMP` nearer or farther), ``share`` get a depth drawn
+    uniformly between the edge's near and far depths, as the mixed returns of a
+    time-of-flight camera or a stereo matcher's smeared edges do. Their points
+    hang in the air between an object's outline and the surface behind it."""
+    d = depth.copy()
+    near = np.full(d.shape, np.inf)
+    far = np.full(d.shape, -np.inf)
+    for a, b in (
+        (np.s_[:, :-1], np.s_[:, 1:]),
+        (np.s_[:-1, :], np.s_[1:, :]),
+    ):
+        da, db = depth[a], depth[b]
+        edge = np.isfinite(da) & np.isfinite(db)
+        edge[edge] = np.abs(da[edge] - db[edge]) > EDGE_JUMP
+        lo, hi = np.minimum(da, db), np.maximum(da, db)
+        for s in (a, b):
+            near[s] = np.where(edge, np.minimum(near[s], lo), near[s])
+            far[s] = np.where(edge, np.maximum(far[s], hi), far[s])
+    on_edge = np.flatnonzero(
+        (np.isfinite(near) & (rng.random(d.shape) < share)).ravel()
+    )
+    u = rng.random(len(on_edge))
+    n, f = near.ravel()[on_edge], far.ravel()[on_edge]
+    d.ravel()[on_edge] = n + u * (f - n)
+    return d
 
 
 @dataclass
@@ -360,6 +403,7 @@ def synth_scene(
     pose: Pose = "upright",
     views: int = 3,
     noise: float = 0.001,
+    flying: float = 0.0,
     seed: int = 0,
     table_size: float = 0.6,
     width: int = 320,
@@ -372,9 +416,12 @@ def synth_scene(
 
     ``camera_frame`` expresses the scene in the first camera's frame instead of the
     z-up world frame (the table is then tilted), to test frame independence.
+    ``flying`` is the share of depth-edge pixels rendered as flying pixels
+    (:func:`flying_pixels`).
     """
     _check_settings(
         noise=(noise, 0.0, 0.1, False),
+        flying=(flying, 0.0, 1.0, False),
         table_size=(table_size, 0.0, 10.0, True),
         distance=(distance, 0.0, 20.0, True),
         elevation_deg=(elevation_deg, 0.0, 90.0, True),
@@ -394,7 +441,7 @@ def synth_scene(
         width=width,
         height=height,
     )
-    rendered = render_scene([(mesh, T)], table_size, cams, noise, rng)
+    rendered = render_scene([(mesh, T)], table_size, cams, noise, rng, flying)
     points = np.concatenate(
         [transform_points(v.T_world_camera, v.points) for v in rendered], axis=0
     )

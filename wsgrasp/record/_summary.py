@@ -77,6 +77,9 @@ def summarize_run(run: Run, *, top_k: int = 5) -> dict[str, Any]:
         ]
         inputs = {"views": views, "points": len(scene.points)}
         inputs["dropped_nonfinite"] = scene.dropped_nonfinite
+        flying = run.stages.get("preprocess", {}).get("flying_pixels")
+        if flying is not None:
+            inputs["flying_pixels"] = int(flying)
 
     def mat(key: str) -> Any:
         v = res.get(key)

@@ -276,6 +276,10 @@ class SimParams:
     #: the cameras' elevation above the table (degrees, each jittered by up to
     #: 5 degrees; 90: looking straight down)
     camera_elevation_deg: float = 45.0
+    #: share (0-1) of the pixels along depth edges that come back as flying
+    #: pixels, hanging between an object's outline and the surface behind it
+    #: (``perception.synth.flying_pixels``); 0: none
+    flying_pixels: float = 0.0
 
     def __post_init__(self) -> None:
         if self.protocol not in PROTOCOLS:
@@ -329,7 +333,7 @@ POSITIVE = frozenset(
 BELOW_ONE = frozenset({"mimic_impedance"})
 #: parameters with an upper bound (a camera above the table looks down at most
 #: straight down)
-AT_MOST = {"camera_elevation_deg": 90.0}
+AT_MOST = {"camera_elevation_deg": 90.0, "flying_pixels": 1.0}
 
 
 def parse_overrides(items: Sequence[str]) -> dict[str, Any]:

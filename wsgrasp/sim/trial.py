@@ -273,7 +273,9 @@ def render_meshes(
         elevation=np.radians(p.camera_elevation_deg),
         rng=rng,
     )
-    return render_scene(meshes_with_poses, p.table_size, cams, p.depth_noise, rng)
+    return render_scene(
+        meshes_with_poses, p.table_size, cams, p.depth_noise, rng, p.flying_pixels
+    )
 
 
 @dataclass

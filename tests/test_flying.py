@@ -1,0 +1,157 @@
+"""Flying pixels: rendered along depth edges (``scene synth``'s camera model and
+the simulator's ``flying_pixels``) and dropped before planning
+(``preprocess.flying_pixels``, :mod:`wsgrasp.perception.flying`)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from wsgrasp.api import Pipeline
+from wsgrasp.cli import main
+from wsgrasp.default_specs import default_spec
+from wsgrasp.errors import InputError
+from wsgrasp.geometry import transform_from, transform_points
+from wsgrasp.perception.flying import flying_mask, flying_points, pixel_grid
+from wsgrasp.perception.io import scene_from_arrays
+from wsgrasp.perception.synth import default_cameras, make_object, render_scene
+from wsgrasp.sim.params import SimParams, parse_overrides
+from wsgrasp.spec import load_spec
+
+BOX = (0.06, 0.08, 0.12)
+
+
+def box_views(
+    elevation_deg: float, share: float, seed: int = 0, views: int = 1
+) -> tuple[list, np.ndarray]:
+    """A box standing on a 0.6 m table seen by ``views`` cameras at
+    ``elevation_deg``, ``share`` of its depth-edge pixels flying; the views and
+    the box's pose."""
+    rng = np.random.default_rng(seed)
+    T = transform_from(None, [0.0, 0.0, BOX[2] / 2])
+    cams = default_cameras(
+        views, (0, 0, 0.05), elevation=np.radians(elevation_deg), rng=rng
+    )
+    mesh = make_object("box", BOX)
+    return render_scene([(mesh, T)], 0.6, cams, 0.001, rng, share), T
+
+
+def off_the_surfaces(world: np.ndarray) -> np.ndarray:
+    """Each point's distance (m) to the nearest of the table top and the box."""
+    half = np.array(BOX) / 2
+    c = np.abs(world - [0.0, 0.0, half[2]]) - half  # per axis, past the faces
+    outside = np.linalg.norm(np.maximum(c, 0.0), axis=1)
+    inside = -np.minimum(c.max(axis=1), 0.0)
+    return np.minimum(np.abs(world[:, 2]), np.maximum(outside, inside))
+
+
+def world(view) -> np.ndarray:
+    return transform_points(view.T_world_camera, view.points)
+
+
+@pytest.mark.parametrize("elevation", [30.0, 45.0, 60.0])
+def test_the_veil_along_an_outline_is_dropped_and_the_surfaces_stay(elevation):
+    (view,), _ = box_views(elevation, 1.0)
+    off = off_the_surfaces(world(view))
+    floating = off > 0.005  # the veil, where it stands clear of the surfaces
+    assert floating.sum() > 100  # the box's outline leaves a veil
+    flagged = flying_mask(view.points)
+    assert flagged[floating].mean() > 0.7
+    # of the points on the table and the faces, hardly any: a face seen within
+    # a few degrees of its rays steps in depth like a veil
+    on = off < 0.002
+    assert flagged[on].sum() <= 0.001 * on.sum()
+
+
+@pytest.mark.parametrize("elevation", [30.0, 45.0])
+def test_a_clean_view_loses_nothing(elevation):
+    (view,), _ = box_views(elevation, 0.0, seed=2)
+    assert not flying_mask(view.points).any()
+
+
+def test_a_cloud_that_is_no_image_is_left_alone():
+    (view,), _ = box_views(45.0, 1.0)
+    assert pixel_grid(view.points) is not None
+    rng = np.random.default_rng(0)
+    # registered into another frame: its directions from the origin lie on no grid
+    moved = transform_points(transform_from(None, [0.3, -0.2, 0.1]), view.points)
+    # or thinned to a voxel grid's centroids
+    voxels = np.unique(np.floor(view.points / 0.004), axis=0) * 0.004 + 0.002
+    jittered = view.points + rng.normal(0.0, 0.0005, view.points.shape)
+    for cloud in (moved, voxels, jittered):
+        assert pixel_grid(cloud) is None
+        assert not flying_mask(cloud).any()
+
+
+def test_rendered_flying_pixels_are_reproducible_for_a_seed():
+    a, _ = box_views(45.0, 0.5, seed=4)
+    b, _ = box_views(45.0, 0.5, seed=4)
+    np.testing.assert_array_equal(a[0].points, b[0].points)
+    clean, _ = box_views(45.0, 0.0, seed=4)
+    assert len(clean[0].points) == len(a[0].points)  # the same pixels, moved
+    assert not np.array_equal(clean[0].points, a[0].points)
+
+
+def test_the_plan_sees_the_box_not_its_veil():
+    """Three views with every edge pixel flying: with the filter (the default)
+    the object cluster spans the box; without it, it reaches out along the
+    veil."""
+    views, _ = box_views(45.0, 1.0, seed=1, views=3)
+    scene = scene_from_arrays([(v.points, v.T_world_camera) for v in views])
+    mask = flying_points(scene)
+    assert mask is not None and mask.sum() > 300
+    spec = load_spec(default_spec("franka_hand")[0])
+    spans = {}
+    for on in (True, False):
+        spec.preprocess.flying_pixels = on
+        obj = Pipeline(spec).prepare(scene).search_input.object_points
+        spans[on] = float(np.ptp(obj[:, :2], axis=0).max())
+    diagonal = float(np.hypot(*BOX[:2]))
+    assert spans[True] <= diagonal + 0.01
+    assert spans[False] > spans[True] + 0.01
+
+
+def test_points_that_are_not_the_views_merge_are_left_alone():
+    views, _ = box_views(45.0, 1.0, views=2)
+    scene = scene_from_arrays([(v.points, v.T_world_camera) for v in views])
+    scene.points = scene.points[:-1]
+    assert flying_points(scene) is None
+
+
+def test_the_share_of_flying_pixels_is_a_simulation_parameter():
+    assert SimParams().flying_pixels == 0.0
+    assert parse_overrides(["flying_pixels=0.5"]) == {"flying_pixels": 0.5}
+    with pytest.raises(InputError, match="must be at most 1") as info:
+        parse_overrides(["flying_pixels=1.5"])
+    assert "the default is 0.0" in info.value.hint
+
+
+def test_a_scene_with_flying_pixels_from_synth_to_replay(tmp_path, capsys):
+    """``scene synth --flying`` writes the views; ``scene info`` counts the
+    flying pixels it drops, a recorded plan names them in ``inspect``, and
+    ``replay`` re-plans the recording to the same choice."""
+    views = tmp_path / "views"
+    args = ["scene", "synth", "-o", tmp_path / "m.npz", "--views-out", views]
+    assert main([str(a) for a in [*args, "--flying", "1", "--seed", "3"]]) == 0
+    capsys.readouterr()
+    assert main(["scene", "info", str(views / "scene.yaml"), "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["flying_pixels"] > 300
+    run = tmp_path / "run.mcap"
+    plan = [
+        "plan",
+        str(views / "scene.yaml"),
+        "-g",
+        "franka_hand",
+        "--record",
+        str(run),
+    ]
+    assert main(plan) == 0
+    capsys.readouterr()
+    assert main(["inspect", str(run), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["inputs"]["flying_pixels"] == info["flying_pixels"]
+    assert main(["replay", str(run)]) == 0
+    assert "moved 0.0 mm and turned 0.0°" in capsys.readouterr().out
