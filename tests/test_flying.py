@@ -17,6 +17,7 @@ from wsgrasp.geometry import transform_from, transform_points
 from wsgrasp.perception.flying import flying_mask, flying_points, pixel_grid
 from wsgrasp.perception.io import scene_from_arrays
 from wsgrasp.perception.synth import default_cameras, make_object, render_scene
+from wsgrasp.planning.scoring import behind_the_side
 from wsgrasp.sim.params import SimParams, parse_overrides
 from wsgrasp.spec import load_spec
 
@@ -155,3 +156,34 @@ def test_a_scene_with_flying_pixels_from_synth_to_replay(tmp_path, capsys):
     assert summary["inputs"]["flying_pixels"] == info["flying_pixels"]
     assert main(["replay", str(run)]) == 0
     assert "moved 0.0 mm and turned 0.0°" in capsys.readouterr().out
+
+
+def test_a_cloud_in_its_camera_frame_has_its_camera_at_the_origin():
+    """A cloud given without a pose that is still its camera's image was seen
+    from the origin: its scene has that viewpoint, as the same view with its
+    pose has the camera's centre, and the plan moves the centroid of a ball seen
+    from one side behind the points alike in both frames."""
+    rng = np.random.default_rng(0)
+    mesh = make_object("sphere", (0.04,))
+    cams = default_cameras(1, (0, 0, 0.05), elevation=np.radians(45), rng=rng)
+    T_mesh = transform_from(None, [0.0, 0.0, 0.04])
+    (view,) = render_scene([(mesh, T_mesh)], 0.6, cams, 0.001, rng)
+    posed = scene_from_arrays([(view.points, view.T_world_camera)])
+    plain = scene_from_arrays(view.points)
+    np.testing.assert_allclose(posed.viewpoints(), [view.T_world_camera[:3, 3]])
+    np.testing.assert_array_equal(plain.viewpoints(), [[0.0, 0.0, 0.0]])
+    # the same points merged in the world frame: no camera at the origin
+    assert len(scene_from_arrays(posed.points).viewpoints()) == 0
+    pipe = Pipeline(load_spec(default_spec("franka_hand")[0]))
+    centres = []
+    for scene, T in ((posed, np.eye(4)), (plain, view.T_world_camera)):
+        inp = pipe.prepare(scene).search_input
+        n = inp.table.T_world_table[:3, 2]
+        c = inp.T_world_object[:3, 3]
+        shift = behind_the_side(inp.object_points, c, n, inp.viewpoints)
+        assert np.linalg.norm(shift) > 0.005  # the ball's middle lies behind
+        centres.append(transform_points(T, (c + shift)[None])[0])
+    # the two frames' voxel grids differ: the same centre within a few mm
+    np.testing.assert_allclose(centres[0], centres[1], atol=0.004)
+    # along the table, where the ball's middle is (its height is the points')
+    np.testing.assert_allclose(centres[0][:2], T_mesh[:2, 3], atol=0.006)

@@ -70,12 +70,17 @@ class Scene:
 
     def viewpoints(self) -> Array:
         """Camera centres ``(k, 3)`` in the world frame, of the views whose pose
-        was given (a view with the identity pose is a cloud without one: its
-        sensor's position is unknown)."""
+        was given, and of the clouds given without one that are still their
+        camera's image (:func:`wsgrasp.perception.flying.pixel_grid`: each
+        point on its pixel's ray from the origin), whose camera is the origin.
+        Another cloud without a pose tells nothing of where its sensor was."""
+        from wsgrasp.perception.flying import pixel_grid
+
         centres = [
             np.asarray(v.T_world_camera, dtype=np.float64)[:3, 3]
             for v in self.views
             if not np.array_equal(v.T_world_camera, np.eye(4))
+            or pixel_grid(v.points) is not None
         ]
         return np.array(centres).reshape(-1, 3)
 
