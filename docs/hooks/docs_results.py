@@ -632,6 +632,15 @@ def render_one_camera_runs() -> str:
     return _runs_in("one-camera") + _height_table("one-camera")
 
 
+def render_flying_pixels_runs() -> str:
+    """The runs that rendered flying pixels along every depth edge
+    (``docs/results/flying-pixels/``): each gripper's default spec, which drops
+    them, beside the same spec with the filter off; and the same on clean
+    views; then each one's success on the objects under 3 cm high and on the
+    others."""
+    return _runs_in("flying-pixels") + _height_table("flying-pixels")
+
+
 def render_thumb_drive_runs() -> str:
     """The runs that measured the Allegro hand's drive
     (``docs/results/thumb-drive/``): the hand as it is beside the same YAML

@@ -45,6 +45,7 @@ from docs_results import (
     render_defaults_effect,
     render_defaults_success,
     render_drive_guess_runs,
+    render_flying_pixels_runs,
     render_generic_scorers_runs,
     render_graze_depth_runs,
     render_jaw_drive_runs,
@@ -102,6 +103,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "closed-past-meet-runs": render_closed_past_meet_runs,
     "allegro-closings-runs": render_allegro_closings_runs,
     "one-camera-runs": render_one_camera_runs,
+    "flying-pixels-runs": render_flying_pixels_runs,
     "results-scorers": render_results_scorers,
 }
 
