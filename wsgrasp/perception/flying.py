@@ -33,7 +33,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from wsgrasp.perception.types import Scene
@@ -48,8 +47,6 @@ GRAZING_DEG = 7.0
 MIN_JUMP = 0.01
 #: neighbours this many pixels away along a row or column are compared
 REACH = 2
-#: a flying pixel's neighbours along its row and column go with it
-_CROSS = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], dtype=bool)
 #: about as many points measure the pixel pitch, in the middle of the image
 _PITCH_SAMPLE = 400
 #: share of the points that must lie within a tenth of a pixel of the grid
@@ -112,31 +109,49 @@ def flying_mask(points_camera: Array) -> NDArray[np.bool_]:
     grid = pixel_grid(p)
     if grid is None:
         return np.zeros(len(p), dtype=bool)
-    depth = np.full(grid.shape, np.nan, dtype=np.float32)  # nan: nothing seen
+    h, w = grid.shape
+    R = REACH
+    padded = np.full((h + 2 * R, w + 2 * R), np.nan, dtype=np.float32)
+    depth = padded[R : R + h, R : R + w]  # a view: nan where nothing was seen
     depth[grid.v, grid.u] = p[:, 2]
+    flat = padded.ravel()
     # a surface at GRAZING_DEG to its rays steps this far in depth per pixel;
     # k pixels away, k times as far
-    jump = np.maximum(MIN_JUMP, depth * (grid.pitch / np.tan(np.radians(GRAZING_DEG))))
-    below = [depth - k * jump for k in range(1, REACH + 1)]
-    above = [depth + k * jump for k in range(1, REACH + 1)]
-    padded = np.pad(depth, REACH, constant_values=np.nan)
-    h, w = grid.shape
+    per_metre = grid.pitch / np.tan(np.radians(GRAZING_DEG))
     flying = np.zeros(grid.shape, dtype=bool)
     with np.errstate(invalid="ignore"):  # a comparison with nan is False
-        for du, dv in ((1, 0), (0, 1)):  # along a row, along a column
-            nearer = [np.zeros(grid.shape, dtype=bool) for _ in range(2)]
-            farther = [np.zeros(grid.shape, dtype=bool) for _ in range(2)]
-            for k in range(1, REACH + 1):
-                for side, sign in enumerate((-1, 1)):  # before, after
-                    r, c = REACH + sign * k * dv, REACH + sign * k * du
-                    other = padded[r : r + h, c : c + w]
-                    nearer[side] |= other < below[k - 1]
-                    farther[side] |= other > above[k - 1]
-            flying |= (nearer[0] & farther[1]) | (farther[0] & nearer[1])
+        for axis, step in ((1, 1), (0, w + 2 * R)):  # along a row, a column
+            # a point between two others within R pixels has neighbours more
+            # than MIN_JUMP apart among those R pixels on either side: only
+            # the pixels near such a pair are tested
+            pair = np.abs(np.diff(depth, axis=axis)) > MIN_JUMP
+            pad = [(0, 0), (0, 0)]
+            pad[axis] = (R, R)
+            pair = np.pad(pair, pad)
+            near = np.zeros(grid.shape, dtype=bool)
+            for k in range(2 * R):
+                near |= pair[k : k + h, :] if axis == 0 else pair[:, k : k + w]
+            rows, cols = np.nonzero(near)
+            at = (rows + R) * (w + 2 * R) + (cols + R)  # in the padded image
+            z = flat[at]
+            jump = np.maximum(MIN_JUMP, z * per_metre)
+            nearer = np.zeros((2, len(at)), dtype=bool)  # before, after
+            farther = np.zeros((2, len(at)), dtype=bool)
+            for k in range(1, R + 1):
+                for side, sign in enumerate((-1, 1)):
+                    other = flat[at + sign * k * step]
+                    nearer[side] |= other < z - k * jump
+                    farther[side] |= other > z + k * jump
+            between = (nearer[0] & farther[1]) | (farther[0] & nearer[1])
+            flying[rows[between], cols[between]] = True
     # a veil two pixels wide leaves the pixel beside a flying one within a
     # jump of it, nearer the object or the table: it goes too
-    flying = ndimage.binary_dilation(flying, structure=_CROSS)
-    return flying[grid.v, grid.u]  # type: ignore[no-any-return]
+    out = flying.copy()
+    out[:, 1:] |= flying[:, :-1]
+    out[:, :-1] |= flying[:, 1:]
+    out[1:, :] |= flying[:-1, :]
+    out[:-1, :] |= flying[1:, :]
+    return out[grid.v, grid.u]  # type: ignore[no-any-return]
 
 
 def flying_points(scene: Scene) -> NDArray[np.bool_] | None:
