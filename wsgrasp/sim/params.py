@@ -332,7 +332,7 @@ POSITIVE = frozenset(
 #: parameters that must be below 1 (an impedance)
 BELOW_ONE = frozenset({"mimic_impedance"})
 #: parameters with an upper bound (a camera above the table looks down at most
-#: straight down)
+#: straight down; a share is at most all)
 AT_MOST = {"camera_elevation_deg": 90.0, "flying_pixels": 1.0}
 
 
