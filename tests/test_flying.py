@@ -18,6 +18,7 @@ from wsgrasp.perception.flying import flying_mask, flying_points, pixel_grid
 from wsgrasp.perception.io import scene_from_arrays
 from wsgrasp.perception.synth import default_cameras, make_object, render_scene
 from wsgrasp.planning.scoring import behind_the_side
+from wsgrasp.record import open_run
 from wsgrasp.sim.params import SimParams, parse_overrides
 from wsgrasp.spec import load_spec
 
@@ -154,6 +155,11 @@ def test_a_scene_with_flying_pixels_from_synth_to_replay(tmp_path, capsys):
     assert main(["inspect", str(run), "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["inputs"]["flying_pixels"] == info["flying_pixels"]
+    # the dropped points are in the recording, drawn on a topic of their own
+    recorded = open_run(run)
+    dropped = recorded.stages["preprocess"]["flying_points"]
+    assert len(dropped) == info["flying_pixels"]
+    assert "/scene/flying_pixels" in {m.topic for m in recorded.messages}
     assert main(["replay", str(run)]) == 0
     assert "moved 0.0 mm and turned 0.0°" in capsys.readouterr().out
 

@@ -183,7 +183,10 @@ class Pipeline:
         scene_points, flying = without_flying(scene, spec.preprocess.flying_pixels)
         cropped = crop(scene_points, spec.preprocess.crop_radius)
         points = downsample(cropped, spec.preprocess.voxel_size)
-        lap("preprocess", {"points": points, "flying_pixels": flying})
+        pre: dict[str, Any] = {"points": points, "flying_pixels": len(flying)}
+        if len(flying):
+            pre["flying_points"] = flying  # drawn in Foxglove
+        lap("preprocess", pre)
 
         viewpoints = scene.viewpoints()
         kwargs: dict[str, Any] = {}

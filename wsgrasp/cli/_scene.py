@@ -204,7 +204,7 @@ def info(
     summary = {
         "points": int(scene.points.shape[0]),
         "dropped_nonfinite": scene.dropped_nonfinite,
-        "flying_pixels": flying,
+        "flying_pixels": len(flying),
         "downsampled": int(points.shape[0]),
         "table_normal": seg.table.normal,
         "table_offset": seg.table.offset,
@@ -222,7 +222,7 @@ def info(
     n = seg.table.normal
     console.print(
         f"{summary['points']} points ({scene.dropped_nonfinite} non-finite dropped, "
-        f"{flying} flying pixels), {summary['downsampled']} after voxel "
+        f"{len(flying)} flying pixels), {summary['downsampled']} after voxel "
         f"{ps.preprocess.voxel_size:g} m"
     )
     console.print(

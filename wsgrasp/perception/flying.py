@@ -165,10 +165,10 @@ def flying_points(scene: Scene) -> NDArray[np.bool_] | None:
     return mask if mask.any() else None
 
 
-def without_flying(scene: Scene, drop: bool = True) -> tuple[Array, int]:
+def without_flying(scene: Scene, drop: bool = True) -> tuple[Array, Array]:
     """``scene.points`` less its views' flying pixels (:func:`flying_points`)
-    where ``drop``, and how many were dropped."""
+    where ``drop``, and the points dropped ``(m, 3)``."""
     mask = flying_points(scene) if drop else None
     if mask is None:
-        return scene.points, 0
-    return scene.points[~mask], int(mask.sum())
+        return scene.points, scene.points[:0]
+    return scene.points[~mask], scene.points[mask]

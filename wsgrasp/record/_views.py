@@ -172,7 +172,10 @@ def views_of(
 
 #: The clouds of a stage: (record key, topic, colour).
 _CLOUDS = {
-    "preprocess": [("points", "/scene/downsampled", (0.7, 0.7, 0.7, 1.0))],
+    "preprocess": [
+        ("points", "/scene/downsampled", (0.7, 0.7, 0.7, 1.0)),
+        ("flying_points", "/scene/flying_pixels", (0.9, 0.1, 0.6, 1.0)),
+    ],
     "segmentation": [
         ("table_points", "/scene/table_points", (0.6, 0.5, 0.4, 1.0)),
         ("object_points", "/scene/object", (0.1, 0.4, 0.9, 1.0)),
