@@ -158,7 +158,6 @@ class Pipeline:
         """Run the stages before the search: cropping (``preprocess.crop_radius``)
         and downsampling, segmentation, target choice, object frame, samples and
         table; report each to ``observers``."""
-        from wsgrasp.perception.flying import without_flying
         from wsgrasp.perception.frame import (
             object_frame,
             sample_box,
@@ -166,7 +165,7 @@ class Pipeline:
             table_superellipsoid,
         )
         from wsgrasp.perception.io import units_hint
-        from wsgrasp.perception.process import crop, downsample, select_target, thin
+        from wsgrasp.perception.process import preprocess, select_target, thin
 
         spec = self.spec
         timing: dict[str, float] = {}
@@ -180,9 +179,7 @@ class Pipeline:
                 o.on_stage(stage, data)
             t = time.perf_counter()
 
-        scene_points, flying = without_flying(scene, spec.preprocess.flying_pixels)
-        cropped = crop(scene_points, spec.preprocess.crop_radius)
-        points = downsample(cropped, spec.preprocess.voxel_size)
+        points, flying = preprocess(scene, spec.preprocess)
         pre: dict[str, Any] = {"points": points, "flying_pixels": len(flying)}
         if len(flying):
             pre["flying_points"] = flying  # drawn in Foxglove

@@ -165,10 +165,9 @@ def info(
     """Load a scene and show the table plane, objects and object frame found."""
     import time
 
-    from wsgrasp.perception.flying import without_flying
     from wsgrasp.perception.frame import object_frame
     from wsgrasp.perception.io import load_scene
-    from wsgrasp.perception.process import crop, downsample, select_target, thin
+    from wsgrasp.perception.process import preprocess, select_target, thin
     from wsgrasp.plugins import get_registry
     from wsgrasp.spec import PipelineSpec, load_spec
 
@@ -192,8 +191,7 @@ def info(
 
     scene = load_scene(clouds, icp=icp or ps.preprocess.icp, registered=registered)
     lap("load")
-    kept, flying = without_flying(scene, ps.preprocess.flying_pixels)
-    points = downsample(crop(kept, ps.preprocess.crop_radius), ps.preprocess.voxel_size)
+    points, flying = preprocess(scene, ps.preprocess)
     lap("downsample")
     seg = entry.obj().segment(points, options, seed=ps.seed)
     lap("segment")

@@ -17,6 +17,7 @@ __all__ = [
     "crop",
     "downsample",
     "fit_plane_ransac",
+    "preprocess",
     "select_target",
     "thin",
     "warm_up",
@@ -147,6 +148,18 @@ def crop(
             hint="raise preprocess.crop_radius or remove it",
         )
     return p[keep]
+
+
+def preprocess(scene: Any, options: Any) -> tuple[Array, Array]:
+    """A scene's points ``(m, 3)`` as a plan takes them, by a spec's
+    ``preprocess`` ``options``: its views' flying pixels dropped (where
+    ``flying_pixels``; :func:`wsgrasp.perception.flying.without_flying`),
+    cropped to ``crop_radius``, downsampled to ``voxel_size``; and the flying
+    pixels dropped ``(k, 3)``."""
+    from wsgrasp.perception.flying import without_flying
+
+    kept, flying = without_flying(scene, options.flying_pixels)
+    return downsample(crop(kept, options.crop_radius), options.voxel_size), flying
 
 
 def thin(points: ArrayLike, max_points: int, seed: int = 0) -> Array:
