@@ -195,6 +195,28 @@ def test_a_cloud_in_its_camera_frame_has_its_camera_at_the_origin():
     np.testing.assert_allclose(centres[0][:2], T_mesh[:2, 3], atol=0.006)
 
 
+def test_pixels_without_depth_leave_the_image_an_image(tmp_path, capsys):
+    """A camera's cloud saved with its pixels that have no depth at (0, 0, 0)
+    (RealSense's ``get_vertices``, Azure Kinect's point cloud image) plans as
+    the cloud without them: its camera at the origin, its flying pixels found,
+    and ``scene info`` counts what it dropped."""
+    rng = np.random.default_rng(0)
+    (view,), _ = box_views(45.0, 1.0)
+    holes = np.insert(view.points, rng.integers(0, len(view.points), 5000), 0.0, 0)
+    clean = scene_from_arrays(view.points)
+    holed = scene_from_arrays(holes)
+    assert holed.dropped_no_depth == 5000
+    np.testing.assert_array_equal(holed.viewpoints(), [[0.0, 0.0, 0.0]])
+    dropped = int(flying_points(clean).sum())
+    assert dropped > 100
+    np.testing.assert_array_equal(flying_points(holed), flying_points(clean))
+    np.savez(tmp_path / "holes.npz", points=holes)
+    assert main(["scene", "info", str(tmp_path / "holes.npz"), "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["dropped_no_depth"] == 5000
+    assert info["flying_pixels"] == dropped
+
+
 @pytest.mark.parametrize("k1", [-0.1, 0.05, 0.1])
 def test_a_lens_that_bends_the_grid_still_gives_the_pixels(k1):
     """A camera's points deprojected through radial distortion lie on a bent

@@ -70,6 +70,33 @@ def test_nan_and_inf_are_dropped_and_counted(tmp_path: Path) -> None:
         assert np.isfinite(scene.points).all()
 
 
+def test_points_without_depth_are_dropped_and_counted(tmp_path: Path) -> None:
+    """A pixel without a depth comes back as (0, 0, 0) in its camera's frame:
+    dropped from a plain cloud and from a posed view (before it is moved into
+    the world, where it would land on the camera's centre), and counted apart
+    from NaN/inf."""
+    pts = RNG_POINTS.copy()
+    pts[[2, 5, 11]] = 0.0
+    pts[4] = np.nan
+    pts[6, 0] = 0.0  # one coordinate at zero is a point
+    np.savez(tmp_path / "zeros.npz", points=pts)
+    scene = load_scene(tmp_path / "zeros.npz")
+    assert (scene.dropped_no_depth, scene.dropped_nonfinite) == (3, 1)
+    assert scene.points.shape == (46, 3)
+    assert scene.points.any(axis=1).all()
+    T = random_rigid(np.random.default_rng(1))
+    posed = scene_from_arrays([(pts, T)])
+    assert posed.dropped_no_depth == 3
+    assert not np.isclose(posed.points, T[:3, 3], atol=1e-12).all(axis=1).any()
+
+
+def test_a_cloud_without_any_depth(tmp_path: Path) -> None:
+    np.savez(tmp_path / "zero.npz", points=np.zeros((10, 3)))
+    with pytest.raises(InputError, match="no point with a depth") as info:
+        load_scene(tmp_path / "zero.npz")
+    assert "range and exposure" in (info.value.hint or "")
+
+
 # --------------------------------------------------------------------------------
 # scenes with several views
 # --------------------------------------------------------------------------------

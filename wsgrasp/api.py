@@ -491,6 +491,7 @@ class Pipeline:
                 "scene_points": int(len(scene.points)),
                 "downsampled_points": int(len(prep.downsampled)),
                 "dropped_nonfinite": int(scene.dropped_nonfinite),
+                "dropped_no_depth": int(scene.dropped_no_depth),
                 "sampling_mode": inp.orientations.mode,
                 "orientations": len(inp.orientations),
                 "table_normal": inp.table.T_world_table[:3, 2].tolist(),

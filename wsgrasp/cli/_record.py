@@ -87,6 +87,11 @@ def inspect(
                 else ""
             )
             + (
+                f"; {inp['dropped_no_depth']} without depth (0, 0, 0) dropped"
+                if inp.get("dropped_no_depth")
+                else ""
+            )
+            + (
                 f"; {inp['flying_pixels']} flying pixels dropped"
                 if inp.get("flying_pixels")
                 else ""

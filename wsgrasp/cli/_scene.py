@@ -202,6 +202,7 @@ def info(
     summary = {
         "points": int(scene.points.shape[0]),
         "dropped_nonfinite": scene.dropped_nonfinite,
+        "dropped_no_depth": scene.dropped_no_depth,
         "flying_pixels": len(flying),
         "downsampled": int(points.shape[0]),
         "table_normal": seg.table.normal,
@@ -219,7 +220,8 @@ def info(
         return
     n = seg.table.normal
     console.print(
-        f"{summary['points']} points ({scene.dropped_nonfinite} non-finite dropped, "
+        f"{summary['points']} points ({scene.dropped_nonfinite} non-finite and "
+        f"{scene.dropped_no_depth} without depth (0, 0, 0) dropped, "
         f"{len(flying)} flying pixels), {summary['downsampled']} after voxel "
         f"{ps.preprocess.voxel_size:g} m"
     )

@@ -457,7 +457,7 @@ def scene_from_arrays(
 
 
 def _merge(views: list[View], *, icp: bool, icp_distance: float) -> Scene:
-    dropped = 0
+    dropped = no_depth = 0
     for v in views:
         if v.points.shape[0] == 0:
             raise InputError(
@@ -472,9 +472,22 @@ def _merge(views: list[View], *, icp: bool, icp_distance: float) -> Scene:
                 hint="the capture produced no valid depth; check the camera and "
                 "the export",
             )
+        # a pixel without depth comes back at the camera's centre, (0, 0, 0) in
+        # its view: no camera measures a point there
+        valid = finite & v.points.any(axis=1)
+        n_zero = int(finite.sum() - valid.sum())
+        if n_zero == finite.sum():
+            raise InputError(
+                f"cloud {v.name!r} has no point with a depth: all {n_zero} finite "
+                "points are (0, 0, 0), what a depth camera gives a pixel it did "
+                "not measure",
+                hint="the capture produced no valid depth; check the camera's "
+                "range and exposure, and the export",
+            )
         dropped += n_bad
-        if n_bad:
-            v.points = v.points[finite]
+        no_depth += n_zero
+        if n_bad or n_zero:
+            v.points = v.points[valid]
     if icp and len(views) > 1:
         refine_views_icp(views, max_distance=icp_distance)
     # (N, 3) world-frame points of every view; one view in the world frame is
@@ -482,7 +495,12 @@ def _merge(views: list[View], *, icp: bool, icp_distance: float) -> Scene:
     world = [_to_world(v) for v in views]
     merged = world[0] if len(world) == 1 else np.concatenate(world, axis=0)
     check_units(merged, name=" + ".join(v.name for v in views) or "points")
-    scene = Scene(views=views, points=merged, dropped_nonfinite=dropped)
+    scene = Scene(
+        views=views,
+        points=merged,
+        dropped_nonfinite=dropped,
+        dropped_no_depth=no_depth,
+    )
     scene.merged_digest = scene.digest()
     return scene
 

@@ -42,11 +42,17 @@ class Scene:
         Merged finite points in the world (input) frame.
     dropped_nonfinite : int
         NaN/inf points removed while merging.
+    dropped_no_depth : int
+        Points at their own camera's centre, ``(0, 0, 0)`` in their view,
+        removed while merging: what depth cameras and their SDKs (RealSense's
+        ``get_vertices``, Azure Kinect's point cloud image, ``z = depth`` with
+        a depth of 0) give a pixel without a depth.
     """
 
     views: list[View]
     points: Array
     dropped_nonfinite: int = 0
+    dropped_no_depth: int = 0
     #: :meth:`digest` when ``points`` was computed as the merge of ``views`` (set
     #: by the scene loaders). A recorder whose scene still has this digest knows
     #: the points are that merge without merging again.

@@ -166,8 +166,12 @@ class Run:
                 hint="nothing of this run can be replayed",
             )
         views = [View(v["points"], v["T_world_camera"], v["name"]) for v in d["views"]]
-        dropped = int(d.get("dropped_nonfinite", 0))
-        return Scene(views=views, points=d["points"], dropped_nonfinite=dropped)
+        return Scene(
+            views=views,
+            points=d["points"],
+            dropped_nonfinite=int(d.get("dropped_nonfinite", 0)),
+            dropped_no_depth=int(d.get("dropped_no_depth", 0)),
+        )
 
     @cached_property
     def candidates(self) -> CandidateSet | None:

@@ -77,6 +77,7 @@ def summarize_run(run: Run, *, top_k: int = 5) -> dict[str, Any]:
         ]
         inputs = {"views": views, "points": len(scene.points)}
         inputs["dropped_nonfinite"] = scene.dropped_nonfinite
+        inputs["dropped_no_depth"] = scene.dropped_no_depth
         flying = run.stages.get("preprocess", {}).get("flying_pixels")
         if flying is not None:
             inputs["flying_pixels"] = int(flying)

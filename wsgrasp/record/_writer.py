@@ -149,9 +149,13 @@ class RunRecorder:
                 {"name": v.name, "points": v.points, "T_world_camera": v.T_world_camera}
                 for v in scene.views
             ]
-            dropped = int(scene.dropped_nonfinite)
-            inputs = {"views": views, "points": scene.points}
-            self._record("inputs", inputs | {"dropped_nonfinite": dropped}, now)
+            inputs = {
+                "views": views,
+                "points": scene.points,
+                "dropped_nonfinite": int(scene.dropped_nonfinite),
+                "dropped_no_depth": int(scene.dropped_no_depth),
+            }
+            self._record("inputs", inputs, now)
 
     def on_stage(self, stage: str, data: dict[str, Any]) -> None:
         """Write one stage's record."""
