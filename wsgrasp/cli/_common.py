@@ -59,3 +59,20 @@ def number(
         return value
 
     return check
+
+
+INTRINSICS_HELP = (
+    "Depth camera intrinsics fx,fy,cx,cy (pixels) of a depth image input (16-bit "
+    "PNG or TIFF, float TIFF, (h, w) NPY)."
+)
+DEPTH_SCALE_HELP = (
+    "Metres per unit of a depth image input; default 0.001 for integer images "
+    "(millimetres), 1 for float images (metres)."
+)
+
+
+def intrinsics_of(text: str | None) -> Any:
+    """``--intrinsics`` parsed (None when not given)."""
+    from wsgrasp.perception.depth import Intrinsics
+
+    return None if text is None else Intrinsics.parse(text)

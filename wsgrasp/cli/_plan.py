@@ -9,7 +9,15 @@ import numpy as np
 import typer
 from rich.table import Table
 
-from wsgrasp.cli._common import console, err_console, number, print_json
+from wsgrasp.cli._common import (
+    DEPTH_SCALE_HELP,
+    INTRINSICS_HELP,
+    console,
+    err_console,
+    intrinsics_of,
+    number,
+    print_json,
+)
 from wsgrasp.errors import InputError
 
 
@@ -101,7 +109,9 @@ def _observers(
 
 def plan(
     clouds: list[Path] = typer.Argument(
-        ..., help="Cloud files (PLY, PCD, XYZ, NPY/NPZ), a scene YAML, or a ROS 2 bag."
+        ...,
+        help="Cloud files (PLY, PCD, XYZ, NPY/NPZ), a depth image with "
+        "--intrinsics, a scene YAML, or a ROS 2 bag.",
     ),
     spec_file: Path | None = typer.Option(
         None,
@@ -124,6 +134,12 @@ def plan(
     ),
     registered: bool = typer.Option(
         False, "--registered", help="Several clouds already share one frame."
+    ),
+    intrinsics: str | None = typer.Option(
+        None, "--intrinsics", metavar="FX,FY,CX,CY", help=INTRINSICS_HELP
+    ),
+    depth_scale: float | None = typer.Option(
+        None, "--depth-scale", callback=number(0.0, above=True), help=DEPTH_SCALE_HELP
     ),
     topic: str | None = typer.Option(
         None, "--topic", help="PointCloud2 topic, when the input is a ROS 2 bag."
@@ -170,7 +186,13 @@ def plan(
             )
         scene = read_bag_scene(clouds[0], topic, frame=frame, at=at)
     else:
-        scene = load_scene(clouds, icp=spec.preprocess.icp, registered=registered)
+        scene = load_scene(
+            clouds,
+            icp=spec.preprocess.icp,
+            registered=registered,
+            intrinsics=intrinsics_of(intrinsics),
+            depth_scale=depth_scale,
+        )
     pipeline = Pipeline(spec)
     observers, path = _observers(
         spec, pipeline.gripper.name, record, no_record, force, list(clouds)

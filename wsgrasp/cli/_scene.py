@@ -7,7 +7,14 @@ from pathlib import Path
 
 import typer
 
-from wsgrasp.cli._common import console, number, print_json
+from wsgrasp.cli._common import (
+    DEPTH_SCALE_HELP,
+    INTRINSICS_HELP,
+    console,
+    intrinsics_of,
+    number,
+    print_json,
+)
 
 scene_app = typer.Typer(
     help="Scenes: render synthetic ones, inspect segmentation.",
@@ -94,6 +101,12 @@ def synth(
         "--views-out",
         help="Also write each view in its camera frame and a scene.yaml here.",
     ),
+    depth_images: bool = typer.Option(
+        False,
+        "--depth-images",
+        help="With --views-out, write the views as depth images (16-bit PNG, "
+        "millimetres) with their intrinsics instead of clouds.",
+    ),
     camera_frame: bool = typer.Option(
         False,
         "--camera-frame",
@@ -127,7 +140,18 @@ def synth(
         camera_frame=camera_frame,
     )
     save_cloud(out, scene.points)
-    yaml_path = write_scene_yaml(views_out, scene.views) if views_out else None
+    if depth_images and views_out is None:
+        raise InputError(
+            "--depth-images writes the views, and needs --views-out",
+            hint="add --views-out DIR",
+        )
+    yaml_path = (
+        write_scene_yaml(
+            views_out, scene.views, cameras=scene.cameras if depth_images else None
+        )
+        if views_out
+        else None
+    )
     counts = [int(v.points.shape[0]) for v in scene.views]
     summary = {
         "out": str(out),
@@ -152,7 +176,9 @@ def synth(
 
 @scene_app.command("info")
 def info(
-    clouds: list[Path] = typer.Argument(..., help="Cloud files or one scene YAML."),
+    clouds: list[Path] = typer.Argument(
+        ..., help="Cloud files, a depth image with --intrinsics, or one scene YAML."
+    ),
     spec: Path | None = typer.Option(
         None, "--spec", "-s", help="Pipeline spec (segmenter, preprocess, target)."
     ),
@@ -160,6 +186,12 @@ def info(
         False, "--registered", help="Several clouds already share one frame."
     ),
     icp: bool = typer.Option(False, "--icp", help="Refine view poses with ICP."),
+    intrinsics: str | None = typer.Option(
+        None, "--intrinsics", metavar="FX,FY,CX,CY", help=INTRINSICS_HELP
+    ),
+    depth_scale: float | None = typer.Option(
+        None, "--depth-scale", callback=number(0.0, above=True), help=DEPTH_SCALE_HELP
+    ),
     as_json: bool = typer.Option(False, "--json", help="Print JSON."),
 ) -> None:
     """Load a scene and show the table plane, objects and object frame found."""
@@ -189,7 +221,13 @@ def info(
         timing[stage] = round((now - t) * 1e3, 2)
         t = now
 
-    scene = load_scene(clouds, icp=icp or ps.preprocess.icp, registered=registered)
+    scene = load_scene(
+        clouds,
+        icp=icp or ps.preprocess.icp,
+        registered=registered,
+        intrinsics=intrinsics_of(intrinsics),
+        depth_scale=depth_scale,
+    )
     lap("load")
     points, flying = preprocess(scene, ps.preprocess)
     lap("downsample")

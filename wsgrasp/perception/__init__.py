@@ -1,7 +1,8 @@
 """Scene processing: cloud I/O, view merging, downsampling, segmentation helpers,
 object frame, box sampling, table superellipsoid, synthetic scenes.
 
-Modules: ``io`` (loading and writing clouds and scenes), ``process`` (downsampling,
+Modules: ``io`` (loading and writing clouds and scenes), ``depth`` (depth images
+and their intrinsics), ``flying`` (flying pixels), ``process`` (downsampling,
 RANSAC plane, DBSCAN, target selection), ``frame`` (object and table frames, box
 samples, normals), ``synth`` (rendering objects on a table from virtual depth
 cameras), ``touching`` (two objects touching), ``bag`` (scenes from ROS 2 bags'
@@ -9,6 +10,7 @@ PointCloud2 and /tf messages), ``types`` (View, Scene, Plane, Segmentation,
 Segmenter).
 """
 
+from wsgrasp.perception.depth import Intrinsics, depth_points
 from wsgrasp.perception.frame import (
     ObjectFrame,
     estimate_normals,
@@ -29,6 +31,7 @@ from wsgrasp.perception.process import crop, downsample, select_target, thin
 from wsgrasp.perception.types import Plane, Scene, Segmentation, Segmenter, View
 
 __all__ = [
+    "Intrinsics",
     "ObjectFrame",
     "Plane",
     "Scene",
@@ -36,6 +39,7 @@ __all__ = [
     "Segmenter",
     "View",
     "crop",
+    "depth_points",
     "downsample",
     "estimate_normals",
     "grid_shape",

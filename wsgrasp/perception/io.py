@@ -3,20 +3,28 @@
 A scene is one or several views. Accepted inputs:
 
 - one cloud file (PLY, PCD, XYZ/TXT/CSV, NPY, NPZ): its frame is the world frame;
+- one depth image (16-bit PNG or TIFF, float TIFF, ``(h, w)`` NPY) with its
+  camera's ``intrinsics`` (CLI ``--intrinsics fx,fy,cx,cy``): its camera's frame is
+  the world frame (:mod:`wsgrasp.perception.depth`);
 - a scene YAML (``.yaml``/``.yml``) listing views, each a cloud file in its camera
-  frame and the camera pose ``T_world_camera``::
+  frame, or a depth image with its intrinsics, and the camera pose
+  ``T_world_camera``::
 
       version: 1
       units: m            # m (default), cm, mm or in: clouds and translations
       views:
         - cloud: view_0.npz
           T_world_camera: [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]
+        - depth: view_1.png          # millimetres unless depth_scale says
+          intrinsics: {fx: 615.0, fy: 615.0, cx: 319.5, cy: 239.5}
+          T_world_camera: ...
 
 - several cloud files only with ``registered=True`` (CLI ``--registered``): they are
   then taken to be in one world frame already. Several clouds without poses are
   otherwise an error, since merging unregistered views gives a wrong object.
 
-NaN and inf points are dropped and counted; empty, all-NaN, wrongly shaped clouds and
+NaN and inf points, and points at ``(0, 0, 0)`` (a pixel without depth), are
+dropped and counted; empty, all-NaN, wrongly shaped clouds and
 clouds whose extents suggest millimetres raise ``InputError``.
 """
 
@@ -31,10 +39,16 @@ from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from wsgrasp.errors import InputError, SpecError
 from wsgrasp.geometry import transform_points
+from wsgrasp.perception.depth import (
+    DEPTH_SUFFIXES,
+    Intrinsics,
+    depth_points,
+    read_depth_image,
+)
 from wsgrasp.perception.types import Array, Scene, View
 
 __all__ = [
@@ -102,6 +116,13 @@ def load_cloud(path: str | Path) -> Array:
         arr = _read_npy(p)
     elif suffix == ".npz":
         arr = _read_npz(p)
+    elif suffix in DEPTH_SUFFIXES:
+        raise InputError(
+            f"{str(p)!r} is an image, not a point cloud; a depth image is "
+            "deprojected with its camera's intrinsics",
+            hint="pass --intrinsics fx,fy,cx,cy with it, or list it in a scene "
+            "YAML as `depth:` with `intrinsics:` (examples/scenes/README.md)",
+        )
     else:
         raise InputError(
             f"cloud file {str(p)!r} has unknown format {suffix or '(no suffix)'!r}; "
@@ -286,9 +307,16 @@ def _check_shape(arr: ArrayLike, name: str) -> Array:
     if a.ndim == 3 and a.shape[-1] == 3:
         a = a.reshape(-1, 3)  # an organised cloud (h, w, 3) -> (h*w, 3)
     if a.ndim != 2 or a.shape[1] != 3:
+        image = a.ndim == 2 and min(a.shape) > 3
         raise InputError(
             f"cloud {name!r} has shape {a.shape}, expected (n, 3)",
-            hint="give one point per row with x, y, z columns",
+            hint="give one point per row with x, y, z columns"
+            + (
+                "; an (h, w) array is a depth image: pass --intrinsics "
+                "fx,fy,cx,cy with it"
+                if image
+                else ""
+            ),
         )
     return a
 
@@ -299,12 +327,45 @@ def _check_shape(arr: ArrayLike, name: str) -> Array:
 class _ViewEntry(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
-    cloud: str = Field(description="cloud file, relative to the scene YAML")
+    cloud: str | None = Field(
+        None, description="cloud file in the camera frame, relative to the scene YAML"
+    )
+    depth: str | None = Field(
+        None,
+        description="depth image (16-bit PNG or TIFF, float TIFF, (h, w) NPY), "
+        "relative to the scene YAML, in place of a cloud",
+    )
+    intrinsics: Intrinsics | None = Field(
+        None, description="the depth image's camera intrinsics (pixels)"
+    )
+    depth_scale: float | None = Field(
+        None,
+        gt=0.0,
+        description="metres per unit of the depth image; default 0.001 for "
+        "integer images (millimetres), 1 for float images (metres)",
+    )
     T_world_camera: list[list[float]] = Field(
         default_factory=lambda: np.eye(4).tolist(),
         description="4x4 pose of the camera in the world frame",
     )
     name: str = ""
+
+    @model_validator(mode="after")
+    def _cloud_or_depth(self) -> _ViewEntry:
+        if (self.cloud is None) == (self.depth is None):
+            raise ValueError("give each view either `cloud:` or `depth:`")
+        if self.depth is not None and self.intrinsics is None:
+            raise ValueError(
+                "a `depth:` image needs its camera's `intrinsics: {fx, fy, cx, cy}`"
+            )
+        if self.cloud is not None and (
+            self.intrinsics is not None or self.depth_scale is not None
+        ):
+            raise ValueError(
+                "`intrinsics` and `depth_scale` belong to a `depth:` image, not "
+                "to a `cloud:`"
+            )
+        return self
 
 
 class SceneFile(BaseModel):
@@ -325,25 +386,35 @@ def load_scene(
     icp: bool = False,
     registered: bool = False,
     icp_distance: float = 0.01,
+    intrinsics: Intrinsics | None = None,
+    depth_scale: float | None = None,
 ) -> Scene:
-    """Read a scene from cloud files or a scene YAML and merge it into the world frame.
+    """Read a scene from cloud files, depth images or a scene YAML and merge it
+    into the world frame.
 
     Parameters
     ----------
     paths
-        One cloud file, one scene YAML, or several cloud files (with
-        ``registered=True``).
+        One cloud file or depth image, one scene YAML, or several cloud files
+        or depth images (with ``registered=True``).
     icp
         Refine the view poses with point-to-plane ICP (views 2.. against view 1).
     registered
         Several cloud files are already in one (world) frame.
     icp_distance
         Largest correspondence distance (m) for ICP.
+    intrinsics
+        The camera intrinsics of the depth images among ``paths`` (PNG, TIFF,
+        or NPY of shape ``(h, w)``; a scene YAML gives them per view).
+    depth_scale
+        Metres per unit of those depth images (see
+        :func:`wsgrasp.perception.depth.depth_points`).
 
     Returns
     -------
     Scene
-        ``points`` (N, 3) finite, world frame; ``dropped_nonfinite`` counted.
+        ``points`` (N, 3) finite, world frame; ``dropped_nonfinite`` and
+        ``dropped_no_depth`` counted.
     """
     if isinstance(paths, (str, Path)):
         paths = [paths]
@@ -361,6 +432,13 @@ def load_scene(
                 f"{len(plist)} inputs",
                 hint="list every view inside the scene YAML",
             )
+        if intrinsics is not None or depth_scale is not None:
+            raise InputError(
+                f"intrinsics or a depth scale were given with a scene YAML "
+                f"({plist[0]})",
+                hint="give them per view in the scene YAML (`intrinsics:`, "
+                "`depth_scale:` beside `depth:`)",
+            )
         views = _read_scene_yaml(plist[0])
     else:
         if len(plist) > 1 and not registered:
@@ -371,11 +449,59 @@ def load_scene(
                 "(see examples/scenes/README.md), or pass --registered "
                 "(registered=True) if they already share one frame",
             )
+        if intrinsics is not None and not any(_is_depth(p, True) for p in plist):
+            raise InputError(
+                "intrinsics were given, but no input is a depth image "
+                f"({', '.join(DEPTH_SUFFIXES)}, or an NPY of shape (h, w))",
+                hint="drop --intrinsics for point clouds; give it with a depth image",
+            )
+        if intrinsics is None and depth_scale is not None:
+            raise InputError(
+                "a depth scale was given without intrinsics",
+                hint="give --intrinsics fx,fy,cx,cy with the depth image",
+            )
         views = [
-            View(points=load_cloud(p), T_world_camera=np.eye(4), name=p.name)
+            View(
+                points=_cloud_or_depth(p, intrinsics, depth_scale),
+                T_world_camera=np.eye(4),
+                name=p.name,
+            )
             for p in plist
         ]
     return _merge(views, icp=icp, icp_distance=icp_distance)
+
+
+def _is_depth(p: Path, intrinsics: bool) -> bool:
+    """Whether ``p`` is read as a depth image: an image file, or with
+    ``intrinsics`` an NPY holding an ``(h, w)`` array (both sides over 3: an
+    ``(n, 3)`` array is a cloud)."""
+    suffix = p.suffix.lower()
+    if suffix in DEPTH_SUFFIXES:
+        return True
+    if suffix != ".npy" or not intrinsics or not p.is_file():
+        return False
+    try:
+        shape = np.load(p, mmap_mode="r", allow_pickle=False).shape
+    except NUMPY_READ_ERRORS:
+        return False
+    return len(shape) == 2 and min(shape) > 3
+
+
+def _cloud_or_depth(
+    p: Path, intrinsics: Intrinsics | None, depth_scale: float | None
+) -> Array:
+    """The points of a cloud file, or of a depth image with ``intrinsics``."""
+    if not _is_depth(p, intrinsics is not None):
+        return load_cloud(p)
+    if intrinsics is None:
+        raise InputError(
+            f"{str(p)!r} is a depth image: deprojecting it needs its camera's "
+            "intrinsics",
+            hint="pass --intrinsics fx,fy,cx,cy (camera_info's K[0], K[4], K[2], "
+            "K[5]; intrinsics=Intrinsics(...) in Python), or list it in a scene "
+            "YAML with `intrinsics:` (examples/scenes/README.md)",
+        )
+    return depth_points(read_depth_image(p), intrinsics, depth_scale, name=p.name)
 
 
 def _read_scene_yaml(path: Path) -> list[View]:
@@ -400,13 +526,19 @@ def _read_scene_yaml(path: Path) -> list[View]:
     scale = _UNIT_SCALE[doc.units]
     views = []
     for i, entry in enumerate(doc.views):
-        cloud_path = Path(entry.cloud)
-        if not cloud_path.is_absolute():
-            cloud_path = path.parent / cloud_path
+        file = entry.cloud or entry.depth or ""
+        file_path = Path(file)
+        if not file_path.is_absolute():
+            file_path = path.parent / file_path
         T = _check_pose(entry.T_world_camera, f"{path}: views[{i}].T_world_camera")
         T[:3, 3] *= scale
-        pts = load_cloud(cloud_path) * scale
-        views.append(View(points=pts, T_world_camera=T, name=entry.name or entry.cloud))
+        if entry.depth is not None and entry.intrinsics is not None:
+            # in metres by its depth_scale
+            image = read_depth_image(file_path)
+            pts = depth_points(image, entry.intrinsics, entry.depth_scale, name=file)
+        else:
+            pts = load_cloud(file_path) * scale
+        views.append(View(points=pts, T_world_camera=T, name=entry.name or file))
     return views
 
 
@@ -634,20 +766,41 @@ def save_cloud(path: str | Path, points: ArrayLike) -> Path:
 
 
 def write_scene_yaml(
-    directory: str | Path, views: Sequence[View], name: str = "scene.yaml"
+    directory: str | Path,
+    views: Sequence[View],
+    name: str = "scene.yaml",
+    cameras: Sequence[Any] | None = None,
 ) -> Path:
     """Write each view's points (camera frame) as ``view_<i>.npz`` and a scene YAML
-    listing them with their ``T_world_camera``; returns the YAML's path."""
+    listing them with their ``T_world_camera``; returns the YAML's path. With
+    ``cameras`` (one :class:`wsgrasp.perception.synth.Camera` per view), each view
+    is written as the camera's depth image instead, a 16-bit PNG in millimetres,
+    listed with its intrinsics."""
     import yaml
+    from PIL import Image
 
     d = Path(directory)
     d.mkdir(parents=True, exist_ok=True)
-    entries = []
+    entries: list[dict[str, Any]] = []
     for i, v in enumerate(views):
-        fname = f"view_{i}.npz"
-        save_cloud(d / fname, v.points)
         T = np.round(np.asarray(v.T_world_camera, dtype=np.float64), 9)
-        entries.append({"cloud": fname, "T_world_camera": T.tolist()})
+        if cameras is None:
+            fname = f"view_{i}.npz"
+            save_cloud(d / fname, v.points)
+            entries.append({"cloud": fname, "T_world_camera": T.tolist()})
+            continue
+        cam = cameras[i]
+        mm = np.rint(cam.depth_image(v.points) * 1000.0)
+        fname = f"view_{i}.png"
+        Image.fromarray(np.clip(mm, 0, 65535).astype(np.uint16)).save(d / fname)
+        k = {"fx": cam.fx, "fy": cam.fy, "cx": cam.cx, "cy": cam.cy}
+        entries.append(
+            {
+                "depth": fname,
+                "intrinsics": {key: float(val) for key, val in k.items()},
+                "T_world_camera": T.tolist(),
+            }
+        )
     doc = {"version": 1, "units": "m", "views": entries}
     out = d / name
     out.write_text(yaml.safe_dump(doc, sort_keys=False, default_flow_style=None))

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -86,6 +86,23 @@ class Camera:
             (width - 1) / 2.0,
             (height - 1) / 2.0,
         )
+
+    def depth_image(self, points: ArrayLike) -> Array:
+        """The depth image ``(height, width)`` (m) of ``points`` ``(n, 3)`` in this
+        camera's frame: each point at its nearest pixel, the nearest point where
+        several share one, 0 where none is (as a depth camera writes a pixel
+        without depth)."""
+        p = np.asarray(points, dtype=np.float64)
+        z = p[:, 2]
+        front = z > 0.0
+        p, z = p[front], z[front]
+        u = np.rint(self.fx * p[:, 0] / z + self.cx).astype(np.int64)
+        v = np.rint(self.fy * p[:, 1] / z + self.cy).astype(np.int64)
+        on = (u >= 0) & (u < self.width) & (v >= 0) & (v < self.height)
+        image = np.full((self.height, self.width), np.inf)
+        np.minimum.at(image, (v[on], u[on]), z[on])
+        image[np.isinf(image)] = 0.0
+        return image
 
     def ray_directions(self) -> Array:
         """Ray directions ``(h*w, 3)`` in the camera frame with unit z, so a hit
@@ -360,6 +377,8 @@ class SynthScene:
     table: Plane
     mesh: Any = None
     info: dict[str, Any] = field(default_factory=dict)
+    #: the cameras that rendered ``views``, one per view
+    cameras: list[Camera] = field(default_factory=list)
 
     def in_camera_frame(self, index: int = 0) -> SynthScene:
         """The same scene expressed in camera ``index``'s frame (table tilted)."""
@@ -377,6 +396,10 @@ class SynthScene:
             table=Plane(n, float(self.table.offset - n @ o)),
             mesh=self.mesh,
             info={**self.info, "frame": f"camera {index}"},
+            cameras=[
+                replace(c, T_world_camera=T_cam_world @ c.T_world_camera)
+                for c in self.cameras
+            ],
         )
 
 
@@ -452,5 +475,6 @@ def synth_scene(
         table=Plane(np.array([0.0, 0.0, 1.0]), 0.0),
         mesh=mesh,
         info={"object": kind, "pose": pose, "seed": seed, "noise": noise},
+        cameras=list(cams),
     )
     return out.in_camera_frame(0) if camera_frame else out

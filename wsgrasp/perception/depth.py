@@ -1,0 +1,183 @@
+"""Depth images as planner input: a depth camera's image and its intrinsics,
+deprojected into the camera's frame (OpenCV axes: z forward, x right, y down).
+
+An image is a 16-bit PNG or TIFF (integer depth in ``depth_scale`` metres per
+unit: millimetres unless told, as RealSense, Azure Kinect and most drivers write
+them; TUM RGB-D's are 0.2 mm, ``depth_scale: 0.0002``), a 32-bit float TIFF
+(metres unless told), or an NPY of shape ``(h, w)``. Every pixel gives one point,
+row after row; a pixel without a depth (0, NaN or inf) gives ``(0, 0, 0)``,
+which :func:`wsgrasp.perception.io.load_scene` drops and counts as a point
+without depth, so the points stay the camera's image
+(:mod:`wsgrasp.perception.flying` finds its pixel grid again).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from wsgrasp.errors import InputError
+from wsgrasp.perception.types import Array
+
+__all__ = ["DEPTH_SUFFIXES", "Intrinsics", "depth_points", "read_depth_image"]
+
+#: files read as depth images (and an NPY of shape (h, w))
+DEPTH_SUFFIXES = (".png", ".tif", ".tiff")
+#: metres per unit of an integer image when none is given: millimetres
+INTEGER_DEPTH_SCALE = 0.001
+
+
+class Intrinsics(BaseModel):
+    """A pinhole camera's intrinsics in pixels (``camera_info``'s ``K``:
+    ``[fx, 0, cx, 0, fy, cy, 0, 0, 1]``), the image's pixel centres at integer
+    coordinates."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    fx: float = Field(gt=0.0, description="focal length along x (pixels)")
+    fy: float = Field(gt=0.0, description="focal length along y (pixels)")
+    cx: float = Field(description="principal point, x (pixels)")
+    cy: float = Field(description="principal point, y (pixels)")
+
+    @classmethod
+    def parse(cls, text: str) -> Intrinsics:
+        """``"fx,fy,cx,cy"`` (the CLI's ``--intrinsics``)."""
+        parts = [p for p in text.replace(" ", "").split(",") if p]
+        try:
+            values = [float(p) for p in parts]
+            if len(values) != 4:
+                raise ValueError
+            return cls(fx=values[0], fy=values[1], cx=values[2], cy=values[3])
+        except (ValueError, ValidationError):
+            raise InputError(
+                f"--intrinsics {text!r} is not four numbers fx,fy,cx,cy with "
+                "positive focal lengths",
+                hint="give the depth camera's K as fx,fy,cx,cy in pixels, e.g. "
+                "--intrinsics 615.0,615.0,320.0,240.0 (camera_info's K[0], K[4], "
+                "K[2], K[5])",
+            ) from None
+
+
+def read_depth_image(path: str | Path) -> NDArray[np.generic]:
+    """A depth image file's values ``(h, w)`` as stored (integers or floats).
+
+    Raises
+    ------
+    InputError
+        The file is missing, not an image, a colour or 8-bit image, or not 2-D.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(
+            f"depth image {str(p)!r} does not exist",
+            hint="check the path (relative paths are from the current directory, "
+            "or from the scene YAML's folder)",
+        )
+    if p.suffix.lower() == ".npy":
+        from wsgrasp.perception.io import NUMPY_READ_ERRORS
+
+        try:
+            arr = np.load(p, allow_pickle=False)
+        except NUMPY_READ_ERRORS as exc:
+            raise InputError(
+                f"depth image {str(p)!r} is not a readable .npy array ({exc})",
+                hint="save it with np.save(path, depth) where depth is (h, w)",
+            ) from None
+    else:
+        from PIL import Image, UnidentifiedImageError
+
+        try:
+            with Image.open(p) as img:
+                mode = img.mode
+                arr = np.asarray(img)
+        except (UnidentifiedImageError, OSError, ValueError) as exc:
+            raise InputError(
+                f"depth image {str(p)!r} cannot be read as an image ({exc})",
+                hint="give a 16-bit PNG or TIFF, or a 32-bit float TIFF",
+            ) from None
+        if mode in ("1", "L", "P", "LA", "RGB", "RGBA", "CMYK", "YCbCr"):
+            raise InputError(
+                f"depth image {str(p)!r} is an 8-bit image (mode {mode}), not a "
+                "depth image: a depth camera writes 16-bit integer or 32-bit "
+                "float depth",
+                hint="give the depth stream's image (16-bit PNG), not the colour "
+                "image or a rendering of the depth for viewing",
+            )
+    if arr.ndim != 2 or not (
+        np.issubdtype(arr.dtype, np.integer) or np.issubdtype(arr.dtype, np.floating)
+    ):
+        raise InputError(
+            f"depth image {str(p)!r} has shape {arr.shape} and type {arr.dtype}, "
+            "expected (h, w) integers or floats",
+            hint="give one depth per pixel: a 16-bit PNG, a float TIFF or an "
+            "(h, w) NPY",
+        )
+    return arr
+
+
+def depth_points(
+    depth: NDArray[np.generic],
+    intrinsics: Intrinsics,
+    depth_scale: float | None = None,
+    *,
+    name: str = "depth",
+) -> Array:
+    """The image's points ``(h * w, 3)`` in its camera's frame, row after row,
+    deprojected by open3d; ``(0, 0, 0)`` for a pixel without a depth.
+
+    Parameters
+    ----------
+    depth : (h, w) integers or floats
+    intrinsics
+        The depth camera's; its principal point must lie on the image.
+    depth_scale
+        Metres per unit of ``depth``; None: 0.001 for integers (millimetres),
+        1 for floats (metres).
+    name
+        The image, for errors.
+    """
+    import open3d as o3d
+
+    d = np.asarray(depth)
+    h, w = d.shape
+    k = intrinsics
+    if not (-0.5 <= k.cx <= w - 0.5 and -0.5 <= k.cy <= h - 0.5):
+        raise InputError(
+            f"depth image {name!r} is {w} x {h} pixels, but the intrinsics put "
+            f"its principal point at ({k.cx:g}, {k.cy:g}), off the image",
+            hint="give the intrinsics of the depth stream at this resolution "
+            "(camera_info's K of the depth topic; cx, cy are in pixels)",
+        )
+    if depth_scale is None:
+        integer = np.issubdtype(d.dtype, np.integer)
+        depth_scale = INTEGER_DEPTH_SCALE if integer else 1.0
+    if not (np.isfinite(depth_scale) and depth_scale > 0.0):
+        raise InputError(
+            f"depth_scale {depth_scale!r} of depth image {name!r} is not a "
+            "positive number of metres per unit",
+            hint="0.001 for an image in millimetres, 1 for one in metres",
+        )
+    metres = (d.astype(np.float64) * depth_scale).astype(np.float32)
+    valid = np.isfinite(metres) & (metres > 0.0)
+    if not valid.any():
+        raise InputError(
+            f"depth image {name!r} has no pixel with a depth: every one of its "
+            f"{h * w} is 0, NaN or inf",
+            hint="the capture produced no valid depth; check the camera's range "
+            "and exposure, and the export",
+        )
+    camera = o3d.camera.PinholeCameraIntrinsic(w, h, k.fx, k.fy, k.cx, k.cy)
+    image = np.ascontiguousarray(np.where(valid, metres, np.float32(0.0)))
+    cloud = o3d.geometry.PointCloud.create_from_depth_image(
+        o3d.geometry.Image(image),  # type: ignore[call-overload]
+        camera,
+        depth_scale=1.0,
+        depth_trunc=float(np.finfo(np.float32).max),
+        project_valid_depth_only=False,
+    )
+    points = np.asarray(cloud.points, dtype=np.float64)  # (h*w, 3), NaN: no depth
+    points[~valid.reshape(-1)] = 0.0
+    return points
