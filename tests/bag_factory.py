@@ -1,5 +1,6 @@
-"""A writer of small ROS 2 bags (MCAP) for the tests: PointCloud2 clouds and
-``/tf`` / ``/tf_static`` transforms, written with ``mcap_ros2.writer``."""
+"""A writer of small ROS 2 bags (MCAP) for the tests: PointCloud2 clouds, depth
+Images with their CameraInfo, and ``/tf`` / ``/tf_static`` transforms, written with
+``mcap_ros2.writer``."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from wsgrasp.perception.bag import POINTCLOUD2, TF_MESSAGE
+from wsgrasp.perception.bag import CAMERA_INFO, IMAGE, POINTCLOUD2, TF_MESSAGE
 
 _HEADER = "builtin_interfaces/Time stamp\nstring frame_id\n"
 _TIME = "int32 sec\nuint32 nanosec\n"
@@ -28,6 +29,21 @@ POINTCLOUD2_DEF = (
     "uint8 INT8=1\nuint8 UINT8=2\nuint8 INT16=3\nuint8 UINT16=4\nuint8 INT32=5\n"
     "uint8 UINT32=6\nuint8 FLOAT32=7\nuint8 FLOAT64=8\n"
     "string name\nuint32 offset\nuint8 datatype\nuint32 count\n"
+)
+IMAGE_DEF = (
+    "std_msgs/Header header\nuint32 height\nuint32 width\nstring encoding\n"
+    "uint8 is_bigendian\nuint32 step\nuint8[] data\n" + _HEADER_DEFS
+)
+CAMERA_INFO_DEF = (
+    "std_msgs/Header header\nuint32 height\nuint32 width\n"
+    "string distortion_model\nfloat64[] d\nfloat64[9] k\nfloat64[9] r\n"
+    "float64[12] p\nuint32 binning_x\nuint32 binning_y\n"
+    "sensor_msgs/RegionOfInterest roi\n"
+    + _HEADER_DEFS
+    + _SEP
+    + "MSG: sensor_msgs/RegionOfInterest\n"
+    "uint32 x_offset\nuint32 y_offset\nuint32 height\nuint32 width\n"
+    "bool do_rectify\n"
 )
 TF_MESSAGE_DEF = (
     "geometry_msgs/TransformStamped[] transforms\n"
@@ -123,5 +139,71 @@ def write_cloud_bag(
                     ]
                 }
                 w.write_message(topic, tf_schema, msg, log_time=t, publish_time=t)
+        w.finish()
+    return out
+
+
+def write_depth_bag(
+    path: str | Path,
+    topic: str,
+    frame_id: str,
+    depth: np.ndarray,
+    k: Sequence[float] | None,
+    t_ns: int = 1_000_000_000,
+    *,
+    encoding: str = "16UC1",
+    pad: int = 0,
+    big_endian: bool = False,
+    cut: int = 0,
+) -> Path:
+    """Write a ROS 2 bag of one depth Image on ``topic`` and, unless ``k`` is
+    None, its CameraInfo (``K`` row by row) on the ``camera_info`` beside it.
+    ``pad`` bytes end each row; ``big_endian`` stores the pixels so; the data
+    lacks its last ``cut`` bytes."""
+    from mcap_ros2.writer import Writer
+
+    d = np.ascontiguousarray(depth)
+    dtype = d.dtype.newbyteorder(">" if big_endian else "<")
+    rows = d.astype(dtype).view(np.uint8).reshape(d.shape[0], -1)
+    data = np.pad(rows, ((0, 0), (0, pad))).tobytes()
+    data = data[: len(data) - cut]
+    out = Path(path)
+    header = {"stamp": _time(t_ns), "frame_id": frame_id}
+    with open(out, "wb") as fh:
+        w = Writer(fh)
+        image = {
+            "header": header,
+            "height": d.shape[0],
+            "width": d.shape[1],
+            "encoding": encoding,
+            "is_bigendian": int(big_endian),
+            "step": rows.shape[1] + pad,
+            "data": data,
+        }
+        schema = w.register_msgdef(IMAGE, IMAGE_DEF)
+        w.write_message(topic, schema, image, log_time=t_ns, publish_time=t_ns)
+        if k is not None:
+            info = {
+                "header": header,
+                "height": d.shape[0],
+                "width": d.shape[1],
+                "distortion_model": "plumb_bob",
+                "d": [0.0] * 5,
+                "k": list(k),
+                "r": [1.0, 0, 0, 0, 1.0, 0, 0, 0, 1.0],
+                "p": [*k[:3], 0.0, *k[3:6], 0.0, *k[6:], 0.0],
+                "binning_x": 0,
+                "binning_y": 0,
+                "roi": {
+                    "x_offset": 0,
+                    "y_offset": 0,
+                    "height": 0,
+                    "width": 0,
+                    "do_rectify": False,
+                },
+            }
+            schema = w.register_msgdef(CAMERA_INFO, CAMERA_INFO_DEF)
+            info_topic = topic.rsplit("/", 1)[0] + "/camera_info"
+            w.write_message(info_topic, schema, info, log_time=t_ns, publish_time=t_ns)
         w.finish()
     return out

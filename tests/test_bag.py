@@ -1,4 +1,5 @@
-"""ROS 2 bags as input: PointCloud2 clouds, /tf and /tf_static, --at, bad bags."""
+"""ROS 2 bags as input: PointCloud2 clouds, depth Images with their CameraInfo,
+/tf and /tf_static, --at, bad bags."""
 
 from __future__ import annotations
 
@@ -6,10 +7,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from bag_factory import write_cloud_bag
+from bag_factory import write_cloud_bag, write_depth_bag
 
 from wsgrasp.errors import InputError
 from wsgrasp.perception.bag import read_bag_scene
+from wsgrasp.perception.depth import Intrinsics, depth_points
 
 S = 1_000_000_000
 
@@ -174,3 +176,83 @@ def test_plan_cli_on_a_bag_is_recorded(tmp_path: Path) -> None:
     run = open_run(rec)
     assert run.scene.views[0].name.startswith("/cam/points")
     assert replay_run(run).identical
+
+
+K = [280.0, 0.0, 79.5, 0.0, 282.0, 59.5, 0.0, 0.0, 1.0]
+
+
+@pytest.mark.parametrize(
+    ("encoding", "scale", "pad", "big_endian"),
+    [("16UC1", 0.001, 0, False), ("32FC1", 1.0, 8, True), ("mono16", 0.001, 4, True)],
+)
+def test_a_depth_image_with_its_camera_info(
+    tmp_path: Path, encoding: str, scale: float, pad: int, big_endian: bool
+) -> None:
+    """A depth Image is deprojected by the K of the camera_info beside it, in
+    millimetres (16-bit) or metres (float), with padded rows and either byte
+    order; its pixels without depth are counted."""
+    rng = np.random.default_rng(1)
+    mm = rng.integers(400, 900, (120, 160)).astype(np.uint16)
+    mm[:3] = 0
+    depth = mm if scale < 1 else (mm * 0.001).astype(np.float32)
+    path = write_depth_bag(
+        tmp_path / "d.mcap",
+        "/camera/depth/image_rect_raw",
+        "camera_depth_optical_frame",
+        depth,
+        K,
+        encoding=encoding,
+        pad=pad,
+        big_endian=big_endian,
+    )
+    scene = read_bag_scene(path, "/camera/depth/image_rect_raw")
+    k = Intrinsics(fx=K[0], fy=K[4], cx=K[2], cy=K[5])
+    want = depth_points(mm, k)
+    np.testing.assert_allclose(scene.points, want[want.any(axis=1)], atol=1e-6)
+    assert scene.dropped_no_depth == 3 * 160
+
+
+def test_a_depth_image_that_cannot_be_read_is_named(tmp_path: Path) -> None:
+    """No camera_info beside it, a colour encoding, short data: one error each."""
+    depth = np.full((12, 16), 500, dtype=np.uint16)
+    topic = "/camera/depth/image_rect_raw"
+    bare = write_depth_bag(tmp_path / "a.mcap", topic, "cam", depth, None)
+    with pytest.raises(InputError, match="no sensor_msgs/msg/CameraInfo beside it"):
+        read_bag_scene(bare, topic)
+    rgb = write_depth_bag(tmp_path / "b.mcap", topic, "cam", depth, K, encoding="rgb8")
+    with pytest.raises(InputError, match="encoding 'rgb8', not a depth encoding"):
+        read_bag_scene(rgb, topic)
+    short = write_depth_bag(tmp_path / "c.mcap", topic, "cam", depth, K, cut=7)
+    with pytest.raises(InputError, match="bytes of data for 12 rows of 16 pixels"):
+        read_bag_scene(short, topic)
+
+
+def test_bags_whose_schema_ids_name_other_types(tmp_path: Path, bag: Path) -> None:
+    """Schema ids are numbers within one file: a cloud bag's id 1 is
+    PointCloud2 where a depth bag's is Image. Read one after the other in one
+    process, each is decoded by its own definitions."""
+    depth = np.full((120, 160), 500, dtype=np.uint16)
+    topic = "/camera/depth/image_rect_raw"
+    other = write_depth_bag(tmp_path / "d.mcap", topic, "cam", depth, K)
+    for _ in range(2):
+        assert len(read_bag_scene(bag, "/camera/points").points) == 500
+        assert len(read_bag_scene(other, topic).points) == 120 * 160
+
+
+def test_plan_on_a_bag_of_depth_images(tmp_path: Path, capsys) -> None:
+    """``plan BAG --topic IMAGE`` plans on a rendered camera's depth image with
+    the camera_info beside it; ``--intrinsics`` with a bag is refused."""
+    from wsgrasp.cli import main
+    from wsgrasp.perception.synth import synth_scene
+
+    synth = synth_scene("cylinder", size=(0.03, 0.12), views=1, seed=1)
+    cam = synth.cameras[0]
+    mm = np.rint(cam.depth_image(synth.views[0].points) * 1000).astype(np.uint16)
+    k = [cam.fx, 0.0, cam.cx, 0.0, cam.fy, cam.cy, 0.0, 0.0, 1.0]
+    topic = "/camera/depth/image_rect_raw"
+    path = write_depth_bag(tmp_path / "d.mcap", topic, "camera", mm, k)
+    args = ["plan", str(path), "--topic", topic, "-g", "franka_hand", "--no-record"]
+    assert main([*args, "--json"]) == 0
+    assert '"found": true' in capsys.readouterr().out
+    assert main([*args, "--intrinsics", "1,1,1,1"]) == 2
+    assert "camera_info beside them" in capsys.readouterr().err

@@ -142,7 +142,9 @@ def plan(
         None, "--depth-scale", callback=number(0.0, above=True), help=DEPTH_SCALE_HELP
     ),
     topic: str | None = typer.Option(
-        None, "--topic", help="PointCloud2 topic, when the input is a ROS 2 bag."
+        None,
+        "--topic",
+        help="PointCloud2 or depth Image topic, when the input is a ROS 2 bag.",
     ),
     frame: str | None = typer.Option(
         None, "--frame", help="World frame of the bag's /tf tree."
@@ -182,7 +184,14 @@ def plan(
         if topic is None:
             raise InputError(
                 f"{clouds[0]} is an MCAP file: planning on a ROS 2 bag needs --topic",
-                hint="pass --topic /camera/points (the PointCloud2 topic)",
+                hint="pass --topic /camera/points (a PointCloud2 topic) or "
+                "--topic /camera/depth/image_rect_raw (a depth Image topic)",
+            )
+        if intrinsics is not None or depth_scale is not None:
+            raise InputError(
+                "--intrinsics and --depth-scale are for depth image files; a bag's "
+                "depth images take theirs from the camera_info beside them",
+                hint="drop --intrinsics and --depth-scale",
             )
         scene = read_bag_scene(clouds[0], topic, frame=frame, at=at)
     else:

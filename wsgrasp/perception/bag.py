@@ -1,4 +1,5 @@
-"""ROS 2 bags (MCAP) as planner input: ``sensor_msgs/msg/PointCloud2`` clouds with
+"""ROS 2 bags (MCAP) as planner input: ``sensor_msgs/msg/PointCloud2`` clouds, or
+``sensor_msgs/msg/Image`` depth images with the ``camera_info`` beside them, and
 their camera poses from ``/tf`` and ``/tf_static``:
 ``read_bag_scene("capture.mcap", "/camera/points", frame="world")``.
 
@@ -24,13 +25,17 @@ from wsgrasp.errors import InputError
 if TYPE_CHECKING:
     from collections.abc import Iterator
 
-__all__ = ["POINTCLOUD2", "TF_MESSAGE", "BagCloud", "bag_topics", "is_mcap"]
-__all__ += ["read_bag_clouds", "read_bag_scene"]
+__all__ = ["CAMERA_INFO", "IMAGE", "POINTCLOUD2", "TF_MESSAGE", "BagCloud"]
+__all__ += ["bag_topics", "image_depth", "is_mcap", "read_bag_clouds", "read_bag_scene"]
 
 Array = NDArray[np.float64]
 
 POINTCLOUD2 = "sensor_msgs/msg/PointCloud2"
+IMAGE = "sensor_msgs/msg/Image"
+CAMERA_INFO = "sensor_msgs/msg/CameraInfo"
 TF_MESSAGE = "tf2_msgs/msg/TFMessage"
+#: depth image encodings (REP 118): 16-bit millimetres, 32-bit float metres
+_DEPTH_ENCODINGS = {"16UC1": "u2", "mono16": "u2", "32FC1": "f4"}
 #: PointField datatypes 1..8 → numpy scalar types
 _POINTFIELD_DTYPES = dict(
     enumerate(("i1", "u1", "i2", "u2", "i4", "u4", "f4", "f8"), 1)
@@ -39,9 +44,10 @@ _POINTFIELD_DTYPES = dict(
 
 @dataclass
 class BagCloud:
-    """One PointCloud2 message, decoded: ``points`` (n, 3) float64 x, y, z in
-    ``frame_id`` (NaN points kept), ``stamp_ns`` its ``header.stamp`` (the log
-    time when the stamp is zero)."""
+    """One PointCloud2 message, or one depth Image deprojected with its
+    ``camera_info``, decoded: ``points`` (n, 3) float64 x, y, z in ``frame_id``
+    (NaN points kept; a pixel without depth at (0, 0, 0)), ``stamp_ns`` its
+    ``header.stamp`` (the log time when the stamp is zero)."""
 
     topic: str
     frame_id: str
@@ -147,7 +153,11 @@ def _first_time(p: Path) -> int:
 
 
 def _decode(schema: Any, channel: Any, message: Any) -> Any:
-    decoder = _factory().decoder_for(channel.message_encoding, schema)
+    decoder = None
+    if schema is not None:
+        decoder = _decoder(
+            channel.message_encoding, schema.name, schema.encoding, bytes(schema.data)
+        )
     if decoder is None:
         raise InputError(
             f"topic {channel.topic!r} is not ROS 2 (encoding "
@@ -158,11 +168,16 @@ def _decode(schema: Any, channel: Any, message: Any) -> Any:
     return decoder(message.data)
 
 
-@functools.cache
-def _factory() -> Any:
+@functools.lru_cache(maxsize=64)
+def _decoder(encoding: str, name: str, schema_encoding: str, data: bytes) -> Any:
+    """The decoder of one message definition. Keyed by the definition itself:
+    ``DecoderFactory`` keys its decoders by the schema's id, which is only a
+    number within one file (two bags may give id 1 to different types)."""
+    from mcap.records import Schema
     from mcap_ros2.decoder import DecoderFactory
 
-    return DecoderFactory()
+    schema = Schema(id=0, data=data, encoding=schema_encoding, name=name)
+    return DecoderFactory().decoder_for(encoding, schema)
 
 
 def pointcloud2_xyz(msg: Any, topic: str = "") -> Array:
@@ -215,6 +230,85 @@ def pointcloud2_xyz(msg: Any, topic: str = "") -> Array:
     return np.stack([rec[a].reshape(-1).astype(np.float64) for a in "xyz"], axis=1)
 
 
+def image_depth(msg: Any, topic: str = "") -> NDArray[np.generic]:
+    """The depth ``(h, w)`` of a decoded ``sensor_msgs/Image``: ``16UC1`` (or
+    ``mono16``) millimetres as uint16, ``32FC1`` metres as float32 (row padding
+    and either byte order handled).
+
+    Raises
+    ------
+    InputError
+        Another encoding (a colour or 8-bit image), or data shorter than the
+        image.
+    """
+    encoding = str(msg.encoding)
+    if encoding not in _DEPTH_ENCODINGS:
+        raise InputError(
+            f"Image on {topic or 'the topic'} has encoding {encoding!r}, not a "
+            f"depth encoding ({', '.join(_DEPTH_ENCODINGS)})",
+            hint="pass --topic with the depth camera's image (e.g. "
+            "/camera/depth/image_rect_raw), not its colour or infrared image",
+        )
+    h, w, step = int(msg.height), int(msg.width), int(msg.step)
+    kind = ">" if msg.is_bigendian else "<"
+    dtype = np.dtype(kind + _DEPTH_ENCODINGS[encoding])
+    data = bytes(msg.data)
+    step = step or w * dtype.itemsize
+    if h * w == 0 or len(data) < step * (h - 1) + w * dtype.itemsize:
+        raise InputError(
+            f"Image on {topic}: {len(data)} bytes of data for {h} rows of {w} "
+            f"pixels ({step} bytes a row)",
+            hint="the message is malformed; re-record the bag",
+        )
+    rows = np.ndarray((h, w), dtype=dtype, buffer=data, strides=(step, dtype.itemsize))
+    return rows.astype(dtype.newbyteorder("="))
+
+
+def _camera_info_topic(image_topic: str) -> str:
+    """The ``camera_info`` topic beside an image's (``/camera/depth/image_rect_raw``
+    → ``/camera/depth/camera_info``), as ROS camera drivers publish them."""
+    return image_topic.rsplit("/", 1)[0] + "/camera_info"
+
+
+def _image_points(
+    p: Path, topic: str, msg: Any, log_time: int, types: dict[str, str]
+) -> Array:
+    """A depth Image's points in its frame, by the intrinsics of the
+    ``camera_info`` beside it (the latest at or before the image, else the first
+    after it)."""
+    from wsgrasp.perception.depth import Intrinsics, depth_points
+
+    info_topic = _camera_info_topic(topic)
+    if types.get(info_topic) != CAMERA_INFO:
+        infos = [t for t, ty in sorted(types.items()) if ty == CAMERA_INFO]
+        raise InputError(
+            f"{p}: the depth image on {topic!r} has no {CAMERA_INFO} beside it on "
+            f"{info_topic!r}; CameraInfo topics in the bag: "
+            f"{', '.join(infos) or 'none'}",
+            hint="record the depth camera's camera_info with its image (ros2 bag "
+            "record includes it when listed), or plan on its PointCloud2 topic",
+        )
+    info = next(_messages(p, [info_topic], ending_at=log_time, reverse=True), None)
+    if info is None:
+        info = next(_messages(p, [info_topic], starting_at=log_time), None)
+    if info is None:
+        raise InputError(
+            f"{p}: no message on {info_topic!r}",
+            hint="record the depth camera's camera_info with its image",
+        )
+    k = [float(v) for v in _decode(*info).k]
+    depth = image_depth(msg, topic)
+    try:
+        intrinsics = Intrinsics(fx=k[0], fy=k[4], cx=k[2], cy=k[5])
+    except ValueError:
+        raise InputError(
+            f"{p}: the camera_info on {info_topic!r} has K = {k}, no pinhole "
+            "camera (focal lengths must be positive)",
+            hint="check that the camera was calibrated when recording",
+        ) from None
+    return depth_points(depth, intrinsics, name=topic)
+
+
 def _stamp(msg: Any, log_time: int) -> int:
     try:
         s = int(msg.header.stamp.sec) * 1_000_000_000 + int(msg.header.stamp.nanosec)
@@ -226,9 +320,10 @@ def _stamp(msg: Any, log_time: int) -> int:
 def read_bag_clouds(
     path: str | Path, topics: str | Sequence[str], *, at: float | None = None
 ) -> list[BagCloud]:
-    """The latest cloud on each of ``topics`` (``sensor_msgs/msg/PointCloud2``),
-    or the latest at or before ``at``: seconds since the bag's first message, or
-    a UNIX time in seconds (values above 1e9)."""
+    """The latest cloud on each of ``topics`` (``sensor_msgs/msg/PointCloud2``, or
+    ``sensor_msgs/msg/Image`` depth images with their ``camera_info`` beside
+    them), or the latest at or before ``at``: seconds since the bag's first
+    message, or a UNIX time in seconds (values above 1e9)."""
     p = _open(path)
     tlist = [topics] if isinstance(topics, str) else list(topics)
     t_limit: int | None = None
@@ -243,13 +338,14 @@ def read_bag_clouds(
             raise InputError(
                 f"{p}: has no messages on topic {topic!r}; its topics are: "
                 f"{listing or 'none'}",
-                hint="pass --topic with one of the PointCloud2 topics above",
+                hint="pass --topic with one of the PointCloud2 or depth Image "
+                "topics above",
             )
-        if types[topic] != POINTCLOUD2:
+        if types[topic] not in (POINTCLOUD2, IMAGE):
             raise InputError(
                 f"{p}: topic {topic!r} carries {types[topic] or 'untyped messages'}, "
-                f"not {POINTCLOUD2}",
-                hint="pass --topic with a PointCloud2 topic",
+                f"not {POINTCLOUD2} or a depth {IMAGE}",
+                hint="pass --topic with a PointCloud2 or depth Image topic",
             )
         if latest is None:
             raise InputError(
@@ -257,7 +353,12 @@ def read_bag_clouds(
                 hint="give a later time, in seconds since the bag's start",
             )
         msg = _decode(*latest)
-        stamp, points = _stamp(msg, latest[2].log_time), pointcloud2_xyz(msg, topic)
+        log_time = int(latest[2].log_time)
+        if types[topic] == IMAGE:
+            points = _image_points(p, topic, msg, log_time, types)
+        else:
+            points = pointcloud2_xyz(msg, topic)
+        stamp = _stamp(msg, log_time)
         out.append(BagCloud(topic, str(msg.header.frame_id), stamp, points))
     return out
 
@@ -342,8 +443,8 @@ def read_bag_scene(
     ------
     InputError
         Missing file, not MCAP, no such topic (the bag's topics are listed), not a
-        PointCloud2, no x/y/z fields (the fields found are listed), or no transform
-        to ``frame``.
+        PointCloud2 or depth Image, no x/y/z fields (the fields found are
+        listed), an image without its camera_info, or no transform to ``frame``.
     """
     from wsgrasp.perception.io import scene_from_arrays
 
