@@ -156,3 +156,25 @@ def test_a_float_tiff_in_metres(tmp_path: Path):
     k = Intrinsics(fx=140.0, fy=140.0, cx=79.5, cy=59.5)
     scene = load_scene(tif, intrinsics=k)
     np.testing.assert_allclose(scene.points[:, 2], 0.75, atol=1e-6)
+
+
+def test_the_camera_how_to_runs_as_written(tmp_path: Path, capsys, monkeypatch):
+    """The commands of *Plan on a depth camera's data* run, and ``scene info``
+    prints what the page shows."""
+    import re
+    import shlex
+
+    page = (Path(__file__).parents[1] / "docs/how-to/camera-data.md").read_text()
+    sh = re.search(r"```sh\n(.*?)```", page, re.S)
+    text = re.search(r"```text\n(.*?)```", page, re.S)
+    assert sh and text
+    monkeypatch.chdir(tmp_path)
+    printed = ""
+    for command in sh.group(1).replace("\\\n", " ").strip().splitlines():
+        args = shlex.split(command)
+        assert args[0] == "wsgrasp"
+        assert main(args[1:]) == 0, command
+        out = capsys.readouterr().out
+        if args[1:3] == ["scene", "info"]:
+            printed = out
+    assert " ".join(text.group(1).split()) in " ".join(printed.split())
