@@ -12,7 +12,7 @@ from conftest_perception import random_rigid, small_scene
 from numpy.testing import assert_allclose
 
 from wsgrasp.errors import InputError
-from wsgrasp.geometry import invert_transforms, transform_points
+from wsgrasp.geometry import invert_transforms, transform_from, transform_points
 from wsgrasp.perception.io import (
     load_cloud,
     load_scene,
@@ -20,6 +20,7 @@ from wsgrasp.perception.io import (
     scene_from_arrays,
     write_scene_yaml,
 )
+from wsgrasp.perception.types import View
 
 RNG_POINTS = np.random.default_rng(0).uniform(-0.2, 0.2, (50, 3))
 
@@ -107,6 +108,34 @@ def test_scene_yaml_merges_views_into_world(tmp_path: Path) -> None:
     assert len(scene.views) == 3
     # float32 storage of camera-frame points: well under a millimetre
     assert_allclose(scene.points, synth.points, atol=1e-5)
+
+
+@pytest.mark.parametrize("mistake", ["inverted", "camera_link", "millimetres"])
+def test_a_view_with_a_wrong_pose_is_named(tmp_path: Path, mistake: str) -> None:
+    """A view whose T_world_camera is inverted, is the pose of ROS's camera_link
+    (x forward) instead of the optical frame's, or has its translation in
+    millimetres in a scene in metres lands apart from the others: the scene is
+    refused naming it, before a phantom of the scene is planned on."""
+    views = [
+        View(v.points, v.T_world_camera.copy(), v.name)
+        for v in small_scene("box", "upright", 0).views
+    ]
+    load_scene(write_scene_yaml(tmp_path / "ok", views))  # agrees
+    T = views[1].T_world_camera
+    if mistake == "inverted":
+        wrong = np.linalg.inv(T)
+    elif mistake == "camera_link":  # the optical frame's axes in camera_link's
+        wrong = T @ np.linalg.inv(transform_from([[0, 0, 1], [-1, 0, 0], [0, -1, 0]]))
+    else:
+        wrong = T.copy()
+        wrong[:3, 3] *= 1000.0
+    views[1].T_world_camera = wrong
+    with pytest.raises(InputError, match="view 'view_1.npz' shares almost") as info:
+        load_scene(write_scene_yaml(tmp_path / "bad", views))
+    assert "optical frame" in (info.value.hint or "")
+    # two views alone: which of them is wrong cannot be told
+    with pytest.raises(InputError, match="views 'view_0.npz', 'view_1.npz' share"):
+        load_scene(write_scene_yaml(tmp_path / "two", views[:2]))
 
 
 def test_scene_yaml_in_millimetres(tmp_path: Path) -> None:
