@@ -217,6 +217,22 @@ def test_pixels_without_depth_leave_the_image_an_image(tmp_path, capsys):
     assert info["flying_pixels"] == dropped
 
 
+def test_a_cloud_in_ros_camera_link_axes_is_still_an_image():
+    """A camera's cloud turned into ROS's camera_link axes (x forward, y left, z
+    up) has the same pixels: the same flying pixels, its camera at the origin."""
+    (view,), _ = box_views(45.0, 1.0)
+    link = view.points @ np.array([[0, 0, 1], [-1, 0, 0], [0, -1, 0]], float).T
+    grid = pixel_grid(link)
+    assert grid is not None
+    np.testing.assert_allclose(grid.depth, view.points[:, 2], atol=1e-12)
+    mask = flying_mask(view.points)
+    assert mask.sum() > 100
+    np.testing.assert_array_equal(flying_mask(link), mask)
+    np.testing.assert_array_equal(
+        scene_from_arrays(link).viewpoints(), [[0.0, 0.0, 0.0]]
+    )
+
+
 @pytest.mark.parametrize("k1", [-0.1, 0.05, 0.1])
 def test_a_lens_that_bends_the_grid_still_gives_the_pixels(k1):
     """A camera's points deprojected through radial distortion lie on a bent

@@ -9,22 +9,23 @@ is nothing to grasp.
 
 A view that is still its camera's image (points in the camera frame, each on its
 pixel's ray, as a depth camera's driver deprojects them) gives its pixels back:
-the directions ``x / z`` and ``y / z`` of its points lie on a grid whose pitch is
-one pixel. :func:`flying_mask` rebuilds that grid and drops the points that lie
-*between* their neighbours along a row or a column of the image: one neighbour
-(within two pixels) nearer and the opposite one farther, each by more than a
-surface steps in depth unless it is seen within :data:`GRAZING_DEG` of its
-rays (such a surface's depths are no better than the veil's), and the pixels
-next to them along their row and column (the rest of a veil two pixels wide,
-or the outline's last pixel). A surface's own edge pixel has a far neighbour on
-one side only and stays where no flying pixel lies beside it; so do the points
-of a view that is no image (a registered, resampled or shuffled cloud), which
-:func:`pixel_grid` does not recognise. On ``scene synth``'s views of a box, a
-can and a ball (one camera of 320 x 240 at 30, 45 and 60 degrees, every edge
-pixel flying) it drops about 90 % of the veil standing more than 5 mm off the
-object or the table, and of clean views a handful of points on curved outlines
-seen edge-on (``tests/test_flying.py``). It costs about 2 ms for a view of
-50,000 points.
+the directions ``x / z`` and ``y / z`` of its points lie on a grid whose pitch
+is one pixel (in ROS's ``camera_link`` axes, x forward, y left and z up, the
+directions ``y / x`` and ``z / x``). :func:`flying_mask` rebuilds that grid and
+drops the points that lie *between* their neighbours along a row or a column of
+the image: one neighbour (within two pixels) nearer and the opposite one
+farther, each by more than a surface steps in depth unless it is seen within
+:data:`GRAZING_DEG` of its rays (such a surface's depths are no better than the
+veil's), and the pixels next to them along their row and column (the rest of a
+veil two pixels wide, or the outline's last pixel). A surface's own edge pixel
+has a far neighbour on one side only and stays where no flying pixel lies beside
+it; so do the points of a view that is no image (a registered, resampled or
+shuffled cloud), which :func:`pixel_grid` does not recognise. On ``scene
+synth``'s views of a box, a can and a ball (one camera of 320 x 240 at 30, 45
+and 60 degrees, every edge pixel flying) it drops about 90 % of the veil
+standing more than 5 mm off the object or the table, and of clean views a
+handful of points on curved outlines seen edge-on (``tests/test_flying.py``). It
+costs about 2 ms for a view of 50,000 points.
 """
 
 from __future__ import annotations
@@ -53,26 +54,42 @@ _PITCH_SAMPLE = 400
 _ON_GRID = 0.9
 #: the largest image rebuilt (pixels), far above any depth camera's
 _MAX_PIXELS = 16_000_000
+#: ROS's camera_link axes (x forward, y left, z up) into the optical frame's
+#: (z forward, x right, y down)
+_LINK_TO_OPTICAL = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])
 
 
 @dataclass(frozen=True)
 class PixelGrid:
     """Each point's pixel: column ``u`` and row ``v`` (``(n,)`` int), in an
-    image ``shape`` (rows, columns), and the grid's ``pitch`` (radians, about)."""
+    image ``shape`` (rows, columns), the grid's ``pitch`` (radians, about), and
+    each point's ``depth`` (m) along the camera's axis."""
 
     u: NDArray[np.int64]
     v: NDArray[np.int64]
     shape: tuple[int, int]
     pitch: float
+    depth: Array
 
 
 def pixel_grid(points_camera: Array) -> PixelGrid | None:
-    """The pixel of each point ``(n, 3)`` of a view in its camera frame, or None
-    when its directions lie on no regular grid (not an image, or too few points)."""
+    """The pixel of each point ``(n, 3)`` of a view in its camera frame (the
+    optical frame's axes, z forward, or ROS's ``camera_link``'s, x forward), or
+    None when its directions lie on no regular grid (not an image, or too few
+    points)."""
     p = np.asarray(points_camera, dtype=np.float64)
-    z = p[:, 2]
-    if len(p) < _PITCH_SAMPLE or not (z > 0).all():
+    if len(p) < _PITCH_SAMPLE:
         return None
+    grid = _grid(p) if (p[:, 2] > 0).all() else None
+    if grid is None and (p[:, 0] > 0).all():
+        grid = _grid(p @ _LINK_TO_OPTICAL.T)
+    return grid
+
+
+def _grid(p: Array) -> PixelGrid | None:
+    """:func:`pixel_grid` of points ``(n, 3)`` in the optical frame's axes, all
+    in front of the camera."""
+    z = p[:, 2]
     a, b = p[:, 0] / z, p[:, 1] / z
     # the pitch: the nearest neighbours' distance in a patch of the image, the
     # points whose directions lie nearest the mean direction (where a lens's
@@ -99,7 +116,7 @@ def pixel_grid(points_camera: Array) -> PixelGrid | None:
     shape = (int(v.max()) + 1, int(u.max()) + 1)
     if shape[0] * shape[1] > _MAX_PIXELS:
         return None
-    return PixelGrid(u, v, shape, pitch)
+    return PixelGrid(u, v, shape, pitch, z)
 
 
 def flying_mask(points_camera: Array) -> NDArray[np.bool_]:
@@ -113,7 +130,7 @@ def flying_mask(points_camera: Array) -> NDArray[np.bool_]:
     R = REACH
     padded = np.full((h + 2 * R, w + 2 * R), np.nan, dtype=np.float32)
     depth = padded[R : R + h, R : R + w]  # a view: nan where nothing was seen
-    depth[grid.v, grid.u] = p[:, 2]
+    depth[grid.v, grid.u] = grid.depth
     flat = padded.ravel()
     # a surface at GRAZING_DEG to its rays steps this far in depth per pixel;
     # k pixels away, k times as far

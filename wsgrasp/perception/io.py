@@ -685,9 +685,9 @@ def check_views_overlap(views: Sequence[View], world: Sequence[Array]) -> None:
         f"(the share of points within {100 * _OVERLAP_DISTANCE:g} cm of the "
         f"best-matching view: {listing}): a T_world_camera is wrong",
         hint="give each camera's pose in the world (the inverse of the world's "
-        "pose in the camera), of the camera's optical frame (z forward, not ROS's "
-        "camera_link), in the scene's units; clouds that do not share one frame "
-        "are not --registered",
+        "pose in the camera), of the frame its points are in (a depth camera's "
+        "optical frame, z forward, not ROS's camera_link), in the scene's units; "
+        "clouds that do not share one frame are not --registered",
     )
 
 
