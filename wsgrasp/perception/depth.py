@@ -77,15 +77,9 @@ def read_depth_image(path: str | Path) -> NDArray[np.generic]:
             "or from the scene YAML's folder)",
         )
     if p.suffix.lower() == ".npy":
-        from wsgrasp.perception.io import NUMPY_READ_ERRORS
+        from wsgrasp.perception.io import read_npy
 
-        try:
-            arr = np.load(p, allow_pickle=False)
-        except NUMPY_READ_ERRORS as exc:
-            raise InputError(
-                f"depth image {str(p)!r} is not a readable .npy array ({exc})",
-                hint="save it with np.save(path, depth) where depth is (h, w)",
-            ) from None
+        arr = read_npy(p, "depth image", "depth is (h, w)")
     else:
         from PIL import Image, UnidentifiedImageError
 

@@ -228,14 +228,20 @@ def _read_text(p: Path) -> Array:
 
 
 def _read_npy(p: Path) -> Array:
+    return _as_numeric(read_npy(p, "cloud file", "points is (n, 3)"), str(p))
+
+
+def read_npy(p: Path, what: str, shape: str) -> np.ndarray:
+    """An .npy file's array, or one ``InputError`` naming the ``what`` and how
+    to save it (its array ``shape``, as ``"points is (n, 3)"``)."""
     try:
-        arr = np.load(p, allow_pickle=False)
+        return np.load(p, allow_pickle=False)  # type: ignore[no-any-return]
     except NUMPY_READ_ERRORS as exc:
+        name = shape.split()[0]
         raise InputError(
-            f"cloud file {str(p)!r} is not a readable .npy array: {_numpy_says(exc)}",
-            hint="save it with np.save(path, points) where points is (n, 3)",
+            f"{what} {str(p)!r} is not a readable .npy array: {_numpy_says(exc)}",
+            hint=f"save it with np.save(path, {name}) where {shape}",
         ) from None
-    return _as_numeric(arr, str(p))
 
 
 #: what ``np.load`` raises on a damaged .npy/.npz (also caught by the mesh
