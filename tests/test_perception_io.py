@@ -292,3 +292,16 @@ def test_damaged_array_header_is_one_input_error(tmp_path: Path, suffix: str) ->
     path.write_bytes(bytes(raw))
     with pytest.raises(InputError, match="array header is damaged|not a readable"):
         load_cloud(path)
+
+
+def test_scene_info_gives_the_tables_tilt_where_views_have_poses(tmp_path, capsys):
+    """With the views' poses, ``scene info`` says how far the table's normal is
+    from the world's z axis (a wrong pose shows there); without, it does not."""
+    from wsgrasp.cli import main
+
+    views = small_scene("box", "upright", 0).views
+    assert main(["scene", "info", str(write_scene_yaml(tmp_path, views))]) == 0
+    assert "0.0° from the world's z axis" in " ".join(capsys.readouterr().out.split())
+    np.savez(tmp_path / "one.npz", points=views[0].points)
+    assert main(["scene", "info", str(tmp_path / "one.npz")]) == 0
+    assert "world's z" not in capsys.readouterr().out
