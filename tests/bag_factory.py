@@ -10,7 +10,13 @@ from typing import Any
 
 import numpy as np
 
-from wsgrasp.perception.bag import CAMERA_INFO, IMAGE, POINTCLOUD2, TF_MESSAGE
+from wsgrasp.perception.bag import (
+    CAMERA_INFO,
+    COMPRESSED_IMAGE,
+    IMAGE,
+    POINTCLOUD2,
+    TF_MESSAGE,
+)
 
 _HEADER = "builtin_interfaces/Time stamp\nstring frame_id\n"
 _TIME = "int32 sec\nuint32 nanosec\n"
@@ -33,6 +39,9 @@ POINTCLOUD2_DEF = (
 IMAGE_DEF = (
     "std_msgs/Header header\nuint32 height\nuint32 width\nstring encoding\n"
     "uint8 is_bigendian\nuint32 step\nuint8[] data\n" + _HEADER_DEFS
+)
+COMPRESSED_IMAGE_DEF = "std_msgs/Header header\nstring format\nuint8[] data\n" + (
+    _HEADER_DEFS
 )
 CAMERA_INFO_DEF = (
     "std_msgs/Header header\nuint32 height\nuint32 width\n"
@@ -143,6 +152,11 @@ def write_cloud_bag(
     return out
 
 
+#: compressed_depth_image_transport's inverse-depth quantisation at its defaults
+#: (depth_quantization 100, depth_max 10 m): A = 100 * 101, B = 1 - A / 10
+DEPTH_QUANT = (10100.0, -1009.0)
+
+
 def write_depth_bag(
     path: str | Path,
     topic: str,
@@ -155,11 +169,17 @@ def write_depth_bag(
     pad: int = 0,
     big_endian: bool = False,
     cut: int = 0,
+    compressed: str | None = None,
 ) -> Path:
     """Write a ROS 2 bag of one depth Image on ``topic`` and, unless ``k`` is
     None, its CameraInfo (``K`` row by row) on the ``camera_info`` beside it.
     ``pad`` bytes end each row; ``big_endian`` stores the pixels so; the data
-    lacks its last ``cut`` bytes."""
+    lacks its last ``cut`` bytes. With ``compressed`` (a format, as
+    ``"16UC1; compressedDepth png"``), a CompressedImage on ``topic`` +
+    ``/compressedDepth`` instead, as compressed_depth_image_transport writes it:
+    a 12-byte header, then ``depth`` (uint16: millimetres, or the quantised
+    inverse depth ``A / z + B`` of a 32FC1 image, with the transport's default
+    ``DEPTH_QUANT``) as a 16-bit PNG."""
     from mcap_ros2.writer import Writer
 
     d = np.ascontiguousarray(depth)
@@ -180,8 +200,30 @@ def write_depth_bag(
             "step": rows.shape[1] + pad,
             "data": data,
         }
-        schema = w.register_msgdef(IMAGE, IMAGE_DEF)
-        w.write_message(topic, schema, image, log_time=t_ns, publish_time=t_ns)
+        if compressed is None:
+            schema = w.register_msgdef(IMAGE, IMAGE_DEF)
+            w.write_message(topic, schema, image, log_time=t_ns, publish_time=t_ns)
+        else:
+            import io
+            import struct
+
+            from PIL import Image
+
+            png = io.BytesIO()
+            Image.fromarray(d.astype(np.uint16)).save(png, format="PNG")
+            message = {
+                "header": header,
+                "format": compressed,
+                "data": struct.pack("<iff", 0, *DEPTH_QUANT) + png.getvalue(),
+            }
+            schema = w.register_msgdef(COMPRESSED_IMAGE, COMPRESSED_IMAGE_DEF)
+            w.write_message(
+                topic + "/compressedDepth",
+                schema,
+                message,
+                log_time=t_ns,
+                publish_time=t_ns,
+            )
         if k is not None:
             info = {
                 "header": header,

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from bag_factory import write_cloud_bag, write_depth_bag
+from bag_factory import DEPTH_QUANT, write_cloud_bag, write_depth_bag
 
 from wsgrasp.errors import InputError
 from wsgrasp.perception.bag import read_bag_scene
@@ -256,3 +256,42 @@ def test_plan_on_a_bag_of_depth_images(tmp_path: Path, capsys) -> None:
     assert '"found": true' in capsys.readouterr().out
     assert main([*args, "--intrinsics", "1,1,1,1"]) == 2
     assert "camera_info beside them" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("fmt", ["16UC1; compressedDepth png", "16UC1", "32FC1"])
+def test_a_compressed_depth_image(tmp_path: Path, fmt: str) -> None:
+    """A compressedDepth image (its PNG after compressed_depth_image_transport's
+    header; a 32FC1 one as quantised inverse depth) plans as the raw image, with
+    the camera_info beside the image it compressed."""
+    mm = np.random.default_rng(2).integers(400, 900, (120, 160)).astype(np.uint16)
+    mm[:2] = 0
+    k = Intrinsics(fx=K[0], fy=K[4], cx=K[2], cy=K[5])
+    want = depth_points(mm, k)
+    stored = mm
+    if fmt.startswith("32FC1"):
+        a, b = DEPTH_QUANT
+        z = np.where(mm > 0, mm * 0.001, np.inf)
+        stored = np.where(mm > 0, np.rint(a / z + b), 0).astype(np.uint16)
+        fmt = "32FC1; compressedDepth png"
+    topic = "/camera/depth/image_rect_raw"
+    path = write_depth_bag(tmp_path / "c.mcap", topic, "cam", stored, K, compressed=fmt)
+    scene = read_bag_scene(path, topic + "/compressedDepth")
+    assert scene.dropped_no_depth == 2 * 160
+    if fmt.startswith("16UC1"):
+        np.testing.assert_allclose(scene.points, want[want.any(axis=1)], atol=1e-6)
+    else:  # the inverse depth's steps: a tenth of a millimetre at 0.9 m
+        np.testing.assert_allclose(scene.points, want[want.any(axis=1)], atol=2e-4)
+
+
+def test_a_colour_or_rvl_compressed_image_is_named(tmp_path: Path) -> None:
+    depth = np.full((120, 160), 500, dtype=np.uint16)
+    topic = "/camera/depth/image_rect_raw"
+    for fmt, match in (
+        ("bgr8; jpeg compressed bgr8", "not a depth image's compressedDepth"),
+        ("16UC1; compressedDepth rvl", "compressedDepth 'rvl' is not read"),
+    ):
+        path = write_depth_bag(
+            tmp_path / "c.mcap", topic, "cam", depth, K, compressed=fmt
+        )
+        with pytest.raises(InputError, match=match):
+            read_bag_scene(path, topic + "/compressedDepth")

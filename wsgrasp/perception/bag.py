@@ -1,5 +1,6 @@
 """ROS 2 bags (MCAP) as planner input: ``sensor_msgs/msg/PointCloud2`` clouds, or
-``sensor_msgs/msg/Image`` depth images with the ``camera_info`` beside them, and
+``sensor_msgs/msg/Image`` depth images (or ``compressedDepth`` ones,
+``sensor_msgs/msg/CompressedImage``) with the ``camera_info`` beside them, and
 their camera poses from ``/tf`` and ``/tf_static``:
 ``read_bag_scene("capture.mcap", "/camera/points", frame="world")``.
 
@@ -25,13 +26,15 @@ from wsgrasp.errors import InputError
 if TYPE_CHECKING:
     from collections.abc import Iterator
 
-__all__ = ["CAMERA_INFO", "IMAGE", "POINTCLOUD2", "TF_MESSAGE", "BagCloud"]
-__all__ += ["bag_topics", "image_depth", "is_mcap", "read_bag_clouds", "read_bag_scene"]
+__all__ = ["CAMERA_INFO", "COMPRESSED_IMAGE", "IMAGE", "POINTCLOUD2", "TF_MESSAGE"]
+__all__ += ["BagCloud", "bag_topics", "compressed_depth", "image_depth", "is_mcap"]
+__all__ += ["read_bag_clouds", "read_bag_scene"]
 
 Array = NDArray[np.float64]
 
 POINTCLOUD2 = "sensor_msgs/msg/PointCloud2"
 IMAGE = "sensor_msgs/msg/Image"
+COMPRESSED_IMAGE = "sensor_msgs/msg/CompressedImage"
 CAMERA_INFO = "sensor_msgs/msg/CameraInfo"
 TF_MESSAGE = "tf2_msgs/msg/TFMessage"
 #: depth image encodings (REP 118): 16-bit millimetres, 32-bit float metres
@@ -264,9 +267,72 @@ def image_depth(msg: Any, topic: str = "") -> NDArray[np.generic]:
     return rows.astype(dtype.newbyteorder("="))
 
 
-def _camera_info_topic(image_topic: str) -> str:
+#: compressed_depth_image_transport's ConfigHeader before the PNG: the
+#: compression (an enum) and the two inverse-depth quantisation parameters
+_CONFIG_HEADER = struct.Struct("<iff")
+
+
+def compressed_depth(msg: Any, topic: str = "") -> NDArray[np.generic]:
+    """The depth ``(h, w)`` of a decoded ``sensor_msgs/CompressedImage`` that
+    ``compressed_depth_image_transport`` wrote (``format`` ``"16UC1;
+    compressedDepth png"``: millimetres as uint16; ``"32FC1; compressedDepth
+    png"``: its quantised inverse depth back to metres as float32, NaN where it
+    has none).
+
+    Raises
+    ------
+    InputError
+        Another format (a colour image's ``jpeg``/``png``, or ``rvl``), or data
+        that is no PNG.
+    """
+    import io
+
+    from PIL import Image, UnidentifiedImageError
+
+    fmt = str(msg.format)
+    encoding, _, rest = (part.strip() for part in fmt.partition(";"))
+    codec = rest.removeprefix("compressedDepth").strip() or "png"
+    # an old publisher's format is the encoding alone
+    if encoding not in _DEPTH_ENCODINGS or (
+        rest and not rest.startswith("compressedDepth")
+    ):
+        raise InputError(
+            f"CompressedImage on {topic or 'the topic'} has format {fmt!r}, not a "
+            "depth image's compressedDepth",
+            hint="pass --topic with the depth image's compressedDepth topic (e.g. "
+            "/camera/depth/image_rect_raw/compressedDepth), not a colour image's",
+        )
+    if codec != "png":
+        raise InputError(
+            f"CompressedImage on {topic}: compressedDepth {codec!r} is not read "
+            "(PNG is)",
+            hint="record the raw depth image, or set the publisher's "
+            "compressedDepth format to png",
+        )
+    data = bytes(msg.data)
+    try:
+        _, quant_a, quant_b = _CONFIG_HEADER.unpack_from(data)
+        with Image.open(io.BytesIO(data[_CONFIG_HEADER.size :])) as png:
+            stored = np.asarray(png)
+    except (struct.error, UnidentifiedImageError, OSError, ValueError) as exc:
+        raise InputError(
+            f"CompressedImage on {topic}: its compressedDepth data is no PNG ({exc})",
+            hint="the message is malformed; re-record the bag",
+        ) from None
+    if _DEPTH_ENCODINGS[encoding] == "u2":
+        return stored.astype(np.uint16)
+    q = stored.astype(np.float32)
+    with np.errstate(divide="ignore"):
+        return np.where(q > 0, np.float32(quant_a) / (q - np.float32(quant_b)), np.nan)
+
+
+def _camera_info_topic(image_topic: str, compressed: bool = False) -> str:
     """The ``camera_info`` topic beside an image's (``/camera/depth/image_rect_raw``
-    → ``/camera/depth/camera_info``), as ROS camera drivers publish them."""
+    → ``/camera/depth/camera_info``), as ROS camera drivers publish them; a
+    compressed image's topic is its image's with its transport after it
+    (``.../image_rect_raw/compressedDepth``)."""
+    if compressed:
+        image_topic = image_topic.rsplit("/", 1)[0]
     return image_topic.rsplit("/", 1)[0] + "/camera_info"
 
 
@@ -278,7 +344,8 @@ def _image_points(
     after it)."""
     from wsgrasp.perception.depth import Intrinsics, depth_points
 
-    info_topic = _camera_info_topic(topic)
+    compressed = types.get(topic) == COMPRESSED_IMAGE
+    info_topic = _camera_info_topic(topic, compressed)
     if types.get(info_topic) != CAMERA_INFO:
         infos = [t for t, ty in sorted(types.items()) if ty == CAMERA_INFO]
         raise InputError(
@@ -297,7 +364,7 @@ def _image_points(
             hint="record the depth camera's camera_info with its image",
         )
     k = [float(v) for v in _decode(*info).k]
-    depth = image_depth(msg, topic)
+    depth = compressed_depth(msg, topic) if compressed else image_depth(msg, topic)
     try:
         intrinsics = Intrinsics(fx=k[0], fy=k[4], cx=k[2], cy=k[5])
     except ValueError:
@@ -341,7 +408,7 @@ def read_bag_clouds(
                 hint="pass --topic with one of the PointCloud2 or depth Image "
                 "topics above",
             )
-        if types[topic] not in (POINTCLOUD2, IMAGE):
+        if types[topic] not in (POINTCLOUD2, IMAGE, COMPRESSED_IMAGE):
             raise InputError(
                 f"{p}: topic {topic!r} carries {types[topic] or 'untyped messages'}, "
                 f"not {POINTCLOUD2} or a depth {IMAGE}",
@@ -354,7 +421,7 @@ def read_bag_clouds(
             )
         msg = _decode(*latest)
         log_time = int(latest[2].log_time)
-        if types[topic] == IMAGE:
+        if types[topic] in (IMAGE, COMPRESSED_IMAGE):
             points = _image_points(p, topic, msg, log_time, types)
         else:
             points = pointcloud2_xyz(msg, topic)
