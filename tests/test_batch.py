@@ -226,6 +226,11 @@ def test_scene_folders_and_repeats(tmp_path: Path):
         scene_paths([SCENES / "mug.npz", SCENES / "mug.npz"])
     with pytest.raises(InputError, match="does not exist"):
         scene_paths([tmp_path / "nothing.npz"])
+    images = tmp_path / "images"
+    images.mkdir()
+    (images / "depth.png").write_bytes(b"")
+    with pytest.raises(InputError, match="depth images need their intrinsics"):
+        scene_paths([images])
 
 
 def test_local_engine_shares_one_payload(tmp_path: Path):

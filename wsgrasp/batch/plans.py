@@ -124,6 +124,7 @@ def scene_paths(args: Sequence[str | Path]) -> list[Path]:
     """The scenes of ``batch``'s arguments, in order: a cloud file or scene YAML
     is one scene; a folder's scene YAMLs are its scenes, or, with none, each of
     its cloud files (sorted, not recursive)."""
+    from wsgrasp.perception.depth import DEPTH_SUFFIXES
     from wsgrasp.perception.io import CLOUD_SUFFIXES, SCENE_SUFFIXES
 
     out: list[Path] = []
@@ -135,9 +136,17 @@ def scene_paths(args: Sequence[str | Path]) -> list[Path]:
             clouds = [f for f in files if f.suffix.lower() in CLOUD_SUFFIXES]
             found = yamls or clouds
             if not found:
+                images = any(f.suffix.lower() in DEPTH_SUFFIXES for f in files)
                 raise InputError(
-                    f"folder {p} holds no cloud file or scene YAML",
-                    hint=f"put scenes ({', '.join(CLOUD_SUFFIXES)}, .yaml) in it",
+                    f"folder {p} holds no cloud file or scene YAML"
+                    + (" (its depth images need their intrinsics)" if images else ""),
+                    hint=f"put scenes ({', '.join(CLOUD_SUFFIXES)}, .yaml) in it"
+                    + (
+                        "; list each depth image in a scene YAML with its "
+                        "`intrinsics:` (examples/scenes/README.md)"
+                        if images
+                        else ""
+                    ),
                 )
             out.extend(found)
         elif p.exists():
