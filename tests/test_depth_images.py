@@ -121,6 +121,18 @@ def test_every_wrong_depth_image_is_named(tmp_path: Path, capsys):
         load_scene(png, intrinsics=off)
     with pytest.raises(InputError, match="no pixel with a depth"):
         load_scene(_png(tmp_path / "z.png", np.zeros_like(depth)), intrinsics=K)
+    # a scale or focal lengths that do not fit, a sensor's 65535 for no depth
+    for scale, k, values in (
+        (1.0, K, depth),
+        (None, Intrinsics(fx=1, fy=1, cx=0, cy=0), depth),
+        (None, K, depth * 0 + 65535),
+    ):
+        image = _png(tmp_path / "far.png", values)
+        with pytest.raises(
+            InputError, match="deprojects to points .* m across"
+        ) as info:
+            load_scene(image, intrinsics=k, depth_scale=scale)
+        assert "--depth-scale" in (info.value.hint or "")
     np.save(tmp_path / "c.npy", np.ones((10, 3)))
     with pytest.raises(InputError, match="no input is a depth image"):
         load_scene(tmp_path / "c.npy", intrinsics=K)

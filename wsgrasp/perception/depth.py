@@ -174,4 +174,25 @@ def depth_points(
     )
     points = np.asarray(cloud.points, dtype=np.float64)  # (h*w, 3), NaN: no depth
     points[~valid.reshape(-1)] = 0.0
+    _check_extent(points[valid.reshape(-1)], name, float(depth_scale), k)
     return points
+
+
+def _check_extent(points: Array, name: str, depth_scale: float, k: Intrinsics) -> None:
+    """Raise ``InputError`` when an image's points span more than a tabletop
+    scene can (:func:`wsgrasp.perception.io.check_units`' limit), naming the
+    depth scale and the intrinsics that put them there."""
+    from wsgrasp.perception.io import MAX_SCENE_EXTENT, robust_extent
+
+    extent = robust_extent(points)
+    if extent > MAX_SCENE_EXTENT:
+        raise InputError(
+            f"depth image {name!r} deprojects to points {extent:.4g} m across at "
+            f"a depth scale of {depth_scale:g} m per unit and focal lengths of "
+            f"{k.fx:g} x {k.fy:g} pixels; a tabletop scene spans well under "
+            f"{MAX_SCENE_EXTENT:g} m",
+            hint="give the scale of the image's values (--depth-scale or "
+            "`depth_scale:` in metres per unit: 0.001 for millimetres) and the "
+            "depth stream's intrinsics in pixels; a sensor's value for no depth "
+            "other than 0 (65535) reads as far away",
+        )

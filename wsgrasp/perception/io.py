@@ -61,6 +61,7 @@ __all__ = [
     "load_cloud",
     "load_scene",
     "read_npy",
+    "robust_extent",
     "refine_views_icp",
     "save_cloud",
     "write_scene_yaml",
@@ -707,18 +708,26 @@ def _to_world(view: View) -> Array:
     return view.points @ T[:3, :3].T + T[:3, 3]
 
 
+def robust_extent(points: Array) -> float:
+    """The largest side of a cloud's ``(n, 3)`` box between the 0.5th and the
+    99.5th percentiles per axis; its plain extent where that is at most
+    ``MAX_SCENE_EXTENT`` (no need for percentiles); 0 for no point."""
+    if points.shape[0] == 0:
+        return 0.0
+    extent = float(np.max(points.max(axis=0) - points.min(axis=0)))
+    if extent <= MAX_SCENE_EXTENT:
+        return extent
+    lo, hi = np.percentile(points, [0.5, 99.5], axis=0)
+    return float(np.max(hi - lo))
+
+
 def check_units(points: Array, name: str = "points") -> None:
     """Raise ``InputError`` when a cloud is too large to be in metres.
 
     The robust extent (0.5th to 99.5th percentile per axis) must stay below
     ``MAX_SCENE_EXTENT``; a larger one usually means millimetres.
     """
-    if points.shape[0] == 0:
-        return
-    if float(np.max(points.max(axis=0) - points.min(axis=0))) <= MAX_SCENE_EXTENT:
-        return  # the plain extent is small enough: no need for percentiles
-    lo, hi = np.percentile(points, [0.5, 99.5], axis=0)
-    extent = float(np.max(hi - lo))
+    extent = robust_extent(points)
     if extent > MAX_SCENE_EXTENT:
         # the unit that makes the scene closest to a metre-sized tabletop
         unit, short, scale = min(
