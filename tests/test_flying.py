@@ -246,3 +246,17 @@ def test_a_lens_that_bends_the_grid_still_gives_the_pixels(k1):
     assert pixel_grid(bent) is not None
     straight, seen_bent = flying_mask(p), flying_mask(bent)
     assert (straight != seen_bent).sum() <= 0.01 * straight.sum()
+
+
+def test_a_views_grid_is_built_once_and_not_for_other_points():
+    """The plan asks for a view's grid twice (its camera, its flying pixels):
+    the same points get the same grid back, read-only; points that differ in
+    one value get their own."""
+    (view,), _ = box_views(45.0, 0.0)
+    grid = pixel_grid(view.points)
+    assert grid is not None and pixel_grid(view.points.copy()) is grid
+    with pytest.raises(ValueError, match="read-only"):
+        grid.u[0] = 1
+    moved = view.points.copy()
+    moved[0, 2] += 1e-6
+    assert pixel_grid(moved) is not grid
