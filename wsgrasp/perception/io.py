@@ -628,7 +628,7 @@ def _merge(views: list[View], *, icp: bool, icp_distance: float) -> Scene:
         dropped += n_bad
         no_depth += n_zero
         if n_bad or n_zero:
-            v.points = v.points[valid]
+            v.points = v.points.take(np.flatnonzero(valid), axis=0)  # as rows
     if icp and len(views) > 1:
         refine_views_icp(views, max_distance=icp_distance)
     # (N, 3) world-frame points of every view; one view in the world frame is
