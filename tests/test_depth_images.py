@@ -190,3 +190,37 @@ def test_the_camera_how_to_runs_as_written(tmp_path: Path, capsys, monkeypatch):
         if args[1:3] == ["scene", "info"]:
             printed = out
     assert " ".join(text.group(1).split()) in " ".join(printed.split())
+
+
+def test_intrinsics_from_a_camera_info_file(tmp_path: Path, capsys):
+    """``--intrinsics`` and a scene YAML's ``intrinsics:`` take a file: a
+    CameraInfo as ``ros2 topic echo --once`` prints it (with its ``---``), a ROS
+    calibration file, or fx, fy, cx, cy in JSON; one without a matrix is named."""
+    k = [277.0, 0.0, 159.5, 0.0, 281.0, 119.5, 0.0, 0.0, 1.0]
+    files = {
+        "echo.yaml": yaml.safe_dump({"height": 240, "width": 320, "k": k}) + "---\n",
+        "calib.yaml": yaml.safe_dump({"camera_matrix": {"rows": 3, "data": k}}),
+        "k.json": json.dumps({"fx": 277.0, "fy": 281.0, "cx": 159.5, "cy": 119.5}),
+    }
+    for name, text in files.items():
+        (tmp_path / name).write_text(text)
+        assert Intrinsics.parse(str(tmp_path / name)) == K, name
+    (tmp_path / "bad.yaml").write_text("a: 1\n")
+    with pytest.raises(InputError, match="has no camera matrix"):
+        Intrinsics.parse(str(tmp_path / "bad.yaml"))
+    depth = np.full((240, 320), 800, dtype=np.uint16)
+    _png(tmp_path / "d.png", depth)
+    (tmp_path / "s.yaml").write_text(
+        "views:\n  - depth: d.png\n    intrinsics: echo.yaml\n"
+    )
+    scene = load_scene(tmp_path / "s.yaml")
+    np.testing.assert_allclose(scene.points, depth_points(depth, K), atol=1e-9)
+    synth = synth_scene("box", views=1, seed=4)
+    write_scene_yaml(tmp_path / "r", synth.views, cameras=synth.cameras)
+    cam = synth.cameras[0]
+    matrix = [cam.fx, 0, cam.cx, 0, cam.fy, cam.cy, 0, 0, 1]
+    calib = {"camera_matrix": {"data": [float(v) for v in matrix]}}
+    (tmp_path / "r" / "calib.yaml").write_text(yaml.safe_dump(calib))
+    info = ["scene", "info", str(tmp_path / "r" / "view_0.png"), "--json"]
+    assert main([*info, "--intrinsics", str(tmp_path / "r" / "calib.yaml")]) == 0
+    assert json.loads(capsys.readouterr().out)["points"] == len(synth.views[0].points)

@@ -62,8 +62,8 @@ def number(
 
 
 INTRINSICS_HELP = (
-    "Depth camera intrinsics fx,fy,cx,cy (pixels) of a depth image input (16-bit "
-    "PNG or TIFF, float TIFF, (h, w) NPY)."
+    "Depth camera intrinsics of a depth image input (16-bit PNG or TIFF, float "
+    "TIFF, (h, w) NPY): fx,fy,cx,cy in pixels, or a camera_info YAML/JSON file."
 )
 DEPTH_SCALE_HELP = (
     "Metres per unit of a depth image input; default 0.001 for integer images "

@@ -44,7 +44,10 @@ class Intrinsics(BaseModel):
 
     @classmethod
     def parse(cls, text: str) -> Intrinsics:
-        """``"fx,fy,cx,cy"`` (the CLI's ``--intrinsics``)."""
+        """``"fx,fy,cx,cy"``, or a file :meth:`from_file` reads (the CLI's
+        ``--intrinsics``)."""
+        if Path(text).is_file():
+            return cls.from_file(text)
         parts = [p for p in text.replace(" ", "").split(",") if p]
         try:
             values = [float(p) for p in parts]
@@ -57,8 +60,52 @@ class Intrinsics(BaseModel):
                 "positive focal lengths",
                 hint="give the depth camera's K as fx,fy,cx,cy in pixels, e.g. "
                 "--intrinsics 615.0,615.0,320.0,240.0 (camera_info's K[0], K[4], "
-                "K[2], K[5])",
+                "K[2], K[5]), or a camera_info YAML file",
             ) from None
+
+    @classmethod
+    def from_file(cls, path: str | Path) -> Intrinsics:
+        """The intrinsics in a YAML or JSON file: ``fx``, ``fy``, ``cx``, ``cy``;
+        a ROS calibration file's ``camera_matrix: {data: [9 values]}``; or a
+        ``CameraInfo`` message as ``ros2 topic echo --once`` prints it (``k:``,
+        ROS 1's ``K:``), ``K`` row by row."""
+        import yaml
+
+        p = Path(path)
+        try:
+            docs = [d for d in yaml.safe_load_all(p.read_text("utf-8")) if d]
+        except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+            raise InputError(
+                f"intrinsics file {str(p)!r} cannot be read: {exc}",
+                hint="give a YAML or JSON file (a camera_info echoed by ros2 topic "
+                "echo --once, a ROS calibration file, or fx, fy, cx, cy)",
+            ) from None
+        doc = docs[0] if docs and isinstance(docs[0], dict) else {}
+        matrix = doc.get("camera_matrix")
+        k = (
+            matrix.get("data")
+            if isinstance(matrix, dict)
+            else doc.get("k", doc.get("K"))
+        )
+        try:
+            if k is not None:
+                values = [float(v) for v in k]
+                if len(values) != 9:
+                    raise ValueError
+                return cls(fx=values[0], fy=values[4], cx=values[2], cy=values[5])
+            return cls.model_validate({key: doc.get(key) for key in FIELDS})
+        except (ValueError, TypeError, ValidationError):
+            raise InputError(
+                f"intrinsics file {str(p)!r} has no camera matrix: expected "
+                "`k:`/`K:` or `camera_matrix: {data: ...}` with 9 numbers, or "
+                "`fx`, `fy`, `cx`, `cy` with positive focal lengths",
+                hint="save the depth camera's camera_info with `ros2 topic echo "
+                "--once /camera/depth/camera_info > info.yaml`",
+            ) from None
+
+
+#: the fields of :class:`Intrinsics`
+FIELDS = ("fx", "fy", "cx", "cy")
 
 
 def read_depth_image(path: str | Path) -> NDArray[np.generic]:

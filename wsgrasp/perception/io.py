@@ -344,8 +344,10 @@ class _ViewEntry(BaseModel):
         description="depth image (16-bit PNG or TIFF, float TIFF, (h, w) NPY), "
         "relative to the scene YAML, in place of a cloud",
     )
-    intrinsics: Intrinsics | None = Field(
-        None, description="the depth image's camera intrinsics (pixels)"
+    intrinsics: Intrinsics | str | None = Field(
+        None,
+        description="the depth image's camera intrinsics (pixels), or a "
+        "camera_info YAML/JSON file relative to the scene YAML",
     )
     depth_scale: float | None = Field(
         None,
@@ -542,9 +544,13 @@ def _read_scene_yaml(path: Path) -> list[View]:
         T = _check_pose(entry.T_world_camera, f"{path}: views[{i}].T_world_camera")
         T[:3, 3] *= scale
         if entry.depth is not None and entry.intrinsics is not None:
+            k = entry.intrinsics
+            if isinstance(k, str):
+                k_path = Path(k) if Path(k).is_absolute() else path.parent / k
+                k = Intrinsics.from_file(k_path)
             # in metres by its depth_scale
             image = read_depth_image(file_path)
-            pts = depth_points(image, entry.intrinsics, entry.depth_scale, name=file)
+            pts = depth_points(image, k, entry.depth_scale, name=file)
         else:
             pts = load_cloud(file_path) * scale
         views.append(View(points=pts, T_world_camera=T, name=entry.name or file))
