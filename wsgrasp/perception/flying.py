@@ -91,12 +91,20 @@ def pixel_grid(points_camera: Array) -> PixelGrid | None:
     None when its directions lie on no regular grid (not an image, or too few
     points). The grid's arrays are read-only: the last few are kept."""
     p = np.ascontiguousarray(points_camera, dtype=np.float64)
+    # no image has points behind its camera along both axes: a merged or moved
+    # cloud is told apart before anything is hashed or built
+    optical = len(p) >= _PITCH_SAMPLE and bool((p[:, 2] > 0).all())
+    link = len(p) >= _PITCH_SAMPLE and bool((p[:, 0] > 0).all())
+    if not (optical or link):
+        return None
     key = (p.shape, xxhash.xxh3_64_intdigest(p.reshape(-1).view(np.uint8).data))
     with _GRIDS_LOCK:
         if key in _GRIDS:
             _GRIDS.move_to_end(key)
             return _GRIDS[key]
-    grid = _pixel_grid(p)
+    grid = _grid(p) if optical else None
+    if grid is None and link:
+        grid = _grid(p @ _LINK_TO_OPTICAL.T)
     if grid is not None:
         for a in (grid.u, grid.v, grid.depth):
             a.setflags(write=False)
@@ -104,16 +112,6 @@ def pixel_grid(points_camera: Array) -> PixelGrid | None:
         _GRIDS[key] = grid
         while len(_GRIDS) > _GRIDS_KEPT:
             _GRIDS.popitem(last=False)
-    return grid
-
-
-def _pixel_grid(p: Array) -> PixelGrid | None:
-    """:func:`pixel_grid`, computed."""
-    if len(p) < _PITCH_SAMPLE:
-        return None
-    grid = _grid(p) if (p[:, 2] > 0).all() else None
-    if grid is None and (p[:, 0] > 0).all():
-        grid = _grid(p @ _LINK_TO_OPTICAL.T)
     return grid
 
 
