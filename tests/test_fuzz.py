@@ -44,6 +44,7 @@ CASES = {
     "missing_files": 60,
     "cloud_files": 600,
     "cloud_file_damage": 300,
+    "depth_images": 150,
     "specs": 500,
     "gripper_descriptions": 400,
     "urdfs": 300,
@@ -296,6 +297,49 @@ def test_any_bytes_as_a_cloud_file_get_our_error(tmp_path_factory, suffix, data)
         return
     assert points.ndim == 2 and points.shape[1] == 3
     assert points.dtype == np.float64
+
+
+@fuzz("depth_images")
+@given(
+    data=st.one_of(
+        st.binary(max_size=2000),
+        hnp.arrays(
+            st.sampled_from([np.uint16, np.float32, np.uint8, np.int32]),
+            hnp.array_shapes(min_dims=1, max_dims=3, min_side=1, max_side=40),
+        ),
+    ),
+    suffix=st.sampled_from([".png", ".tif", ".npy"]),
+    k=st.tuples(*[st.one_of(st.floats(-1e3, 1e3), st.just(math.nan))] * 4),
+    scale=st.one_of(st.none(), st.floats(-1.0, 10.0), st.just(math.inf)),
+)
+def test_any_depth_image_gets_points_or_our_error(
+    tmp_path_factory, data, suffix, k, scale
+):
+    """Random bytes, arrays of any type and shape saved as an image or an NPY,
+    with any intrinsics and scale: points in front of the camera, or one
+    ``InputError``."""
+    from PIL import Image
+
+    from wsgrasp.perception.depth import Intrinsics
+    from wsgrasp.perception.io import load_scene
+
+    path = tmp_path_factory.mktemp("d") / f"depth{suffix}"
+    if isinstance(data, bytes):
+        path.write_bytes(data)
+    elif suffix == ".npy":
+        np.save(path, data)
+    else:
+        try:
+            Image.fromarray(data).save(path)
+        except (TypeError, ValueError, OSError, KeyError):
+            return  # PIL cannot write it: no such file to read
+    try:
+        intrinsics = Intrinsics.parse(",".join(map(str, k)))
+        scene = load_scene(path, intrinsics=intrinsics, depth_scale=scale)
+    except InputError:
+        return
+    assert scene.points.ndim == 2 and np.isfinite(scene.points).all()
+    assert (scene.points[:, 2] > 0).all()
 
 
 def _valid_cloud_files(folder: Path) -> dict[str, bytes]:

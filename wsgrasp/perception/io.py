@@ -512,7 +512,7 @@ def _cloud_or_depth(
             "K[5]; intrinsics=Intrinsics(...) in Python), or list it in a scene "
             "YAML with `intrinsics:` (examples/scenes/README.md)",
         )
-    return depth_points(read_depth_image(p), intrinsics, depth_scale, name=p.name)
+    return depth_points(read_depth_image(p), intrinsics, depth_scale, name=str(p))
 
 
 def _read_scene_yaml(path: Path) -> list[View]:
