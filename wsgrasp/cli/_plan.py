@@ -136,7 +136,7 @@ def plan(
         False, "--registered", help="Several clouds already share one frame."
     ),
     intrinsics: str | None = typer.Option(
-        None, "--intrinsics", metavar="FX,FY,CX,CY", help=INTRINSICS_HELP
+        None, "--intrinsics", metavar="FX,FY,CX,CY|FILE", help=INTRINSICS_HELP
     ),
     depth_scale: float | None = typer.Option(
         None, "--depth-scale", callback=number(0.0, above=True), help=DEPTH_SCALE_HELP

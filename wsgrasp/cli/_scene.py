@@ -187,7 +187,7 @@ def info(
     ),
     icp: bool = typer.Option(False, "--icp", help="Refine view poses with ICP."),
     intrinsics: str | None = typer.Option(
-        None, "--intrinsics", metavar="FX,FY,CX,CY", help=INTRINSICS_HELP
+        None, "--intrinsics", metavar="FX,FY,CX,CY|FILE", help=INTRINSICS_HELP
     ),
     depth_scale: float | None = typer.Option(
         None, "--depth-scale", callback=number(0.0, above=True), help=DEPTH_SCALE_HELP
