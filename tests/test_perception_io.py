@@ -305,3 +305,26 @@ def test_scene_info_gives_the_tables_tilt_where_views_have_poses(tmp_path, capsy
     np.savez(tmp_path / "one.npz", points=views[0].points)
     assert main(["scene", "info", str(tmp_path / "one.npz")]) == 0
     assert "world's z" not in capsys.readouterr().out
+
+
+def test_a_tilted_table_under_camera_poses_is_a_warning():
+    """A plan whose views have poses, its table tilted far from the world's z
+    axis (one view given camera_link's pose), says so in ``warnings``; the
+    same view with its pose, or without one (its camera's frame), does not."""
+    from wsgrasp.api import Pipeline
+    from wsgrasp.default_specs import default_spec
+    from wsgrasp.spec import load_spec
+
+    view = small_scene("box", "upright", 0).views[0]
+    link = transform_from([[0, 0, 1], [-1, 0, 0], [0, -1, 0]])
+    pipe = Pipeline(load_spec(default_spec("franka_hand")[0]))
+    wrong = pipe.plan(
+        scene_from_arrays([(view.points, view.T_world_camera @ np.linalg.inv(link))])
+    )
+    assert len(wrong.warnings) == 1 and "camera_link" in wrong.warnings[0]
+    assert wrong.to_json()["warnings"] == wrong.warnings
+    assert (
+        pipe.plan(scene_from_arrays([(view.points, view.T_world_camera)])).warnings
+        == []
+    )
+    assert pipe.plan(scene_from_arrays(view.points)).warnings == []

@@ -502,7 +502,33 @@ class Pipeline:
             joints_pregrasp=joints_pregrasp,
             joints_grasp=joints_grasp,
             finger_targets=finger_targets,
+            warnings=_frame_warnings(scene, inp.table.T_world_table[:3, 2]),
         )
+
+
+#: a table tilted more than this (degrees) from the world's z axis, in a scene
+#: whose views have poses, gets a warning: a robot's base frame has z up
+TABLE_TILT_WARNING_DEG = 20.0
+
+
+def _frame_warnings(scene: Scene, up: Array) -> list[str]:
+    """A warning when the views were given poses, so that the world is likely a
+    robot's or a room's frame with z up, and the table's normal ``up`` is
+    tilted from that axis by more than :data:`TABLE_TILT_WARNING_DEG`: the
+    poses are then likely those of another frame (ROS's camera_link for an
+    optical-frame cloud) or inverted, and every pose of the result is in that
+    world."""
+    posed = any(not np.array_equal(v.T_world_camera, np.eye(4)) for v in scene.views)
+    tilt = float(np.degrees(np.arccos(min(1.0, abs(float(up[2]))))))
+    if not posed or tilt <= TABLE_TILT_WARNING_DEG:
+        return []
+    return [
+        f"the table is tilted {tilt:.0f}° from the world's z axis although the "
+        "views were given camera poses: if the world is a robot's base frame "
+        "(z up), a T_world_camera is probably wrong (the pose of ROS's "
+        "camera_link given for a cloud in the optical frame, z forward, or the "
+        "world's pose in the camera), and so is every pose of this plan"
+    ]
 
 
 @dataclass

@@ -86,6 +86,8 @@ def print_result(result: Any, title: str = "plan") -> None:
         "timing",
         ", ".join(f"{k} {v:.1f} ms" for k, v in result.timing_ms.items()),
     )
+    for warning in result.warnings:
+        table.add_row("[yellow]warning[/]", warning)
     console.print(table)
 
 

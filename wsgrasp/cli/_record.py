@@ -149,6 +149,8 @@ def inspect(
             console.print("  [" + "  ".join(f"{x:+.4f}" for x in row) + "]")
     elif s["status"] == "ok" and s["hint"]:
         console.print(f"[yellow]hint:[/] {s['hint']}")
+    for warning in s.get("warnings", []):
+        console.print(f"[yellow]warning:[/] {warning}")
 
 
 def replay(

@@ -204,6 +204,9 @@ class PlanResult:
     joints_grasp: dict[str, float] = field(default_factory=dict)
     #: per finger: contact posture, pad position, gap to the contacts, squeeze
     finger_targets: list[dict[str, Any]] = field(default_factory=list)
+    #: what in the input looks wrong without stopping the plan (a table tilted
+    #: far from the world's z axis in a scene whose views have poses)
+    warnings: list[str] = field(default_factory=list)
 
     def to_json(self) -> dict[str, Any]:
         """Plain data: what ``wsgrasp plan --json`` prints."""
@@ -238,6 +241,7 @@ class PlanResult:
             ],
             "timing_ms": self.timing_ms,
             "hint": self.hint,
+            "warnings": self.warnings,
             "T_world_object": m(self.T_world_object),
             "object_extents": m(self.object_extents),
         }

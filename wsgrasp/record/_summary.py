@@ -119,6 +119,7 @@ def summarize_run(run: Run, *, top_k: int = 5) -> dict[str, Any]:
         "T_world_ee": mat("T_world_ee"),
         "T_world_tcp": mat("T_world_tcp"),
         "hint": res.get("hint", ""),
+        "warnings": list(res.get("warnings", [])),
         "top": _top(run, top_k),
         "topics": {
             t: {"schema": s, "messages": c} for t, (s, c) in run.topics().items()
