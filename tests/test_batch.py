@@ -450,3 +450,26 @@ def test_a_manifest_lists_scenes_specs_and_grippers(tmp_path: Path):
         "p@franka_hand",
         "franka_hand",
     )
+
+
+def test_a_plans_warnings_are_a_column(tmp_path: Path):
+    """A scene whose one view was given camera_link's pose plans with a
+    warning, and its row keeps it; a scene without one has none."""
+    from conftest_perception import small_scene
+
+    from wsgrasp.geometry import transform_from
+    from wsgrasp.perception.io import write_scene_yaml
+    from wsgrasp.perception.types import View
+
+    view = small_scene("box", "upright", 0).views[0]
+    link = transform_from([[0, 0, 1], [-1, 0, 0], [0, -1, 0]])
+    T = view.T_world_camera @ np.linalg.inv(link)
+    wrong = write_scene_yaml(tmp_path / "wrong", [View(view.points, T, "v")])
+    right = write_scene_yaml(tmp_path / "right", [view])
+    args = ["batch", str(wrong), str(right), "-g", "franka_hand", "-q", "-j", "1"]
+    assert main([*args, "-o", str(tmp_path / "out")]) == 0
+    rows = {
+        r["scene"]: r for r in pq.read_table(tmp_path / "out" / "plans").to_pylist()
+    }
+    assert "camera_link" in rows[str(wrong)]["warnings"][0]
+    assert rows[str(right)]["warnings"] == []

@@ -107,6 +107,7 @@ def plan_schema() -> Any:
             ("feasible", pa.int32()),
             ("rejections", pa.map_(pa.string(), pa.int32())),
             ("hint", pa.string()),
+            ("warnings", pa.list_(pa.string())),
             ("error", pa.string()),
             ("plan_ms", pa.float64()),
             ("load_ms", pa.float64()),
@@ -194,6 +195,7 @@ def plan_row(result: Any) -> dict[str, Any]:
         "feasible": int(result.candidates.feasible.sum()),
         "rejections": {k: int(v) for k, v in result.rejections.items()},
         "hint": result.hint or None,
+        "warnings": list(result.warnings),
         "plan_ms": float(result.timing_ms.get("total", float("nan"))),
         "timing_ms": {k: float(v) for k, v in result.timing_ms.items()},
     }
