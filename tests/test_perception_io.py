@@ -136,6 +136,17 @@ def test_a_view_with_a_wrong_pose_is_named(tmp_path: Path, mistake: str) -> None
     # two views alone: which of them is wrong cannot be told
     with pytest.raises(InputError, match="views 'view_0.npz', 'view_1.npz' share"):
         load_scene(write_scene_yaml(tmp_path / "two", views[:2]))
+    # a rig whose cameras see apart says so, and is merged as given (a view
+    # metres away still spans too much for a tabletop)
+    path = write_scene_yaml(tmp_path / "apart", views)
+    path.write_text(path.read_text() + "views_overlap: false\n")
+    pairs = [(v.points, v.T_world_camera) for v in views]
+    if mistake == "millimetres":
+        with pytest.raises(InputError, match="spans"):
+            load_scene(path)
+    else:
+        assert len(load_scene(path).views) == 3
+        assert len(scene_from_arrays(pairs, views_overlap=False).views) == 3
 
 
 def test_scene_yaml_in_millimetres(tmp_path: Path) -> None:

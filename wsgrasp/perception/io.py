@@ -389,6 +389,12 @@ class SceneFile(BaseModel):
         "m", description="unit of the clouds and of the pose translations"
     )
     views: list[_ViewEntry] = Field(min_length=1)
+    views_overlap: bool = Field(
+        True,
+        description="the views see one tabletop from around it, so each shares "
+        "some of what another sees; a view that shares nothing is refused as "
+        "wrongly posed. false: a rig whose cameras see apart",
+    )
 
 
 def load_scene(
@@ -450,8 +456,9 @@ def load_scene(
                 hint="give them per view in the scene YAML (`intrinsics:`, "
                 "`depth_scale:` beside `depth:`)",
             )
-        views = _read_scene_yaml(plist[0])
+        views, overlap = _read_scene_yaml(plist[0])
     else:
+        overlap = True
         if len(plist) > 1 and not registered:
             raise InputError(
                 f"{len(plist)} clouds given without camera poses; merging them "
@@ -479,7 +486,7 @@ def load_scene(
             )
             for p in plist
         ]
-    return _merge(views, icp=icp, icp_distance=icp_distance)
+    return _merge(views, icp=icp, icp_distance=icp_distance, overlap=overlap)
 
 
 def _is_depth(p: Path, intrinsics: bool) -> bool:
@@ -515,7 +522,7 @@ def _cloud_or_depth(
     return depth_points(read_depth_image(p), intrinsics, depth_scale, name=str(p))
 
 
-def _read_scene_yaml(path: Path) -> list[View]:
+def _read_scene_yaml(path: Path) -> tuple[list[View], bool]:
     from wsgrasp._loading import load_document, validate_document
 
     if not path.exists():
@@ -554,7 +561,7 @@ def _read_scene_yaml(path: Path) -> list[View]:
         else:
             pts = load_cloud(file_path) * scale
         views.append(View(points=pts, T_world_camera=T, name=entry.name or file))
-    return views
+    return views, doc.views_overlap
 
 
 def _check_pose(T: Any, name: str) -> Array:
@@ -578,6 +585,7 @@ def scene_from_arrays(
     *,
     icp: bool = False,
     icp_distance: float = 0.01,
+    views_overlap: bool = True,
 ) -> Scene:
     """Build a scene from arrays (the Python API's counterpart of ``load_scene``).
 
@@ -588,6 +596,9 @@ def scene_from_arrays(
         ``(points (n_i, 3), T_world_camera (4, 4))`` pairs, points in camera frame.
     icp
         Refine the poses with ICP.
+    views_overlap
+        Refuse a view that shares nothing with the others
+        (:func:`check_views_overlap`); False for a rig whose cameras see apart.
     """
     if isinstance(views, (list, tuple)) and views and isinstance(views[0], tuple):
         vlist = [
@@ -600,10 +611,12 @@ def scene_from_arrays(
         ]
     else:
         vlist = [View(points=_check_shape(views, "points"), name="points")]  # type: ignore[arg-type]
-    return _merge(vlist, icp=icp, icp_distance=icp_distance)
+    return _merge(vlist, icp=icp, icp_distance=icp_distance, overlap=views_overlap)
 
 
-def _merge(views: list[View], *, icp: bool, icp_distance: float) -> Scene:
+def _merge(
+    views: list[View], *, icp: bool, icp_distance: float, overlap: bool = True
+) -> Scene:
     dropped = no_depth = 0
     for v in views:
         if v.points.shape[0] == 0:
@@ -640,7 +653,8 @@ def _merge(views: list[View], *, icp: bool, icp_distance: float) -> Scene:
     # (N, 3) world-frame points of every view; one view in the world frame is
     # its own merge (not copied)
     world = [_to_world(v) for v in views]
-    check_views_overlap(views, world)
+    if overlap:
+        check_views_overlap(views, world)
     merged = world[0] if len(world) == 1 else np.concatenate(world, axis=0)
     check_units(merged, name=" + ".join(v.name for v in views) or "points")
     scene = Scene(
@@ -702,7 +716,8 @@ def check_views_overlap(views: Sequence[View], world: Sequence[Array]) -> None:
         hint="give each camera's pose in the world (the inverse of the world's "
         "pose in the camera), of the frame its points are in (a depth camera's "
         "optical frame, z forward, not ROS's camera_link), in the scene's units; "
-        "clouds that do not share one frame are not --registered",
+        "clouds that do not share one frame are not --registered; for cameras "
+        "that see apart, `views_overlap: false` in the scene YAML",
     )
 
 
