@@ -518,9 +518,8 @@ def _frame_warnings(scene: Scene, up: Array) -> list[str]:
     poses are then likely those of another frame (ROS's camera_link for an
     optical-frame cloud) or inverted, and every pose of the result is in that
     world."""
-    posed = any(not np.array_equal(v.T_world_camera, np.eye(4)) for v in scene.views)
-    tilt = float(np.degrees(np.arccos(min(1.0, abs(float(up[2]))))))
-    if not posed or tilt <= TABLE_TILT_WARNING_DEG:
+    tilt = scene.table_tilt(up)
+    if tilt is None or tilt <= TABLE_TILT_WARNING_DEG:
         return []
     return [
         f"the table is tilted {tilt:.0f}° from the world's z axis although the "

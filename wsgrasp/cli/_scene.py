@@ -237,15 +237,14 @@ def info(
     obj_points = thin(obj_points, ps.preprocess.max_object_points, ps.seed)
     frame = object_frame(obj_points, ps.object_frame.method)
     lap("object_frame")
-    import numpy as np
-
-    # a view given with its pose: the scene's world is not its camera's frame
-    posed = any(not np.array_equal(v.T_world_camera, np.eye(4)) for v in scene.views)
+    # with the views' poses the world is the robot's or the room's, whose z is
+    # usually up: the table's tilt from it shows a wrong pose
+    tilt_deg = scene.table_tilt(seg.table.normal)
     summary = {
         "points": int(scene.points.shape[0]),
         "dropped_nonfinite": scene.dropped_nonfinite,
         "dropped_no_depth": scene.dropped_no_depth,
-        "posed": posed,
+        "posed": tilt_deg is not None,
         "flying_pixels": len(flying),
         "downsampled": int(points.shape[0]),
         "table_normal": seg.table.normal,
@@ -262,14 +261,7 @@ def info(
         print_json(summary)
         return
     n = seg.table.normal
-    # with the views' poses the world is the robot's or the room's, whose z is
-    # usually up: the table's tilt from it shows a wrong pose
-    tilt = (
-        f", {np.degrees(np.arccos(min(1.0, abs(float(n[2]))))):.1f}° from the "
-        "world's z axis"
-        if posed
-        else ""
-    )
+    tilt = "" if tilt_deg is None else f", {tilt_deg:.1f}° from the world's z axis"
     console.print(
         f"{summary['points']} points ({scene.dropped_nonfinite} non-finite and "
         f"{scene.dropped_no_depth} without depth (0, 0, 0) dropped, "

@@ -363,14 +363,14 @@ def _image_points(
             f"{p}: no message on {info_topic!r}",
             hint="record the depth camera's camera_info with its image",
         )
-    k = [float(v) for v in _decode(*info).k]
+    k = list(_decode(*info).k)
     depth = compressed_depth(msg, topic) if compressed else image_depth(msg, topic)
     try:
-        intrinsics = Intrinsics(fx=k[0], fy=k[4], cx=k[2], cy=k[5])
-    except ValueError:
+        intrinsics = Intrinsics.from_k(k)
+    except (ValueError, TypeError):
         raise InputError(
             f"{p}: the camera_info on {info_topic!r} has K = {k}, no pinhole "
-            "camera (focal lengths must be positive)",
+            "camera (9 numbers, focal lengths positive)",
             hint="check that the camera was calibrated when recording",
         ) from None
     return depth_points(depth, intrinsics, name=topic)

@@ -13,7 +13,9 @@ without depth, so the points stay the camera's image
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -64,6 +66,22 @@ class Intrinsics(BaseModel):
             ) from None
 
     @classmethod
+    def from_k(cls, k: Sequence[Any]) -> Intrinsics:
+        """From a camera matrix ``K``, its 9 values row by row (``camera_info``'s
+        ``k``).
+
+        Raises
+        ------
+        ValueError
+            Not 9 numbers, or focal lengths that are not positive (pydantic's
+            ``ValidationError`` is one).
+        """
+        values = [float(v) for v in k]
+        if len(values) != 9:
+            raise ValueError(f"a camera matrix has 9 values, not {len(values)}")
+        return cls(fx=values[0], fy=values[4], cx=values[2], cy=values[5])
+
+    @classmethod
     def from_file(cls, path: str | Path) -> Intrinsics:
         """The intrinsics in a YAML or JSON file: ``fx``, ``fy``, ``cx``, ``cy``;
         a ROS calibration file's ``camera_matrix: {data: [9 values]}``; or a
@@ -89,11 +107,8 @@ class Intrinsics(BaseModel):
         )
         try:
             if k is not None:
-                values = [float(v) for v in k]
-                if len(values) != 9:
-                    raise ValueError
-                return cls(fx=values[0], fy=values[4], cx=values[2], cy=values[5])
-            return cls.model_validate({key: doc.get(key) for key in FIELDS})
+                return cls.from_k(k)
+            return cls.model_validate({key: doc.get(key) for key in cls.model_fields})
         except (ValueError, TypeError, ValidationError):
             raise InputError(
                 f"intrinsics file {str(p)!r} has no camera matrix: expected "
@@ -102,10 +117,6 @@ class Intrinsics(BaseModel):
                 hint="save the depth camera's camera_info with `ros2 topic echo "
                 "--once /camera/depth/camera_info > info.yaml`",
             ) from None
-
-
-#: the fields of :class:`Intrinsics`
-FIELDS = ("fx", "fy", "cx", "cy")
 
 
 def read_depth_image(path: str | Path) -> NDArray[np.generic]:

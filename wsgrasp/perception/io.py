@@ -467,7 +467,9 @@ def load_scene(
                 "(see examples/scenes/README.md), or pass --registered "
                 "(registered=True) if they already share one frame",
             )
-        if intrinsics is not None and not any(_is_depth(p, True) for p in plist):
+        # each input a depth image or not: an NPY's header says (read once)
+        images = [_is_depth(p, intrinsics is not None) for p in plist]
+        if intrinsics is not None and not any(images):
             raise InputError(
                 "intrinsics were given, but no input is a depth image "
                 f"({', '.join(DEPTH_SUFFIXES)}, or an NPY of shape (h, w))",
@@ -480,11 +482,11 @@ def load_scene(
             )
         views = [
             View(
-                points=_cloud_or_depth(p, intrinsics, depth_scale),
+                points=_cloud_or_depth(p, image, intrinsics, depth_scale),
                 T_world_camera=np.eye(4),
                 name=p.name,
             )
-            for p in plist
+            for p, image in zip(plist, images, strict=True)
         ]
     return _merge(views, icp=icp, icp_distance=icp_distance, overlap=overlap)
 
@@ -506,10 +508,11 @@ def _is_depth(p: Path, intrinsics: bool) -> bool:
 
 
 def _cloud_or_depth(
-    p: Path, intrinsics: Intrinsics | None, depth_scale: float | None
+    p: Path, image: bool, intrinsics: Intrinsics | None, depth_scale: float | None
 ) -> Array:
-    """The points of a cloud file, or of a depth image with ``intrinsics``."""
-    if not _is_depth(p, intrinsics is not None):
+    """The points of a cloud file, or of a depth ``image`` (:func:`_is_depth`)
+    with ``intrinsics``."""
+    if not image:
         return load_cloud(p)
     if intrinsics is None:
         raise InputError(
@@ -723,7 +726,7 @@ def check_views_overlap(views: Sequence[View], world: Sequence[Array]) -> None:
 
 def _to_world(view: View) -> Array:
     T = np.asarray(view.T_world_camera, dtype=np.float64)
-    if np.array_equal(T, np.eye(4)):
+    if not view.posed:
         return view.points
     # p_world = R p + t, (n, 3)
     return view.points @ T[:3, :3].T + T[:3, 3]

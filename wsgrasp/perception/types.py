@@ -30,6 +30,12 @@ class View:
     T_world_camera: Array = field(default_factory=lambda: np.eye(4))
     name: str = ""
 
+    @property
+    def posed(self) -> bool:
+        """Whether the view was given a pose (one with the identity pose is a
+        cloud given without one, in the world frame)."""
+        return not np.array_equal(self.T_world_camera, np.eye(4))
+
 
 @dataclass
 class Scene:
@@ -85,10 +91,18 @@ class Scene:
         centres = [
             np.asarray(v.T_world_camera, dtype=np.float64)[:3, 3]
             for v in self.views
-            if not np.array_equal(v.T_world_camera, np.eye(4))
-            or pixel_grid(v.points) is not None
+            if v.posed or pixel_grid(v.points) is not None
         ]
         return np.array(centres).reshape(-1, 3)
+
+    def table_tilt(self, normal: Array) -> float | None:
+        """The angle (degrees) between a plane's ``normal`` and the world's z
+        axis where a view was given a pose (the world is then likely a robot's
+        or a room's frame, z up); None where none was (the world is a camera's
+        frame, in which a table is tilted)."""
+        if not any(v.posed for v in self.views):
+            return None
+        return float(np.degrees(np.arccos(min(1.0, abs(float(normal[2]))))))
 
     def is_merge(self) -> bool:
         """Whether a loader merged ``points`` from ``views`` and neither changed
