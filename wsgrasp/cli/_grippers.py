@@ -145,3 +145,99 @@ def show(
         f"{model.stats['cloud_inside_se']:.0%} of the cloud",
         highlight=False,
     )
+
+
+@gripper_app.command("tune")
+def tune(
+    gripper: Path = typer.Argument(
+        ..., help="Gripper YAML (as `gripper new` wrote it, or your own)."
+    ),
+    objects: list[str] = typer.Option(
+        ["random:000-059"],
+        "--objects",
+        help="Object set the closings are tried on (as for `wsgrasp eval`); keep "
+        "the objects you report on out of it.",
+    ),
+    trials: int = typer.Option(1, "--trials", "-n", min=1, help="Trials per object."),
+    seed: int = typer.Option(0, "--seed", help="Random seed of drops and cameras."),
+    protocol: str = typer.Option(
+        "strict", "--protocol", help="Trial protocol (as for `wsgrasp eval`)."
+    ),
+    workers: int = typer.Option(
+        0, "--workers", "-j", min=0, help="Processes (0: one per CPU core)."
+    ),
+    dry_run: bool = typer.Option(
+        False, "--dry-run", help="Measure and report; write nothing."
+    ),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON."),
+    json_out: Path | None = typer.Option(
+        None, "--json-out", help="Also write the JSON report here."
+    ),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+) -> None:
+    """Choose how a hand closes by grasp trials in MuJoCo: the same drops with
+    closed as it is and at the joints' limits, each to closed and 2 cm past the
+    contacts; the one that holds the most is written into the YAML (closed) and
+    its specs/default.yaml (approach) when it beats the hand as it is."""
+    from wsgrasp.cli._eval import sim_params
+    from wsgrasp.sim import require_mujoco
+    from wsgrasp.sim.tune import tune_closing, write_tuned
+
+    require_mujoco()
+    params = sim_params(protocol)
+    result = tune_closing(
+        str(gripper),
+        objects=list(objects),
+        trials=trials,
+        seed=seed,
+        params=params,
+        workers=workers,
+        progress=not quiet and not as_json,
+        say=None if quiet or as_json else lambda m: err_console.print(m),
+    )
+    written = [] if dry_run else write_tuned(result)
+    report = {**result.to_json(), "written": [str(p) for p in written]}
+    if json_out is not None:
+        import json
+
+        json_out.parent.mkdir(parents=True, exist_ok=True)
+        json_out.write_text(json.dumps(report, indent=2) + "\n")
+    if as_json:
+        print_json(report)
+        return
+    table = Table(title=f"closings of {gripper.name}, the same drops")
+    for col in ("closing", "closed", "targets", "held", "+/-", "diff, points"):
+        table.add_column(col, no_wrap=True)
+    as_is = result.variant("as_is")
+    for v in result.variants:
+        at_limits = any(
+            abs(x - as_is.closed.get(j, x)) > 1e-9 for j, x in v.closed.items()
+        )
+        targets = (
+            "closed"
+            if v.approach.get("close_to") == "closed"
+            else f"contacts +{100 * float(v.approach.get('squeeze', 0.0)):g} cm"
+        )
+        diff = (
+            ""
+            if v.name == "as_is"
+            else f"{100 * v.difference:+.0f} ({100 * v.ci95[0]:+.0f}, "
+            f"{100 * v.ci95[1]:+.0f})"
+        )
+        table.add_row(
+            v.name + (" *" if v.name == result.chosen else ""),
+            "limits" if at_limits else "as is",
+            targets,
+            f"{v.successes}/{v.trials}",
+            "" if v.name == "as_is" else f"{v.gained}/{v.lost}",
+            diff,
+        )
+    table.caption = (
+        "* chosen; +/-: drops gained/lost against as_is; diff: 95 % interval"
+    )
+    console.print(table)
+    console.print(result.summary(), highlight=False, markup=False)
+    for path in written:
+        console.print(f"[green]wrote[/] {path}")
+    if dry_run and result.chosen != "as_is":
+        console.print("--dry-run: nothing written")
