@@ -623,6 +623,36 @@ def render_closed_past_meet_runs() -> str:
     return _runs_in("closed-past-meet") + _height_table("closed-past-meet")
 
 
+def render_tune_runs() -> str:
+    """The runs of ``wsgrasp gripper tune`` (``docs/results/tune/*.json``, its
+    ``--json-out`` reports): per hand, what each closing held of the same drops
+    and its paired difference from the hand as scaffolded, and the choice; then
+    the hands as scaffolded and as tuned on other objects
+    (``docs/results/tune-heldout/``), beside random feasible candidates."""
+    rows = []
+    for path in sorted((RESULTS / "tune").glob("*.json")):
+        r = json.loads(path.read_text())
+        for v in r["variants"]:
+            lo, hi = (100 * x for x in v["ci95"])
+            rows.append(
+                [
+                    f"`{path.name}`",
+                    f"`{r['objects']}`",
+                    f"`{v['name']}`"
+                    + (" (chosen)" if v["name"] == r["chosen"] else ""),
+                    f"{v['successes']} / {v['trials']}",
+                    ""
+                    if v["name"] == "as_is"
+                    else f"{v['gained']} / {v['lost']}, "
+                    f"{100 * v['difference']:+.0f} ({lo:+.0f} to {hi:+.0f})",
+                ]
+            )
+    if not rows:
+        return "No runs under `docs/results/tune/`.\n"
+    header = ["file", "objects", "closing", "held", "gained / lost, points (95 %)"]
+    return table(header, rows) + "\n" + _runs_in("tune-heldout")
+
+
 def render_one_camera_runs() -> str:
     """The runs that planned from one camera (``docs/results/one-camera/``):
     looking down from nearly straight above, with the objects refused as

@@ -63,6 +63,7 @@ from docs_results import (
     render_simulator_versions_runs,
     render_thumb_drive_runs,
     render_thumb_turn_runs,
+    render_tune_runs,
 )
 
 MARKER = re.compile(r"^<!-- render: ([a-z0-9-]+) -->$", re.M)
@@ -101,6 +102,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "jaw-drive-runs": render_jaw_drive_runs,
     "graze-depth-runs": render_graze_depth_runs,
     "closed-past-meet-runs": render_closed_past_meet_runs,
+    "tune-runs": render_tune_runs,
     "allegro-closings-runs": render_allegro_closings_runs,
     "one-camera-runs": render_one_camera_runs,
     "flying-pixels-runs": render_flying_pixels_runs,
