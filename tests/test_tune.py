@@ -169,3 +169,12 @@ def test_tune_runs_every_closing_on_the_same_drops(
     assert report["chosen"] in names and report["written"] == []
     assert report["protocol"] == "strict"
     assert hand.read_text() == before
+
+
+def test_tune_of_a_name_or_a_missing_file_is_named(capsys: pytest.CaptureFixture):
+    pytest.importorskip("mujoco")
+    from wsgrasp.cli import main
+
+    assert main(["gripper", "tune", "allegro_right", "--dry-run"]) != 0
+    err = capsys.readouterr().err
+    assert "not a gripper YAML file" in err and "Traceback" not in err

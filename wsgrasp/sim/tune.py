@@ -212,9 +212,14 @@ def tune_closing(
     from wsgrasp.sim.runner import EvalConfig, SpecEntry, run_eval
 
     tell = say or (lambda _msg: None)
-    path = Path(gripper).resolve()
-    text = path.read_text()
-    data = yaml.safe_load(text)
+    path = Path(gripper).expanduser().resolve()
+    if not path.is_file():
+        raise InputError(
+            f"gripper tune: {gripper} is not a gripper YAML file (it rewrites one)",
+            hint="pass the path of the gripper's YAML, e.g. "
+            "my_gripper/wsgrasp_my_gripper/my_gripper.yaml as gripper new wrote it",
+        )
+    data = yaml.safe_load(path.read_text())
     model = load_gripper(str(path))
     spec, _ = default_spec(str(path))
     approach = dict(spec.get("approach") or {})
