@@ -122,7 +122,8 @@ eval-scorers: $(STAMP)
 # every URDF under GRIPPERS_DIR (the vendor descriptions wsgrasp is developed
 # against), and three URDFs pybullet ships, outside that development set (an
 # xArm gripper and a Franka Panda, each below its arm, and the PR2 gripper),
-# scaffolded with no edit, checked, planned on the bundled scenes and tried on
+# scaffolded with no edit, tuned (gripper tune on random:000-059), checked,
+# planned on the bundled scenes and tried on
 # random:000-299 x 1 (the lift protocol; PROTOCOL=strict for eval's default), and
 # every built-in and example gripper: docs/results/grippers.json, the docs'
 # gripper table (benchmarks/eval_grippers.py)
@@ -133,7 +134,7 @@ eval-grippers: $(STAMP)
 	$(BIN)/python benchmarks/eval_grippers.py --grippers-dir $(GRIPPERS_DIR) \
 		--also-dir "$$($(BIN)/python -c 'import pybullet_data; print(pybullet_data.getDataPath())')" \
 		--also xarm/xarm6_with_gripper.urdf --also franka_panda/panda.urdf \
-		--also pr2_gripper.urdf --protocol $(PROTOCOL) $(EVAL_GRIPPERS_ARGS)
+		--also pr2_gripper.urdf --protocol $(PROTOCOL) --tune $(EVAL_GRIPPERS_ARGS)
 
 # the same under the strict protocol (wsgrasp eval's default), rendered on the
 # Results: grippers page beside the lift run; the README keeps the lift table

@@ -8,7 +8,9 @@ their meshes works the same way), and each ``--also`` URDF of ``--also-dir``
 are not among the development descriptions):
 
 1. ``wsgrasp gripper new`` (Python: ``scaffold_plugin``) into a package under
-   ``--out``, with no edit: scaffolds yes / no, and why not;
+   ``--out``, with no edit: scaffolds yes / no, and why not; with ``--tune``
+   (``make eval-grippers``), then ``wsgrasp gripper tune`` on it, which may move
+   its ``closed`` or its default spec's ``approach`` (the row says);
 2. ``gripper check``: its errors and warnings;
 3. a plan with the gripper's default spec on each bundled scene
    (``examples/scenes``) and on an upright 6 x 5 x 11 cm box and a 5 cm cube;
@@ -104,6 +106,62 @@ def scaffold(urdf: Path, out: Path) -> tuple[str | None, dict[str, Any]]:
         row["scaffold_error"] = sc.build_error
         return None, row
     return str(yaml), row
+
+
+#: the objects ``--tune`` tries each hand's closings on (``gripper tune``'s
+#: default; a part of the development range)
+TUNE_OBJECTS = "random:000-059"
+
+
+def tune(gripper: str, protocol: str, out: Path) -> dict[str, Any]:
+    """``wsgrasp gripper tune`` on a scaffolded gripper, in a process of its
+    own: the closing it chose (written into the package) and its figures."""
+    json_out = out / f"tune-{package_name(Path(gripper))}.json"
+    cmd = [
+        str(Path(sys.executable).with_name("wsgrasp")),
+        "gripper",
+        "tune",
+        gripper,
+        "--objects",
+        TUNE_OBJECTS,
+        "--protocol",
+        protocol,
+        "-q",
+        "--json-out",
+        str(json_out),
+    ]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0 or not json_out.exists():
+        tail = (proc.stderr or proc.stdout).strip().splitlines()[-3:]
+        return {"tune_error": " ".join(tail)}
+    report = json.loads(json_out.read_text())
+    return {
+        "tune": {
+            "objects": report["objects"],
+            "chosen": report["chosen"],
+            "summary": report["summary"],
+            "held": {v["name"]: v["successes"] for v in report["variants"]},
+            "trials": report["variants"][0]["trials"],
+        }
+    }
+
+
+def _cell_scaffolds(r: dict[str, Any], short: bool = False) -> str:
+    """Whether ``gripper new`` scaffolded the row's URDF, and what ``gripper
+    tune`` changed where the run tuned it."""
+    if not r.get("scaffolds"):
+        return "no" if short else "no: " + r.get("scaffold_error", "")
+    t = r.get("tune")
+    if t is None:
+        return "yes" if "tune_error" not in r else "yes (tune failed)"
+    if t["chosen"] == "as_is":
+        return "yes (tune: as scaffolded)"
+    what = {
+        "limits": "closed at limits",
+        "contacts": "2 cm past contacts",
+        "limits_contacts": "closed at limits, 2 cm past contacts",
+    }[t["chosen"]]
+    return f"yes (tune: {what})"
 
 
 def check(gripper: str) -> dict[str, Any]:
@@ -304,7 +362,12 @@ def markdown(report: dict[str, Any]) -> str:
         f"{report['machine']} ({report['date']}); success: `wsgrasp eval` with "
         f"{_mujoco(report)}, protocol `{report['protocol']}`, "
         f"objects `{report['objects']}`, "
-        f"{report['trials']} trial each, seed {report['seed']}, default spec.",
+        f"{report['trials']} trial each, seed {report['seed']}, default spec"
+        + (
+            f"; `gripper tune` on `{TUNE_OBJECTS}` where the scaffolds column says."
+            if any("tune" in r for r in report["rows"])
+            else "."
+        ),
         "",
         "| gripper | source | fingers | scaffolds | `gripper check` | plans found "
         "| plan, view, batch, dataset | success (failures) "
@@ -313,11 +376,7 @@ def markdown(report: dict[str, Any]) -> str:
         "|---|---|---:|---|---|---|---|---|---|---|",
     ]
     for r in report["rows"]:
-        scaf = (
-            _ours(r)
-            if r["source"] == "built-in"
-            else ("yes" if r.get("scaffolds") else "no: " + r.get("scaffold_error", ""))
-        )
+        scaf = _ours(r) if r["source"] == "built-in" else _cell_scaffolds(r)
         lines.append(
             f"| {_name(r)} | {_source(r)} | {r.get('fingers', '–')} | {scaf} | "
             f"{_cell_check(r)} | {_cell_plans(r)} | {_cell_commands(r)} | "
@@ -369,9 +428,12 @@ README_END = "<!-- end of gripper table -->"
 
 def readme_table(report: dict[str, Any]) -> str:
     """The README's short gripper table: one row per gripper, with the run."""
+    tuned = any("tune" in r for r in report["rows"])
     lines = [
         f"From `make eval-grippers` at commit {report['commit']}: `gripper new` with",
-        f"no edit, `gripper check`, plans on the bundled scenes and {len(SHAPES)} "
+        "no edit"
+        + (f" (then `gripper tune` on `{TUNE_OBJECTS}` where it says)" if tuned else "")
+        + f", `gripper check`, plans on the bundled scenes and {len(SHAPES)} "
         "synthetic shapes,",
         f"grasps held in {_mujoco(report)} (protocol `{report['protocol']}`, "
         f"`{report['objects']}`, {report['trials']} trial",
@@ -383,7 +445,7 @@ def readme_table(report: dict[str, Any]) -> str:
     ]
     for r in report["rows"]:
         built_in = r["source"] == "built-in"
-        scaf = _ours(r) if built_in else ("yes" if r.get("scaffolds") else "no")
+        scaf = _ours(r) if built_in else _cell_scaffolds(r, short=True)
         source = "wsgrasp" if built_in else r["source"].split("/")[0]
         held = f"{100 * r['success_rate']:.1f} %" if "success_rate" in r else "–"
         lines.append(
@@ -471,6 +533,12 @@ def main(argv: list[str] | None = None) -> int:
         help="leave the README's table as it is (it shows the lift protocol's run)",
     )
     ap.add_argument("--no-eval", action="store_true", help="skip the trials")
+    ap.add_argument(
+        "--tune",
+        action="store_true",
+        help="after gripper new, run gripper tune on each scaffolded gripper "
+        f"({TUNE_OBJECTS}, the run's protocol) and evaluate it as tuned",
+    )
     ap.add_argument("--only", action="append", help="only these gripper names")
     ap.add_argument(
         "--merge",
@@ -531,6 +599,8 @@ def main(argv: list[str] | None = None) -> int:
         if isinstance(ref, Path):
             gripper, scaf = scaffold(ref, args.out / "packages")
             row.update(scaf)
+            if gripper is not None and args.tune and not args.no_eval:
+                row.update(tune(gripper, args.protocol, args.out))
         if gripper is not None:
             row["gripper"] = gripper
             row.update(check(gripper))
