@@ -432,6 +432,41 @@ def test_the_gripper_table_names_where_each_gripper_comes_from():
     assert eval_grippers._source(example) == "examples/plugins"
 
 
+def test_the_gripper_table_says_what_tune_changed():
+    """A row tuned by ``eval_grippers.py --tune`` says which closing ``gripper
+    tune`` chose; a row not tuned says only whether it scaffolded; the tables'
+    headers name ``gripper tune`` only where some row was tuned."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        import eval_grippers
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    cell = eval_grippers._cell_scaffolds
+    tuned = {"scaffolds": True, "tune": {"chosen": "limits"}}
+    kept = {"scaffolds": True, "tune": {"chosen": "as_is"}}
+    assert cell(tuned) == "yes (tune: closed at limits)"
+    assert cell(kept) == "yes (tune: as scaffolded)"
+    assert cell({"scaffolds": True}) == "yes"
+    assert cell({"scaffolds": True, "tune_error": "x"}) == "yes (tune failed)"
+    assert cell({"scaffolds": False, "scaffold_error": "bad"}) == "no: bad"
+    assert cell({"scaffolds": False, "scaffold_error": "bad"}, short=True) == "no"
+    report = {
+        "commit": "abc",
+        "machine": "m",
+        "date": "d",
+        "protocol": "strict",
+        "objects": "random:000-299",
+        "trials": 1,
+        "seed": 0,
+        "rows": [{"name": "h", "source": "h.urdf", **tuned}],
+    }
+    assert "`gripper tune`" in eval_grippers.readme_table(report)
+    assert "`gripper tune`" in eval_grippers.markdown(report)
+    report["rows"] = [{"name": "h", "source": "h.urdf", "scaffolds": True}]
+    assert "`gripper tune`" not in eval_grippers.readme_table(report)
+    assert "`gripper tune`" not in eval_grippers.markdown(report)
+
+
 def test_the_allegro_fingertips_rise_as_the_docs_say():
     """The Allegro hand's pad centres along its approach over the closing path
     (pre-grasp to closed): the deepest point and the end that the evaluation
