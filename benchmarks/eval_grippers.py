@@ -117,24 +117,10 @@ def tune(gripper: str, protocol: str, out: Path) -> dict[str, Any]:
     """``wsgrasp gripper tune`` on a scaffolded gripper, in a process of its
     own: the closing it chose (written into the package) and its figures."""
     json_out = out / f"tune-{package_name(Path(gripper))}.json"
-    cmd = [
-        str(Path(sys.executable).with_name("wsgrasp")),
-        "gripper",
-        "tune",
-        gripper,
-        "--objects",
-        TUNE_OBJECTS,
-        "--protocol",
-        protocol,
-        "-q",
-        "--json-out",
-        str(json_out),
-    ]
-    proc = subprocess.run(cmd, capture_output=True, text=True)
-    if proc.returncode != 0 or not json_out.exists():
-        tail = (proc.stderr or proc.stdout).strip().splitlines()[-3:]
-        return {"tune_error": " ".join(tail)}
-    report = json.loads(json_out.read_text())
+    args = ["gripper", "tune", gripper, "--objects", TUNE_OBJECTS]
+    report = _run_wsgrasp([*args, "--protocol", protocol], json_out)
+    if isinstance(report, str):
+        return {"tune_error": report}
     return {
         "tune": {
             "objects": report["objects"],
@@ -207,29 +193,11 @@ def trials(
 ) -> dict[str, Any]:
     """``wsgrasp eval`` with the default spec, in a process of its own."""
     json_out = out / f"eval-{package_name(Path(gripper))}.json"
-    cmd = [
-        str(Path(sys.executable).with_name("wsgrasp")),
-        "eval",
-        "-g",
-        gripper,
-        "--objects",
-        objects,
-        "-n",
-        str(n),
-        "--seed",
-        str(seed),
-        "--no-paper",
-        "--protocol",
-        protocol,
-        "-q",
-        "--json-out",
-        str(json_out),
-    ]
-    proc = subprocess.run(cmd, capture_output=True, text=True)
-    if proc.returncode != 0 or not json_out.exists():
-        tail = (proc.stderr or proc.stdout).strip().splitlines()[-3:]
-        return {"eval_error": " ".join(tail)}
-    report = json.loads(json_out.read_text())
+    args = ["eval", "-g", gripper, "--objects", objects, "-n", str(n)]
+    args += ["--seed", str(seed), "--no-paper", "--protocol", protocol]
+    report = _run_wsgrasp(args, json_out)
+    if isinstance(report, str):
+        return {"eval_error": report}
     res = report["results"][0]
     return {
         "trials": res["trials"],
@@ -243,6 +211,18 @@ def trials(
         "sim_notes": next(iter((report.get("sim_grippers") or {}).values()), {}),
         "eval_wall_s": report.get("wall_s"),
     }
+
+
+def _run_wsgrasp(args: list[str], json_out: Path) -> dict[str, Any] | str:
+    """``wsgrasp ARGS -q --json-out JSON_OUT`` in a process of its own: the
+    report it wrote, or the last lines it printed where it wrote none."""
+    cmd = [str(Path(sys.executable).with_name("wsgrasp")), *args]
+    proc = subprocess.run(
+        [*cmd, "-q", "--json-out", str(json_out)], capture_output=True, text=True
+    )
+    if proc.returncode != 0 or not json_out.exists():
+        return " ".join((proc.stderr or proc.stdout).strip().splitlines()[-3:])
+    return json.loads(json_out.read_text())  # type: ignore[no-any-return]
 
 
 def by_height(records: list[dict[str, Any]]) -> dict[str, Any]:
