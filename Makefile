@@ -127,19 +127,26 @@ eval-scorers: $(STAMP)
 # random:000-299 x 1 (the lift protocol; PROTOCOL=strict for eval's default), and
 # every built-in and example gripper: docs/results/grippers.json, the docs'
 # gripper table (benchmarks/eval_grippers.py)
+# (EVAL_GRIPPERS_ARGS adds options to either target: `--only NAME --merge`
+# re-runs one row into the published table)
 GRIPPERS_DIR ?= ../shared/grippers
 PROTOCOL ?= lift
+GRIPPERS_OUT ?= eval-results/grippers
+GRIPPERS_RESULTS ?= docs/results/grippers.json
 eval-grippers: $(STAMP)
 	$(BIN)/python -m pip install -q -e '.[sim]'
 	$(BIN)/python benchmarks/eval_grippers.py --grippers-dir $(GRIPPERS_DIR) \
 		--also-dir "$$($(BIN)/python -c 'import pybullet_data; print(pybullet_data.getDataPath())')" \
 		--also xarm/xarm6_with_gripper.urdf --also franka_panda/panda.urdf \
-		--also pr2_gripper.urdf --protocol $(PROTOCOL) --tune $(EVAL_GRIPPERS_ARGS)
+		--also pr2_gripper.urdf --protocol $(PROTOCOL) --tune \
+		--out $(GRIPPERS_OUT) --results $(GRIPPERS_RESULTS) $(GRIPPERS_README) \
+		$(EVAL_GRIPPERS_ARGS)
 
 # the same under the strict protocol (wsgrasp eval's default), rendered on the
 # Results: grippers page beside the lift run; the README keeps the lift table
 eval-grippers-strict: $(STAMP)
-	$(MAKE) eval-grippers PROTOCOL=strict EVAL_GRIPPERS_ARGS="--out eval-results/grippers-strict --results docs/results/grippers-strict.json --no-readme"
+	$(MAKE) eval-grippers PROTOCOL=strict GRIPPERS_OUT=eval-results/grippers-strict \
+		GRIPPERS_RESULTS=docs/results/grippers-strict.json GRIPPERS_README=--no-readme
 
 # a default install (numba included); the dense entries' `compiled` field says
 # which kernels ran. Writes docs/results/bench.json (the docs' Speed page)
