@@ -117,7 +117,7 @@ class TuneResult:
         )
         if self.chosen == "as_is":
             return (
-                f"`wsgrasp gripper tune` ({where}): as scaffolded held "
+                f"`wsgrasp gripper tune` ({where}): the hand as it is held "
                 f"{base.successes} of {base.trials}, and no other closing held "
                 "more with a paired 95 % interval above zero, so it stays"
             )
