@@ -113,6 +113,7 @@ def new(
     console.print(
         f"next: read the guesses in {yaml_path}, then\n"
         f"  wsgrasp gripper check {yaml_path} -o {name}.png\n"
+        f"  wsgrasp gripper tune {yaml_path}    # how it closes, by grasp trials\n"
         f"  pip install -e {out}    # then `gripper: {name}` in a spec",
         highlight=False,
     )
