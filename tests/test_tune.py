@@ -168,6 +168,10 @@ def test_tune_runs_every_closing_on_the_same_drops(
     assert all(v["trials"] == 1 for v in report["variants"])
     assert report["chosen"] in names and report["written"] == []
     assert report["protocol"] == "strict"
+    # every approach field, the spec's own or its default
+    first = report["variants"][0]["approach"]
+    assert first == {"distance": 0.1, "squeeze": 0.06, "close_to": "closed"}
+    assert report["variants"][2]["approach"]["squeeze"] == 0.02
     assert hand.read_text() == before
 
 

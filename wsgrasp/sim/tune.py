@@ -210,6 +210,7 @@ def tune_closing(
     from wsgrasp.sim.objects import resolve_objects
     from wsgrasp.sim.params import SimParams
     from wsgrasp.sim.runner import EvalConfig, SpecEntry, run_eval
+    from wsgrasp.spec import Approach
 
     tell = say or (lambda _msg: None)
     path = Path(gripper).expanduser().resolve()
@@ -222,7 +223,8 @@ def tune_closing(
     data = yaml.safe_load(path.read_text())
     model = load_gripper(str(path))
     spec, _ = default_spec(str(path))
-    approach = dict(spec.get("approach") or {})
+    # every field, the spec's own or its default
+    approach = Approach.model_validate(spec.get("approach") or {}).model_dump()
     # the YAML's own joints, in its order
     as_is_closed = {k: float(v) for k, v in (data.get("closed") or {}).items()}
     at_limits = closed_at_limits(model)
