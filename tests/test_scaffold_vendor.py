@@ -156,7 +156,8 @@ def test_wrist_joints_are_held_and_each_finger_closes_its_own_way(tmp_path):
     # their pads pass each other 17 mm from their centroid at the nearest: the
     # comment says so, and what to compare
     assert "pass each other without meeting" in sc.notes["closed"]
-    assert "Closing past the meeting" in sc.notes["closed"]
+    assert "gripper tune" in sc.notes["closed"]
+    assert "Tune the closing" in sc.notes["closed"]
     assert d["approach_axis"] == [0.0, 0.0, 1.0]
     # the palm turned 0.4 rad about z by the held wrist joint WRJ1
     np.testing.assert_allclose(

@@ -63,7 +63,8 @@ def new(
         "--close-past",
         help="Where the fingers close only to where their pads meet, close on "
         "until the pads have travelled this much more (m, e.g. 0.06): for a hand "
-        "whose pads pass each other without meeting, to compare in `wsgrasp eval`.",
+        "whose pads pass each other without meeting, to compare in `wsgrasp eval` "
+        "(`wsgrasp gripper tune` tries the joints' limits for you).",
     ),
 ) -> None:
     """Write a pip-installable plugin package for a gripper, guessed from its URDF

@@ -1392,14 +1392,16 @@ def _stop_where_pads_meet(
         "again or close over the object" + _past_note(past)
     )
     if least > MEET_DISTANCE and past <= 0.0:
-        # measured on five development hands (docs/results/closed-past-meet/):
-        # closing further held more only for the one whose pads pass farthest
-        # apart, so the guess stays and the comment says what to compare
+        # measured on five development hands (docs/results/closed-past-meet/,
+        # docs/results/tune/): closing further held more for the Robotiq 3F and
+        # fewer for the BarrettHand, whose pads pass apart too, so the guess
+        # stays and the comment says how to measure it
         u.notes["closed"] += (
             "; they pass each other without meeting, so an object narrower than "
-            "their gap is pressed only as far as the fingers wrap it: compare "
-            "this YAML with one scaffolded with --close-past 0.06 in one `wsgrasp "
-            "eval` run (docs: Add a gripper, Closing past the meeting)"
+            "their gap is pressed only as far as the fingers wrap it: `wsgrasp "
+            "gripper tune` on this YAML tries closing on to the joints' limits "
+            "on the same drops and keeps what holds more (docs: Add a gripper, "
+            "Tune the closing)"
         )
 
 
