@@ -19,7 +19,7 @@ from wsgrasp.sim.tune import (
     VariantResult,
     _replace_closed,
     closed_at_limits,
-    paired_difference,
+    compare_drops,
     write_tuned,
 )
 from wsgrasp.spec import GripperDescription
@@ -60,16 +60,19 @@ def test_closed_at_limits_moves_every_closing_joint_to_its_limit(hand: Path):
     }
 
 
-def test_paired_difference_counts_and_interval():
+def test_compare_drops_counts_and_interval():
+    """Drops gained and lost, and the eval report's paired interval (mean ±
+    1.96 s / √n); one drop bounds nothing."""
     a = [True, True, False, True, True, False]
     b = [True, False, False, False, True, True]
-    gained, lost, mean, (lo, hi) = paired_difference(a, b)
+    gained, lost, mean, (lo, hi) = compare_drops(a, b)
     assert (gained, lost) == (2, 1)
     d = np.array(a, float) - np.array(b, float)
     assert mean == pytest.approx(d.mean())
-    half = 1.959963984540054 * d.std(ddof=1) / np.sqrt(len(d))
+    half = 1.96 * d.std(ddof=1) / np.sqrt(len(d))
     assert (lo, hi) == pytest.approx((d.mean() - half, d.mean() + half))
-    assert paired_difference([], []) == (0, 0, 0.0, (0.0, 0.0))
+    assert compare_drops([], []) == (0, 0, 0.0, (0.0, 0.0))
+    assert compare_drops([True], [False]) == (1, 0, 1.0, (-np.inf, np.inf))
 
 
 def _result(hand: Path, chosen: str, ci_low: float = 0.2) -> TuneResult:

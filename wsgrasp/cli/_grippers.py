@@ -208,11 +208,8 @@ def tune(
     table = Table(title=f"closings of {gripper.name}, the same drops")
     for col in ("closing", "closed", "targets", "held", "+/-", "diff, points"):
         table.add_column(col, no_wrap=True)
-    as_is = result.variant("as_is")
     for v in result.variants:
-        at_limits = any(
-            abs(x - as_is.closed.get(j, x)) > 1e-9 for j, x in v.closed.items()
-        )
+        at_limits = v.name.startswith("limits")
         targets = (
             "closed"
             if v.approach.get("close_to") == "closed"

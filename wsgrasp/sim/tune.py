@@ -14,7 +14,7 @@ no rule read from the URDF has told apart (``docs/how-to/add-a-gripper.md``,
 Tune the closing, gives the runs), so :func:`tune_closing` measures it: the
 same drops are grasped with each of :data:`VARIANTS` and the one that holds
 the most is kept, when the paired difference from the hand as it is has a
-95 % interval above zero (:func:`paired_difference`); else the hand stays as
+95 % interval above zero (:func:`compare_drops`); else the hand stays as
 it is. :func:`write_tuned` writes the choice into the YAML and the spec, with
 the figures in a comment.
 """
@@ -41,7 +41,7 @@ __all__ = [
     "TuneResult",
     "VariantResult",
     "closed_at_limits",
-    "paired_difference",
+    "compare_drops",
     "tune_closing",
     "write_tuned",
 ]
@@ -54,8 +54,6 @@ VARIANTS = ("as_is", "limits", "contacts", "limits_contacts")
 #: the squeeze at which the BarrettHand's description held most of
 #: ``random:000-119`` (strict; 6 cm pushed low objects out of its fingers)
 CONTACTS_APPROACH = {"close_to": "contacts", "squeeze": 0.02}
-#: the interval's normal quantile (95 %, two-sided)
-_Z95 = 1.959963984540054
 
 
 @dataclass
@@ -172,19 +170,22 @@ def closed_at_limits(model: Any) -> dict[str, float]:
     return closed
 
 
-def paired_difference(
+def compare_drops(
     a: list[bool], b: list[bool]
 ) -> tuple[int, int, float, tuple[float, float]]:
     """Over the same drops, ``a`` against ``b``: drops gained, lost, the mean
-    difference of successes and its normal 95 % interval (mean ± 1.96 × the
-    standard deviation of the differences / √n)."""
-    d = np.asarray(a, dtype=float) - np.asarray(b, dtype=float)
-    n = len(d)
-    if n == 0:
+    difference of successes and its 95 % interval as the eval report gives it
+    (:func:`wsgrasp.sim.report.paired_difference`); one drop alone bounds
+    nothing (an interval without ends)."""
+    from wsgrasp.sim.report import paired_difference
+
+    d = [float(x) - float(y) for x, y in zip(a, b, strict=True)]
+    if not d:
         return 0, 0, 0.0, (0.0, 0.0)
-    mean = float(d.mean())
-    half = _Z95 * float(d.std(ddof=1)) / math.sqrt(n) if n > 1 else math.inf
-    return int((d > 0).sum()), int((d < 0).sum()), mean, (mean - half, mean + half)
+    mean, low, high = paired_difference(d)
+    if len(d) == 1:
+        low, high = -math.inf, math.inf
+    return sum(x > 0 for x in d), sum(x < 0 for x in d), mean, (low, high)
 
 
 def tune_closing(
@@ -281,7 +282,7 @@ def tune_closing(
     results = []
     for name in names:
         got = [outcomes[name].get(k, False) for k in drops]
-        gained, lost, diff, ci = paired_difference(got, base)
+        gained, lost, diff, ci = compare_drops(got, base)
         closed, appr = plan[name]
         results.append(
             VariantResult(
