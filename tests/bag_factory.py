@@ -170,6 +170,9 @@ def write_depth_bag(
     big_endian: bool = False,
     cut: int = 0,
     compressed: str | None = None,
+    distortion: Sequence[float] = (0.0,) * 5,
+    distortion_model: str = "plumb_bob",
+    p: Sequence[float] | None = None,
 ) -> Path:
     """Write a ROS 2 bag of one depth Image on ``topic`` and, unless ``k`` is
     None, its CameraInfo (``K`` row by row) on the ``camera_info`` beside it.
@@ -179,7 +182,9 @@ def write_depth_bag(
     ``/compressedDepth`` instead, as compressed_depth_image_transport writes it:
     a 12-byte header, then ``depth`` (uint16: millimetres, or the quantised
     inverse depth ``A / z + B`` of a 32FC1 image, with the transport's default
-    ``DEPTH_QUANT``) as a 16-bit PNG."""
+    ``DEPTH_QUANT``) as a 16-bit PNG. The CameraInfo's ``D`` is ``distortion``
+    (of ``distortion_model``), its ``P`` ``p`` (by default ``K`` with a zero
+    column)."""
     from mcap_ros2.writer import Writer
 
     d = np.ascontiguousarray(depth)
@@ -229,11 +234,13 @@ def write_depth_bag(
                 "header": header,
                 "height": d.shape[0],
                 "width": d.shape[1],
-                "distortion_model": "plumb_bob",
-                "d": [0.0] * 5,
+                "distortion_model": distortion_model,
+                "d": [float(v) for v in distortion],
                 "k": list(k),
                 "r": [1.0, 0, 0, 0, 1.0, 0, 0, 0, 1.0],
-                "p": [*k[:3], 0.0, *k[3:6], 0.0, *k[6:], 0.0],
+                "p": [float(v) for v in p]
+                if p is not None
+                else [*k[:3], 0.0, *k[3:6], 0.0, *k[6:], 0.0],
                 "binning_x": 0,
                 "binning_y": 0,
                 "roi": {

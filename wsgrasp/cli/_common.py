@@ -63,7 +63,9 @@ def number(
 
 INTRINSICS_HELP = (
     "Depth camera intrinsics of a depth image input (16-bit PNG or TIFF, float "
-    "TIFF, (h, w) NPY): fx,fy,cx,cy in pixels, or a camera_info YAML/JSON file."
+    "TIFF, (h, w) NPY): fx,fy,cx,cy in pixels, or a camera_info YAML/JSON file "
+    "(FILE:raw for the camera's raw image, whose lens distortion is undone; "
+    "FILE:rect for the rectified image)."
 )
 DEPTH_SCALE_HELP = (
     "Metres per unit of a depth image input; default 0.001 for integer images "

@@ -26,6 +26,8 @@ from wsgrasp.errors import InputError
 if TYPE_CHECKING:
     from collections.abc import Iterator
 
+    from wsgrasp.perception.depth import ImageKind
+
 __all__ = ["CAMERA_INFO", "COMPRESSED_IMAGE", "IMAGE", "POINTCLOUD2", "TF_MESSAGE"]
 __all__ += ["BagCloud", "bag_topics", "compressed_depth", "image_depth", "is_mcap"]
 __all__ += ["read_bag_clouds", "read_bag_scene"]
@@ -336,12 +338,24 @@ def _camera_info_topic(image_topic: str, compressed: bool = False) -> str:
     return image_topic.rsplit("/", 1)[0] + "/camera_info"
 
 
+def _image_kind(image_topic: str, compressed: bool = False) -> ImageKind:
+    """Which image a depth topic carries, by ROS's names: a rectified one where
+    a part of its name says ``rect`` (``image_rect``, RealSense's
+    ``image_rect_raw``), else the camera's raw image (``image_raw``), whose
+    ``camera_info`` gives the lens distortion to undo."""
+    if compressed:
+        image_topic = image_topic.rsplit("/", 1)[0]
+    parts = image_topic.strip("/").split("/")
+    return "rect" if any("rect" in part for part in parts) else "raw"
+
+
 def _image_points(
     p: Path, topic: str, msg: Any, log_time: int, types: dict[str, str]
 ) -> Array:
     """A depth Image's points in its frame, by the intrinsics of the
     ``camera_info`` beside it (the latest at or before the image, else the first
-    after it)."""
+    after it): for a rectified image (:func:`_image_kind`) its ``P``, for a raw
+    one its ``K`` and the lens distortion ``D``, undone."""
     from wsgrasp.perception.depth import Intrinsics, depth_points
 
     compressed = types.get(topic) == COMPRESSED_IMAGE
@@ -363,16 +377,13 @@ def _image_points(
             f"{p}: no message on {info_topic!r}",
             hint="record the depth camera's camera_info with its image",
         )
-    k = list(_decode(*info).k)
     depth = compressed_depth(msg, topic) if compressed else image_depth(msg, topic)
-    try:
-        intrinsics = Intrinsics.from_k(k)
-    except (ValueError, TypeError):
-        raise InputError(
-            f"{p}: the camera_info on {info_topic!r} has K = {k}, no pinhole "
-            "camera (9 numbers, focal lengths positive)",
-            hint="check that the camera was calibrated when recording",
-        ) from None
+    intrinsics = Intrinsics.from_camera_info(
+        _decode(*info),
+        _image_kind(topic, compressed),
+        f"{p}: the camera_info on {info_topic!r}",
+        hint="",
+    )
     return depth_points(depth, intrinsics, name=topic)
 
 

@@ -346,8 +346,11 @@ class _ViewEntry(BaseModel):
     )
     intrinsics: Intrinsics | str | None = Field(
         None,
-        description="the depth image's camera intrinsics (pixels), or a "
-        "camera_info YAML/JSON file relative to the scene YAML",
+        description="the depth image's camera intrinsics (pixels; with "
+        "distortion_model and distortion for a raw image whose lens distortion "
+        "is to be undone), or a camera_info YAML/JSON file relative to the "
+        "scene YAML (FILE:raw or FILE:rect where its D is not zero: the raw "
+        "image, or the rectified one)",
     )
     depth_scale: float | None = Field(
         None,
@@ -556,8 +559,9 @@ def _read_scene_yaml(path: Path) -> tuple[list[View], bool]:
         if entry.depth is not None and entry.intrinsics is not None:
             k = entry.intrinsics
             if isinstance(k, str):
-                k_path = Path(k) if Path(k).is_absolute() else path.parent / k
-                k = Intrinsics.from_file(k_path)
+                found = Intrinsics.from_reference(k, path.parent)
+                # a file that is not there: its error, naming it
+                k = found or Intrinsics.from_file(path.parent / k)
             # in metres by its depth_scale
             image = read_depth_image(file_path)
             pts = depth_points(image, k, entry.depth_scale, name=file)
