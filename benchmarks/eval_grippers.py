@@ -110,7 +110,7 @@ def scaffold(urdf: Path, out: Path) -> tuple[str | None, dict[str, Any]]:
 
 #: the objects ``--tune`` tries each hand's closings on (``gripper tune``'s
 #: default; a part of the development range)
-TUNE_OBJECTS = "random:000-059"
+TUNE_OBJECTS = "random:000-119"
 
 
 def tune(gripper: str, protocol: str, out: Path) -> dict[str, Any]:
