@@ -182,7 +182,8 @@ def write_depth_bag(
     ``/compressedDepth`` instead, as compressed_depth_image_transport writes it:
     a 12-byte header, then ``depth`` (uint16: millimetres, or the quantised
     inverse depth ``A / z + B`` of a 32FC1 image, with the transport's default
-    ``DEPTH_QUANT``) as a 16-bit PNG. The CameraInfo's ``D`` is ``distortion``
+    ``DEPTH_QUANT``) as a 16-bit PNG, or where the format ends in ``rvl``,
+    as :func:`encode_rvl` codes it. The CameraInfo's ``D`` is ``distortion``
     (of ``distortion_model``), its ``P`` ``p`` (by default ``K`` with a zero
     column)."""
     from mcap_ros2.writer import Writer
@@ -214,12 +215,16 @@ def write_depth_bag(
 
             from PIL import Image
 
-            png = io.BytesIO()
-            Image.fromarray(d.astype(np.uint16)).save(png, format="PNG")
+            if compressed.endswith("rvl"):
+                payload = encode_rvl(d.astype(np.uint16))
+            else:
+                png = io.BytesIO()
+                Image.fromarray(d.astype(np.uint16)).save(png, format="PNG")
+                payload = png.getvalue()
             message = {
                 "header": header,
                 "format": compressed,
-                "data": struct.pack("<iff", 0, *DEPTH_QUANT) + png.getvalue(),
+                "data": struct.pack("<iff", 0, *DEPTH_QUANT) + payload,
             }
             schema = w.register_msgdef(COMPRESSED_IMAGE, COMPRESSED_IMAGE_DEF)
             w.write_message(
@@ -256,3 +261,45 @@ def write_depth_bag(
             w.write_message(info_topic, schema, info, log_time=t_ns, publish_time=t_ns)
         w.finish()
     return out
+
+
+def encode_rvl(image: np.ndarray) -> bytes:
+    """A uint16 image as ``compressed_depth_image_transport`` codes it with RVL:
+    ``cols``, ``rows`` (uint32), then, pixel by pixel, runs of zeros and of
+    nonzeros, each nonzero as its zigzag-coded difference from the last,
+    every number 3 bits a nibble (low bits first, the fourth bit set while
+    more follow), eight nibbles to a little-endian 32-bit word, high nibble
+    first; the last word padded with zero nibbles. Written as a plain loop,
+    the decoder's reference."""
+    flat = [int(v) for v in np.asarray(image, dtype=np.uint16).reshape(-1)]
+    nibbles: list[int] = []
+
+    def put(value: int) -> None:
+        while True:
+            nibble, value = value & 7, value >> 3
+            nibbles.append(nibble | (8 if value else 0))
+            if not value:
+                return
+
+    i, previous = 0, 0
+    while i < len(flat):
+        zeros = 0
+        while i < len(flat) and flat[i] == 0:
+            zeros, i = zeros + 1, i + 1
+        put(zeros)
+        j = i
+        while j < len(flat) and flat[j] != 0:
+            j += 1
+        put(j - i)
+        for value in flat[i:j]:
+            delta = value - previous
+            put(2 * delta if delta >= 0 else -2 * delta - 1)
+            previous = value
+        i = j
+    nibbles += [0] * (-len(nibbles) % 8)
+    words = [
+        sum(n << (28 - 4 * k) for k, n in enumerate(nibbles[w : w + 8]))
+        for w in range(0, len(nibbles), 8)
+    ]
+    h, w = np.asarray(image).shape
+    return np.array([w, h, *words], dtype="<u4").tobytes()

