@@ -5,6 +5,7 @@ the simulator's ``flying_pixels``) and dropped before planning
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -26,16 +27,22 @@ BOX = (0.06, 0.08, 0.12)
 
 
 def box_views(
-    elevation_deg: float, share: float, seed: int = 0, views: int = 1
+    elevation_deg: float,
+    share: float,
+    seed: int = 0,
+    views: int = 1,
+    fy_over_fx: float = 1.0,
 ) -> tuple[list, np.ndarray]:
     """A box standing on a 0.6 m table seen by ``views`` cameras at
-    ``elevation_deg``, ``share`` of its depth-edge pixels flying; the views and
-    the box's pose."""
+    ``elevation_deg`` (their pixels ``fy_over_fx`` as high as wide),
+    ``share`` of its depth-edge pixels flying; the views and the box's
+    pose."""
     rng = np.random.default_rng(seed)
     T = transform_from(None, [0.0, 0.0, BOX[2] / 2])
     cams = default_cameras(
         views, (0, 0, 0.05), elevation=np.radians(elevation_deg), rng=rng
     )
+    cams = [replace(c, fy=c.fx * fy_over_fx) for c in cams]
     mesh = make_object("box", BOX)
     return render_scene([(mesh, T)], 0.6, cams, 0.001, rng, share), T
 
@@ -65,6 +72,24 @@ def test_the_veil_along_an_outline_is_dropped_and_the_surfaces_stay(elevation):
     # a flying pixel alone
     on = off < 0.002
     assert flagged[on].mean() < 0.01
+
+
+@pytest.mark.parametrize("fy_over_fx", [0.98, 1.007, 1.05])
+def test_a_camera_whose_pixels_are_not_square_is_still_an_image(fy_over_fx):
+    """fx and fy apart (TUM RGB-D's fr3 camera: 535.4 and 539.2 pixels) put
+    the directions on a grid of two pitches; its pixels are found again and
+    its veil dropped as a square camera's."""
+    (view,), _ = box_views(45.0, 1.0, fy_over_fx=fy_over_fx)
+    grid = pixel_grid(view.points)
+    assert grid is not None
+    cam = default_cameras(1, (0, 0, 0.05), elevation=np.radians(45.0))[0]
+    p = view.points  # each on its pixel's ray: the pixel again, from fx and fy
+    u = np.rint(cam.fx * p[:, 0] / p[:, 2] + cam.cx)
+    v = np.rint(cam.fx * fy_over_fx * p[:, 1] / p[:, 2] + cam.cy)
+    np.testing.assert_array_equal(grid.u, u - u.min())
+    np.testing.assert_array_equal(grid.v, v - v.min())
+    floating = off_the_surfaces(world(view)) > 0.005
+    assert flying_mask(view.points)[floating].mean() > 0.85
 
 
 @pytest.mark.parametrize("elevation", [30.0, 45.0])

@@ -11,7 +11,8 @@ A view that is still its camera's image (points in the camera frame, each on its
 pixel's ray, as a depth camera's driver deprojects them) gives its pixels back:
 the directions ``x / z`` and ``y / z`` of its points lie on a grid whose pitch
 is one pixel (in ROS's ``camera_link`` axes, x forward, y left and z up, the
-directions ``y / x`` and ``z / x``). :func:`flying_mask` rebuilds that grid and
+directions ``y / x`` and ``z / x``; a pitch per axis where the camera's ``fx``
+and ``fy`` differ). :func:`flying_mask` rebuilds that grid and
 drops the points that lie *between* their neighbours along a row or a column of
 the image: one neighbour (within two pixels) nearer and the opposite one
 farther, each by more than a surface steps in depth unless it is seen within
@@ -55,6 +56,9 @@ REACH = 2
 _PITCH_SAMPLE = 400
 #: share of the points that must lie within a tenth of a pixel of the grid
 _ON_GRID = 0.9
+#: pixels whose two pitches differ by less than this share are square: one
+#: pitch (the nearest neighbours' distance) serves both axes
+_SQUARE = 1e-3
 #: the largest image rebuilt (pixels), far above any depth camera's
 _MAX_PIXELS = 16_000_000
 #: ROS's camera_link axes (x forward, y left, z up) into the optical frame's
@@ -130,12 +134,23 @@ def _grid(p: Array) -> PixelGrid | None:
     if len(patch) < _PITCH_SAMPLE // 4:
         return None
     ab = np.column_stack([a[patch], b[patch]])
-    dist, _ = cKDTree(ab).query(ab, k=2)
+    dist, near = cKDTree(ab).query(ab, k=5)
     pitch = float(np.median(dist[:, 1]))
     if not pitch > 0:
         return None
+    # a camera whose pixels are not square (fx and fy apart: TUM RGB-D's fr3
+    # camera by 0.7 %, which put most of its 640 x 480 image off a square grid)
+    # has a pitch per axis: its four nearest neighbours' steps along a row,
+    # and along a column
+    step = np.abs(ab[near[:, 1:]] - ab[:, None]).reshape(-1, 2)  # (4 k, 2)
+    row, column = step[:, 0] > 2 * step[:, 1], step[:, 1] > 2 * step[:, 0]
+    pa, pb = pitch, pitch
+    if row.any() and column.any():
+        pa, pb = float(np.median(step[row, 0])), float(np.median(step[column, 1]))
+        if not (pa > 0 and pb > 0) or abs(pa / pb - 1.0) < _SQUARE:
+            pa, pb = pitch, pitch
     # whole pixels from a point of the patch: the grid holds there
-    ga, gb = (a - a[patch[0]]) / pitch, (b - b[patch[0]]) / pitch
+    ga, gb = (a - a[patch[0]]) / pa, (b - b[patch[0]]) / pb
     u, v = np.rint(ga).astype(np.int64), np.rint(gb).astype(np.int64)
     off = np.maximum(np.abs(ga[patch] - u[patch]), np.abs(gb[patch] - v[patch]))
     if float((off < 0.1).mean()) < _ON_GRID:
