@@ -335,6 +335,13 @@ def _mujoco(report: dict[str, Any]) -> str:
     return f"MuJoCo {version}" if version else "MuJoCo"
 
 
+def _tune_objects(report: dict[str, Any]) -> str:
+    """The object sets the rows' ``gripper tune`` runs tried, as written in
+    their reports (rows merged from runs of several settings name each)."""
+    sets = sorted({r["tune"].get("objects", "") for r in report["rows"] if "tune" in r})
+    return " or ".join(f"`{s}`" for s in sets if s) or f"`{TUNE_OBJECTS}`"
+
+
 def markdown(report: dict[str, Any]) -> str:
     """The table, with the run it came from."""
     lines = [
@@ -344,7 +351,8 @@ def markdown(report: dict[str, Any]) -> str:
         f"objects `{report['objects']}`, "
         f"{report['trials']} trial each, seed {report['seed']}, default spec"
         + (
-            f"; `gripper tune` on `{TUNE_OBJECTS}` where the scaffolds column says."
+            f"; `gripper tune` on {_tune_objects(report)} where the scaffolds "
+            "column says."
             if any("tune" in r for r in report["rows"])
             else "."
         ),
@@ -412,7 +420,11 @@ def readme_table(report: dict[str, Any]) -> str:
     lines = [
         f"From `make eval-grippers` at commit {report['commit']}: `gripper new` with",
         "no edit"
-        + (f" (then `gripper tune` on `{TUNE_OBJECTS}` where it says)" if tuned else "")
+        + (
+            f" (then `gripper tune` on {_tune_objects(report)} where it says)"
+            if tuned
+            else ""
+        )
         + f", `gripper check`, plans on the bundled scenes and {len(SHAPES)} "
         "synthetic shapes,",
         f"grasps held in {_mujoco(report)} (protocol `{report['protocol']}`, "

@@ -462,6 +462,15 @@ def test_the_gripper_table_says_what_tune_changed():
     }
     assert "`gripper tune`" in eval_grippers.readme_table(report)
     assert "`gripper tune`" in eval_grippers.markdown(report)
+    # the objects each row was tuned on, as its tune report gives them
+    tuned["tune"]["objects"] = "random:000-059"
+    other = {"scaffolds": True, "tune": {"chosen": "as_is", "objects": "random:7"}}
+    report["rows"] = [
+        {"name": "h", "source": "h.urdf", **tuned},
+        {"name": "i", "source": "i.urdf", **other},
+    ]
+    for text in (eval_grippers.readme_table(report), eval_grippers.markdown(report)):
+        assert "on `random:000-059` or `random:7` where" in " ".join(text.split())
     report["rows"] = [{"name": "h", "source": "h.urdf", "scaffolds": True}]
     assert "`gripper tune`" not in eval_grippers.readme_table(report)
     assert "`gripper tune`" not in eval_grippers.markdown(report)
