@@ -450,7 +450,6 @@ def _image_points(
         _decode(*info),
         _image_kind(topic, compressed),
         f"{p}: the camera_info on {info_topic!r}",
-        hint="",
     )
     return depth_points(depth, intrinsics, name=topic)
 

@@ -158,7 +158,7 @@ class Intrinsics(BaseModel):
 
     @classmethod
     def from_camera_info(
-        cls, info: Any, image: ImageKind | None, name: str, hint: str
+        cls, info: Any, image: ImageKind | None, name: str, hint: str = ""
     ) -> Intrinsics:
         """From a ``CameraInfo`` (a message, or a mapping as ``ros2 topic echo``
         prints one, ROS 1's capitals or a ROS calibration file's
