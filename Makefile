@@ -122,7 +122,7 @@ eval-scorers: $(STAMP)
 # every URDF under GRIPPERS_DIR (the vendor descriptions wsgrasp is developed
 # against), and three URDFs pybullet ships, outside that development set (an
 # xArm gripper and a Franka Panda, each below its arm, and the PR2 gripper),
-# scaffolded with no edit, tuned (gripper tune on random:000-059), checked,
+# scaffolded with no edit, tuned (gripper tune on random:000-119), checked,
 # planned on the bundled scenes and tried on
 # random:000-299 x 1 (the lift protocol; PROTOCOL=strict for eval's default), and
 # every built-in and example gripper: docs/results/grippers.json, the docs'
