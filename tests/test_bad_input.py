@@ -905,3 +905,36 @@ def test_a_table_bound_search_says_what_rejected_the_other_poses():
     assert "sampling.directions" in hint
     only = dict(hist, object_collision=0, finger_without_contact=0)
     assert "of the other" not in no_grasp_hint(only, np.ones(3), fake_gripper(), 0.1)
+    g = fake_gripper()
+    for width, named in ((g.max_opening + 0.01, True), (g.max_opening - 0.01, False)):
+        hint = no_grasp_hint(hist, np.ones(3), g, 0.04, width)
+        assert hint.startswith("the object is ") is named
+        assert ("more than the gripper opens" in hint) is named
+
+
+def test_an_object_lying_flat_wider_than_the_gripper_opens_is_named():
+    """A box lying flat, 11 x 9 x 4 cm, has no grasp for the Franka hand (it
+    opens 8 cm): the hint names its narrowest width seen from above against the
+    opening first, not the table alone; its narrowest width is 9 cm whichever
+    way it turns."""
+    from wsgrasp.default_specs import default_spec
+    from wsgrasp.perception.footprint import narrowest_width
+    from wsgrasp.perception.synth import synth_scene
+
+    rng = np.random.default_rng(3)
+    lo, hi = np.array([-0.055, -0.045, 0.0]), np.array([0.055, 0.045, 0.04])
+    corners = np.stack(np.meshgrid(*zip(lo, hi, strict=True)), -1).reshape(-1, 3)
+    box = np.vstack([rng.uniform(lo, hi, (3000, 3)), corners])
+    for turn in (0.0, 0.4, 1.2):
+        c, s = np.cos(turn), np.sin(turn)
+        turned = box @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]).T
+        assert abs(narrowest_width(turned, [0.0, 0.0, 1.0]) - 0.09) < 1e-3
+    # seen askew, its side adds to it: 9 cos 0.3 + 4 sin 0.3 cm
+    tilted = narrowest_width(box, [0.0, np.sin(0.3), np.cos(0.3)])
+    assert abs(tilted - (0.09 * np.cos(0.3) + 0.04 * np.sin(0.3))) < 1e-3
+    assert narrowest_width(box[:2], [0.0, 0.0, 1.0]) == 0.0
+    scene = synth_scene("box", size=(0.11, 0.09, 0.04), seed=1)
+    result = Pipeline(load_spec(default_spec("franka_hand")[0])).plan(scene.points)
+    assert not result.found
+    assert result.hint.startswith("the object is 0.0")
+    assert "more than the gripper opens (0.080 m)" in result.hint

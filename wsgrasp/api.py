@@ -26,7 +26,7 @@ from wsgrasp._names import gripper_ref
 from wsgrasp.errors import InputError, PluginError, WsgraspError
 from wsgrasp.geometry import plane_basis
 from wsgrasp.gripper.model import GripperModel
-from wsgrasp.perception.footprint import Footprint
+from wsgrasp.perception.footprint import Footprint, narrowest_width
 from wsgrasp.perception.types import Plane, Scene
 from wsgrasp.planning.candidates import far_side, orientation_set
 from wsgrasp.planning.evaluate import FingerSpheres, TableSE
@@ -1110,7 +1110,8 @@ def _no_grasp(
             "points along the object"
         )
     heights = prep.table_plane.signed_distance(inp.object_points)
-    return no_grasp_hint(hist, inp.extents, g, float(heights.max()))
+    width = narrowest_width(inp.object_points, prep.table_plane.normal)
+    return no_grasp_hint(hist, inp.extents, g, float(heights.max()), width)
 
 
 def _taken(out: SearchOutput, index: int) -> int:

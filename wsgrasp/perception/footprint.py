@@ -12,7 +12,7 @@ from scipy.spatial import ConvexHull, QhullError
 from wsgrasp.geometry import plane_basis
 from wsgrasp.perception.types import Array
 
-__all__ = ["Footprint"]
+__all__ = ["Footprint", "narrowest_width"]
 
 
 @dataclass(frozen=True)
@@ -117,3 +117,21 @@ def _hull_candidates(uv: Array) -> NDArray[np.bool_]:
 #: points within this (m, times one plus the largest coordinate) of an edge of
 #: the filter's polygon, or outside it, go to qhull
 _HULL_MARGIN = 1e-9
+
+
+def narrowest_width(points: ArrayLike, normal: ArrayLike) -> float:
+    """How wide the points ``(n, 3)`` are at their narrowest seen along the
+    unit ``normal`` (a table's): the least distance between two parallel lines
+    that hold their outline in the plane, which lies along a side of its
+    convex hull (m); 0 for fewer than three points or a degenerate outline."""
+    uv = np.asarray(points, dtype=np.float64) @ plane_basis(normal)  # (n, 2)
+    try:
+        hull = uv[ConvexHull(uv).vertices]  # (h, 2), counter-clockwise
+    except (QhullError, ValueError):
+        return 0.0
+    side = np.roll(hull, -1, axis=0) - hull  # (h, 2) each side
+    inward = np.column_stack([-side[:, 1], side[:, 0]])  # left of a side
+    inward /= np.linalg.norm(inward, axis=1, keepdims=True)
+    # per side, the farthest vertex from its line (all lie on its left)
+    depth = np.einsum("sk,svk->sv", inward, hull[None] - hull[:, None])  # (h, h)
+    return float(depth.max(axis=1).min())

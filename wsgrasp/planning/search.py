@@ -262,13 +262,29 @@ _REJECTED = {
 
 
 def no_grasp_hint(
-    histogram: dict[str, int], extents: Array, gripper: GripperModel, height: float
+    histogram: dict[str, int],
+    extents: Array,
+    gripper: GripperModel,
+    height: float,
+    width: float | None = None,
 ) -> str:
-    """Why no candidate was feasible, in one sentence a user can act on."""
+    """Why no candidate was feasible, in one sentence a user can act on.
+    ``width``: the object's narrowest width seen from above the table
+    (:func:`wsgrasp.perception.footprint.narrowest_width`), named first where
+    the gripper does not open as wide (only an edge or a rim then fits between
+    its fingers: an object lying flat, as wide as a box of pudding, holds none
+    for a Franka hand)."""
     total = sum(histogram.values())
     if total == 0:
         return "no candidates were generated; raise sampling.points or orientations"
     worst = max((r for r in REASONS if r != "feasible"), key=lambda r: histogram[r])
+    wide = ""
+    if width is not None and width > gripper.max_opening:
+        wide = (
+            f"the object is {width:.3f} m across at its narrowest seen from above, "
+            f"more than the gripper opens ({gripper.max_opening:.3f} m), so only an "
+            "edge or a rim of it fits between the fingers; "
+        )
     cross = float(np.sort(np.asarray(extents))[:2].min())
     if worst == "finger_without_contact" and cross > gripper.max_opening:
         return (
@@ -283,14 +299,14 @@ def no_grasp_hint(
         )
         listed = ", ".join(f"{histogram[r]} {_REJECTED[r]}" for r in others)
         why = f"; of the other {rest}, {listed}" if others else ""
-        return (
+        return wide + (
             f"the gripper hits the table at {histogram[worst]} of {total} poses "
             f"(the object stands {height:.3f} m tall){why}; sample approach "
             "directions from the side (sampling.directions) or more orientations, "
             "or lower table.clearance"
         )
     if worst == "object_collision":
-        return (
+        return wide + (
             f"the gripper body hits the object at {histogram[worst]} of {total} "
             "poses; the object may be larger than the gripper can hold, or try more "
             "samples and orientations"
