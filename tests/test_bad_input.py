@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 import yaml
 from bad_scenes import noisy_box, table_slab
+from PIL import Image
 from test_record_fakes import box_scene, fake_gripper, fake_spec
 
 from wsgrasp.api import Pipeline
@@ -519,6 +520,37 @@ def test_a_cloud_in_inches_gets_a_units_hint_where_nothing_is_found(capsys, tmp_
     assert units_hint(points) is None
     scene = load_scene(tmp_path / "scene.yaml")
     np.testing.assert_allclose(scene.points, points, atol=1e-12)
+    assert "depth_scale" not in text  # a cloud that is no camera's image
+
+
+def test_a_depth_image_in_another_unit_is_told_its_depth_scale(capsys, tmp_path):
+    """A depth image whose units are not millimetres, read as millimetres,
+    puts the scene several times too far: in tenths of a millimetre, nothing
+    stands on its table and the error names the depth scale; in TUM RGB-D's
+    0.2 mm, a grasp is found on what is left, and the result warns that the
+    object lies far from the camera, naming the depth scale. At its depth
+    scale the same image plans without the warning."""
+    from wsgrasp.perception.io import write_scene_yaml
+    from wsgrasp.perception.synth import synth_scene
+
+    synth = synth_scene("box", views=1, seed=2, width=320, height=240)
+    path = write_scene_yaml(tmp_path / "s", synth.views, cameras=synth.cameras)
+    png = tmp_path / "s" / "view_0.png"
+    mm = np.asarray(Image.open(png)).astype(np.int64)
+    for per_mm in (10, 5):
+        Image.fromarray(np.clip(mm * per_mm, 0, 65535).astype(np.uint16)).save(png)
+        code, text = run_cli(capsys, "plan", path, "--spec", SPEC, "--no-record")
+        text = " ".join(text.split())
+        assert "Traceback" not in text
+        if per_mm == 10:
+            assert code == 2 and "0.0002 for TUM RGB-D" in text, text
+        else:
+            assert code == 0 and "depth scale is probably wrong" in text, text
+    doc = yaml.safe_load(path.read_text())
+    doc["views"][0]["depth_scale"] = 0.0002
+    path.write_text(yaml.safe_dump(doc))
+    code, text = run_cli(capsys, "plan", path, "--spec", SPEC, "--no-record")
+    assert code == 0 and "depth scale" not in text, text
 
 
 def test_empty_cloud_files_through_the_cli_exit_2(capsys, tmp_path):

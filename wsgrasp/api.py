@@ -194,7 +194,10 @@ class Pipeline:
                 points, self._segmenter_options, seed=spec.seed, **kwargs
             )
         except InputError as exc:
-            units = units_hint(points)
+            from wsgrasp.perception.flying import pixel_grid
+
+            image = any(pixel_grid(v.points) is not None for v in scene.views)
+            units = units_hint(points, image)
             if units is None:
                 raise
             hint = f"{exc.hint}; or {units}" if exc.hint else units
@@ -502,7 +505,8 @@ class Pipeline:
             joints_pregrasp=joints_pregrasp,
             joints_grasp=joints_grasp,
             finger_targets=finger_targets,
-            warnings=_frame_warnings(scene, inp.table.T_world_table[:3, 2]),
+            warnings=_frame_warnings(scene, inp.table.T_world_table[:3, 2])
+            + _range_warnings(scene, inp.object_points),
         )
 
 
@@ -527,6 +531,34 @@ def _frame_warnings(scene: Scene, up: Array) -> list[str]:
         "(z up), a T_world_camera is probably wrong (the pose of ROS's "
         "camera_link given for a cloud in the optical frame, z forward, or the "
         "world's pose in the camera), and so is every pose of this plan"
+    ]
+
+
+#: an object farther than this (m) from every camera that saw it gets a warning:
+#: depth cameras see a tabletop from under 1.5 m, and a depth image read in
+#: the wrong unit (TUM RGB-D's 0.2 mm as millimetres) puts it several times
+#: farther
+FAR_OBJECT_WARNING_M = 2.0
+
+
+def _range_warnings(scene: Scene, object_points: Array) -> list[str]:
+    """A warning when the object lies farther than
+    :data:`FAR_OBJECT_WARNING_M` from the nearest of the views' cameras (those
+    :meth:`Scene.viewpoints` knows): the likely cause is a depth scale, and
+    every pose of the plan is as far off as the object."""
+    cameras = scene.viewpoints()
+    if not len(cameras) or not len(object_points):
+        return []
+    centre = np.asarray(object_points, dtype=np.float64).mean(axis=0)
+    far = float(np.linalg.norm(cameras - centre, axis=1).min())
+    if far <= FAR_OBJECT_WARNING_M:
+        return []
+    return [
+        f"the object lies {far:.2f} m from the nearest camera, far for a depth "
+        "camera over a table: if the views are depth images, their depth scale is "
+        "probably wrong (a depth image in 0.2 mm units, as TUM RGB-D's, read as "
+        "millimetres puts everything 5 times too far and each object 5 times too "
+        "large: --depth-scale 0.0002), and so is every pose of this plan"
     ]
 
 

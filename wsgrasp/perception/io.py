@@ -771,21 +771,32 @@ def check_units(points: Array, name: str = "points") -> None:
         )
 
 
-def units_hint(points: Array) -> str | None:
+def units_hint(points: Array, image: bool = False) -> str | None:
     """A hint for a cloud that nothing could be segmented in: when it is wider
     than ``WIDE_SCENE_EXTENT`` (plain extent), what it spans and how to give it
     in metres; ``None`` for a narrower one. A cloud in inches passes
     :func:`check_units` (a 50 cm scene spans 20 units) and then finds no object
-    (each looks 39 times too large)."""
+    (each looks 39 times too large). Where its views are a camera's ``image``
+    (a depth image, or the cloud its driver deprojects), a depth image read in
+    the wrong unit is named too: TUM RGB-D's, 5,000 to the metre, read as
+    millimetres puts its table 5 times too far."""
     if points.shape[0] == 0:
         return None
     extent = float(np.max(points.max(axis=0) - points.min(axis=0)))
     if extent <= WIDE_SCENE_EXTENT:
         return None
+    depth = (
+        "; a depth image whose values are not millimetres needs its depth scale "
+        "in metres per unit (--depth-scale, or `depth_scale:` in a scene YAML: "
+        "0.0002 for TUM RGB-D's, 0.0001 for tenths of a millimetre)"
+        if image
+        else ""
+    )
     return (
         f"the cloud spans {extent:.3g} units, wide for a tabletop scene in metres: "
         "if it is in inches, centimetres or millimetres, multiply the points by "
         "0.0254, 0.01 or 0.001 (or set `units: in`, `cm` or `mm` in a scene YAML)"
+        + depth
     )
 
 
