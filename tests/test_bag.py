@@ -310,8 +310,9 @@ def test_a_colour_or_unknown_compressed_image_is_named(tmp_path: Path) -> None:
 def test_rvl_decodes_what_the_plain_encoder_wrote() -> None:
     """:func:`decode_rvl` gives back every image the loop-by-loop encoder
     wrote: holes of every length, a row of zeros, values that wrap round
-    (65535 after 1), an image of zeros, one pixel; data cut short or with
-    sizes it cannot hold is a ValueError."""
+    (65535 after 1), an image of zeros, one pixel, an image of holes with a
+    patch of depth (far smaller than 4 to 1); data cut short or with sizes it
+    cannot hold is a ValueError."""
     rng = np.random.default_rng(5)
     images = [np.zeros((3, 4), dtype=np.uint16), np.array([[7]], dtype=np.uint16)]
     for _ in range(20):
@@ -320,9 +321,12 @@ def test_rvl_decodes_what_the_plain_encoder_wrote() -> None:
         img[rng.random((h, w)) < rng.random()] = 0  # holes, few to most
         images.append(img)
     images.append(np.array([[1, 65535, 1, 0, 0, 2]], dtype=np.uint16))
+    sparse = np.zeros((480, 640), dtype=np.uint16)  # 40 to 1: holes cost little
+    sparse[200:220, 300:340] = 700
+    images.append(sparse)
     for img in images:
         np.testing.assert_array_equal(decode_rvl(encode_rvl(img)), img)
-    data = encode_rvl(images[-2])
+    data = encode_rvl(images[-3])
     for bad in (data[:5], data[: len(data) // 2], b"\0" * 8 + data[8:]):
         with pytest.raises(ValueError, match="RVL"):
             decode_rvl(bad)
