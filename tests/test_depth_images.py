@@ -171,18 +171,19 @@ def test_a_float_tiff_in_metres(tmp_path: Path):
 
 
 def test_the_camera_how_to_runs_as_written(tmp_path: Path, capsys, monkeypatch):
-    """The commands of *Plan on a depth camera's data* run, and ``scene info``
-    prints what the page shows."""
+    """The commands of *Plan on a depth camera's data* run, every block of
+    them, and ``scene info`` prints what the page shows."""
     import re
     import shlex
 
     page = (Path(__file__).parents[1] / "docs/how-to/camera-data.md").read_text()
-    sh = re.search(r"```sh\n(.*?)```", page, re.S)
+    blocks = re.findall(r"```sh\n(.*?)```", page, re.S)
     text = re.search(r"```text\n(.*?)```", page, re.S)
-    assert sh and text
+    assert len(blocks) >= 2 and text
     monkeypatch.chdir(tmp_path)
     printed = ""
-    for command in sh.group(1).replace("\\\n", " ").strip().splitlines():
+    commands = "\n".join(blocks).replace("\\\n", " ").strip().splitlines()
+    for command in filter(str.strip, commands):
         args = shlex.split(command)
         assert args[0] == "wsgrasp"
         assert main(args[1:]) == 0, command

@@ -42,6 +42,44 @@ def _floats(text: str | None, what: str) -> list[float] | None:
         ) from None
 
 
+def _lens(text: str | None, depth_images: bool) -> tuple[str, list[float]] | None:
+    """``--lens MODEL:C1,C2,...`` checked: the model and its coefficients."""
+    from pydantic import ValidationError
+
+    from wsgrasp.errors import InputError
+    from wsgrasp.perception.depth import DISTORTION_MODELS, Intrinsics
+
+    if text is None:
+        return None
+    if not depth_images:
+        raise InputError(
+            "--lens bends the depth images, and needs --depth-images",
+            hint="add --depth-images --views-out DIR",
+        )
+    model, _, rest = text.partition(":")
+    try:
+        coefficients = [float(c) for c in rest.split(",") if c.strip()]
+        Intrinsics(
+            fx=1.0,
+            fy=1.0,
+            cx=0.0,
+            cy=0.0,
+            distortion_model=model,
+            distortion=coefficients,
+        )
+    except (ValueError, ValidationError):
+        raise InputError(
+            f"--lens {text!r} is not a distortion model and its coefficients",
+            hint="give MODEL:C1,C2,... with MODEL one of "
+            + ", ".join(
+                f"{m} ({' or '.join(map(str, n))} coefficients)"
+                for m, n in DISTORTION_MODELS.items()
+            )
+            + ", e.g. --lens plumb_bob:-0.28,0.09,0.0012,-0.0008,-0.012",
+        ) from None
+    return model, coefficients
+
+
 @scene_app.command("synth")
 def synth(
     out: Path = typer.Option(
@@ -107,6 +145,15 @@ def synth(
         help="With --views-out, write the views as depth images (16-bit PNG, "
         "millimetres) with their intrinsics instead of clouds.",
     ),
+    lens: str | None = typer.Option(
+        None,
+        "--lens",
+        metavar="MODEL:C1,C2,...",
+        help="With --depth-images, write each view as the raw image of a camera "
+        "whose lens bends it (MODEL plumb_bob, rational_polynomial or "
+        "equidistant; coefficients in OpenCV's order), listed with that "
+        "distortion, e.g. plumb_bob:-0.28,0.09,0.0012,-0.0008,-0.012.",
+    ),
     camera_frame: bool = typer.Option(
         False,
         "--camera-frame",
@@ -145,9 +192,13 @@ def synth(
             "--depth-images writes the views, and needs --views-out",
             hint="add --views-out DIR",
         )
+    distortion = _lens(lens, depth_images)
     yaml_path = (
         write_scene_yaml(
-            views_out, scene.views, cameras=scene.cameras if depth_images else None
+            views_out,
+            scene.views,
+            cameras=scene.cameras if depth_images else None,
+            lens=distortion,
         )
         if views_out
         else None

@@ -100,6 +100,32 @@ class Intrinsics(BaseModel):
         """Whether the image is bent by a lens distortion to undo."""
         return any(v != 0.0 for v in self.distortion)
 
+    def distort(self, x: Array, y: Array) -> tuple[Array, Array]:
+        """Where the lens puts the undistorted normalised image points ``(x,
+        y)`` (``z = 1``): OpenCV's camera model (``plumb_bob``: ``k1, k2, p1,
+        p2[, k3]``; ``rational_polynomial``: and ``k4, k5, k6`` below the
+        fraction) or its fisheye model (``equidistant``: ``k1`` to ``k4`` in
+        the angle); unchanged without a distortion."""
+        c = list(self.distortion)
+        if not self.distorted:
+            return x, y
+        if self.distortion_model == "equidistant":
+            k1, k2, k3, k4 = c
+            r = np.hypot(x, y)
+            t = np.arctan(r)
+            t2 = t * t
+            td = t * (1.0 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4))))
+            scale = np.divide(td, r, out=np.ones_like(r), where=r > 0.0)
+            return x * scale, y * scale
+        k1, k2, p1, p2, k3, k4, k5, k6 = c + [0.0] * (8 - len(c))
+        r2 = x * x + y * y
+        radial = (1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))) / (
+            1.0 + r2 * (k4 + r2 * (k5 + r2 * k6))
+        )
+        xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
+        yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
+        return xd, yd
+
     @classmethod
     def parse(cls, text: str) -> Intrinsics:
         """``"fx,fy,cx,cy"``, or a file :meth:`from_file` reads, with
@@ -466,10 +492,10 @@ def _rectify_map(h: int, w: int, intrinsics_json: str) -> NDArray[np.int64]:
     v, u = np.mgrid[0:h, 0:w].astype(np.float64)
     x, y = (u - k.cx) / k.fx, (v - k.cy) / k.fy  # the rays, undistorted
     r = np.hypot(x, y)
-    xd, yd = _distort(k, x, y)
+    xd, yd = k.distort(x, y)
     # past the radius where the model's image of a ray stops moving outwards,
     # it folds back over the image: those rays see nothing
-    grows = np.hypot(*_distort(k, x * 1.001, y * 1.001)) > np.hypot(xd, yd)
+    grows = np.hypot(*k.distort(x * 1.001, y * 1.001)) > np.hypot(xd, yd)
     grows |= r == 0.0
     ud, vd = np.rint(k.fx * xd + k.cx), np.rint(k.fy * yd + k.cy)
     inside = grows & (ud >= 0) & (ud <= w - 1) & (vd >= 0) & (vd <= h - 1)
@@ -477,27 +503,3 @@ def _rectify_map(h: int, w: int, intrinsics_json: str) -> NDArray[np.int64]:
     source[inside.reshape(-1)] = (vd * w + ud)[inside].astype(np.int64)
     source.setflags(write=False)
     return source
-
-
-def _distort(k: Intrinsics, x: Array, y: Array) -> tuple[Array, Array]:
-    """Where the lens puts the undistorted normalised image points ``(x, y)``
-    (``z = 1``): OpenCV's camera model (``plumb_bob``: ``k1, k2, p1, p2[,
-    k3]``; ``rational_polynomial``: and ``k4, k5, k6`` below the fraction) or
-    its fisheye model (``equidistant``: ``k1`` to ``k4`` in the angle)."""
-    c = list(k.distortion)
-    if k.distortion_model == "equidistant":
-        k1, k2, k3, k4 = c
-        r = np.hypot(x, y)
-        t = np.arctan(r)
-        t2 = t * t
-        td = t * (1.0 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4))))
-        scale = np.divide(td, r, out=np.ones_like(r), where=r > 0.0)
-        return x * scale, y * scale
-    k1, k2, p1, p2, k3, k4, k5, k6 = c + [0.0] * (8 - len(c))
-    r2 = x * x + y * y
-    radial = (1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))) / (
-        1.0 + r2 * (k4 + r2 * (k5 + r2 * k6))
-    )
-    xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
-    yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
-    return xd, yd

@@ -880,12 +880,15 @@ def write_scene_yaml(
     views: Sequence[View],
     name: str = "scene.yaml",
     cameras: Sequence[Any] | None = None,
+    lens: tuple[str, Sequence[float]] | None = None,
 ) -> Path:
     """Write each view's points (camera frame) as ``view_<i>.npz`` and a scene YAML
     listing them with their ``T_world_camera``; returns the YAML's path. With
     ``cameras`` (one :class:`wsgrasp.perception.synth.Camera` per view), each view
     is written as the camera's depth image instead, a 16-bit PNG in millimetres,
-    listed with its intrinsics."""
+    listed with its intrinsics; with a ``lens`` (a distortion model and its
+    coefficients, :class:`~wsgrasp.perception.depth.Intrinsics`'), as the raw
+    image that lens bends, listed with it."""
     import yaml
     from PIL import Image
 
@@ -900,14 +903,20 @@ def write_scene_yaml(
             entries.append({"cloud": fname, "T_world_camera": T.tolist()})
             continue
         cam = cameras[i]
-        mm = np.rint(cam.depth_image(v.points) * 1000.0)
+        k = Intrinsics(fx=cam.fx, fy=cam.fy, cx=cam.cx, cy=cam.cy)
+        if lens is not None:
+            k = Intrinsics(
+                **k.model_dump(include={"fx", "fy", "cx", "cy"}),
+                distortion_model=lens[0],  # type: ignore[arg-type]
+                distortion=[float(c) for c in lens[1]],
+            )
+        mm = np.rint(cam.depth_image(v.points, k if k.distorted else None) * 1000.0)
         fname = f"view_{i}.png"
         Image.fromarray(np.clip(mm, 0, 65535).astype(np.uint16)).save(d / fname)
-        k = {"fx": cam.fx, "fy": cam.fy, "cx": cam.cx, "cy": cam.cy}
         entries.append(
             {
                 "depth": fname,
-                "intrinsics": {key: float(val) for key, val in k.items()},
+                "intrinsics": k.model_dump(exclude_defaults=True),
                 "T_world_camera": T.tolist(),
             }
         )

@@ -13,7 +13,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -26,6 +26,9 @@ from wsgrasp.geometry import (
     transform_points,
 )
 from wsgrasp.perception.types import Array, Plane, View
+
+if TYPE_CHECKING:
+    from wsgrasp.perception.depth import Intrinsics
 
 __all__ = [
     "OBJECTS",
@@ -87,17 +90,22 @@ class Camera:
             (height - 1) / 2.0,
         )
 
-    def depth_image(self, points: ArrayLike) -> Array:
+    def depth_image(self, points: ArrayLike, lens: Intrinsics | None = None) -> Array:
         """The depth image ``(height, width)`` (m) of ``points`` ``(n, 3)`` in this
         camera's frame: each point at its nearest pixel, the nearest point where
         several share one, 0 where none is (as a depth camera writes a pixel
-        without depth)."""
+        without depth). With a ``lens`` (its distortion; this camera's ``fx``,
+        ``fy``, ``cx``, ``cy``), the raw image that lens bends: each point where
+        the lens puts its ray."""
         p = np.asarray(points, dtype=np.float64)
         z = p[:, 2]
         front = z > 0.0
         p, z = p[front], z[front]
-        u = np.rint(self.fx * p[:, 0] / z + self.cx).astype(np.int64)
-        v = np.rint(self.fy * p[:, 1] / z + self.cy).astype(np.int64)
+        x, y = p[:, 0] / z, p[:, 1] / z
+        if lens is not None:
+            x, y = lens.distort(x, y)
+        u = np.rint(self.fx * x + self.cx).astype(np.int64)
+        v = np.rint(self.fy * y + self.cy).astype(np.int64)
         on = (u >= 0) & (u < self.width) & (v >= 0) & (v < self.height)
         image = np.full((self.height, self.width), np.inf)
         np.minimum.at(image, (v[on], u[on]), z[on])
