@@ -173,6 +173,8 @@ def write_depth_bag(
     distortion: Sequence[float] = (0.0,) * 5,
     distortion_model: str = "plumb_bob",
     p: Sequence[float] | None = None,
+    binning: tuple[int, int] = (0, 0),
+    roi: tuple[int, int] = (0, 0),
 ) -> Path:
     """Write a ROS 2 bag of one depth Image on ``topic`` and, unless ``k`` is
     None, its CameraInfo (``K`` row by row) on the ``camera_info`` beside it.
@@ -185,7 +187,8 @@ def write_depth_bag(
     ``DEPTH_QUANT``) as a 16-bit PNG, or where the format ends in ``rvl``,
     as :func:`encode_rvl` codes it. The CameraInfo's ``D`` is ``distortion``
     (of ``distortion_model``), its ``P`` ``p`` (by default ``K`` with a zero
-    column)."""
+    column), its ``binning_x``, ``binning_y`` ``binning`` and its ``roi``'s
+    offsets ``roi``."""
     from mcap_ros2.writer import Writer
 
     d = np.ascontiguousarray(depth)
@@ -246,11 +249,11 @@ def write_depth_bag(
                 "p": [float(v) for v in p]
                 if p is not None
                 else [*k[:3], 0.0, *k[3:6], 0.0, *k[6:], 0.0],
-                "binning_x": 0,
-                "binning_y": 0,
+                "binning_x": binning[0],
+                "binning_y": binning[1],
                 "roi": {
-                    "x_offset": 0,
-                    "y_offset": 0,
+                    "x_offset": roi[0],
+                    "y_offset": roi[1],
                     "height": 0,
                     "width": 0,
                     "do_rectify": False,

@@ -291,3 +291,43 @@ def test_scene_synth_writes_a_raw_image_through_a_lens(tmp_path: Path, capsys):
     assert "not a distortion model" in capsys.readouterr().err
     assert main([*args[:-3], "--lens", lens]) == 2
     assert "needs --depth-images" in capsys.readouterr().err
+
+
+def test_a_binned_image_or_a_region_of_interest_takes_its_own_pixels(
+    tmp_path: Path,
+):
+    """A camera_info keeps the full sensor's K: an image binned 2 x 2 or cut
+    to a region of interest is deprojected through K scaled and shifted to its
+    own pixels (a binned pixel's centre the mean of its full pixels'), from a
+    bag and from a camera_info file alike."""
+    full = [240.0, 0.0, 160.3, 0.0, 241.0, 119.6, 0.0, 0.0, 1.0]  # 320 x 240
+    cases = {
+        ((2, 2), (0, 0), (120, 160)): Intrinsics(fx=120, fy=120.5, cx=79.9, cy=59.55),
+        ((0, 0), (40, 30), (150, 200)): Intrinsics(fx=240, fy=241, cx=120.3, cy=89.6),
+        ((2, 1), (10, 0), (240, 150)): Intrinsics(fx=120, fy=241, cx=74.9, cy=119.6),
+    }
+    for (binning, roi, shape), want in cases.items():
+        mm = np.full(shape, 700, dtype=np.uint16)
+        path = write_depth_bag(
+            tmp_path / "b.mcap",
+            "/camera/depth/image_rect_raw",
+            "cam",
+            mm,
+            full,
+            binning=binning,
+            roi=roi,
+        )
+        got = read_bag_scene(path, "/camera/depth/image_rect_raw").points
+        np.testing.assert_allclose(got, depth_points(mm, want), atol=1e-9)
+        info = {
+            "k": full,
+            "binning_x": binning[0],
+            "binning_y": binning[1],
+            "roi": {"x_offset": roi[0], "y_offset": roi[1]},
+        }
+        (tmp_path / "info.yaml").write_text(yaml.safe_dump(info))
+        got_k = Intrinsics.parse(str(tmp_path / "info.yaml"))
+        pinhole = ("fx", "fy", "cx", "cy")
+        assert [getattr(got_k, a) for a in pinhole] == pytest.approx(
+            [getattr(want, a) for a in pinhole]
+        )

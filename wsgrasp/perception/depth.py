@@ -192,6 +192,9 @@ class Intrinsics(BaseModel):
         ``projection_matrix``) for its ``image``: ``raw``, ``K`` and the lens
         distortion ``D`` to undo; ``rect``, the rectified image's ``P``.
         Without ``image``, a camera_info whose ``D`` is all zeros gives ``K``.
+        Either is of the sensor's full resolution, as ``CameraInfo`` keeps
+        them: a binned image or a region of interest (``binning_x``,
+        ``binning_y``, ``roi``) gets them scaled and shifted to its own pixels.
 
         Raises
         ------
@@ -205,19 +208,18 @@ class Intrinsics(BaseModel):
         model = _field(info, "distortion_model")
         d = [float(v) for v in (d if d is not None else [])]
         distorted = any(v != 0.0 for v in d)
+        has_p = p is not None and len(p) == 12 and p[0] > 0 and p[5] > 0
+        if image == "rect" and not has_p and distorted:
+            raise InputError(
+                f"{name}: has no projection matrix P for its rectified image (P = {p})",
+                hint="give the camera_info of the rectified image's camera, or "
+                "the raw image with `:raw`",
+            )
         try:
-            if image == "rect":
-                if p is None or len(p) != 12 or not (p[0] > 0 and p[5] > 0):
-                    if distorted:
-                        raise InputError(
-                            f"{name}: has no projection matrix P for its rectified "
-                            f"image (P = {p})",
-                            hint="give the camera_info of the rectified image's "
-                            "camera, or the raw image with `:raw`",
-                        )
-                    return cls.from_k(k)
-                return cls(fx=p[0], fy=p[5], cx=p[2], cy=p[6])
-            base = cls.from_k(k)
+            if image == "rect" and has_p:
+                base = cls(fx=p[0], fy=p[5], cx=p[2], cy=p[6])
+            else:
+                base = cls.from_k(k)
         except (ValueError, TypeError, ValidationError):
             raise InputError(
                 f"{name}: has no camera matrix: expected `k:`/`K:` or "
@@ -227,7 +229,8 @@ class Intrinsics(BaseModel):
                 "--once /camera/depth/camera_info > info.yaml`), recorded with "
                 "the camera calibrated",
             ) from None
-        if not distorted:
+        base = _subsampled(base, info)
+        if image == "rect" or not distorted:
             return base
         if image is None:
             raise InputError(
@@ -301,6 +304,31 @@ _CAMERA_INFO_FIELDS = (
     ("d", "D", "distortion_coefficients"),
     ("p", "P", "projection_matrix"),
 )
+
+
+def _subsampled(k: Intrinsics, info: Any) -> Intrinsics:
+    """``k`` (a camera_info's, of the full sensor) for the image the camera_info
+    describes: binned ``binning_x`` by ``binning_y`` (0 or 1: not binned) and
+    cut to its ``roi`` (offsets in full-resolution pixels), as ``CameraInfo``
+    defines them. A binned pixel is the mean of its full pixels, its centre
+    theirs: full ``u = b u' + (b - 1) / 2 + x_offset``."""
+
+    def get(obj: Any, key: str) -> Any:
+        return obj.get(key) if isinstance(obj, dict) else getattr(obj, key, None)
+
+    bx, by = (max(int(get(info, f"binning_{a}") or 0), 1) for a in "xy")
+    roi = get(info, "roi")
+    ox, oy = (int(get(roi, f"{a}_offset") or 0) if roi else 0 for a in "xy")
+    if bx == by == 1 and ox == oy == 0:
+        return k
+    return k.model_copy(
+        update={
+            "fx": k.fx / bx,
+            "fy": k.fy / by,
+            "cx": (k.cx - ox - (bx - 1) / 2.0) / bx,
+            "cy": (k.cy - oy - (by - 1) / 2.0) / by,
+        }
+    )
 
 
 def _field(info: Any, *keys: str) -> Any:
