@@ -331,3 +331,22 @@ def test_a_binned_image_or_a_region_of_interest_takes_its_own_pixels(
         assert [getattr(got_k, a) for a in pinhole] == pytest.approx(
             [getattr(want, a) for a in pinhole]
         )
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "match"),
+    [
+        ("d", ["a", 0, 0, 0, 0], "is not a list of numbers"),
+        ("p", "x", "is not a list of numbers"),
+        ("binning_x", "two", "are not whole numbers"),
+        ("roi", {"x_offset": "left"}, "are not whole numbers"),
+    ],
+)
+def test_a_camera_info_that_is_not_numbers_is_named(
+    tmp_path: Path, field, value, match
+):
+    info = _camera_info([0.0] * 5)
+    info[field] = value
+    (tmp_path / "info.yaml").write_text(yaml.safe_dump(info))
+    with pytest.raises(InputError, match=match):
+        Intrinsics.parse(f"{tmp_path / 'info.yaml'}:rect")

@@ -206,7 +206,15 @@ class Intrinsics(BaseModel):
         """
         k, d, p = (_field(info, *keys) for keys in _CAMERA_INFO_FIELDS)
         model = _field(info, "distortion_model")
-        d = [float(v) for v in (d if d is not None else [])]
+        try:
+            d = [float(v) for v in (d if d is not None else [])]
+            p = [float(v) for v in p] if p is not None else None
+        except (TypeError, ValueError):
+            raise InputError(
+                f"{name}: its distortion D ({d}) or projection matrix P ({p}) is "
+                "not a list of numbers",
+                hint="give the camera's camera_info as its driver publishes it",
+            ) from None
         distorted = any(v != 0.0 for v in d)
         has_p = p is not None and len(p) == 12 and p[0] > 0 and p[5] > 0
         if image == "rect" and not has_p and distorted:
@@ -216,7 +224,7 @@ class Intrinsics(BaseModel):
                 "the raw image with `:raw`",
             )
         try:
-            if image == "rect" and has_p:
+            if image == "rect" and p is not None and has_p:
                 base = cls(fx=p[0], fy=p[5], cx=p[2], cy=p[6])
             else:
                 base = cls.from_k(k)
@@ -229,7 +237,7 @@ class Intrinsics(BaseModel):
                 "--once /camera/depth/camera_info > info.yaml`), recorded with "
                 "the camera calibrated",
             ) from None
-        base = _subsampled(base, info)
+        base = _subsampled(base, info, name)
         if image == "rect" or not distorted:
             return base
         if image is None:
@@ -306,7 +314,7 @@ _CAMERA_INFO_FIELDS = (
 )
 
 
-def _subsampled(k: Intrinsics, info: Any) -> Intrinsics:
+def _subsampled(k: Intrinsics, info: Any, name: str) -> Intrinsics:
     """``k`` (a camera_info's, of the full sensor) for the image the camera_info
     describes: binned ``binning_x`` by ``binning_y`` (0 or 1: not binned) and
     cut to its ``roi`` (offsets in full-resolution pixels), as ``CameraInfo``
@@ -316,9 +324,15 @@ def _subsampled(k: Intrinsics, info: Any) -> Intrinsics:
     def get(obj: Any, key: str) -> Any:
         return obj.get(key) if isinstance(obj, dict) else getattr(obj, key, None)
 
-    bx, by = (max(int(get(info, f"binning_{a}") or 0), 1) for a in "xy")
-    roi = get(info, "roi")
-    ox, oy = (int(get(roi, f"{a}_offset") or 0) if roi else 0 for a in "xy")
+    try:
+        bx, by = (max(int(get(info, f"binning_{a}") or 0), 1) for a in "xy")
+        roi = get(info, "roi")
+        ox, oy = (int(get(roi, f"{a}_offset") or 0) if roi else 0 for a in "xy")
+    except (TypeError, ValueError):
+        raise InputError(
+            f"{name}: its binning_x, binning_y or roi offsets are not whole numbers",
+            hint="give the camera's camera_info as its driver publishes it",
+        ) from None
     if bx == by == 1 and ox == oy == 0:
         return k
     return k.model_copy(
