@@ -251,6 +251,20 @@ def test_a_bag_raw_topic_is_rectified_and_a_rect_topic_read_through_p(
         np.testing.assert_allclose(points, expect[expect.any(axis=1)], atol=1e-9)
     undone = depth_points(mm, raw)
     assert _off_plane(undone).max() < _bound(undone)
+    # its compressedDepth transport, named after the raw image's topic
+    path = write_depth_bag(
+        tmp_path / "c.mcap",
+        "/depth/image_raw",
+        "depth_camera_link",
+        mm,
+        info["k"],
+        distortion=info["d"],
+        distortion_model=info["distortion_model"],
+        p=info["p"],
+        compressed="16UC1; compressedDepth png",
+    )
+    points = read_bag_scene(path, "/depth/image_raw/compressedDepth").points
+    np.testing.assert_allclose(points, undone[undone.any(axis=1)], atol=1e-9)
 
 
 def test_scene_synth_writes_a_raw_image_through_a_lens(tmp_path: Path, capsys):
