@@ -60,7 +60,7 @@ class Footprint:
         if len(uv) >= 3:
             try:
                 equations = ConvexHull(uv[_hull_candidates(uv)]).equations  # (f, 3)
-            except QhullError:  # on a line: no area
+            except (QhullError, ValueError):  # on a line or a point: no area
                 pass
         return cls(n, float(offset), basis, equations)
 
@@ -122,16 +122,14 @@ _HULL_MARGIN = 1e-9
 def narrowest_width(points: ArrayLike, normal: ArrayLike) -> float:
     """How wide the points ``(n, 3)`` are at their narrowest seen along the
     unit ``normal`` (a table's): the least distance between two parallel lines
-    that hold their outline in the plane, which lies along a side of its
-    convex hull (m); 0 for fewer than three points or a degenerate outline."""
-    uv = np.asarray(points, dtype=np.float64) @ plane_basis(normal)  # (n, 2)
-    try:
-        hull = uv[ConvexHull(uv).vertices]  # (h, 2), counter-clockwise
-    except (QhullError, ValueError):
+    that hold their outline in the plane, one of them along a side of their
+    :class:`Footprint` (m); 0 where the outline has no area."""
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    outline = Footprint.from_points(normal, 0.0, p)
+    if not outline.bounded:
         return 0.0
-    side = np.roll(hull, -1, axis=0) - hull  # (h, 2) each side
-    inward = np.column_stack([-side[:, 1], side[:, 0]])  # left of a side
-    inward /= np.linalg.norm(inward, axis=1, keepdims=True)
-    # per side, the farthest vertex from its line (all lie on its left)
-    depth = np.einsum("sk,svk->sv", inward, hull[None] - hull[:, None])  # (h, h)
-    return float(depth.max(axis=1).min())
+    # (n, f) each point's distance inside each side's line; per side, the
+    # farthest point is the width across it
+    a, b = outline.equations[:, :2], outline.equations[:, 2]
+    inside = -(p @ outline.basis @ a.T + b)
+    return float(inside.max(axis=0).min())
