@@ -506,7 +506,7 @@ class Pipeline:
             joints_grasp=joints_grasp,
             finger_targets=finger_targets,
             warnings=_frame_warnings(scene, inp.table.T_world_table[:3, 2])
-            + _range_warnings(scene, inp.object_points),
+            + _range_warnings(inp.viewpoints, inp.object_points),
         )
 
 
@@ -541,12 +541,12 @@ def _frame_warnings(scene: Scene, up: Array) -> list[str]:
 FAR_OBJECT_WARNING_M = 2.0
 
 
-def _range_warnings(scene: Scene, object_points: Array) -> list[str]:
+def _range_warnings(cameras: Array, object_points: Array) -> list[str]:
     """A warning when the object lies farther than
-    :data:`FAR_OBJECT_WARNING_M` from the nearest of the views' cameras (those
-    :meth:`Scene.viewpoints` knows): the likely cause is a depth scale, and
-    every pose of the plan is as far off as the object."""
-    cameras = scene.viewpoints()
+    :data:`FAR_OBJECT_WARNING_M` from the nearest of the views' cameras
+    ``cameras`` (those :meth:`Scene.viewpoints` knows, as the search input
+    keeps them): the likely cause is a depth scale, and every pose of the plan
+    is as far off as the object."""
     if not len(cameras) or not len(object_points):
         return []
     centre = np.asarray(object_points, dtype=np.float64).mean(axis=0)

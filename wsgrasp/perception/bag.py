@@ -403,23 +403,24 @@ def decode_rvl(data: bytes) -> NDArray[np.uint16]:
     return out.reshape(rows, cols)
 
 
-def _camera_info_topic(image_topic: str, compressed: bool = False) -> str:
+def _image_topic(topic: str, compressed: bool = False) -> str:
+    """The image topic a depth topic carries: itself, or for a compressed one
+    the topic its transport follows (``.../image_rect_raw/compressedDepth`` →
+    ``.../image_rect_raw``)."""
+    return topic.rsplit("/", 1)[0] if compressed else topic
+
+
+def _camera_info_topic(image_topic: str) -> str:
     """The ``camera_info`` topic beside an image's (``/camera/depth/image_rect_raw``
-    → ``/camera/depth/camera_info``), as ROS camera drivers publish them; a
-    compressed image's topic is its image's with its transport after it
-    (``.../image_rect_raw/compressedDepth``)."""
-    if compressed:
-        image_topic = image_topic.rsplit("/", 1)[0]
+    → ``/camera/depth/camera_info``), as ROS camera drivers publish them."""
     return image_topic.rsplit("/", 1)[0] + "/camera_info"
 
 
-def _image_kind(image_topic: str, compressed: bool = False) -> ImageKind:
-    """Which image a depth topic carries, by ROS's names: a rectified one where
+def _image_kind(image_topic: str) -> ImageKind:
+    """Which image an image topic carries, by ROS's names: a rectified one where
     a part of its name says ``rect`` (``image_rect``, RealSense's
     ``image_rect_raw``), else the camera's raw image (``image_raw``), whose
     ``camera_info`` gives the lens distortion to undo."""
-    if compressed:
-        image_topic = image_topic.rsplit("/", 1)[0]
     parts = image_topic.strip("/").split("/")
     return "rect" if any("rect" in part for part in parts) else "raw"
 
@@ -434,7 +435,8 @@ def _image_points(
     from wsgrasp.perception.depth import Intrinsics, depth_points
 
     compressed = types.get(topic) == COMPRESSED_IMAGE
-    info_topic = _camera_info_topic(topic, compressed)
+    image_topic = _image_topic(topic, compressed)
+    info_topic = _camera_info_topic(image_topic)
     if types.get(info_topic) != CAMERA_INFO:
         infos = [t for t, ty in sorted(types.items()) if ty == CAMERA_INFO]
         raise InputError(
@@ -455,7 +457,7 @@ def _image_points(
     depth = compressed_depth(msg, topic) if compressed else image_depth(msg, topic)
     intrinsics = Intrinsics.from_camera_info(
         _decode(*info),
-        _image_kind(topic, compressed),
+        _image_kind(image_topic),
         f"{p}: the camera_info on {info_topic!r}",
     )
     return depth_points(depth, intrinsics, name=topic)
