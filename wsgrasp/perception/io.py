@@ -903,14 +903,16 @@ def write_scene_yaml(
             entries.append({"cloud": fname, "T_world_camera": T.tolist()})
             continue
         cam = cameras[i]
-        k = Intrinsics(fx=cam.fx, fy=cam.fy, cx=cam.cx, cy=cam.cy)
-        if lens is not None:
-            k = Intrinsics(
-                **k.model_dump(include={"fx", "fy", "cx", "cy"}),
-                distortion_model=lens[0],  # type: ignore[arg-type]
-                distortion=[float(c) for c in lens[1]],
-            )
-        mm = np.rint(cam.depth_image(v.points, k if k.distorted else None) * 1000.0)
+        model, coefficients = lens or (None, ())
+        k = Intrinsics(
+            fx=cam.fx,
+            fy=cam.fy,
+            cx=cam.cx,
+            cy=cam.cy,
+            distortion_model=model,  # type: ignore[arg-type]
+            distortion=[float(c) for c in coefficients],
+        )
+        mm = np.rint(cam.depth_image(v.points, k) * 1000.0)
         fname = f"view_{i}.png"
         Image.fromarray(np.clip(mm, 0, 65535).astype(np.uint16)).save(d / fname)
         entries.append(
