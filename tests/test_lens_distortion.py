@@ -220,9 +220,10 @@ def test_a_camera_info_with_a_distortion_says_which_image(tmp_path: Path, capsys
 def test_a_bag_raw_topic_is_rectified_and_a_rect_topic_read_through_p(
     tmp_path: Path,
 ):
-    """A depth Image on ``image_raw`` is rectified by the K and D of its
-    camera_info; on an ``image_rect`` topic (RealSense's ``image_rect_raw``
-    too) it is already rectified, and its P gives the intrinsics."""
+    """A depth Image on ``image_raw`` (or its compressedDepth transport) is
+    rectified by the K and D of its camera_info; on an ``image_rect`` topic
+    (RealSense's ``image_rect_raw`` too) it is already rectified, and its P
+    gives the intrinsics."""
     mm = _raw_image("rational_polynomial", LENSES["rational_polynomial"])
     info = _camera_info(LENSES["rational_polynomial"], "rational_polynomial")
     raw = Intrinsics(
@@ -231,10 +232,12 @@ def test_a_bag_raw_topic_is_rectified_and_a_rect_topic_read_through_p(
         distortion=LENSES["rational_polynomial"],
     )
     rect = Intrinsics(fx=101.0, fy=102.0, cx=79.0, cy=61.0)
-    for topic, want in (
-        ("/depth/image_raw", raw),
-        ("/camera/depth/image_rect_raw", rect),
-        ("/camera/depth/image_rect", rect),
+    # the last: the raw image's compressedDepth transport, after its topic
+    for topic, want, compressed in (
+        ("/depth/image_raw", raw, None),
+        ("/camera/depth/image_rect_raw", rect, None),
+        ("/camera/depth/image_rect", rect, None),
+        ("/depth/image_raw", raw, "16UC1; compressedDepth png"),
     ):
         path = write_depth_bag(
             tmp_path / "b.mcap",
@@ -245,26 +248,14 @@ def test_a_bag_raw_topic_is_rectified_and_a_rect_topic_read_through_p(
             distortion=info["d"],
             distortion_model=info["distortion_model"],
             p=info["p"],
+            compressed=compressed,
         )
-        points = read_bag_scene(path, topic).points
+        read = topic + "/compressedDepth" if compressed else topic
+        points = read_bag_scene(path, read).points
         expect = depth_points(mm, want)
         np.testing.assert_allclose(points, expect[expect.any(axis=1)], atol=1e-9)
     undone = depth_points(mm, raw)
     assert _off_plane(undone).max() < _bound(undone)
-    # its compressedDepth transport, named after the raw image's topic
-    path = write_depth_bag(
-        tmp_path / "c.mcap",
-        "/depth/image_raw",
-        "depth_camera_link",
-        mm,
-        info["k"],
-        distortion=info["d"],
-        distortion_model=info["distortion_model"],
-        p=info["p"],
-        compressed="16UC1; compressedDepth png",
-    )
-    points = read_bag_scene(path, "/depth/image_raw/compressedDepth").points
-    np.testing.assert_allclose(points, undone[undone.any(axis=1)], atol=1e-9)
 
 
 def test_scene_synth_writes_a_raw_image_through_a_lens(tmp_path: Path, capsys):
