@@ -147,3 +147,20 @@ def test_a_run_recorded_before_angles_from_replays_with_the_papers_angles(
     assert new.spec_data is not None
     new.spec_data["sampling"]["angles_from"] = "table"  # the cached data
     assert new.spec.sampling.angles_from == "table"
+
+
+def test_a_run_recorded_before_across_narrowest_replays_with_the_frames_angles(
+    tmp_path: Path,
+) -> None:
+    """A spec recorded before ``sampling.across_narrowest`` existed turned no
+    angles on upright objects, and replays so."""
+    path = tmp_path / "old.mcap"
+    plan_recorded(path, spec=fake_spec(sampling={"across_narrowest": False}))
+    run = open_run(path)
+    assert run.spec_data is not None
+    old = {
+        k: v for k, v in run.spec_data["sampling"].items() if k != "across_narrowest"
+    }
+    run.__dict__["spec_data"] = {**run.spec_data, "sampling": old}  # as recorded then
+    assert run.spec.sampling.across_narrowest is False
+    assert replay_run(run).identical

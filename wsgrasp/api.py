@@ -248,6 +248,7 @@ class Pipeline:
             T_world_table[:3, 2],
             self._reach,
             self._side,
+            object_points,
         )
         # (O, 3) the direction each orientation's fingers close along, world
         closing = orientations.R_object_gwc[:, :, 1] @ frame.T_world_object[:3, :3].T

@@ -326,7 +326,10 @@ def _scaling(pipe: Pipeline, prep: Any, scene: Any) -> list[dict[str, Any]]:
             inp,
             samples_object=sample_box(frame, sampling),
             orientations=orientation_set(
-                sampling, inp.T_world_object, inp.table.T_world_table[:3, 2]
+                sampling,
+                inp.T_world_object,
+                inp.table.T_world_table[:3, 2],
+                object_points=inp.object_points,
             ),
         )
         p = replace(prep, search_input=case)

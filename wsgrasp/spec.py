@@ -431,6 +431,13 @@ class Sampling(_Model):
         "keeps that side off the table (table); or the angles start at the object "
         "frame's x axis, as the paper (object)",
     )
+    across_narrowest: bool = Field(
+        True,
+        description="major_axis with angles_from table: on an upright object, "
+        "where every angle is a side approach, turn the angles so that one closes "
+        "across the object's narrowest width seen from above (false: from the "
+        "object frame's x axis, as the paper)",
+    )
     steps: tuple[int, int, int] | None = Field(
         None,
         description="xyz: angles about the object's x, y and z axes, each over a "

@@ -12,7 +12,7 @@ from scipy.spatial import ConvexHull, QhullError
 from wsgrasp.geometry import plane_basis
 from wsgrasp.perception.types import Array
 
-__all__ = ["Footprint", "narrowest_width"]
+__all__ = ["Footprint", "narrowest_across", "narrowest_width"]
 
 
 @dataclass(frozen=True)
@@ -124,12 +124,24 @@ def narrowest_width(points: ArrayLike, normal: ArrayLike) -> float:
     unit ``normal`` (a table's): the least distance between two parallel lines
     that hold their outline in the plane, one of them along a side of their
     :class:`Footprint` (m); 0 where the outline has no area."""
+    return narrowest_across(points, normal)[0]
+
+
+def narrowest_across(
+    points: ArrayLike, normal: ArrayLike
+) -> tuple[float, Array | None]:
+    """:func:`narrowest_width` and the direction it is measured along: the
+    unit vector ``(3,)`` in the plane perpendicular to ``normal`` across which
+    the points' outline is narrowest (the inward normal of the side that sets
+    it), or None where the outline has no area."""
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     outline = Footprint.from_points(normal, 0.0, p)
     if not outline.bounded:
-        return 0.0
+        return 0.0, None
     # (n, f) each point's distance inside each side's line; per side, the
     # farthest point is the width across it
     a, b = outline.equations[:, :2], outline.equations[:, 2]
     inside = -(p @ outline.basis @ a.T + b)
-    return float(inside.max(axis=0).min())
+    widths = inside.max(axis=0)  # (f,)
+    k = int(np.argmin(widths))
+    return float(widths[k]), -(outline.basis @ a[k])

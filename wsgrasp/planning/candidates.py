@@ -23,7 +23,12 @@ the sign of the major axis; both follow the object's shape, not the table. With
 angles are turned so that the middle one approaches from straight above the
 table (:func:`from_above`; four angles over a full turn: a top grasp and two side
 grasps, where the paper's could give two approaches 45° down and two from under
-the table), and a gripper whose body reaches farther on one side of its approach
+the table); on an object standing upright, where every angle is a side approach,
+they are turned so that one closes across the object's narrowest width seen from
+above (``sampling.across_narrowest``, :func:`across_narrowest`: across a box's
+faces, where the paper's frame, split along the farthest points of the part the
+cameras see, can put every closing direction across a box's corners); and a
+gripper whose body reaches farther on one side of its approach
 axis (:func:`far_side`: a wrist camera, a thumb's base) is turned where that side
 would face the table (the major axis more than ``LEVEL_DEG`` out of the table's
 plane): a side grasp on a short upright object keeps the camera above the hand,
@@ -162,6 +167,22 @@ def from_above(normal_object: Array, thetas: Array) -> float:
         return 0.0
     # z_gwc = -(cos θ, sin θ, 0) is -normal's direction at θ = atan2(ny, nx)
     return float(np.arctan2(ny, nx) - thetas[len(thetas) // 2])
+
+
+def across_narrowest(points: Array, R_world_object: Array, thetas: Array) -> float:
+    """The turn (rad) to add to the ``major_axis`` angles ``thetas`` so that the
+    middle one's fingers close across the object's narrowest width in the plane
+    perpendicular to its major axis (``points`` ``(n, 3)``, world frame; the
+    width of their outline, :func:`~wsgrasp.perception.footprint.
+    narrowest_across`), or 0 where the outline has no area."""
+    from wsgrasp.perception.footprint import narrowest_across
+
+    _, across = narrowest_across(points, R_world_object[:, 2])
+    if across is None or not len(thetas):
+        return 0.0
+    d = R_world_object.T @ across  # object frame, in its xy plane
+    # y_gwc = (-sin θ, cos θ, 0) lies along d at θ = atan2(d_y, d_x) - π / 2
+    return float(np.arctan2(d[1], d[0]) - 0.5 * np.pi - thetas[len(thetas) // 2])
 
 
 def major_axis_orientations(thetas: Array, flip: bool = False) -> Orientations:
@@ -314,6 +335,7 @@ def orientation_set(
     table_normal: Array,
     reach: tuple[float, float] = (0.0, 0.0),
     side: int = 0,
+    object_points: Array | None = None,
 ) -> Orientations:
     """The orientations a spec's ``sampling`` asks for, none from under the table.
 
@@ -331,6 +353,11 @@ def orientation_set(
         The gripper's far side along GWC x (:func:`far_side`): ``major_axis``
         without ``flip`` turns its poses so that side does not face the table
         (see the module docstring). 0 leaves them as the paper gives them.
+    object_points : (n, 3) float, optional
+        The object, world frame: ``major_axis`` with ``angles_from: table``
+        and ``across_narrowest`` turns the angles on an upright object to close
+        across its narrowest width (:func:`across_narrowest`); without them, the
+        paper's angles.
     """
     mode = getattr(sampling, "mode", "major_axis")
     tol = float(getattr(sampling, "upward_tolerance_deg", 5.0))
@@ -353,7 +380,15 @@ def orientation_set(
         n = np.asarray(table_normal, dtype=np.float64)
         level = np.sin(np.deg2rad(LEVEL_DEG))
         if table:
-            thetas = thetas + from_above(R_world_object.T @ n, thetas)
+            normal_object = R_world_object.T @ n
+            if np.hypot(normal_object[0], normal_object[1]) > level:
+                thetas = thetas + from_above(normal_object, thetas)
+            elif object_points is not None and getattr(
+                sampling, "across_narrowest", False
+            ):
+                thetas = thetas + across_narrowest(
+                    object_points, R_world_object, thetas
+                )
         o = major_axis_orientations(thetas, flip)
         # x_gwc is the major axis: the far side faces the table where it points
         # down out of the table's plane

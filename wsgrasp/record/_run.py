@@ -37,7 +37,10 @@ PARTS = (
 #: spec fields added after runs were recorded without them, each with the value
 #: that plans as those runs were planned (a recorded spec holds every field, so
 #: a missing one was not there yet); new specs get the field's default
-_RECORDED_BEFORE: dict[tuple[str, str], Any] = {("sampling", "angles_from"): "object"}
+_RECORDED_BEFORE: dict[tuple[str, str], Any] = {
+    ("sampling", "angles_from"): "object",
+    ("sampling", "across_narrowest"): False,
+}
 
 
 def _as_planned(data: dict[str, Any]) -> dict[str, Any]:
