@@ -531,6 +531,40 @@ def render_angles_from_runs() -> str:
     return _runs_in("angles-from")
 
 
+def render_across_narrowest_runs() -> str:
+    """The runs on upright boxes a little narrower than a jaw opens
+    (``docs/results/across-narrowest/``, ``benchmarks/upright_boxes.py``): the
+    default spec beside the object frame's angles; then each box's trials held
+    per setting."""
+    return _runs_in("across-narrowest") + _object_table("across-narrowest")
+
+
+def _object_table(folder: str) -> str:
+    """Per run in ``docs/results/<folder>/``, a row per gripper and spec with
+    the trials held of each object; empty without runs."""
+    rows, names = [], []
+    for path in sorted((RESULTS / folder).glob("*.json")):
+        for res in json.loads(path.read_text()).get("results", []):
+            held = {o["object"]: o for o in res.get("objects", [])}
+            names = names or list(held)
+            rows.append(
+                [
+                    f"`{path.name}`",
+                    f"`{short(res['gripper'])}`",
+                    f"`{res['spec']}`",
+                    *(
+                        f"{held[n]['successes']} of {held[n]['trials']}"
+                        if n in held
+                        else "–"
+                        for n in names
+                    ),
+                ]
+            )
+    if not rows:
+        return ""
+    return "\n" + table(["file", "gripper", "setting", *map(str, names)], rows)
+
+
 def render_default_spec_runs() -> str:
     """The runs the generic default spec was chosen by: success per setting."""
     return _runs_in("default-spec")
