@@ -970,3 +970,28 @@ def test_an_object_lying_flat_wider_than_the_gripper_opens_is_named():
     assert not result.found
     assert result.hint.startswith("the object is 0.0")
     assert "more than the gripper opens (0.080 m)" in result.hint
+
+
+#: the fix each kind of wrongly shaped cloud gets
+_SHAPE_FIXES = {
+    "transpose": "pass its transpose",
+    "columns": "pass those alone: points[:, :3]",
+    "image": "depth image: pass --intrinsics",
+}
+
+
+@pytest.mark.parametrize(
+    ("shape", "kind"),
+    [((3, 2000), "transpose"), ((2000, 4), "columns"), ((2000, 6), "columns")]
+    + [((240, 320), "image")],
+)
+def test_a_cloud_of_the_wrong_shape_names_the_likely_fix(tmp_path, shape, kind):
+    """Points stored a point per column, with intensity or colour beside x, y, z
+    (XYZI, XYZRGB), or a depth image: each gets the fix that fits it, and no
+    other."""
+    path = tmp_path / "c.npy"
+    np.save(path, np.zeros(shape))
+    with pytest.raises(InputError, match=re.escape(f"has shape {shape}")) as info:
+        load_cloud(path)
+    hint = info.value.hint or ""
+    assert [k for k, fix in _SHAPE_FIXES.items() if fix in hint] == [kind]

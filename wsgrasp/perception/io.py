@@ -316,18 +316,30 @@ def _check_shape(arr: ArrayLike, name: str) -> Array:
     if a.ndim == 3 and a.shape[-1] == 3:
         a = a.reshape(-1, 3)  # an organised cloud (h, w, 3) -> (h*w, 3)
     if a.ndim != 2 or a.shape[1] != 3:
-        image = a.ndim == 2 and min(a.shape) > 3
-        raise InputError(
-            f"cloud {name!r} has shape {a.shape}, expected (n, 3)",
-            hint="give one point per row with x, y, z columns"
-            + (
+        hint = "give one point per row with x, y, z columns"
+        rows, cols = a.shape if a.ndim == 2 else (0, 0)
+        if rows == 3 and cols > 3:
+            hint += f"; this one has a point per column: pass its transpose ({cols}, 3)"
+        elif 3 < cols <= _EXTRA_COLUMNS and rows > 4 * _EXTRA_COLUMNS:
+            # x, y, z and more per point: intensity, a homogeneous 1, colour, normal
+            hint += (
+                f"; if its first three of {cols} columns are x, y, z (then intensity, "
+                "colour or normals), pass those alone: points[:, :3]"
+            )
+        elif min(rows, cols) > _EXTRA_COLUMNS:
+            hint += (
                 "; an (h, w) array is a depth image: pass --intrinsics "
                 "fx,fy,cx,cy with it"
-                if image
-                else ""
-            ),
+            )
+        raise InputError(
+            f"cloud {name!r} has shape {a.shape}, expected (n, 3)", hint=hint
         )
     return a
+
+
+#: an (n, k) array of up to this many columns is points with more per point than
+#: x, y, z (XYZI, XYZ1, XYZRGB, XYZ + normals: 4 to 9); wider ones, depth images
+_EXTRA_COLUMNS = 16
 
 
 # --------------------------------------------------------------------------------
