@@ -294,6 +294,7 @@ class Pipeline:
             table_footprint=footprint,
             obstacle_names=names,
             segments=segments,
+            depth_noise=_float_or_none(segmentation.info.get("depth_noise")),
         )
 
     def search(self, prepared: Prepared) -> SearchOutput:
@@ -507,7 +508,8 @@ class Pipeline:
             joints_grasp=joints_grasp,
             finger_targets=finger_targets,
             warnings=_frame_warnings(scene, inp.table.T_world_table[:3, 2])
-            + _range_warnings(inp.viewpoints, inp.object_points),
+            + _range_warnings(inp.viewpoints, inp.object_points)
+            + _noise_warnings(prep.depth_noise),
         )
 
 
@@ -563,6 +565,32 @@ def _range_warnings(cameras: Array, object_points: Array) -> list[str]:
     ]
 
 
+#: a scene whose table's points scatter more than this (m) about its plane gets
+#: a warning: depth cameras over a tabletop scatter 1-3 mm
+NOISY_DEPTH_WARNING_M = 0.005
+
+
+def _float_or_none(value: Any) -> float | None:
+    try:
+        return None if value is None else float(value)
+    except (TypeError, ValueError):  # a plugin's info that is not a number
+        return None
+
+
+def _noise_warnings(noise: float | None) -> list[str]:
+    """A warning when the segmenter measured a depth noise (the deviation of
+    the table's points about its plane) over :data:`NOISY_DEPTH_WARNING_M`."""
+    if noise is None or not noise > NOISY_DEPTH_WARNING_M:
+        return []
+    return [
+        f"the depth is noisy: the table's points scatter {noise * 1e3:.0f} mm about "
+        "its plane, where a depth camera over a tabletop scatters 1-3 mm; the "
+        "object's outline, and every pose of this plan, may be off by a few times "
+        "that (average several frames, bring the camera closer or filter the "
+        "depth images)"
+    ]
+
+
 @dataclass
 class Prepared:
     """The stages before the search, ready for it."""
@@ -583,6 +611,9 @@ class Prepared:
     #: per neighbour's name, the candidates it blocked: ``{"body": n, "closing":
     #: m}`` (set by the search)
     blocked_by: dict[str, dict[str, int]] = field(default_factory=dict)
+    #: the depth noise about the table's plane (m), where the segmenter gives it
+    #: (``Segmentation.info["depth_noise"]``)
+    depth_noise: float | None = None
 
 
 def _instances(
@@ -824,6 +855,10 @@ def _one_object(
 #: an object no wider than the gripper encloses plus this (m; noise on the
 #: measured width) may fit between the fingers
 _WIDTH_SLACK = 0.002
+#: the noise widens an object's cloud by about this many deviations of its
+#: depth noise on each side (the extremes of a few hundred points along a
+#: direction): a 5 cm box seen with 12 mm of noise measured 8.5 cm across
+_WIDTH_NOISE_DEVIATIONS = 3.0
 #: far more (m) than rounding moves a width measured over different points
 _WIDTH_ROUNDING = 1e-9
 #: points deeper than this (m) inside the object's convex hull, beyond what
@@ -867,7 +902,8 @@ def _too_large(
     than half its thickness from the top or the bottom of its hull in space);
     concave means deeper than the depth ``noise`` (m; or a function that
     measures it, called only for an object that is wide enough to ask) makes a
-    convex cloud look."""
+    convex cloud look; and wide means wider than that noise makes a narrower
+    object look (:data:`_WIDTH_NOISE_DEVIATIONS` on each side)."""
     from scipy.spatial import ConvexHull, QhullError
 
     enclosure = g.enclosure
@@ -896,6 +932,8 @@ def _too_large(
     if width <= enclosure + _WIDTH_SLACK:
         return ""
     sigma = noise() if callable(noise) else float(noise)
+    if width - 2.0 * _WIDTH_NOISE_DEVIATIONS * sigma <= enclosure + _WIDTH_SLACK:
+        return ""  # as wide as the noise makes a narrower object look
     deep = _CONCAVE_DEPTH + _NOISE_DEVIATIONS * sigma
     if _concave_share(object_points, hull.equations, deep) >= _CONCAVE_SHARE:
         return ""
