@@ -355,3 +355,25 @@ def test_a_noisy_plan_grasps_the_object_and_warns() -> None:
         assert np.linalg.norm(tcp - syn.T_world_mesh[:3, 3]) < 0.05
         noisy = [w for w in result.warnings if "the depth is noisy" in w]
         assert len(noisy) == (noise > 0.005)
+
+
+def test_an_object_too_small_for_min_points_is_named_with_the_fix() -> None:
+    """A 1.2 cm cube (14 points above min_height at 5 mm voxels, three cameras)
+    is no object for min_points 30: the error names its cluster's size, and with
+    min_points at that size the cube is found."""
+    import re
+
+    from wsgrasp.perception.synth import synth_scene
+
+    syn = synth_scene("box", size=(0.012, 0.012, 0.012), seed=1)
+    points = downsample(syn.points, VOXEL)
+    with pytest.raises(InputError, match="nothing stands on the table") as info:
+        segment(points)
+    hint = info.value.hint or ""
+    found = re.search(r"has (\d+) points and is ([\d.]+) cm across", hint)
+    assert found, hint
+    count = int(found.group(1))
+    assert 8 <= count < 30 and float(found.group(2)) < 2.5
+    seg = segment(points, min_points=count)
+    obj = select_target(seg, TargetRule(rule="largest"))[0]
+    assert np.linalg.norm(obj.mean(axis=0) - syn.T_world_mesh[:3, 3]) < 0.01

@@ -128,6 +128,8 @@ class RansacDbscan:
         while finder.worth_another(_OTHER_PLANE_FRACTION) and finder.next():
             pass
         tried: list[dict[str, Any]] = []
+        # per plane tried, its largest cluster too small to be an object
+        smallest: list[tuple[int, float]] = []
         outlines: dict[int, Footprint] = {}  # by plane
         k = 0
         while k < len(finder.planes) or finder.next():
@@ -165,6 +167,8 @@ class RansacDbscan:
                 p, normal, offset, o, exclude, viewpoints, plane_uv, borders
             )
             tried.append({"inliers": int(inliers.size), **found["why"]})
+            if found.get("small") is not None:
+                smallest.append(found["small"])
             if found["clusters"]:
                 plane = Plane(normal=found["normal"], offset=found["offset"])
                 if k == 0:
@@ -208,6 +212,15 @@ class RansacDbscan:
             "check that the object is in view and on the table; lower "
             "min_points or min_height, raise max_object_extent for large objects"
         )
+        if smallest:
+            count, across = max(smallest)
+            if count >= _SMALL_HINT_POINTS:
+                hint = (
+                    f"the largest cluster too small to be an object has {count} "
+                    f"points and is {across * 100:.1f} cm across: for an object "
+                    f"that small, lower min_points to {count} or below (noise "
+                    "clusters may then pass for objects); " + hint
+                )
         if any(t.get(_HANGING) for t in tried):
             hint = (
                 "what hangs along the table's border (its own edges, a cloth over "
@@ -260,12 +273,13 @@ class RansacDbscan:
         cand = np.flatnonzero((ah > o.min_height) & (ah < o.max_height) & ~exclude)
         labels = cluster_labels(p[cand], o.cluster_eps, o.core_points)
         why = {"too small": 0, "not touching": 0, "too large": 0}
-        empty = {
+        empty: dict[str, Any] = {
             "clusters": [],
             "why": why,
             "normal": normal,
             "offset": offset,
             "noise": noise,
+            "small": None,
         }
         if labels.size == 0 or labels.max() < 0:
             return empty
@@ -280,6 +294,12 @@ class RansacDbscan:
         lo, hi = _bounds(p[idx], lab, nlab)
         extent = np.linalg.norm(hi - lo, axis=1)
         small = counts < o.min_points
+        if small.any():  # the largest of them, for the error's hint
+            k = int(np.flatnonzero(small)[np.argmax(counts[small])])
+            largest_small: tuple[int, float] | None = (int(counts[k]), float(extent[k]))
+        else:
+            largest_small = None
+        empty["small"] = largest_small
         far = ~small & (low > o.contact_distance)
         hidden = np.zeros(nlab, dtype=bool)
         if plane_uv is not None and far.any():
@@ -376,6 +396,7 @@ class RansacDbscan:
             "normal": normal,
             "offset": offset,
             "noise": noise,
+            "small": largest_small,
         }
 
 
@@ -404,6 +425,10 @@ def height_noise(h: Array, band: float, points: int = 4000) -> float:
     return sigma
 
 
+#: "nothing stands on the table" names the largest cluster too small to be an
+#: object where it has this many points or more (a 1.2 cm cube seen by three
+#: cameras, 5 mm voxels: 22)
+_SMALL_HINT_POINTS = 8
 #: the reason a cluster that hangs along the table's border is not an object
 _HANGING = "hanging along its border"
 #: a cluster hangs along the table's border when this share of its points ...
