@@ -306,3 +306,83 @@ def test_a_clutter_step_tries_the_other_instances_then_each_split_cluster():
     ]
     order = [(t.rule, t.id) for t in _other_targets(segs)]
     assert order == [("id", 2), ("id", 1), ("cluster", 1)]
+
+
+def _walls(height=0.10, half=(0.15, 0.11), n=2000, seed=0):
+    """A bin's four walls (no floor: it lies within min_height of the table)."""
+    rng = np.random.default_rng(seed)
+    t = rng.uniform(-1.0, 1.0, n)
+    side = rng.integers(0, 4, n)
+    x = np.where(side < 2, t * half[0], np.where(side == 2, half[0], -half[0]))
+    y = np.where(side >= 2, t * half[1], np.where(side == 0, half[1], -half[1]))
+    return np.column_stack([x, y, rng.uniform(0.01, height, n)])
+
+
+def _box(center, size, n=400, seed=1):
+    rng = np.random.default_rng(seed)
+    return np.asarray(center) + rng.uniform(-0.5, 0.5, (n, 3)) * size
+
+
+@pytest.mark.parametrize("rule", ["largest", "highest", "most_isolated"])
+def test_a_bins_walls_are_no_target_while_something_lies_in_it(rule):
+    """A bin's walls (the largest cluster) surround the box in it, whose bottom
+    lies below their top: the automatic rules pick the box, and the walls are an
+    obstacle; an object stacked on a wider one, or standing beside it, leaves
+    the rules as they were."""
+    from wsgrasp.perception.pile import containers
+
+    walls = _walls()
+    box = _box([0.05, 0.0, 0.06], [0.05, 0.05, 0.09])
+    seg = Segmentation(TABLE, np.zeros((0, 3)), [walls, box], {})
+    assert containers(seg).tolist() == [True, False]
+    target, obstacles = select_target(seg, TargetRule(rule=rule))
+    assert target is box and obstacles[0] is walls
+    # stacked: the small box's bottom at the big one's top
+    big = _box([0.0, 0.0, 0.05], [0.2, 0.2, 0.1], n=2000)
+    on_top = _box([0.0, 0.0, 0.13], [0.05, 0.05, 0.06])
+    seg = Segmentation(TABLE, np.zeros((0, 3)), [big, on_top], {})
+    assert not containers(seg).any()
+    beside = _box([0.2, 0.0, 0.05], [0.05, 0.05, 0.1])
+    seg = Segmentation(TABLE, np.zeros((0, 3)), [big, beside], {})
+    assert not containers(seg).any()
+    assert select_target(seg, TargetRule(rule="largest"))[0] is big
+
+
+def test_a_box_in_a_bin_is_grasped_not_the_bin(tmp_path):
+    """Rendered: a 5 x 5 x 10 cm box in a 30 x 22 x 10 cm bin. The target was
+    the bin's walls ("0.227 m across ... more than the gripper opens"); the
+    Allegro hand's default spec now grasps the box."""
+    import trimesh
+
+    from wsgrasp.default_specs import default_spec
+    from wsgrasp.perception.synth import synth_scene
+
+    def slab(extents, centre):
+        m = trimesh.creation.box(extents)
+        m.apply_translation(centre)
+        return m
+
+    t, length, width, height = 0.005, 0.30, 0.22, 0.10
+    parts = [
+        slab((length, width, t), (0, 0, t / 2)),
+        slab((length, t, height), (0, width / 2, height / 2)),
+        slab((length, t, height), (0, -width / 2, height / 2)),
+        slab((t, width, height), (length / 2, 0, height / 2)),
+        slab((t, width, height), (-length / 2, 0, height / 2)),
+        slab((0.05, 0.05, 0.10), (0.05, 0.0, t + 0.05)),
+    ]
+    trimesh.util.concatenate(parts).export(tmp_path / "bin.obj")
+    syn = synth_scene(str(tmp_path / "bin.obj"), seed=1)
+    box = syn.T_world_mesh[:3, :3] @ [0.05, 0.0, t + 0.05] + syn.T_world_mesh[:3, 3]
+    up = syn.table.normal
+
+    def across(a, b):  # their distance seen from above
+        d = np.asarray(a) - b
+        return float(np.linalg.norm(d - (d @ up) * up))
+
+    pipe = wsgrasp.Pipeline(load_spec(default_spec("allegro_right")[0]))
+    prep = pipe.prepare(wsgrasp.api.as_scene(syn.points))
+    assert across(prep.search_input.object_points.mean(axis=0), box) < 0.01
+    result = pipe.plan(syn.points)
+    assert result.found, result.hint
+    assert across(result.T_world_tcp[:3, 3], box) < 0.02

@@ -335,7 +335,8 @@ class TargetRule(_Model):
         "highest above the table), `most_isolated` (farthest from the others), "
         "`id` (an instance id from a plan's result.info['segments'], same scene) "
         "or `cluster` (instance `id` with every instance split from the same "
-        "cluster, as one object)",
+        "cluster, as one object); largest, highest and most_isolated pass over a "
+        "container (a bin's walls) while something lies in it",
     )
     id: int | None = Field(
         None, ge=0, description="for rules id and cluster: the instance id"

@@ -14,12 +14,15 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from wsgrasp.errors import InputError
+from wsgrasp.geometry import plane_basis
+from wsgrasp.perception.footprint import Footprint
 from wsgrasp.perception.types import Array, Plane, Segmentation
 
 __all__ = [
     "PILE_RULES",
     "UNSEGMENTED",
     "cluster_members",
+    "containers",
     "groups",
     "obstacle_names",
     "pile_target",
@@ -44,11 +47,14 @@ def pile_target(segmentation: Segmentation, rule: Any) -> int:
     """
     clusters = segmentation.clusters
     name = rule.rule
+    # a container (a bin's walls) is no target while something lies in it
+    skip = np.where(containers(segmentation), -np.inf, 0.0)
     if name == "highest":
         tops = [float(segmentation.table.signed_distance(c).max()) for c in clusters]
-        return int(np.argmax(tops))
+        return int(np.argmax(tops + skip))
     if name == "most_isolated":
-        return int(np.argmax(_clearances(clusters, unsegmented(segmentation))))
+        clear = _clearances(clusters, unsegmented(segmentation))
+        return int(np.argmax(clear + skip))
     if name in ("id", "cluster"):
         k = int(rule.id)
         if not 0 <= k < len(clusters):
@@ -60,6 +66,59 @@ def pile_target(segmentation: Segmentation, rule: Any) -> int:
             )
         return k
     raise ValueError(f"{name!r} is not a pile rule")  # the spec allows no other
+
+
+#: a cluster surrounds another seen from above when its points lie in at least
+#: this many of :data:`_SECTORS` equal sectors around the other's centroid (a
+#: bin's four walls: all of them; an object beside another: half at most)
+_SURROUNDING = 12
+_SECTORS = 16
+#: ... and holds it when the other's lowest point lies at least this far (m)
+#: below its top (in it, not stacked on it) ...
+_INSIDE_DEPTH = 0.01
+#: ... and this share of the other's points lies :data:`_INSET` (m) or more
+#: inside its outline seen from above: in it, clear of its walls (an object
+#: stacked on a wider one surrounds the wider one's centroid; the pieces of a
+#: sparse cloud's faces lie along the outline of the rest of it)
+_WITHIN = 0.9
+_INSET = 0.01
+
+
+def containers(segmentation: Segmentation) -> np.ndarray:
+    """Per cluster ``(k,)`` bool, whether it is a container with something in
+    it: a bin's walls, a tray's rim, a bowl, whose points surround another
+    cluster seen along the table's normal (:data:`_SURROUNDING` of
+    :data:`_SECTORS` sectors around that one's centroid), whose outline holds
+    :data:`_WITHIN` of that one's points :data:`_INSET` inside it and whose top
+    stands :data:`_INSIDE_DEPTH` or more above that one's lowest point (an
+    object stacked on another's top is not in it). None where every cluster
+    would be one."""
+    clusters = segmentation.clusters
+    found = np.zeros(len(clusters), dtype=bool)
+    if len(clusters) < 2:
+        return found
+    table = segmentation.table
+    basis = plane_basis(table.normal)
+    uv = [c @ basis for c in clusters]  # in the table's plane
+    middle = np.array([u.mean(axis=0) for u in uv])  # (k, 2)
+    heights = [table.signed_distance(c) for c in clusters]
+    top = np.array([float(h.max()) for h in heights])
+    low = np.array([float(h.min()) for h in heights])
+    for i in range(len(clusters)):
+        for j in range(len(clusters)):
+            if i == j or low[j] > top[i] - _INSIDE_DEPTH:
+                continue
+            d = uv[i] - middle[j]  # (n, 2)
+            angle = np.arctan2(d[:, 1], d[:, 0])  # (-pi, pi]
+            sector = np.floor((angle + np.pi) * (_SECTORS / (2 * np.pi)))
+            if len(np.unique(sector.astype(np.int64) % _SECTORS)) < _SURROUNDING:
+                continue
+            # and the other lies within its outline (not under it, wider)
+            outline = Footprint.from_points(table.normal, table.offset, clusters[i])
+            if np.mean(outline.depths(clusters[j]) >= _INSET) >= _WITHIN:
+                found[i] = True
+                break
+    return np.zeros(len(clusters), dtype=bool) if found.all() else found
 
 
 def groups(segmentation: Segmentation) -> list[int]:

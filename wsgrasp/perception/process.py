@@ -9,7 +9,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from wsgrasp.errors import InputError
-from wsgrasp.perception.pile import PILE_RULES, cluster_members, pile_target
+from wsgrasp.perception.pile import (
+    PILE_RULES,
+    cluster_members,
+    containers,
+    pile_target,
+)
 from wsgrasp.perception.types import Array, Segmentation
 
 __all__ = [
@@ -312,7 +317,8 @@ def select_target(segmentation: Segmentation, rule: Any) -> tuple[Array, list[Ar
     sizes = np.array([c.shape[0] for c in clusters])
     name = rule.rule
     if name == "largest":
-        k = int(np.argmax(sizes))
+        # a container (a bin's walls) is no target while something lies in it
+        k = int(np.argmax(np.where(containers(segmentation), -1, sizes)))
     elif name == "only":
         if len(clusters) > 1:
             raise InputError(
