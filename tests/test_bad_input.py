@@ -995,3 +995,23 @@ def test_a_cloud_of_the_wrong_shape_names_the_likely_fix(tmp_path, shape, kind):
         load_cloud(path)
     hint = info.value.hint or ""
     assert [k for k, fix in _SHAPE_FIXES.items() if fix in hint] == [kind]
+
+
+def test_far_points_in_a_cloud_in_metres_are_not_taken_for_millimetres():
+    """A scene in metres with 5 % of its points strewn over 100 m (an outdoor
+    background, a sensor's stray returns) spans 79 units, which read as
+    centimetres before; its points lie millimetres apart, so it is metres: the
+    box on the table is grasped. The same scene in millimetres or centimetres
+    is still named so."""
+    from wsgrasp.perception.synth import synth_scene
+
+    syn = synth_scene("box", size=(0.05, 0.05, 0.1), seed=1)
+    rng = np.random.default_rng(0)
+    far = rng.uniform(-50.0, 50.0, (len(syn.points) // 20, 3))
+    result = Pipeline(load_spec(SPEC)).plan(np.concatenate([syn.points, far]))
+    assert result.found, result.hint
+    tcp = result.T_world_tcp[:3, 3]
+    assert np.linalg.norm(tcp - syn.T_world_mesh[:3, 3]) < 0.02
+    for scale, unit in ((1000.0, "millimetres"), (100.0, "centimetres")):
+        with pytest.raises(InputError, match=f"probably in {unit}"):
+            Pipeline(load_spec(SPEC)).plan(syn.points * scale)

@@ -765,10 +765,14 @@ def check_units(points: Array, name: str = "points") -> None:
     """Raise ``InputError`` when a cloud is too large to be in metres.
 
     The robust extent (0.5th to 99.5th percentile per axis) must stay below
-    ``MAX_SCENE_EXTENT``; a larger one usually means millimetres.
+    ``MAX_SCENE_EXTENT``; a larger one usually means millimetres, unless the
+    points lie as close together as a depth camera's in metres do (their
+    median spacing below :data:`METRE_SPACING`): a cloud in metres with
+    points far from the rest (5 % of them strewn over 100 m, the background
+    of an outdoor view), which the segmenter leaves aside.
     """
     extent = robust_extent(points)
-    if extent > MAX_SCENE_EXTENT:
+    if extent > MAX_SCENE_EXTENT and _spacing(points) >= METRE_SPACING:
         # the unit that makes the scene closest to a metre-sized tabletop
         unit, short, scale = min(
             (("centimetres", "cm", 100.0), ("millimetres", "mm", 1000.0)),
@@ -781,6 +785,27 @@ def check_units(points: Array, name: str = "points") -> None:
             hint=f"divide the points by {scale:g}, or set `units: {short}` in a "
             "scene YAML",
         )
+
+
+#: a cloud whose points lie closer than this to their nearest neighbours (median,
+#: in the cloud's units) is in metres whatever its extent: a depth camera's points
+#: over a tabletop lie 0.5-10 mm apart, in millimetres 0.5-10 units, in
+#: centimetres 0.05-1
+METRE_SPACING = 0.02
+#: the spacing is the median over this many points, each against the whole cloud
+_SPACING_SAMPLES = 2000
+
+
+def _spacing(points: Array) -> float:
+    """The median distance from :data:`_SPACING_SAMPLES` of ``points`` ``(n,
+    3)``, evenly spaced, to their nearest neighbours among all of them."""
+    from scipy.spatial import cKDTree
+
+    if len(points) < 2:
+        return float("inf")
+    sample = points[:: max(1, len(points) // _SPACING_SAMPLES)]
+    d, _ = cKDTree(points).query(sample, k=2)
+    return float(np.median(d[:, 1]))
 
 
 def units_hint(points: Array, image: bool = False) -> str | None:
