@@ -351,7 +351,8 @@ def test_a_bins_walls_are_no_target_while_something_lies_in_it(rule):
 def test_a_box_in_a_bin_is_grasped_not_the_bin(tmp_path):
     """Rendered: a 5 x 5 x 10 cm box in a 30 x 22 x 10 cm bin. The target was
     the bin's walls ("0.227 m across ... more than the gripper opens"); the
-    Allegro hand's default spec now grasps the box."""
+    Allegro hand's default spec now grasps the box, and the Franka hand's with
+    approaches from above."""
     import trimesh
 
     from wsgrasp.default_specs import default_spec
@@ -386,3 +387,14 @@ def test_a_box_in_a_bin_is_grasped_not_the_bin(tmp_path):
     result = pipe.plan(syn.points)
     assert result.found, result.hint
     assert across(result.T_world_tcp[:3, 3], box) < 0.02
+    # the Franka hand's default comes from the side only, which the walls block:
+    # the hint says so, and approaching from above grasps the box
+    data = default_spec("franka_hand")[0]
+    side = wsgrasp.Pipeline(load_spec(data)).plan(syn.points)
+    assert not side.found
+    assert "blocked by neighbours: object" in side.hint
+    assert "sampling.mode approach_sphere also approaches from above" in side.hint
+    data["sampling"] = {"mode": "approach_sphere", "directions": 8, "orientations": 4}
+    above = wsgrasp.Pipeline(load_spec(data)).plan(syn.points)
+    assert above.found, above.hint
+    assert across(above.T_world_tcp[:3, 3], box) < 0.02

@@ -470,6 +470,13 @@ class Pipeline:
             )
             if prep.blocked_by:
                 hint += "; " + _blockers(prep.blocked_by) + _siblings(prep)
+                if self.spec.sampling.mode == "major_axis" and not _from_above(prep):
+                    hint += (
+                        "; every candidate comes from the side (the object stands "
+                        "upright, and sampling.mode major_axis sets the gripper "
+                        "across its major axis): sampling.mode approach_sphere "
+                        "also approaches from above"
+                    )
         timing["total"] = shared_ms + (time.perf_counter() - t_start) * 1e3
         return PlanResult(
             found=found,
@@ -710,6 +717,19 @@ def _clear_of_neighbours(
             out = _choose(out, None, g, prep.search_input, spheres, top_k)
     ms = (time.perf_counter() - t0) * 1e3
     return replace(out, timing_ms={**out.timing_ms, "neighbours": ms})
+
+
+#: an approach within this angle (degrees) of straight down comes from above
+_ABOVE_DEG = 45.0
+
+
+def _from_above(prep: Prepared) -> bool:
+    """Whether some candidate orientation approaches from above the table
+    (within :data:`_ABOVE_DEG` of straight down onto it)."""
+    inp = prep.search_input
+    approach = inp.orientations.R_object_gwc[:, :, 2] @ inp.T_world_object[:3, :3].T
+    up = inp.table.T_world_table[:3, 2]
+    return bool((approach @ up < -np.cos(np.deg2rad(_ABOVE_DEG))).any())
 
 
 def _blockers(blocked_by: dict[str, dict[str, int]]) -> str:
