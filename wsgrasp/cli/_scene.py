@@ -301,6 +301,7 @@ def info(
         "table_normal": seg.table.normal,
         "table_offset": seg.table.offset,
         "table_points": int(seg.table_points.shape[0]),
+        "depth_noise": seg.info.get("depth_noise"),
         "clusters": [int(c.shape[0]) for c in seg.clusters],
         "object_points": int(obj_points.shape[0]),
         "obstacles": len(obstacles),
@@ -319,9 +320,11 @@ def info(
         f"{len(flying)} flying pixels), {summary['downsampled']} after voxel "
         f"{ps.preprocess.voxel_size:g} m"
     )
+    noise = summary["depth_noise"]
+    scatter = "" if noise is None else f", depth noise {1e3 * float(noise):.1f} mm"
     console.print(
         f"table: normal ({n[0]:.3f}, {n[1]:.3f}, {n[2]:.3f}), offset "
-        f"{seg.table.offset:.4f} m{tilt}, {summary['table_points']} points"
+        f"{seg.table.offset:.4f} m{tilt}, {summary['table_points']} points{scatter}"
     )
     console.print(
         f"objects: {len(seg.clusters)} ({', '.join(map(str, summary['clusters']))} "

@@ -767,12 +767,17 @@ def check_units(points: Array, name: str = "points") -> None:
     The robust extent (0.5th to 99.5th percentile per axis) must stay below
     ``MAX_SCENE_EXTENT``; a larger one usually means millimetres, unless the
     points lie as close together as a depth camera's in metres do (their
-    median spacing below :data:`METRE_SPACING`): a cloud in metres with
-    points far from the rest (5 % of them strewn over 100 m, the background
-    of an outdoor view), which the segmenter leaves aside.
+    median spacing below :data:`METRE_SPACING`) and the far ones are few (the
+    5th to 95th percentiles per axis span under ``MAX_SCENE_EXTENT``): a cloud
+    in metres with points strewn far from the rest (5 % of them over 100 m, the
+    background of an outdoor view), which the segmenter leaves aside. A whole
+    view far from the others (its pose's translation in millimetres) is still
+    refused.
     """
     extent = robust_extent(points)
-    if extent > MAX_SCENE_EXTENT and _spacing(points) >= METRE_SPACING:
+    if extent > MAX_SCENE_EXTENT and (
+        _spacing(points) >= METRE_SPACING or _central_extent(points) > MAX_SCENE_EXTENT
+    ):
         # the unit that makes the scene closest to a metre-sized tabletop
         unit, short, scale = min(
             (("centimetres", "cm", 100.0), ("millimetres", "mm", 1000.0)),
@@ -794,6 +799,13 @@ def check_units(points: Array, name: str = "points") -> None:
 METRE_SPACING = 0.02
 #: the spacing is the median over this many points, each against the whole cloud
 _SPACING_SAMPLES = 2000
+
+
+def _central_extent(points: Array) -> float:
+    """The largest side of the box of ``points`` ``(n, 3)`` between the 5th and
+    the 95th percentiles per axis."""
+    lo, hi = np.percentile(points, [5.0, 95.0], axis=0)
+    return float(np.max(hi - lo))
 
 
 def _spacing(points: Array) -> float:
