@@ -339,3 +339,36 @@ def test_a_tilted_table_under_camera_poses_is_a_warning():
         == []
     )
     assert pipe.plan(scene_from_arrays(view.points)).warnings == []
+
+
+def test_a_scene_yaml_takes_a_pose_as_tf2_gives_it(tmp_path: Path) -> None:
+    """``T_world_camera: {translation, quaternion_xyzw}`` (tf2_echo's pose, the
+    scalar last) is the same view as its 4x4 matrix, in the scene's units; a
+    quaternion that is not of unit length is refused naming the view."""
+    from scipy.spatial.transform import Rotation
+
+    views = small_scene("box", "upright", 0).views
+    path = write_scene_yaml(tmp_path / "m", views)
+    doc = yaml.safe_load(path.read_text())
+    for entry, view in zip(doc["views"], views, strict=True):
+        T = view.T_world_camera
+        entry["T_world_camera"] = {
+            "translation": [float(v) * 100 for v in T[:3, 3]],
+            "quaternion_xyzw": Rotation.from_matrix(T[:3, :3]).as_quat().tolist(),
+        }
+    doc["units"] = "cm"  # clouds and translations
+    for entry in doc["views"]:  # the clouds in centimetres too
+        cloud = tmp_path / "m" / entry["cloud"]
+        points = load_cloud(cloud)
+        np.save(cloud.with_suffix(".npy"), points * 100)
+        entry["cloud"] = cloud.with_suffix(".npy").name
+    tf = tmp_path / "m" / "tf.yaml"
+    tf.write_text(yaml.safe_dump(doc))
+    got, want = load_scene(tf), load_scene(path)
+    for a, b in zip(got.views, want.views, strict=True):
+        assert_allclose(a.T_world_camera, b.T_world_camera, atol=1e-9)
+    assert_allclose(got.points, want.points, atol=1e-9)
+    doc["views"][1]["T_world_camera"]["quaternion_xyzw"] = [0.5, 0.5, 0.5, 0.9]
+    tf.write_text(yaml.safe_dump(doc))
+    with pytest.raises(InputError, match=r"views\[1\]\.T_world_camera\.quaternion"):
+        load_scene(tf)

@@ -17,7 +17,7 @@ A scene is one or several views. Accepted inputs:
           T_world_camera: [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]
         - depth: view_1.png          # millimetres unless depth_scale says
           intrinsics: {fx: 615.0, fy: 615.0, cx: 319.5, cy: 239.5}
-          T_world_camera: ...
+          T_world_camera: {translation: [0.4, 0, 0.5], quaternion_xyzw: [1, 0, 0, 0]}
 
 - several cloud files only with ``registered=True`` (CLI ``--registered``): they are
   then taken to be in one world frame already. Several clouds without poses are
@@ -345,6 +345,39 @@ _EXTRA_COLUMNS = 16
 # --------------------------------------------------------------------------------
 # scenes
 # --------------------------------------------------------------------------------
+class CameraPose(BaseModel):
+    """A camera's pose as ROS's tf2 gives it (``ros2 run tf2_ros tf2_echo world
+    camera_optical_frame``): a translation and a unit quaternion, x, y, z, w."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    translation: tuple[float, float, float] = Field(
+        description="the camera's origin in the world (the scene's units)"
+    )
+    quaternion_xyzw: tuple[float, float, float, float] = Field(
+        description="the rotation, scalar last as ROS gives it"
+    )
+
+    def matrix(self, name: str) -> Array:
+        """The pose as a 4x4 transform; a quaternion that is not of unit
+        length (within ``1e-3``) is refused naming ``name``."""
+        from scipy.spatial.transform import Rotation
+
+        q = np.asarray(self.quaternion_xyzw, dtype=np.float64)
+        norm = float(np.linalg.norm(q))
+        if abs(norm - 1.0) > 1e-3:
+            raise InputError(
+                f"{name}.quaternion_xyzw {list(self.quaternion_xyzw)} has length "
+                f"{norm:.4g}, expected 1",
+                hint="give the rotation as a unit quaternion x, y, z, w (tf2's "
+                "order: the scalar last), or the pose as a 4x4 matrix",
+            )
+        T = np.eye(4)
+        T[:3, :3] = Rotation.from_quat(q / norm).as_matrix()
+        T[:3, 3] = self.translation
+        return T
+
+
 class _ViewEntry(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
@@ -370,9 +403,11 @@ class _ViewEntry(BaseModel):
         description="metres per unit of the depth image; default 0.001 for "
         "integer images (millimetres), 1 for float images (metres)",
     )
-    T_world_camera: list[list[float]] = Field(
+    T_world_camera: list[list[float]] | CameraPose = Field(
         default_factory=lambda: np.eye(4).tolist(),
-        description="4x4 pose of the camera in the world frame",
+        description="pose of the camera in the world frame: a 4x4 (or 3x4) "
+        "matrix, or {translation: [x, y, z], quaternion_xyzw: [x, y, z, w]} as "
+        "tf2 prints it",
     )
     name: str = ""
 
@@ -566,7 +601,11 @@ def _read_scene_yaml(path: Path) -> tuple[list[View], bool]:
         file_path = Path(file)
         if not file_path.is_absolute():
             file_path = path.parent / file_path
-        T = _check_pose(entry.T_world_camera, f"{path}: views[{i}].T_world_camera")
+        name = f"{path}: views[{i}].T_world_camera"
+        pose = entry.T_world_camera
+        T = _check_pose(
+            pose.matrix(name) if isinstance(pose, CameraPose) else pose, name
+        )
         T[:3, 3] *= scale
         if entry.depth is not None and entry.intrinsics is not None:
             k = entry.intrinsics
