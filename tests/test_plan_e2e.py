@@ -151,6 +151,15 @@ def test_json_fields(pipelines):
     ):
         assert key in data
     assert np.asarray(data["T_world_ee"]).shape == (4, 4)
+    # each pose again as a robot's message takes it, the quaternion scalar last
+    from scipy.spatial.transform import Rotation
+
+    for name in ("ee", "tcp", "pregrasp"):
+        T = np.asarray(data[f"T_world_{name}"])
+        pose = data["poses"][name]
+        np.testing.assert_allclose(pose["translation"], T[:3, 3])
+        R = Rotation.from_quat(pose["quaternion_xyzw"]).as_matrix()
+        np.testing.assert_allclose(R, T[:3, :3], atol=1e-12)
     assert "total" in data["timing_ms"]
     assert data["feasible"] + sum(data["rejections"].values()) == data["candidates"]
 

@@ -244,4 +244,26 @@ class PlanResult:
             "warnings": self.warnings,
             "T_world_object": m(self.T_world_object),
             "object_extents": m(self.object_extents),
+            # the same poses as a robot's messages take them (geometry_msgs/Pose)
+            "poses": {
+                name: _translation_quaternion(T)
+                for name, T in (
+                    ("ee", self.T_world_ee),
+                    ("tcp", self.T_world_tcp),
+                    ("pregrasp", self.T_world_pregrasp),
+                )
+                if T is not None
+            },
         }
+
+
+def _translation_quaternion(T: NDArray[np.float64]) -> dict[str, list[float]]:
+    """A 4x4 pose as ``{translation: [x, y, z], quaternion_xyzw: [x, y, z, w]}``,
+    the scalar last as ROS orders it (the form a scene YAML takes)."""
+    from scipy.spatial.transform import Rotation
+
+    T = np.asarray(T, dtype=np.float64)
+    return {
+        "translation": T[:3, 3].tolist(),
+        "quaternion_xyzw": Rotation.from_matrix(T[:3, :3]).as_quat().tolist(),
+    }
