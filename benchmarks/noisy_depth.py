@@ -11,12 +11,10 @@ thresholds fixed whatever the noise), the same drops for both.
 from __future__ import annotations
 
 import argparse
-import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
-import yaml
+from _paired import run_paired
 
 from wsgrasp.default_specs import default_spec
 
@@ -34,21 +32,14 @@ def main() -> int:
     segmenter = data.get("segmenter", {"name": "ransac_dbscan"})
     options = {**segmenter.get("options", {}), "noise_floor": 0.0}
     fixed = {**data, "segmenter": {**segmenter, "options": options}}
-    with tempfile.TemporaryDirectory() as tmp:
-        specs = {}
-        for label, spec in (("default", data), ("fixed-floor", fixed)):
-            specs[label] = Path(tmp) / f"{label}.yaml"
-            specs[label].write_text(yaml.safe_dump(spec))
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        cmd = [
-            str(Path(sys.executable).with_name("wsgrasp")), "eval",
-            "-g", args.gripper, "--no-paper",
-            *(a for label, p in specs.items() for a in ("-s", f"{label}={p}")),
-            "--objects", args.objects, "--trials", str(args.trials),
-            "--sim", f"depth_noise={args.noise}", "--seed", "0",
-            "-j", str(args.workers), "--json-out", str(args.out),
-        ]  # fmt: skip
-        return subprocess.run(cmd).returncode
+    return run_paired(
+        args.gripper,
+        {"default": data, "fixed-floor": fixed},
+        ["--objects", args.objects, "--trials", str(args.trials)]
+        + ["--sim", f"depth_noise={args.noise}"],
+        args.out,
+        args.workers,
+    )
 
 
 if __name__ == "__main__":

@@ -17,13 +17,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 import trimesh
-import yaml
+from _paired import run_paired
 
 from wsgrasp.default_specs import default_spec
 
@@ -46,20 +45,14 @@ def main() -> int:
             box.export(folder / f"box_{round(cm * 10)}mm.obj")
         data, _ = default_spec(args.gripper)
         frame = {**data, "sampling": {**data["sampling"], "across_narrowest": False}}
-        specs = {}
-        for label, spec in (("default", data), ("frame-angles", frame)):
-            specs[label] = Path(tmp) / f"{label}.yaml"
-            specs[label].write_text(yaml.safe_dump(spec))
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        cmd = [
-            str(Path(sys.executable).with_name("wsgrasp")), "eval",
-            "-g", args.gripper, "--no-paper",
-            *(a for label, p in specs.items() for a in ("-s", f"{label}={p}")),
-            "--objects", str(folder), "--trials", str(args.trials),
-            "--mass", str(args.mass), "--seed", "0",
-            "-j", str(args.workers), "--json-out", str(args.out),
-        ]  # fmt: skip
-        code = subprocess.run(cmd).returncode
+        code = run_paired(
+            args.gripper,
+            {"default": data, "frame-angles": frame},
+            ["--objects", str(folder), "--trials", str(args.trials)]
+            + ["--mass", str(args.mass)],
+            args.out,
+            args.workers,
+        )
     if code == 0:  # the boxes' folder is gone: name them instead
         report = json.loads(args.out.read_text())
         report["objects"] = (
