@@ -53,7 +53,9 @@ from wsgrasp.perception.types import Array, Scene, View
 
 __all__ = [
     "CLOUD_SUFFIXES",
+    "CameraPose",
     "MAX_SCENE_EXTENT",
+    "METRE_SPACING",
     "NUMPY_READ_ERRORS",
     "check_units",
     "check_views_overlap",

@@ -427,7 +427,7 @@ def height_noise(h: Array, band: float, points: int = 4000) -> float:
 
 #: "nothing stands on the table" names the largest cluster too small to be an
 #: object where it has this many points or more (a 1.2 cm cube seen by three
-#: cameras, 5 mm voxels: 22)
+#: cameras, 5 mm voxels: 14 above min_height)
 _SMALL_HINT_POINTS = 8
 #: the reason a cluster that hangs along the table's border is not an object
 _HANGING = "hanging along its border"
