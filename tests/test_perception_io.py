@@ -372,3 +372,26 @@ def test_a_scene_yaml_takes_a_pose_as_tf2_gives_it(tmp_path: Path) -> None:
     tf.write_text(yaml.safe_dump(doc))
     with pytest.raises(InputError, match=r"views\[1\]\.T_world_camera\.quaternion"):
         load_scene(tf)
+
+
+def test_scene_from_arrays_takes_a_pose_as_tf2_gives_it() -> None:
+    """The Python API takes each view's pose as a matrix, a CameraPose or its
+    data, the same view each way; a mapping that is no pose is named."""
+    from scipy.spatial.transform import Rotation
+
+    from wsgrasp.perception.io import CameraPose
+
+    views = small_scene("box", "upright", 0).views
+    matrices = [(v.points, v.T_world_camera) for v in views]
+    poses = []
+    for k, v in enumerate(views):
+        T = v.T_world_camera
+        data = {
+            "translation": T[:3, 3].tolist(),
+            "quaternion_xyzw": Rotation.from_matrix(T[:3, :3]).as_quat().tolist(),
+        }
+        poses.append((v.points, CameraPose(**data) if k else data))
+    want, got = scene_from_arrays(matrices), scene_from_arrays(poses)
+    assert_allclose(got.points, want.points, atol=1e-9)
+    with pytest.raises(InputError, match=r"views\[0\]\.T_world_camera .* is no pose"):
+        scene_from_arrays([(views[0].points, {"translation": [0, 0, 0]})])

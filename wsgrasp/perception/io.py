@@ -39,7 +39,7 @@ from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from wsgrasp.errors import InputError, SpecError
 from wsgrasp.geometry import transform_points
@@ -603,11 +603,7 @@ def _read_scene_yaml(path: Path) -> tuple[list[View], bool]:
         file_path = Path(file)
         if not file_path.is_absolute():
             file_path = path.parent / file_path
-        name = f"{path}: views[{i}].T_world_camera"
-        pose = entry.T_world_camera
-        T = _check_pose(
-            pose.matrix(name) if isinstance(pose, CameraPose) else pose, name
-        )
+        T = _pose_matrix(entry.T_world_camera, f"{path}: views[{i}].T_world_camera")
         T[:3, 3] *= scale
         if entry.depth is not None and entry.intrinsics is not None:
             k = entry.intrinsics
@@ -640,6 +636,23 @@ def _check_pose(T: Any, name: str) -> Array:
         ) from None
 
 
+def _pose_matrix(pose: Any, name: str) -> Array:
+    """A view's pose as a checked 4x4 transform, from a matrix, a
+    :class:`CameraPose` or a mapping of its fields."""
+    if isinstance(pose, dict):
+        try:
+            pose = CameraPose.model_validate(pose)
+        except ValidationError as exc:
+            raise InputError(
+                f"{name} {pose!r} is no pose: {exc.errors()[0]['msg']}",
+                hint="give a 4x4 matrix, or translation: [x, y, z] and "
+                "quaternion_xyzw: [x, y, z, w]",
+            ) from None
+    if isinstance(pose, CameraPose):
+        pose = pose.matrix(name)
+    return _check_pose(pose, name)
+
+
 def scene_from_arrays(
     views: ArrayLike | Sequence[tuple[ArrayLike, ArrayLike]],
     *,
@@ -653,7 +666,10 @@ def scene_from_arrays(
     ----------
     views
         Either one cloud ``(n, 3)`` already in the world frame, or a list of
-        ``(points (n_i, 3), T_world_camera (4, 4))`` pairs, points in camera frame.
+        ``(points (n_i, 3), T_world_camera)`` pairs, points in camera frame, each
+        pose a 4x4 matrix, a :class:`CameraPose` or its data
+        (``{"translation": [x, y, z], "quaternion_xyzw": [x, y, z, w]}``, as tf2
+        gives it).
     icp
         Refine the poses with ICP.
     views_overlap
@@ -664,7 +680,7 @@ def scene_from_arrays(
         vlist = [
             View(
                 points=_check_shape(p, f"views[{i}]"),
-                T_world_camera=_check_pose(T, f"views[{i}].T_world_camera"),
+                T_world_camera=_pose_matrix(T, f"views[{i}].T_world_camera"),
                 name=f"view_{i}",
             )
             for i, (p, T) in enumerate(views)  # type: ignore[misc]
