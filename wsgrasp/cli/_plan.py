@@ -28,10 +28,10 @@ def register(app: typer.Typer) -> None:
 
 
 def _pose_text(T: np.ndarray) -> str:
-    from scipy.spatial.transform import Rotation
+    from wsgrasp.planning.result import translation_quaternion
 
-    xyz = T[:3, 3]
-    q = Rotation.from_matrix(T[:3, :3]).as_quat()  # x, y, z, w
+    pose = translation_quaternion(T)
+    xyz, q = pose["translation"], pose["quaternion_xyzw"]
     return (
         f"xyz [{xyz[0]:+.4f}, {xyz[1]:+.4f}, {xyz[2]:+.4f}] m, "
         f"q_xyzw [{q[0]:+.4f}, {q[1]:+.4f}, {q[2]:+.4f}, {q[3]:+.4f}]"

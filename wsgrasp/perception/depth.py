@@ -321,13 +321,10 @@ def _subsampled(k: Intrinsics, info: Any, name: str) -> Intrinsics:
     defines them. A binned pixel is the mean of its full pixels, its centre
     theirs: full ``u = b u' + (b - 1) / 2 + x_offset``."""
 
-    def get(obj: Any, key: str) -> Any:
-        return obj.get(key) if isinstance(obj, dict) else getattr(obj, key, None)
-
     try:
-        bx, by = (max(int(get(info, f"binning_{a}") or 0), 1) for a in "xy")
-        roi = get(info, "roi")
-        ox, oy = (int(get(roi, f"{a}_offset") or 0) if roi else 0 for a in "xy")
+        bx, by = (max(int(_get(info, f"binning_{a}") or 0), 1) for a in "xy")
+        roi = _get(info, "roi")
+        ox, oy = (int(_get(roi, f"{a}_offset") or 0) if roi else 0 for a in "xy")
     except (TypeError, ValueError):
         raise InputError(
             f"{name}: its binning_x, binning_y or roi offsets are not whole numbers",
@@ -345,11 +342,16 @@ def _subsampled(k: Intrinsics, info: Any, name: str) -> Intrinsics:
     )
 
 
+def _get(obj: Any, key: str) -> Any:
+    """``key`` of a mapping, or attribute of a message; None where it has none."""
+    return obj.get(key) if isinstance(obj, dict) else getattr(obj, key, None)
+
+
 def _field(info: Any, *keys: str) -> Any:
     """The first of ``keys`` that ``info`` (a mapping or a message) has, a
     calibration file's ``{data: [...]}`` unwrapped; None where none is."""
     for key in keys:
-        value = info.get(key) if isinstance(info, dict) else getattr(info, key, None)
+        value = _get(info, key)
         if isinstance(value, dict):
             value = value.get("data")
         if value is not None:

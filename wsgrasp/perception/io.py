@@ -805,16 +805,16 @@ def _to_world(view: View) -> Array:
     return view.points @ T[:3, :3].T + T[:3, 3]
 
 
-def robust_extent(points: Array) -> float:
-    """The largest side of a cloud's ``(n, 3)`` box between the 0.5th and the
-    99.5th percentiles per axis; its plain extent where that is at most
-    ``MAX_SCENE_EXTENT`` (no need for percentiles); 0 for no point."""
+def robust_extent(points: Array, tail: float = 0.5) -> float:
+    """The largest side of a cloud's ``(n, 3)`` box between the ``tail``-th and
+    the ``(100 - tail)``-th percentiles per axis; its plain extent where that is
+    at most ``MAX_SCENE_EXTENT`` (no need for percentiles); 0 for no point."""
     if points.shape[0] == 0:
         return 0.0
     extent = float(np.max(points.max(axis=0) - points.min(axis=0)))
     if extent <= MAX_SCENE_EXTENT:
         return extent
-    lo, hi = np.percentile(points, [0.5, 99.5], axis=0)
+    lo, hi = np.percentile(points, [tail, 100.0 - tail], axis=0)
     return float(np.max(hi - lo))
 
 
@@ -832,8 +832,11 @@ def check_units(points: Array, name: str = "points") -> None:
     refused.
     """
     extent = robust_extent(points)
+    # the far points many (a view apart), or the points as far apart as in
+    # millimetres; the percentiles first, the nearest-neighbour tree if need be
     if extent > MAX_SCENE_EXTENT and (
-        _spacing(points) >= METRE_SPACING or _central_extent(points) > MAX_SCENE_EXTENT
+        robust_extent(points, _FEW_FAR) > MAX_SCENE_EXTENT
+        or _spacing(points) >= METRE_SPACING
     ):
         # the unit that makes the scene closest to a metre-sized tabletop
         unit, short, scale = min(
@@ -856,13 +859,9 @@ def check_units(points: Array, name: str = "points") -> None:
 METRE_SPACING = 0.02
 #: the spacing is the median over this many points, each against the whole cloud
 _SPACING_SAMPLES = 2000
-
-
-def _central_extent(points: Array) -> float:
-    """The largest side of the box of ``points`` ``(n, 3)`` between the 5th and
-    the 95th percentiles per axis."""
-    lo, hi = np.percentile(points, [5.0, 95.0], axis=0)
-    return float(np.max(hi - lo))
+#: far points are few when the box between these percentiles (per axis, from
+#: each end) stays within ``MAX_SCENE_EXTENT``
+_FEW_FAR = 5.0
 
 
 def _spacing(points: Array) -> float:

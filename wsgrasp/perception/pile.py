@@ -47,12 +47,14 @@ def pile_target(segmentation: Segmentation, rule: Any) -> int:
     """
     clusters = segmentation.clusters
     name = rule.rule
-    # a container (a bin's walls) is no target while something lies in it
-    skip = np.where(containers(segmentation), -np.inf, 0.0)
-    if name == "highest":
-        tops = [float(segmentation.table.signed_distance(c).max()) for c in clusters]
-        return int(np.argmax(tops + skip))
-    if name == "most_isolated":
+    if name in ("highest", "most_isolated"):
+        # a container (a bin's walls) is no target while something lies in it
+        skip = np.where(containers(segmentation), -np.inf, 0.0)
+        if name == "highest":
+            tops = [
+                float(segmentation.table.signed_distance(c).max()) for c in clusters
+            ]
+            return int(np.argmax(tops + skip))
         clear = _clearances(clusters, unsegmented(segmentation))
         return int(np.argmax(clear + skip))
     if name in ("id", "cluster"):
@@ -105,6 +107,7 @@ def containers(segmentation: Segmentation) -> np.ndarray:
     top = np.array([float(h.max()) for h in heights])
     low = np.array([float(h.min()) for h in heights])
     for i in range(len(clusters)):
+        outline = None  # its outline in the table's plane, once needed
         for j in range(len(clusters)):
             if i == j or low[j] > top[i] - _INSIDE_DEPTH:
                 continue
@@ -114,7 +117,8 @@ def containers(segmentation: Segmentation) -> np.ndarray:
             if len(np.unique(sector.astype(np.int64) % _SECTORS)) < _SURROUNDING:
                 continue
             # and the other lies within its outline (not under it, wider)
-            outline = Footprint.from_points(table.normal, table.offset, clusters[i])
+            if outline is None:
+                outline = Footprint.from_uv(table.normal, table.offset, basis, uv[i])
             if np.mean(outline.depths(clusters[j]) >= _INSET) >= _WITHIN:
                 found[i] = True
                 break

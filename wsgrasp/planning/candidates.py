@@ -162,11 +162,19 @@ def from_above(normal_object: Array, thetas: Array) -> float:
     projected into the object's xy plane), or 0 where the major axis stands
     within ``LEVEL_DEG`` of the table's normal (every angle is then a side
     approach). ``normal_object``: the table's unit normal in the object frame."""
-    nx, ny = float(normal_object[0]), float(normal_object[1])
-    if np.hypot(nx, ny) <= np.sin(np.deg2rad(LEVEL_DEG)) or not len(thetas):
+    if _upright(normal_object) or not len(thetas):
         return 0.0
+    nx, ny = float(normal_object[0]), float(normal_object[1])
     # z_gwc = -(cos θ, sin θ, 0) is -normal's direction at θ = atan2(ny, nx)
     return float(np.arctan2(ny, nx) - thetas[len(thetas) // 2])
+
+
+def _upright(normal_object: Array) -> bool:
+    """Whether the major axis (object z) stands within ``LEVEL_DEG`` of the
+    table's unit normal ``normal_object`` (object frame)."""
+    return bool(
+        np.hypot(normal_object[0], normal_object[1]) <= np.sin(np.deg2rad(LEVEL_DEG))
+    )
 
 
 def across_narrowest(points: Array, R_world_object: Array, thetas: Array) -> float:
@@ -381,7 +389,7 @@ def orientation_set(
         level = np.sin(np.deg2rad(LEVEL_DEG))
         if table:
             normal_object = R_world_object.T @ n
-            if np.hypot(normal_object[0], normal_object[1]) > level:
+            if not _upright(normal_object):
                 thetas = thetas + from_above(normal_object, thetas)
             elif object_points is not None and getattr(
                 sampling, "across_narrowest", False

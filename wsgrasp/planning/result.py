@@ -11,7 +11,14 @@ from numpy.typing import NDArray
 from wsgrasp.planning._fields import BuiltOnRead
 from wsgrasp.planning.poses import PoseArray
 
-__all__ = ["REASONS", "CandidateSet", "Contact", "Alternative", "PlanResult"]
+__all__ = [
+    "REASONS",
+    "CandidateSet",
+    "Contact",
+    "Alternative",
+    "PlanResult",
+    "translation_quaternion",
+]
 
 #: Rejection reasons, by code. Code 0 is a feasible candidate. A candidate gets the
 #: first reason that applies, in this order (the order of Algorithm 1's checks,
@@ -246,7 +253,7 @@ class PlanResult:
             "object_extents": m(self.object_extents),
             # the same poses as a robot's messages take them (geometry_msgs/Pose)
             "poses": {
-                name: _translation_quaternion(T)
+                name: translation_quaternion(T)
                 for name, T in (
                     ("ee", self.T_world_ee),
                     ("tcp", self.T_world_tcp),
@@ -257,7 +264,7 @@ class PlanResult:
         }
 
 
-def _translation_quaternion(T: NDArray[np.float64]) -> dict[str, list[float]]:
+def translation_quaternion(T: NDArray[np.float64]) -> dict[str, list[float]]:
     """A 4x4 pose as ``{translation: [x, y, z], quaternion_xyzw: [x, y, z, w]}``,
     the scalar last as ROS orders it (the form a scene YAML takes)."""
     from scipy.spatial.transform import Rotation
