@@ -609,6 +609,77 @@ def test_a_cube_larger_than_a_hand_encloses_is_too_large(capsys, tmp_path):
         assert "narrowest" in text and "workspaces span" in text
 
 
+def _default_pipeline(gripper: str) -> Pipeline:
+    from wsgrasp.default_specs import default_spec
+    from wsgrasp.spec import PipelineSpec
+
+    return Pipeline(PipelineSpec.model_validate(default_spec(gripper)[0]))
+
+
+def test_a_target_too_large_names_another_object_that_fits():
+    # the largest cluster, a 20 cm box, is the default rule's target; the 5 cm
+    # box beside it fits the jaw, and the hint's rule plans for it
+    rng = np.random.default_rng(11)
+    world = np.concatenate(
+        [
+            _table(rng, 20000),
+            _box(rng, [0.12, 0.0, 0.1], [0.2, 0.2, 0.2], 6000),
+            _box(rng, [-0.12, 0.05, 0.04], [0.05, 0.05, 0.08], 1500),
+        ]
+    )
+    scene = _posed_scene(world, camera_z=0.6)
+    result = _default_pipeline("franka_hand").plan(scene)
+    assert not result.found
+    assert "too large for franka_hand" in result.hint
+    match = re.search(r"`target: \{rule: nearest, point: \[([^\]]+)\]\}`", result.hint)
+    assert match, result.hint
+    point = np.array([float(x) for x in match.group(1).split(",")])
+    assert np.linalg.norm(point[:2] - [-0.12, 0.05]) < 0.02, result.hint
+    pipeline = _default_pipeline("franka_hand")
+    pipeline.spec.target.rule = "nearest"
+    pipeline.spec.target.point = tuple(point)
+    again = pipeline.plan(scene)
+    assert again.found, again.hint
+    assert np.linalg.norm(again.T_world_tcp[:2, 3] - [-0.12, 0.05]) < 0.03
+
+
+def test_a_target_too_large_whose_top_fits_names_the_clutter_segmenter():
+    from types import SimpleNamespace
+
+    from wsgrasp.api import _what_fits
+    from wsgrasp.gripper import load_gripper
+    from wsgrasp.perception.types import Plane
+
+    g = load_gripper("franka_hand")
+    rng = np.random.default_rng(12)
+    table = Plane(normal=np.array([0.0, 0.0, 1.0]), offset=0.0)
+
+    def prep(points, obstacles=()):
+        return SimpleNamespace(
+            search_input=SimpleNamespace(object_points=points),
+            table_plane=table,
+            obstacles=list(obstacles),
+            obstacle_names=[f"object {k + 1}" for k in range(len(obstacles))],
+        )
+
+    # a 5 x 5 x 10 cm box on a 20 x 15 x 2 cm tray: one cluster to ransac_dbscan
+    tray = _box(rng, [0.0, 0.0, 0.01], [0.2, 0.15, 0.02], 3000)
+    box = _box(rng, [0.03, 0.02, 0.07], [0.05, 0.05, 0.1], 1500)
+    hint = _what_fits(prep(np.concatenate([tray, box])), g)
+    assert "segmenter: {name: clutter}" in hint and "rule: highest" in hint, hint
+    top = re.search(r"its top (\d+) cm \((\d+\.\d) cm across, at \[([^\]]+)\]", hint)
+    assert top, hint
+    assert 8 <= int(top.group(1)) <= 10 and float(top.group(2)) <= 8.0
+    at = np.array([float(x) for x in top.group(3).split(",")])
+    assert np.linalg.norm(at[:2] - [0.03, 0.02]) < 0.01
+    # a box too large all the way up, alone or beside another too large: nothing
+    big = _box(rng, [0.0, 0.0, 0.1], [0.2, 0.2, 0.2], 4000)
+    assert _what_fits(prep(big), g) == ""
+    assert _what_fits(prep(big, [big + [0.4, 0, 0]]), g) == ""
+    # a target that fits needs no suggestion
+    assert _what_fits(prep(box, [big]), g) == ""
+
+
 @pytest.mark.parametrize("noise", [0.0, 0.003, 0.01])
 def test_too_large_is_decided_from_the_spheres_for_jaws_and_hands(noise):
     from wsgrasp.api import _too_large

@@ -468,6 +468,7 @@ class Pipeline:
             hint = _no_grasp(
                 prep, out, hist, g, distance, self.spec.approach.close_to == "closed"
             )
+            hint += _what_fits(prep, g)
             if prep.blocked_by:
                 hint += "; " + _blockers(prep.blocked_by) + _siblings(prep)
                 if self.spec.sampling.mode == "major_axis" and not _from_above(prep):
@@ -1203,6 +1204,70 @@ def _no_grasp(
     heights = prep.table_plane.signed_distance(inp.object_points)
     width = narrowest_width(inp.object_points, prep.table_plane.normal)
     return no_grasp_hint(hist, inp.extents, g, float(heights.max()), width)
+
+
+#: a top part of the target at least this tall (m) that fits between the
+#: fingers may be an object standing on another
+_TOP_PART_HEIGHT = 0.02
+#: the heights (m) the target is cut at to find that part lie this far apart
+_TOP_PART_STEP = 0.005
+#: another cluster with fewer points is no object to suggest
+_SUGGESTED_POINTS = 20
+
+
+def _what_fits(prep: Prepared, g: GripperModel) -> str:
+    """When the target is wider than the gripper encloses seen from above, what
+    in the scene would fit between the fingers, and the spec that plans for it
+    (``""`` when nothing does): other objects on the table (the one a
+    ``nearest`` rule picks at their centroid), else the target's own top part,
+    which may be an object standing on another (a box on a plate, a book or a
+    tray) that the ``clutter`` segmenter splits off."""
+    from wsgrasp.perception.pile import UNSEGMENTED
+
+    points = prep.search_input.object_points
+    up = np.asarray(prep.table_plane.normal, dtype=np.float64)
+    fits = g.enclosure + _WIDTH_SLACK
+    if g.enclosure <= 0.0 or len(points) < 4 or narrowest_width(points, up) <= fits:
+        return ""
+    others = []
+    for name, cloud in zip(prep.obstacle_names, prep.obstacles, strict=False):
+        if name == UNSEGMENTED or len(cloud) < _SUGGESTED_POINTS:
+            continue
+        width = narrowest_width(cloud, up)
+        if 0.0 < width <= fits:
+            others.append((width, cloud.mean(axis=0)))
+    if others:
+        width, c = others[0]
+        at = ", ".join(f"{x:.3f}" for x in c)
+        more = f" ({len(others)} such objects)" if len(others) > 1 else ""
+        return (
+            f"; another object on the table fits between the fingers{more}: the "
+            f"one {width * 100:.1f} cm across at [{at}] is planned for with "
+            f"`target: {{rule: nearest, point: [{at}]}}`"
+        )
+    heights = prep.table_plane.signed_distance(points)
+    levels = np.arange(_TOP_PART_STEP, heights.max() - _TOP_PART_HEIGHT, _TOP_PART_STEP)
+    # the part above a higher cut is a subset, never wider: the lowest cut
+    # whose part fits, by bisection
+    lo, hi = 0, len(levels)
+    while lo < hi:
+        mid = (lo + hi) // 2
+        top = points[heights > levels[mid]]
+        if len(top) >= _SUGGESTED_POINTS and narrowest_width(top, up) <= fits:
+            hi = mid
+        else:
+            lo = mid + 1
+    if lo == len(levels):
+        return ""
+    top = points[heights > levels[lo]]
+    at = ", ".join(f"{x:.3f}" for x in top.mean(axis=0))
+    return (
+        f"; its top {(heights.max() - levels[lo]) * 100:.0f} cm "
+        f"({narrowest_width(top, up) * 100:.1f} cm across, at [{at}]) fits between "
+        "the fingers: if that is an object standing on another (on a plate, a "
+        "book, a tray), the clutter segmenter plans for it alone: `segmenter: "
+        "{name: clutter}` with `target: {rule: highest}`"
+    )
 
 
 def _taken(out: SearchOutput, index: int) -> int:
