@@ -164,6 +164,35 @@ def test_an_object_hanging_over_the_table_does_not_stand_on_it(
         segment(points)
 
 
+@pytest.mark.parametrize("gap", [0.03, 0.05, 0.1])
+@pytest.mark.parametrize("views", [1, 3])
+def test_something_held_over_an_object_does_not_stand_on_the_table(
+    gap: float, views: int
+) -> None:
+    # a robot's finger (2 x 2 x 6 cm) held over a box: the box hides the table
+    # under it, but the cameras see the box's top under it, so it hangs: the
+    # box is the one object, its sides not filled in under the finger
+    rng = np.random.default_rng(3)
+    box = make_object("box", (0.05, 0.05, 0.1))
+    finger = make_object("box", (0.02, 0.02, 0.06))
+    parts = [
+        (box, transform_from(None, [0.0, 0.0, 0.05])),
+        (finger, transform_from(None, [0.005, -0.004, 0.1 + gap + 0.03])),
+    ]
+    cams = default_cameras(views, (0, 0, 0.05), rng=rng, width=200, height=150)
+    points = np.vstack(
+        [
+            v.points @ v.T_world_camera[:3, :3].T + v.T_world_camera[:3, 3]
+            for v in render_scene(parts, 0.5, cams, 0.001, rng)
+        ]
+    )
+    seg = segment(downsample(points, 0.005))
+    assert len(seg.clusters) == 1
+    heights = seg.table.signed_distance(seg.clusters[0])
+    assert heights.max() == pytest.approx(0.1, abs=0.01)
+    assert seg.info["planes_tried"][0]["not touching"] == 1
+
+
 def two_objects() -> np.ndarray:
     """A box at (0.1, 0, 0) and a smaller cylinder at (-0.1, 0.05, 0), z up."""
     rng = np.random.default_rng(5)

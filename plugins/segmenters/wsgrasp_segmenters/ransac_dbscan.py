@@ -3,8 +3,9 @@
 Nothing assumes the input frame has z up. Planes are found largest first (RANSAC on
 what the previous planes left); the table is the first plane with at least one
 cluster *standing* on one side of it: within ``contact_distance`` of the plane at
-its lowest, or higher where no camera sees the plane under its middle (a top seen
-from straight above: :func:`_hidden_below`; its sides are then filled in down to
+its lowest, or higher where no camera sees the plane under its middle, nor
+anything lower under it (a top seen from straight above, not a finger held over a
+box: :func:`_hidden_below`; its sides are then filled in down to
 the plane under its outline, :func:`_hidden_sides`), no larger than
 ``max_object_extent``, with ``min_points`` points or more. The normal is turned to
 the side with more standing points. Without the
@@ -306,7 +307,15 @@ class RansacDbscan:
             # a gap to the plane that no camera sees is no gap: a box, a can or a
             # ball seen from straight above shows its top alone
             hidden = _hidden_below(
-                plane_uv, normal, p, idx, lab, np.flatnonzero(far), o.cluster_eps
+                plane_uv,
+                normal,
+                p,
+                idx,
+                lab,
+                np.flatnonzero(far),
+                o.cluster_eps,
+                ah,
+                low - o.contact_distance,
             )
             far &= ~hidden
         large = ~small & ~far & (extent > o.max_object_extent)
@@ -460,7 +469,8 @@ def _along_border(
 
 
 #: a cluster higher than ``contact_distance`` above the plane stands on it where
-#: the plane's inliers are seen in less than this share of its footprint's core
+#: the plane's inliers, and what is seen below it, are seen in less than this
+#: share of its footprint's core
 _SEEN_BELOW = 0.2
 #: the core: the footprint's cells at least this share of its greatest depth
 #: (distance to its border) inside it
@@ -475,21 +485,27 @@ def _hidden_below(
     lab: NDArray[np.int64],
     clusters: NDArray[np.int64],
     cell: float,
+    ah: Array,
+    under: Array,
 ) -> NDArray[np.bool_]:
     """Per cluster ``(nlab,)``: whether the plane under the middle of one of
     ``clusters`` is hidden, its inliers (``plane_uv`` ``(m, 2)``, projected on
-    ``plane_basis(normal)``) in less than ``_SEEN_BELOW`` of the core of its
-    footprint: of the cells of side ``cell`` its points project into (holes
-    filled), those at least ``_CORE_DEPTH`` of the deepest one's distance from
-    its border.
+    ``plane_basis(normal)``) and the points seen below the cluster (``p``
+    ``(n, 3)`` less high over the plane, ``ah`` ``(n,)``, than ``under``
+    ``(nlab,)`` for that cluster) in less than ``_SEEN_BELOW`` of the core of
+    its footprint: of the cells of side ``cell`` its points project into
+    (holes filled), those at least ``_CORE_DEPTH`` of the deepest one's
+    distance from its border.
 
     An object standing on the plane hides the plane under its middle, where
     it touches it, from every camera above the plane; a camera that sees it
     from straight above sees its top alone, which then seems to hang over the
     plane. A cluster that does hang over the plane shows the plane under its
     middle to a camera that looks in under it (from 45 degrees, once the gap
-    is about as high as half the cluster is wide); from straight above, hanging
-    and standing look the same."""
+    is about as high as half the cluster is wide), or, over another object,
+    that object's top: a robot's finger held 5 cm over a box hides the table
+    from the box, not from itself. From straight above, hanging and standing
+    look the same."""
     from scipy.ndimage import distance_transform_edt
 
     basis = plane_basis(normal)  # (3, 2)
@@ -498,10 +514,11 @@ def _hidden_below(
         foot, lo, _ = _footprint(p[idx[lab == c]] @ basis, cell)
         depth = distance_transform_edt(foot)
         core = depth >= _CORE_DEPTH * depth.max()
-        t = np.floor((plane_uv - lo) / cell).astype(np.int64)  # (m, 2)
-        ok = (t >= 0).all(axis=1) & (t < foot.shape).all(axis=1)
         seen = np.zeros(foot.shape, dtype=bool)
-        seen[t[ok, 0], t[ok, 1]] = True
+        for uv in (plane_uv, p[ah < under[c]] @ basis):
+            t = np.floor((uv - lo) / cell).astype(np.int64)  # (m, 2)
+            ok = (t >= 0).all(axis=1) & (t < foot.shape).all(axis=1)
+            seen[t[ok, 0], t[ok, 1]] = True
         out[c] = np.count_nonzero(seen & core) < _SEEN_BELOW * core.sum()
     return out
 
