@@ -150,6 +150,27 @@ def test_object_above_is_chosen_over_one_below_when_the_camera_is_above():
     assert result.T_world_object[0, 3] > 0.0  # the box above, not the larger one
 
 
+def test_objects_on_both_sides_without_poses_warn_which_side_was_taken():
+    # a glossy table's reflection of the box under it: without a camera pose
+    # either side may be up, and the plan says so; with one, the box is taken
+    from wsgrasp.api import as_scene
+
+    rng = np.random.default_rng(13)
+    box = _box(rng, [0.02, 0.0, 0.05], [0.05, 0.05, 0.1], 1500)
+    world = np.concatenate([_table(rng, 20000), box, box * [1.0, 1.0, -1.0]])
+    pipeline = Pipeline(fake_spec(), gripper=fake_gripper())
+    bare = pipeline.plan(as_scene(world))
+    assert bare.found
+    (warning,) = [w for w in bare.warnings if "both sides of the table" in w]
+    assert "T_world_camera" in warning
+    posed = pipeline.plan(_posed_scene(world, camera_z=0.6))
+    assert posed.found and posed.T_world_object[2, 3] > 0.0
+    assert not [w for w in posed.warnings if "both sides" in w]
+    # one side alone: no warning
+    alone = pipeline.plan(as_scene(np.concatenate([_table(rng, 20000), box])))
+    assert alone.found and not [w for w in alone.warnings if "both sides" in w]
+
+
 def test_cameras_below_the_table_are_refused():
     rng = np.random.default_rng(2)
     world = np.concatenate([_table(rng), _box(rng, [0, 0, 0.06], [0.04, 0.06, 0.12])])

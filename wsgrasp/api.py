@@ -295,6 +295,7 @@ class Pipeline:
             obstacle_names=names,
             segments=segments,
             depth_noise=_float_or_none(segmentation.info.get("depth_noise")),
+            standing_sides=_sides(segmentation.info.get("standing_sides")),
         )
 
     def search(self, prepared: Prepared) -> SearchOutput:
@@ -517,7 +518,8 @@ class Pipeline:
             finger_targets=finger_targets,
             warnings=_frame_warnings(scene, inp.table.T_world_table[:3, 2])
             + _range_warnings(inp.viewpoints, inp.object_points)
-            + _noise_warnings(prep.depth_noise),
+            + _noise_warnings(prep.depth_noise)
+            + _side_warnings(prep.standing_sides),
         )
 
 
@@ -599,6 +601,35 @@ def _noise_warnings(noise: float | None) -> list[str]:
     ]
 
 
+#: where no view has a pose, objects on the side of the table not taken as up
+#: with at least this share of the points on the side taken get a warning
+TWO_SIDES_WARNING_SHARE = 0.5
+
+
+def _sides(value: Any) -> tuple[int, int] | None:
+    try:
+        taken, other = value
+        return int(taken), int(other)
+    except (TypeError, ValueError):  # absent, or a plugin's info of another form
+        return None
+
+
+def _side_warnings(sides: tuple[int, int] | None) -> list[str]:
+    """A warning when objects stand on both sides of the table and no view has a
+    pose to say which side the cameras are on: the side with more standing
+    points was taken as up (``sides``: its points and the other side's), and a
+    reflection in a glossy table, or a shelf under a glass one, has as many."""
+    if sides is None or not sides[1] >= TWO_SIDES_WARNING_SHARE * sides[0] > 0:
+        return []
+    return [
+        f"objects stand on both sides of the table ({sides[0]} points on the side "
+        f"taken as up, {sides[1]} on the other) and no view has a camera pose to "
+        "say which side the cameras are on: the grasp may be on a reflection in "
+        "the table or under it; give the views' poses (T_world_camera) or crop "
+        "the other side away"
+    ]
+
+
 @dataclass
 class Prepared:
     """The stages before the search, ready for it."""
@@ -622,6 +653,9 @@ class Prepared:
     #: the depth noise about the table's plane (m), where the segmenter gives it
     #: (``Segmentation.info["depth_noise"]``)
     depth_noise: float | None = None
+    #: where no view has a pose: the points standing on the side of the table
+    #: taken as up and on the other (``Segmentation.info["standing_sides"]``)
+    standing_sides: tuple[int, int] | None = None
 
 
 def _instances(

@@ -188,6 +188,11 @@ class RansacDbscan:
                         "planes_tried": tried,
                         "plane_rank": k,
                         "depth_noise": found["noise"],
+                        **(
+                            {"standing_sides": list(found["votes"])}
+                            if found["votes"] is not None
+                            else {}
+                        ),
                     },
                 )
             k += 1
@@ -360,6 +365,10 @@ class RansacDbscan:
             return empty
         up = int(counts[deciding & (side > 0)].sum())
         down = int(counts[deciding & (side < 0)].sum())
+        # where no camera says which side is up: the standing points on the
+        # side taken and on the other
+        blind = viewpoints is None or not len(viewpoints)
+        votes = (max(up, down), min(up, down)) if blind else None
         if down > up:
             normal, offset, h = -normal, -offset, -h
             keep = standing & (side < 0)
@@ -406,6 +415,7 @@ class RansacDbscan:
             "offset": offset,
             "noise": noise,
             "small": largest_small,
+            "votes": votes,
         }
 
 
