@@ -3,6 +3,8 @@ arbitrary rigid frames (nothing may assume z up)."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from conftest_perception import VOXEL, move_plane, moved, random_rigid, small_scene
@@ -162,6 +164,25 @@ def test_an_object_hanging_over_the_table_does_not_stand_on_it(
     points = one_view("box", (0.06, 0.08, 0.05), lift, elevation, 0)
     with pytest.raises(InputError, match="nothing stands on the table.*not touching"):
         segment(points)
+
+
+def test_a_cluster_apart_from_the_table_is_named_with_the_contact_distance() -> None:
+    # the hint names the contact_distance that takes the hanging box, for an
+    # object whose foot the cameras do not see; with it, the box stands
+    points = one_view("box", (0.06, 0.08, 0.05), 0.05, 45.0, 0)
+    with pytest.raises(InputError) as err:
+        segment(points)
+    hint = err.value.hint
+    found = re.search(
+        r"its lowest (\d+\.\d) cm above it.*contact_distance to ([\d.]+)", hint
+    )
+    assert found, hint
+    assert float(found.group(1)) == pytest.approx(5.0, abs=0.6)
+    reach = float(found.group(2))
+    assert (
+        float(found.group(1)) / 100.0 < reach <= float(found.group(1)) / 100.0 + 0.015
+    )
+    assert len(segment(points, contact_distance=reach).clusters) == 1
 
 
 @pytest.mark.parametrize("gap", [0.03, 0.05, 0.1])

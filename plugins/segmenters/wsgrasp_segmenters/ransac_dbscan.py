@@ -25,6 +25,7 @@ noise is given in ``info["depth_noise"]``.
 
 from __future__ import annotations
 
+import math
 from typing import Any, ClassVar
 
 import numpy as np
@@ -131,6 +132,9 @@ class RansacDbscan:
         tried: list[dict[str, Any]] = []
         # per plane tried, its largest cluster too small to be an object
         smallest: list[tuple[int, float]] = []
+        # per plane tried, its largest cluster that does not touch it, with the
+        # contact_distance that would take it
+        apart: list[tuple[int, float]] = []
         outlines: dict[int, Footprint] = {}  # by plane
         k = 0
         while k < len(finder.planes) or finder.next():
@@ -170,6 +174,8 @@ class RansacDbscan:
             tried.append({"inliers": int(inliers.size), **found["why"]})
             if found.get("small") is not None:
                 smallest.append(found["small"])
+            if found.get("apart") is not None:
+                apart.append(found["apart"])
             if found["clusters"]:
                 plane = Plane(normal=found["normal"], offset=found["offset"])
                 if k == 0:
@@ -227,6 +233,16 @@ class RansacDbscan:
                     f"that small, lower min_points to {count} or below (noise "
                     "clusters may then pass for objects); " + hint
                 )
+        if apart:
+            count, gap = max(apart)
+            if gap <= _APART_HINT_GAP:
+                reach = math.ceil((gap + _APART_HINT_MARGIN) * 100.0) / 100.0
+                hint = (
+                    f"the largest cluster that does not touch the table has {count} "
+                    f"points, its lowest {gap * 100:.1f} cm above it: if it stands "
+                    "there (leaning, or its foot hidden from the cameras), raise "
+                    f"contact_distance to {reach:g}; " + hint
+                )
         if any(t.get(_HANGING) for t in tried):
             hint = (
                 "what hangs along the table's border (its own edges, a cloth over "
@@ -269,7 +285,9 @@ class RansacDbscan:
         # rise with the noise
         noise = height_noise(h, _NOISE_BAND_PLANES * o.plane_distance)
         lift = o.noise_floor * noise - o.min_height
-        if lift > 0.0 and o.min_height + lift < o.max_height:
+        if not (lift > 0.0 and o.min_height + lift < o.max_height):
+            lift = 0.0
+        if lift:
             o = o.model_copy(
                 update={
                     "min_height": o.min_height + lift,
@@ -286,6 +304,7 @@ class RansacDbscan:
             "offset": offset,
             "noise": noise,
             "small": None,
+            "apart": None,
         }
         if labels.size == 0 or labels.max() < 0:
             return empty
@@ -323,6 +342,10 @@ class RansacDbscan:
                 low - o.contact_distance,
             )
             far &= ~hidden
+        if far.any():  # the largest of them, for the error's hint
+            k = int(np.flatnonzero(far)[np.argmax(counts[far])])
+            # the contact_distance that takes it, before the noise's lift
+            empty["apart"] = (int(counts[k]), float(low[k] - lift))
         large = ~small & ~far & (extent > o.max_object_extent)
         why.update(
             {
@@ -448,6 +471,13 @@ def height_noise(h: Array, band: float, points: int = 4000) -> float:
 #: object where it has this many points or more (a 1.2 cm cube seen by three
 #: cameras, 5 mm voxels: 14 above min_height)
 _SMALL_HINT_POINTS = 8
+#: the error names the contact_distance that takes a cluster that does not touch
+#: the table, where it hangs no higher than this (m): an object whose foot the
+#: cameras do not see (a box leaning on an edge, seen from above its top face,
+#: showed nothing lower than 4.5 cm)
+_APART_HINT_GAP = 0.15
+#: ... with this much (m) to spare
+_APART_HINT_MARGIN = 0.005
 #: the reason a cluster that hangs along the table's border is not an object
 _HANGING = "hanging along its border"
 #: a cluster hangs along the table's border when this share of its points ...
