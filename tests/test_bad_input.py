@@ -488,6 +488,38 @@ def test_garbage_bytes_are_not_called_empty(tmp_path, suffix):
     assert "allow_pickle" not in str(info.value)
 
 
+def _structured(points: np.ndarray) -> np.ndarray:
+    """Points as a PointCloud2 reads into numpy: fields x, y, z, rgb."""
+    out = np.zeros(
+        points.shape[:-1], dtype=[(k, "<f4") for k in ("x", "y", "z", "rgb")]
+    )
+    for k, name in enumerate("xyz"):
+        out[name] = points[..., k]
+    return out
+
+
+def test_structured_arrays_are_read_by_field_name(tmp_path):
+    # a ROS PointCloud2 read into numpy (sensor_msgs_py's read_points,
+    # ros2_numpy) and saved: fields x, y, z and rgb, flat or organised
+    from wsgrasp.perception.io import scene_from_arrays
+
+    xyz = POINTS.astype(np.float32).astype(np.float64)
+    for shape in ((-1, 3), (2, -1, 3)):
+        if len(xyz) % 2 and shape[0] == 2:
+            continue
+        path = tmp_path / "cloud.npy"
+        np.save(path, _structured(xyz.reshape(shape)))
+        np.testing.assert_array_equal(load_cloud(path).reshape(-1, 3), xyz)
+    np.savez(tmp_path / "cloud.npz", points=_structured(xyz))
+    np.testing.assert_array_equal(load_cloud(tmp_path / "cloud.npz"), xyz)
+    scene = scene_from_arrays(_structured(xyz))
+    np.testing.assert_array_equal(scene.points, xyz)
+    flat = np.zeros(len(xyz), dtype=[("a", "<f4"), ("b", "<f4"), ("c", "<f4")])
+    np.save(tmp_path / "abc.npy", flat)
+    with pytest.raises(InputError, match="fields \\['a', 'b', 'c'\\].*x, y and z"):
+        load_cloud(tmp_path / "abc.npy")
+
+
 def test_bad_numpy_files(tmp_path):
     empty = tmp_path / "empty.npy"
     empty.write_bytes(b"")

@@ -302,7 +302,30 @@ def _read_npz(p: Path) -> Array:
     return _as_numeric(arr, str(p))
 
 
+def _xyz_fields(arr: Any, name: str) -> Any:
+    """A structured array's ``x``, ``y``, ``z`` fields as an ``(..., 3)`` float
+    array (a ROS ``PointCloud2`` as ``sensor_msgs_py.point_cloud2.read_points``
+    or ``ros2_numpy`` give it, with its other fields: rgb, intensity); any other
+    input as it is."""
+    names = getattr(getattr(arr, "dtype", None), "names", None)
+    if not names:
+        return arr
+    by_lower = {n.lower(): n for n in names}
+    if not all(k in by_lower for k in ("x", "y", "z")):
+        raise InputError(
+            f"cloud {name!r} is a structured array with fields {list(names)}, "
+            "none of them x, y and z",
+            hint="give the points as fields named x, y, z (as a PointCloud2 "
+            "has them), or as a float (n, 3) array",
+        )
+    return np.stack(
+        [np.asarray(arr[by_lower[k]], dtype=np.float64) for k in ("x", "y", "z")],
+        axis=-1,
+    )
+
+
 def _as_numeric(arr: np.ndarray, name: str) -> Array:
+    arr = _xyz_fields(arr, name)
     if not (
         np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)
     ):
@@ -314,7 +337,7 @@ def _as_numeric(arr: np.ndarray, name: str) -> Array:
 
 
 def _check_shape(arr: ArrayLike, name: str) -> Array:
-    a = np.asarray(arr, dtype=np.float64)
+    a = np.asarray(_xyz_fields(arr, name), dtype=np.float64)
     if a.ndim == 3 and a.shape[-1] == 3:
         a = a.reshape(-1, 3)  # an organised cloud (h, w, 3) -> (h*w, 3)
     if a.ndim != 2 or a.shape[1] != 3:
