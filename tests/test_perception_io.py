@@ -341,6 +341,47 @@ def test_a_tilted_table_under_camera_poses_is_a_warning():
     assert pipe.plan(scene_from_arrays(view.points)).warnings == []
 
 
+@pytest.mark.parametrize("mistake", ["inverted", "camera_link", "scalar_first"])
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_the_tilt_warning_names_the_mistake_that_levels_the_table(
+    mistake: str, seed: int
+) -> None:
+    """One view's pose with a common mistake, the table tilted by it: the warning
+    names that mistake (the one whose undoing levels the table), whatever the
+    camera's pose."""
+    from scipy.spatial.transform import Rotation
+
+    from wsgrasp.api import TABLE_TILT_WARNING_DEG, Pipeline
+    from wsgrasp.default_specs import default_spec
+    from wsgrasp.spec import load_spec
+
+    view = small_scene("box", "upright", seed).views[0]
+    T = view.T_world_camera
+    if mistake == "inverted":
+        wrong = np.linalg.inv(T)
+        said = "T_camera_world"
+    elif mistake == "camera_link":
+        wrong = T @ np.linalg.inv(transform_from([[0, 0, 1], [-1, 0, 0], [0, -1, 0]]))
+        said = "camera_link"
+    else:  # x, y, z, w read from w, x, y, z
+        q = np.roll(Rotation.from_matrix(T[:3, :3]).as_quat(), 1)
+        wrong = T.copy()
+        wrong[:3, :3] = Rotation.from_quat(q).as_matrix()
+        said = "scalar first (w, x, y, z)"
+    pipe = Pipeline(load_spec(default_spec("franka_hand")[0]))
+    result = pipe.plan(scene_from_arrays([(view.points, wrong)]))
+    tilted = [w for w in result.warnings if "world's z axis" in w]
+    # the table's normal under the wrong pose (the world's z under the right one)
+    up = wrong[:3, :3] @ T[:3, :3].T @ np.array([0.0, 0.0, 1.0])
+    tilt = np.degrees(np.arccos(min(1.0, abs(up[2]))))
+    if tilt < TABLE_TILT_WARNING_DEG - 1.0:  # a mistake that keeps it level
+        assert not tilted  # (a turn about z alone) cannot be told from one view
+        return
+    assert tilt > TABLE_TILT_WARNING_DEG + 1.0  # no case on the edge
+    assert len(tilted) == 1, result.warnings
+    assert said in tilted[0] and "levels the table" in tilted[0], tilted[0]
+
+
 def test_a_scene_yaml_takes_a_pose_as_tf2_gives_it(tmp_path: Path) -> None:
     """``T_world_camera: {translation, quaternion_xyzw}`` (tf2_echo's pose, the
     scalar last) is the same view as its 4x4 matrix, in the scene's units; a

@@ -538,13 +538,66 @@ def _frame_warnings(scene: Scene, up: Array) -> list[str]:
     tilt = scene.table_tilt(up)
     if tilt is None or tilt <= TABLE_TILT_WARNING_DEG:
         return []
+    mistake = _pose_mistake(scene, up)
+    likely = (
+        f"a T_world_camera is probably {mistake}, which levels the table"
+        if mistake
+        else "a T_world_camera is probably wrong (the pose of ROS's camera_link "
+        "given for a cloud in the optical frame, z forward, or the world's pose "
+        "in the camera)"
+    )
     return [
         f"the table is tilted {tilt:.0f}° from the world's z axis although the "
-        "views were given camera poses: if the world is a robot's base frame "
-        "(z up), a T_world_camera is probably wrong (the pose of ROS's "
-        "camera_link given for a cloud in the optical frame, z forward, or the "
-        "world's pose in the camera), and so is every pose of this plan"
+        f"views were given camera poses: if the world is a robot's base frame "
+        f"(z up), {likely}, and so is every pose of this plan"
     ]
+
+
+#: a table within this (degrees) of the world's z axis once a mistake in the
+#: views' poses is undone names that mistake
+LEVEL_AFTER_FIX_DEG = 5.0
+#: ROS's camera_link axes (x forward, y left, z up) from the optical frame's
+#: (z forward, x right, y down): ``R_link_optical``
+_LINK_FROM_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+
+
+def _pose_mistake(scene: Scene, up: Array) -> str:
+    """The one common mistake in the posed views' ``T_world_camera`` whose undoing
+    levels the table (normal ``up`` ``(3,)``, world) in every one of them to
+    within :data:`LEVEL_AFTER_FIX_DEG`, said as what the pose was: the world's
+    pose in the camera, camera_link's pose for an optical-frame cloud, or a
+    quaternion read with its scalar first; ``""`` when none or several do."""
+    from scipy.spatial.transform import Rotation
+
+    def swapped(R: Array) -> Array:  # x, y, z, w read where w, x, y, z was meant
+        return np.asarray(
+            Rotation.from_quat(
+                np.roll(Rotation.from_matrix(R).as_quat(), -1)
+            ).as_matrix()
+        )
+
+    fixes = {
+        "the world's pose in the camera (T_camera_world): give its inverse": lambda R: (
+            R.T
+        ),
+        "the pose of ROS's camera_link given for a cloud in the optical frame "
+        "(z forward): give the optical frame's": lambda R: R @ _LINK_FROM_OPTICAL,
+        "a quaternion given with its scalar first (w, x, y, z) where x, y, z, w "
+        "is read: move w last": swapped,
+    }
+    n = np.asarray(up, dtype=np.float64) / np.linalg.norm(up)
+    level = np.cos(np.radians(LEVEL_AFTER_FIX_DEG))
+    rotations = [
+        np.asarray(v.T_world_camera, np.float64)[:3, :3] for v in scene.views if v.posed
+    ]
+    found = [
+        what
+        for what, fix in fixes.items()
+        if rotations
+        # the table's normal in each camera's frame, turned by the fixed pose
+        and all(abs(float((fix(R) @ (R.T @ n))[2])) >= level for R in rotations)
+    ]
+    return found[0] if len(found) == 1 else ""
 
 
 #: an object farther than this (m) from every camera that saw it gets a warning:
