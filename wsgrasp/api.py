@@ -556,9 +556,6 @@ def _frame_warnings(scene: Scene, up: Array) -> list[str]:
 #: a table within this (degrees) of the world's z axis once a mistake in the
 #: views' poses is undone names that mistake
 LEVEL_AFTER_FIX_DEG = 5.0
-#: ROS's camera_link axes (x forward, y left, z up) from the optical frame's
-#: (z forward, x right, y down): ``R_link_optical``
-_LINK_FROM_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 
 
 def _pose_mistake(scene: Scene, up: Array) -> str:
@@ -568,6 +565,8 @@ def _pose_mistake(scene: Scene, up: Array) -> str:
     pose in the camera, camera_link's pose for an optical-frame cloud, or a
     quaternion read with its scalar first; ``""`` when none or several do."""
     from scipy.spatial.transform import Rotation
+
+    from wsgrasp.perception.flying import _LINK_TO_OPTICAL
 
     def swapped(R: Array) -> Array:  # x, y, z, w read where w, x, y, z was meant
         return np.asarray(
@@ -581,7 +580,7 @@ def _pose_mistake(scene: Scene, up: Array) -> str:
             R.T
         ),
         "the pose of ROS's camera_link given for a cloud in the optical frame "
-        "(z forward): give the optical frame's": lambda R: R @ _LINK_FROM_OPTICAL,
+        "(z forward): give the optical frame's": lambda R: R @ _LINK_TO_OPTICAL.T,
         "a quaternion given with its scalar first (w, x, y, z) where x, y, z, w "
         "is read: move w last": swapped,
     }

@@ -814,7 +814,8 @@ def check_views_overlap(views: Sequence[View], world: Sequence[Array]) -> None:
         f"best-matching view: {listing}): a T_world_camera is wrong",
         hint="give each camera's pose in the world (the inverse of the world's "
         "pose in the camera), of the frame its points are in (a depth camera's "
-        "optical frame, z forward, not ROS's camera_link), in the scene's units; "
+        "optical frame, z forward, not ROS's camera_link), in the scene's units, "
+        "its quaternion scalar last (x, y, z, w); "
         "clouds that do not share one frame are not --registered; for cameras "
         "that see apart, `views_overlap: false` in the scene YAML",
     )
