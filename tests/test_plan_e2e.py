@@ -191,3 +191,68 @@ def test_crop_radius_drops_what_lies_farther_in_plan(pipelines):
     prepared = cropped.prepare(both)
     assert np.linalg.norm(prepared.downsampled, axis=1).max() <= radius
     assert cropped.plan(both).found
+
+
+def test_mirror_hidden_adds_the_unseen_sides_of_an_object_seen_from_one_side():
+    # one camera sees two side faces and the top of an upright box: turned half
+    # a turn about the vertical through its middle, they give the two it did not
+    from wsgrasp.api import _mirror_hidden
+    from wsgrasp.perception.types import Plane
+
+    s = synth_scene("box", size=(0.06, 0.08, 0.16), views=1, seed=3)
+    table = Plane(np.array([0.0, 0.0, 1.0]), 0.0)
+    seen = s.points[s.points[:, 2] > 0.01]
+    eye = s.views[0].T_world_camera[:3, 3][None]
+    both = _mirror_hidden(seen, table, eye)
+    assert len(both) == 2 * len(seen)
+    # in the box's frame, below its top: the camera saw two adjacent side faces
+    # (and the top's edges along the others); the completed cloud has as many
+    # points on each face as on the one opposite
+    half = np.array([0.03, 0.04])
+
+    def on_faces(points: np.ndarray) -> np.ndarray:  # (2, 2): axis, side
+        local = (points - s.T_world_mesh[:3, 3]) @ s.T_world_mesh[:3, :3]
+        side = local[:, 2] < 0.06
+        return np.array(
+            [
+                [
+                    np.sum(side & (np.abs(local[:, k] - sign * half[k]) < 0.005))
+                    for sign in (-1, 1)
+                ]
+                for k in range(2)
+            ]
+        )
+
+    seen_faces, both_faces = on_faces(seen), on_faces(both)
+    k = int(np.argmax(seen_faces.max(axis=1)))  # the axis the camera faces most
+    assert seen_faces[k].min() < 0.2 * seen_faces[k].max(), seen_faces
+    assert (both_faces.min(axis=1) > 0.9 * both_faces.max(axis=1)).all(), both_faces
+    # the new points lie on the box, within the noise and the middle's error
+    local = (both[len(seen) :] - s.T_world_mesh[:3, 3]) @ s.T_world_mesh[:3, :3]
+    assert (np.abs(local[:, :2]) < half + 0.005).all()
+    # cameras all round, or none: nothing added
+    around = np.array([[1.0, 0.0, 0.5], [-0.5, 0.87, 0.5], [-0.5, -0.87, 0.5]])
+    assert _mirror_hidden(seen, table, around) is seen
+    assert _mirror_hidden(seen, table, np.zeros((0, 3))) is seen
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_jaw_grasps_an_upright_box_seen_by_one_camera(seed):
+    # the jaw closes across two faces, one of which no camera saw: with the
+    # hidden sides mirrored in, it holds points on both
+    from wsgrasp.default_specs import default_spec
+    from wsgrasp.spec import PipelineSpec
+
+    s = synth_scene("box", size=(0.06, 0.08, 0.16), views=1, seed=seed)
+    data, _ = default_spec("franka_hand")
+    feasible = {}
+    for mirror in (False, True):
+        spec = PipelineSpec.model_validate(data)
+        spec.object_frame.mirror_hidden = mirror
+        r = Pipeline(spec).plan(
+            scene_from_arrays([(v.points, v.T_world_camera) for v in s.views])
+        )
+        feasible[mirror] = int(r.candidates.feasible.sum())
+        if mirror:
+            assert r.found, r.hint
+    assert feasible[True] > feasible[False]

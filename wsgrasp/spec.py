@@ -382,6 +382,12 @@ class ObjectFrame(_Model):
     """How the object frame (z = major axis) is found."""
 
     method: Literal["farthest_split", "pca"] = "farthest_split"
+    mirror_hidden: bool = Field(
+        False,
+        description="where every camera saw one side of the object, add its "
+        "points turned half a turn about the vertical through its middle (the "
+        "sides no camera saw, as a box's, a can's or a ball's are)",
+    )
 
 
 class Sampling(_Model):
