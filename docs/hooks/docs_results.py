@@ -573,6 +573,13 @@ def render_noisy_depth_runs() -> str:
     return _runs_in("noisy-depth") + _height_table("noisy-depth")
 
 
+def render_mirror_hidden_runs() -> str:
+    """The runs seen by one camera with the sides it did not see mirrored in
+    and without (``docs/results/mirror-hidden/``,
+    ``benchmarks/one_camera_mirror.py``)."""
+    return _runs_in("mirror-hidden")
+
+
 def render_default_spec_runs() -> str:
     """The runs the generic default spec was chosen by: success per setting."""
     return _runs_in("default-spec")
