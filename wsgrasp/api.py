@@ -1368,18 +1368,19 @@ def _what_fits(prep: Prepared, g: GripperModel) -> str:
     heights = prep.table_plane.signed_distance(points)
     levels = np.arange(_TOP_PART_STEP, heights.max() - _TOP_PART_HEIGHT, _TOP_PART_STEP)
     # the part above a higher cut is a subset, never wider: the lowest cut
-    # whose part fits, by bisection
+    # whose part fits, by bisection (a part of fewer points is too few to name)
     lo, hi = 0, len(levels)
     while lo < hi:
         mid = (lo + hi) // 2
-        top = points[heights > levels[mid]]
-        if len(top) >= _SUGGESTED_POINTS and narrowest_width(top, up) <= fits:
+        if narrowest_width(points[heights > levels[mid]], up) <= fits:
             hi = mid
         else:
             lo = mid + 1
     if lo == len(levels):
         return ""
     top = points[heights > levels[lo]]
+    if len(top) < _SUGGESTED_POINTS:
+        return ""
     at = ", ".join(f"{x:.3f}" for x in top.mean(axis=0))
     return (
         f"; its top {(heights.max() - levels[lo]) * 100:.0f} cm "
