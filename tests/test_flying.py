@@ -206,6 +206,8 @@ def test_a_cloud_in_its_camera_frame_has_its_camera_at_the_origin():
     # the same points merged in the world frame: no camera at the origin
     assert len(scene_from_arrays(posed.points).viewpoints()) == 0
     pipe = Pipeline(load_spec(default_spec("franka_hand")[0]))
+    # the points as seen: mirrored in, the hidden side would hold the middle
+    pipe.spec.object_frame.mirror_hidden = False
     centres = []
     for scene, T in ((posed, np.eye(4)), (plain, view.T_world_camera)):
         inp = pipe.prepare(scene).search_input
@@ -218,6 +220,10 @@ def test_a_cloud_in_its_camera_frame_has_its_camera_at_the_origin():
     np.testing.assert_allclose(centres[0], centres[1], atol=0.004)
     # along the table, where the ball's middle is (its height is the points')
     np.testing.assert_allclose(centres[0][:2], T_mesh[:2, 3], atol=0.006)
+    # mirrored in (the default), the points' own middle lies there
+    pipe.spec.object_frame.mirror_hidden = True
+    middle = pipe.prepare(posed).search_input.T_world_object[:3, 3]
+    np.testing.assert_allclose(middle[:2], T_mesh[:2, 3], atol=0.006)
 
 
 def test_pixels_without_depth_leave_the_image_an_image(tmp_path, capsys):
