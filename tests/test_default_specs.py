@@ -130,6 +130,8 @@ def test_a_hand_gets_the_generic_default_without_the_jaw_scorers(tips, fingers):
     assert data["scorers"] == _level_if(kept, tips) + extra
     head = [ln for ln in text.splitlines() if ln.startswith("#")]
     assert f"a hand of {fingers} fingers" in head[1]
+    assert generic["object_frame"]["mirror_hidden"] is True
+    assert data["object_frame"] == {"method": "farthest_split", "mirror_hidden": False}
     assert ("approaches fingertips first" in text) == tips
     assert load_spec({**data, "gripper": "allegro_right"}).scorers
 
@@ -153,6 +155,8 @@ def test_a_hand_without_a_spec_plans_with_the_hand_default(tmp_path):
         assert source == str(GENERIC_DEFAULT)
         want = [s for s in generic["scorers"] if jaw or s["name"] not in JAW_SCORERS]
         assert data["scorers"] == want
+        # a jaw's pad on the face no camera saw finds the sides mirrored in
+        assert data["object_frame"]["mirror_hidden"] is jaw
 
 
 def test_plan_without_a_spec_uses_the_generic_default(tmp_path):

@@ -33,6 +33,10 @@ __all__ = [
 #: three or more fingers scores by the rest alone
 #: (docs/explanation/defaults.md#the-generic-default)
 JAW_SCORERS = frozenset({"antipodal", "closing_centre"})
+#: the generic default's object frame for a hand of three or more fingers: the
+#: sides no camera saw are not mirrored in, which two jaws held more objects with
+#: from one camera and the Allegro hand fewer (docs/explanation/defaults.md)
+HAND_OBJECT_FRAME = {"method": "farthest_split", "mirror_hidden": False}
 
 #: the spec labels a gripper may ship, in ``specs/<label>.yaml`` beside its YAML
 LABELS = ("default", "paper", "followup")
@@ -83,6 +87,7 @@ def spec_for(label: str, gripper: str) -> tuple[dict[str, Any], str]:
                 data["scorers"] = [
                     s for s in data["scorers"] if s["name"] not in JAW_SCORERS
                 ]
+                data["object_frame"] = dict(HAND_OBJECT_FRAME)
             return data, str(path)
     return {**_BUILT_IN[label], "gripper": gripper}, f"built-in {label}"
 
@@ -127,9 +132,17 @@ def generic_spec_text(
     notes = []  # the header's lines after the first
     if fingers >= 3:
         out = [ln for ln in out if _scorer_name(ln) not in JAW_SCORERS]
+        frame = ", ".join(
+            f"{k}: {str(v).lower()}" for k, v in HAND_OBJECT_FRAME.items()
+        )
+        out = [
+            f"object_frame: {{{frame}}}" if ln.startswith("object_frame:") else ln
+            for ln in out
+        ]
         notes.append(
             f"# for a hand of {fingers} fingers: without "
             + " and ".join(sorted(JAW_SCORERS))
+            + ", planning on the sides the cameras saw alone"
             + " (docs/explanation/defaults.md)."
         )
     if fingertips_first:
