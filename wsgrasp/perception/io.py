@@ -314,7 +314,7 @@ def _xyz_fields(arr: Any, name: str) -> Any:
     if not all(k in by_lower for k in ("x", "y", "z")):
         raise InputError(
             f"cloud {name!r} is a structured array with fields {list(names)}, "
-            "none of them x, y and z",
+            "not all of x, y and z among them",
             hint="give the points as fields named x, y, z (as a PointCloud2 "
             "has them), or as a float (n, 3) array",
         )
