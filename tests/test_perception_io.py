@@ -305,6 +305,29 @@ def test_damaged_array_header_is_one_input_error(tmp_path: Path, suffix: str) ->
         load_cloud(path)
 
 
+def test_scene_info_mirrors_in_the_hidden_sides_as_the_spec_says(tmp_path, capsys):
+    """``scene info --spec`` with ``object_frame.mirror_hidden`` counts the
+    points mirrored in for one camera, as a plan with that spec adds them;
+    with three cameras, or without the setting, none."""
+    import json
+
+    from wsgrasp.cli import main
+    from wsgrasp.default_specs import default_spec
+
+    spec = default_spec("franka_hand")[1]  # the Franka hand's: mirror_hidden on
+    views = small_scene("box", "upright", 0).views
+    counts = {}
+    for label, vs, args in (
+        ("one", views[:1], ["--spec", spec]),
+        ("all", views, ["--spec", spec]),
+        ("off", views[:1], []),
+    ):
+        path = write_scene_yaml(tmp_path / label, vs)
+        assert main(["scene", "info", str(path), "--json", *args]) == 0
+        counts[label] = json.loads(capsys.readouterr().out)["mirrored_points"]
+    assert counts["one"] > 100 and counts["all"] == 0 and counts["off"] == 0
+
+
 def test_scene_info_gives_the_tables_tilt_where_views_have_poses(tmp_path, capsys):
     """With the views' poses, ``scene info`` says how far the table's normal is
     from the world's z axis (a wrong pose shows there); without, it does not."""

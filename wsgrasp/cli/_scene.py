@@ -248,6 +248,7 @@ def info(
     """Load a scene and show the table plane, objects and object frame found."""
     import time
 
+    from wsgrasp.api import _mirror_hidden
     from wsgrasp.perception.frame import object_frame
     from wsgrasp.perception.io import load_scene
     from wsgrasp.perception.process import preprocess, select_target, thin
@@ -285,6 +286,10 @@ def info(
     seg = entry.obj().segment(points, options, seed=ps.seed)
     lap("segment")
     obj_points, obstacles = select_target(seg, ps.target)
+    seen = len(obj_points)
+    if ps.object_frame.mirror_hidden:  # as a plan with this spec does
+        obj_points = _mirror_hidden(obj_points, seg.table, scene.viewpoints())
+    mirrored = len(obj_points) - seen
     obj_points = thin(obj_points, ps.preprocess.max_object_points, ps.seed)
     frame = object_frame(obj_points, ps.object_frame.method)
     lap("object_frame")
@@ -304,6 +309,7 @@ def info(
         "depth_noise": seg.info.get("depth_noise"),
         "clusters": [int(c.shape[0]) for c in seg.clusters],
         "object_points": int(obj_points.shape[0]),
+        "mirrored_points": mirrored,
         "obstacles": len(obstacles),
         "T_world_object": frame.T_world_object,
         "extents": frame.extents,
@@ -326,9 +332,15 @@ def info(
         f"table: normal ({n[0]:.3f}, {n[1]:.3f}, {n[2]:.3f}), offset "
         f"{seg.table.offset:.4f} m{tilt}, {summary['table_points']} points{scatter}"
     )
+    hidden = (
+        f" (of {seen} seen and {mirrored} mirrored in for the sides no camera saw)"
+        if mirrored
+        else ""
+    )
     console.print(
         f"objects: {len(seg.clusters)} ({', '.join(map(str, summary['clusters']))} "
-        f"points); target {obj_points.shape[0]} points, {len(obstacles)} obstacles"
+        f"points); target {obj_points.shape[0]} points{hidden}, "
+        f"{len(obstacles)} obstacles"
     )
     e = frame.extents
     console.print(
