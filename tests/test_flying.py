@@ -17,8 +17,8 @@ from wsgrasp.errors import InputError
 from wsgrasp.geometry import transform_from, transform_points
 from wsgrasp.perception.flying import flying_mask, flying_points, pixel_grid
 from wsgrasp.perception.io import scene_from_arrays
+from wsgrasp.perception.sides import behind_the_side
 from wsgrasp.perception.synth import default_cameras, make_object, render_scene
-from wsgrasp.planning.scoring import behind_the_side
 from wsgrasp.record import open_run
 from wsgrasp.sim.params import SimParams, parse_overrides
 from wsgrasp.spec import load_spec

@@ -196,14 +196,13 @@ def test_crop_radius_drops_what_lies_farther_in_plan(pipelines):
 def test_mirror_hidden_adds_the_unseen_sides_of_an_object_seen_from_one_side():
     # one camera sees two side faces and the top of an upright box: turned half
     # a turn about the vertical through its middle, they give the two it did not
-    from wsgrasp.api import _mirror_hidden
-    from wsgrasp.perception.types import Plane
+    from wsgrasp.perception.sides import mirror_hidden
 
     s = synth_scene("box", size=(0.06, 0.08, 0.16), views=1, seed=3)
-    table = Plane(np.array([0.0, 0.0, 1.0]), 0.0)
+    up = np.array([0.0, 0.0, 1.0])
     seen = s.points[s.points[:, 2] > 0.01]
     eye = s.views[0].T_world_camera[:3, 3][None]
-    both = _mirror_hidden(seen, table, eye)
+    both = mirror_hidden(seen, up, eye)
     assert len(both) == 2 * len(seen)
     # in the box's frame, below its top: the camera saw two adjacent side faces
     # (and the top's edges along the others); the completed cloud has as many
@@ -232,8 +231,8 @@ def test_mirror_hidden_adds_the_unseen_sides_of_an_object_seen_from_one_side():
     assert (np.abs(local[:, :2]) < half + 0.005).all()
     # cameras all round, or none: nothing added
     around = np.array([[1.0, 0.0, 0.5], [-0.5, 0.87, 0.5], [-0.5, -0.87, 0.5]])
-    assert _mirror_hidden(seen, table, around) is seen
-    assert _mirror_hidden(seen, table, np.zeros((0, 3))) is seen
+    assert mirror_hidden(seen, up, around) is seen
+    assert mirror_hidden(seen, up, np.zeros((0, 3))) is seen
 
 
 @pytest.mark.parametrize("seed", range(4))

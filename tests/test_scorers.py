@@ -161,7 +161,7 @@ def _cap(toward: np.ndarray, r: float = 0.035, n: int = 2000) -> np.ndarray:
 def _seen_from(*cameras):
     """The ball's centroid as the scorers see it, from ``cameras`` (each a
     direction from the ball, unit), and the ball's centre."""
-    from wsgrasp.planning.scoring import behind_the_side
+    from wsgrasp.perception.sides import behind_the_side
 
     seen = np.concatenate([_cap(np.asarray(c) / np.linalg.norm(c)) for c in cameras])
     centroid = seen.mean(axis=0)
@@ -190,7 +190,7 @@ def test_a_ball_seen_from_around_or_above_is_left_as_seen():
     # a box seen from one side, its top face whole, and a rod lying across the
     # camera's view, its crest over its middle: about as seen, however much
     # wider than deep they look
-    from wsgrasp.planning.scoring import behind_the_side
+    from wsgrasp.perception.sides import behind_the_side
 
     rng = np.random.default_rng(1)
     box = rng.uniform([-0.02, -0.05, 0.0], [0.02, 0.05, 0.1], (500, 3))

@@ -27,6 +27,7 @@ from wsgrasp.errors import InputError, PluginError, WsgraspError
 from wsgrasp.geometry import plane_basis
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.perception.footprint import Footprint, narrowest_width
+from wsgrasp.perception.sides import mirror_hidden
 from wsgrasp.perception.types import Plane, Scene
 from wsgrasp.planning.candidates import far_side, orientation_set
 from wsgrasp.planning.evaluate import FingerSpheres, TableSE
@@ -217,8 +218,8 @@ class Pipeline:
         )
         names, segments = _instances(segmentation, object_points, obstacles, spec)
         if spec.object_frame.mirror_hidden:
-            object_points = _mirror_hidden(
-                object_points, segmentation.table, viewpoints
+            object_points = mirror_hidden(
+                object_points, segmentation.table.normal, viewpoints
             )
         # farthest-point thinning keeps the object's shape
         object_points = thin(
@@ -926,36 +927,6 @@ def _check_table_side(
 #: ``_THROUGH_TABLE`` (m) below the table plane does not stand on it
 _THROUGH_SHARE = 0.05
 _THROUGH_TABLE = 0.01
-
-
-def _mirror_hidden(points: Array, table: Plane, viewpoints: Array) -> Array:
-    """``points`` ``(n, 3)`` and, where every camera ``viewpoints`` ``(k, 3)``
-    saw one side of the object alone (:func:`~wsgrasp.planning.scoring.
-    one_side`), the same points turned half a turn about the vertical (the
-    table's normal) through its middle: ``(2 n, 3)``. The middle lies halfway
-    along the cameras' direction between the nearest and the farthest points
-    of its crest (:func:`~wsgrasp.planning.scoring.crest`: a box's or a can's
-    top, a ball's ridge, which run over its middle) and, across that
-    direction, halfway between the extremes of what they saw: where a box's,
-    a can's or a ball's middle lies seen from anywhere. Halfway between the
-    extremes, not at their mean: a camera samples the faces nearer it more
-    densely (a box's top face's mean lay 3-4 mm nearer the camera)."""
-    from wsgrasp.planning.scoring import crest, one_side
-
-    if not len(viewpoints) or len(points) < 4:
-        return points
-    n = np.asarray(table.normal, dtype=np.float64)
-    mean = one_side(points.mean(axis=0), n, viewpoints)
-    if mean is None:
-        return points
-    across = np.cross(n, mean)  # (3,) along the table, across the view
-    s, x = points @ mean, points @ across
-    top = s[crest(points, n, mean)]
-    middle = (0.5 * (top.min() + top.max())) * mean + (
-        0.5 * (x.min() + x.max())
-    ) * across
-    d = points - np.outer(points @ n, n) - middle  # (n, 3) along the table
-    return np.concatenate([points, points - 2.0 * d])
 
 
 def _one_object(

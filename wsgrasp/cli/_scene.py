@@ -248,10 +248,10 @@ def info(
     """Load a scene and show the table plane, objects and object frame found."""
     import time
 
-    from wsgrasp.api import _mirror_hidden
     from wsgrasp.perception.frame import object_frame
     from wsgrasp.perception.io import load_scene
     from wsgrasp.perception.process import preprocess, select_target, thin
+    from wsgrasp.perception.sides import mirror_hidden
     from wsgrasp.plugins import get_registry
     from wsgrasp.spec import PipelineSpec, load_spec
 
@@ -288,7 +288,7 @@ def info(
     obj_points, obstacles = select_target(seg, ps.target)
     seen = len(obj_points)
     if ps.object_frame.mirror_hidden:  # as a plan with this spec does
-        obj_points = _mirror_hidden(obj_points, seg.table, scene.viewpoints())
+        obj_points = mirror_hidden(obj_points, seg.table.normal, scene.viewpoints())
     mirrored = len(obj_points) - seen
     obj_points = thin(obj_points, ps.preprocess.max_object_points, ps.seed)
     frame = object_frame(obj_points, ps.object_frame.method)

@@ -5,9 +5,10 @@ Modules: ``io`` (loading and writing clouds and scenes), ``depth`` (depth images
 and their intrinsics), ``flying`` (flying pixels), ``process`` (downsampling,
 RANSAC plane, DBSCAN, target selection), ``frame`` (object and table frames, box
 samples, normals), ``synth`` (rendering objects on a table from virtual depth
-cameras), ``touching`` (two objects touching), ``bag`` (scenes from ROS 2 bags'
-PointCloud2 and /tf messages), ``types`` (View, Scene, Plane, Segmentation,
-Segmenter).
+cameras), ``touching`` (two objects touching), ``sides`` (an object seen from
+one side: its crest, its middle behind its points, its hidden sides), ``bag``
+(scenes from ROS 2 bags' PointCloud2 and /tf messages), ``types`` (View, Scene,
+Plane, Segmentation, Segmenter).
 """
 
 from wsgrasp.perception.depth import Intrinsics, depth_points
