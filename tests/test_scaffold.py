@@ -911,6 +911,30 @@ def test_gripper_new_points_a_mimic_at_the_joint_it_means(tmp_path):
     assert [j for f in sc.data["fingers"] for j in f["joints"]] == ["L_left_joint"] * 2
 
 
+def test_gripper_new_frees_a_fixed_joint_that_follows_another(tmp_path):
+    """A URDF exported for a solver without mimic joints makes the followers
+    ``fixed`` and leaves their ``<mimic>``, ``<axis>`` and ``<limit>`` in place:
+    the copy makes them move again, as the joint they follow does, and says
+    so; a fixed joint without the three stays fixed."""
+    from wsgrasp.gripper._scaffold_urdf import free_fixed_mimics
+
+    text = jaw_urdf()
+    start = text.index('<joint name="right_joint" type="prismatic">')
+    frozen = text[:start] + text[start:].replace('type="prismatic"', 'type="fixed"', 1)
+    urdf = _write(tmp_path, frozen, "exported.urdf")
+    yaml_path, sc = scaffold_plugin("jaw", urdf, tmp_path / "out")
+    copied = (yaml_path.parent / "jaw.urdf").read_text()
+    assert '<joint name="right_joint" type="prismatic">' in copied
+    assert "right_joint (prismatic)" in yaml_path.read_text()
+    assert any("made to move" in w and "right_joint" in w for w in sc.warnings)
+    assert [j for f in sc.data["fingers"] for j in f["joints"]] == ["left_joint"] * 2
+    # without its mimic, a fixed joint means fixed
+    plain = frozen.replace('<mimic joint="left_joint"/>', "")
+    path = _write(tmp_path, plain, "plain.urdf")
+    assert free_fixed_mimics(path) == {}
+    assert path.read_text() == plain
+
+
 def test_gripper_new_names_the_users_urdf_in_its_errors(tmp_path):
     """An error found reading the package's copy of the URDF names the file the
     user gave (the copy goes with the half-written package) and a fix to it."""

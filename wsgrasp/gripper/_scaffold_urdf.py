@@ -532,6 +532,54 @@ def repair_mimics(path: Path) -> dict[str, str]:
     return notes
 
 
+_TYPE = re.compile(r"""(\btype\s*=\s*)(["'])fixed\2""")
+
+
+def free_fixed_mimics(path: Path) -> dict[str, str]:
+    """Make each ``fixed`` joint of the URDF at ``path`` that carries a
+    ``<mimic>`` of a moving joint, an ``<axis>`` and a ``<limit lower upper>``
+    move again, as the type of the joint it follows (a model exported for a
+    solver without mimic joints freezes a gripper's linkage this way, its
+    mimics left in place: the other fingers would stand still while one
+    closes), rewriting the file. Returns, per joint freed, its new type."""
+    import html
+
+    text = Path(path).read_text()
+    kinds: dict[str, str] = {}
+    for m in _JOINT.finditer(text):
+        name = _element_name(m.group(0))
+        head = m.group(0)[: m.group(0).index(">") + 1]
+        kind = re.search(r"""\btype\s*=\s*(["'])(.*?)\1""", head)
+        if name is not None and kind is not None:
+            kinds[name] = kind.group(2)
+    freed: dict[str, str] = {}
+
+    def rewrite(m: re.Match[str]) -> str:
+        element = m.group(0)
+        name, tag = _element_name(element), _MIMIC.search(element)
+        head = element[: element.index(">") + 1]
+        if name is None or tag is None or not _TYPE.search(head):
+            return element
+        lim = _LIMIT.search(element)
+        leader = kinds.get(html.unescape(tag.group(3)))
+        if (
+            leader not in ("revolute", "prismatic", "continuous")
+            or lim is None
+            or not re.search(r"\blower\s*=", lim.group(0))
+            or not re.search(r"\bupper\s*=", lim.group(0))
+            or not re.search(rf"<axis{_END}", element)
+        ):
+            return element
+        kind = "prismatic" if leader == "prismatic" else "revolute"
+        freed[name] = kind
+        return element.replace(head, _TYPE.sub(rf"\g<1>\g<2>{kind}\g<2>", head), 1)
+
+    new_text = _JOINT.sub(rewrite, text)
+    if freed:
+        Path(path).write_text(new_text)
+    return freed
+
+
 def add_mimic(
     path: Path, joint: str, leader: str, multiplier: float, offset: float
 ) -> None:

@@ -40,6 +40,7 @@ from wsgrasp.gripper._scaffold_urdf import (
     joint_names,
     narrow_limits,
     prune_urdf,
+    free_fixed_mimics,
     repair_mimics,
     set_limits,
 )
@@ -480,6 +481,7 @@ def _write_package(
         warnings=mesh_warnings,
     )
     mimics = repair_mimics(urdf_copy)
+    freed = free_fixed_mimics(urdf_copy)
     try:
         scaffold = guess_description(
             urdf_copy, name, base_link=base_link, close_past=close_past
@@ -549,6 +551,14 @@ def _write_package(
         )
         header.append(repaired)
         scaffold.warnings.append(repaired)
+    if any(j in kept for j in freed):
+        note = (
+            "fixed joints that follow another (<mimic>, <axis>, <limit>), made to "
+            "move in the copied URDF as they follow it: "
+            + ", ".join(f"{j} ({k})" for j, k in freed.items() if j in kept)
+        )
+        header.append(note)
+        scaffold.warnings.append(note)
     if from_visuals:
         note = (
             "collision shapes that envelop the fingers (drawn round them for arm "
