@@ -204,16 +204,20 @@ def test_site_builds_with_the_generated_pages(site: Path) -> None:
     assert "<!-- render:" not in (site / "reference/spec/index.html").read_text()
 
 
-def _fields(model: type) -> set[str]:
+def _fields(model: type, seen: set[type] | None = None) -> set[str]:
+    """The field names of ``model`` and of the models its fields hold (a model
+    that holds itself, as ``Sampling.fallback`` does, once)."""
     from pydantic import BaseModel
 
+    seen = set() if seen is None else seen
+    seen.add(model)
     names = set(model.model_fields)  # type: ignore[attr-defined]
     for f in model.model_fields.values():  # type: ignore[attr-defined]
         stack = [f.annotation]
         while stack:
             a = stack.pop()
-            if isinstance(a, type) and issubclass(a, BaseModel):
-                names |= _fields(a)
+            if isinstance(a, type) and issubclass(a, BaseModel) and a not in seen:
+                names |= _fields(a, seen)
             stack += list(getattr(a, "__args__", ()))
     return names
 

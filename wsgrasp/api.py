@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +29,7 @@ from wsgrasp.gripper.model import GripperModel
 from wsgrasp.perception.footprint import Footprint, narrowest_width
 from wsgrasp.perception.sides import mirror_hidden
 from wsgrasp.perception.types import Plane, Scene
-from wsgrasp.planning.candidates import far_side, orientation_set
+from wsgrasp.planning.candidates import Orientations, far_side, orientation_set
 from wsgrasp.planning.evaluate import FingerSpheres, TableSE
 from wsgrasp.planning.observer import PlanObserver
 from wsgrasp.planning.result import PlanResult
@@ -40,7 +40,7 @@ from wsgrasp.planning.search import (
     run_search,
 )
 from wsgrasp.planning.targets import grasp_targets, pregrasp_pose
-from wsgrasp.spec import PipelineSpec, load_spec
+from wsgrasp.spec import PipelineSpec, Sampling, load_spec
 
 __all__ = ["Pipeline", "Prepared", "plan", "load_spec", "as_scene"]
 
@@ -239,7 +239,6 @@ class Pipeline:
         )
 
         frame = object_frame(object_points, spec.object_frame.method)
-        samples_object = sample_box(frame, spec.sampling)
         T_world_table = table_frame(segmentation.table, frame.centroid)
         up = T_world_table[:3, 2]
         footprint = Footprint.from_points(
@@ -247,26 +246,34 @@ class Pipeline:
         )
         se_center, se_axes, se_exp = table_superellipsoid(spec.table)
         table = TableSE(T_world_table, se_center, se_axes, se_exp)
-        orientations = orientation_set(
-            spec.sampling,
-            frame.T_world_object,
-            T_world_table[:3, 2],
-            self._reach,
-            self._side,
-            object_points,
-        )
-        # (O, 3) the direction each orientation's fingers close along, world
-        closing = orientations.R_object_gwc[:, :, 1] @ frame.T_world_object[:3, :3].T
-        too_large = _too_large(
-            object_points,
-            self.gripper,
-            closing,
-            lambda: _depth_noise(points, segmentation.table, object_points),
-            up=up,
-        )
-        if too_large:
+
+        def sampled(sampling: Sampling) -> tuple[Array, Orientations, str]:
+            """The box samples and orientations of ``sampling`` (no samples
+            where no pose of them can span the object), and why not."""
+            samples = sample_box(frame, sampling)
+            orientations = orientation_set(
+                sampling,
+                frame.T_world_object,
+                up,
+                self._reach,
+                self._side,
+                object_points,
+            )
+            # (O, 3) the direction each orientation's fingers close along, world
+            closing = (
+                orientations.R_object_gwc[:, :, 1] @ frame.T_world_object[:3, :3].T
+            )
+            too_large = _too_large(
+                object_points,
+                self.gripper,
+                closing,
+                lambda: _depth_noise(points, segmentation.table, object_points),
+                up=up,
+            )
             # no pose can span the object: no candidates, and the result says so
-            samples_object = samples_object[:0]
+            return (samples[:0] if too_large else samples), orientations, too_large
+
+        samples_object, orientations, too_large = sampled(spec.sampling)
         lap(
             "object_frame",
             {
@@ -301,6 +308,7 @@ class Pipeline:
             segments=segments,
             depth_noise=_float_or_none(segmentation.info.get("depth_noise")),
             standing_sides=_sides(segmentation.info.get("standing_sides")),
+            sampled=sampled,
         )
 
     def search(self, prepared: Prepared) -> SearchOutput:
@@ -377,9 +385,56 @@ class Pipeline:
         t_start = time.perf_counter()
         prep = self.prepare(scene, observers)
         out = self.search(prep)
+        fallback = self.spec.sampling.fallback
+        if fallback is not None and prep.sampled is not None and out.best is None:
+            prep, out = self._fallback(prep, out, fallback, observers)
         for o in observers:
             o.on_stage("candidates", {"candidates": out.candidates})
         return prep, out, (time.perf_counter() - t_start) * 1e3
+
+    def _fallback(
+        self,
+        prep: Prepared,
+        out: SearchOutput,
+        sampling: Sampling,
+        observers: Sequence[PlanObserver],
+    ) -> tuple[Prepared, SearchOutput]:
+        """The search again with ``sampling`` (``sampling.fallback``), on the
+        same object frame, table and neighbours, where the first found no
+        grasp; the first search's rejections are told to ``observers`` and kept
+        in the result's ``info``."""
+        assert prep.sampled is not None
+        t = time.perf_counter()
+        first: dict[str, Any] = {
+            k: v for k, v in out.candidates.histogram().items() if v
+        }
+        if prep.too_large:
+            first["too_large"] = prep.too_large
+        samples, orientations, too_large = prep.sampled(sampling)
+        inp = replace(
+            prep.search_input, samples_object=samples, orientations=orientations
+        )
+        again = replace(
+            prep,
+            search_input=inp,
+            too_large=too_large,
+            blocked_by={},
+            timing_ms=dict(prep.timing_ms),
+            fallback={"first_search": first},
+        )
+        out = self.search(again)
+        R = inp.T_world_object[:3, :3]
+        for o in observers:
+            o.on_stage(
+                "fallback",
+                {
+                    "first_search": first,
+                    "samples_world": samples @ R.T + inp.T_world_object[:3, 3],
+                    "R_world_gwc": R @ orientations.R_object_gwc,
+                },
+            )
+        again.timing_ms["fallback"] = (time.perf_counter() - t) * 1e3
+        return again, out
 
     def _finish(
         self,
@@ -516,6 +571,11 @@ class Pipeline:
                 "table_normal": inp.table.T_world_table[:3, 2].tolist(),
                 **({"segments": prep.segments} if prep.segments else {}),
                 **({"blocked_by": prep.blocked_by} if prep.obstacle_names else {}),
+                **(
+                    {"fallback": {"first_search": prep.fallback["first_search"]}}
+                    if prep.fallback
+                    else {}
+                ),
             },
             T_world_pregrasp=T_world_pregrasp,
             joints_pregrasp=joints_pregrasp,
@@ -713,6 +773,12 @@ class Prepared:
     #: where no view has a pose: the points standing on the side of the table
     #: taken as up and on the other (``Segmentation.info["standing_sides"]``)
     standing_sides: tuple[int, int] | None = None
+    #: another sampling's box samples, orientations and ``too_large``, from the
+    #: same object frame (``sampling.fallback``)
+    sampled: Callable[[Sampling], tuple[Array, Orientations, str]] | None = None
+    #: where the spec's sampling found no grasp and ``sampling.fallback`` was
+    #: searched instead: the first search's rejections (``first_search``)
+    fallback: dict[str, Any] = field(default_factory=dict)
 
 
 def _instances(
@@ -745,7 +811,6 @@ def _clear_of_neighbours(
     ``obstacle_collision``, the best of the rest chosen; ``prep.blocked_by``
     counts, per neighbour, the candidates its points rejected in the body
     superellipsoids (the search's own obstacle test) and in the closing paths."""
-    from dataclasses import replace
 
     from wsgrasp.neighbours import blocked_by_body, blocked_in_closing
     from wsgrasp.planning.result import REASONS, Alternative
@@ -935,7 +1000,6 @@ def _one_object(
     """The target cluster when it is one object. When it is clearly two that
     touch, a ``nearest`` or ``inside_box`` rule picks one of them (the other
     becomes an obstacle); the other rules cannot, and the user is told how."""
-    from dataclasses import replace
 
     from wsgrasp.perception.process import select_target
     from wsgrasp.perception.touching import find_touching, split_touching
@@ -1438,7 +1502,6 @@ def _sweeps_cleared(
     copies of the two (C, 4, 4) pose arrays took a third of this step on the
     Allegro hand's dense search).
     """
-    from dataclasses import replace
 
     from wsgrasp.planning.evaluate import evaluate_candidates
     from wsgrasp.planning.result import REASONS, Alternative
@@ -1532,7 +1595,6 @@ def _choose(
     the candidate set, as the search writes its best's into its own), its
     contacts, its score terms, and the ``top_k`` candidates ranked after it as
     the alternatives."""
-    from dataclasses import replace
 
     from wsgrasp.planning.result import Alternative
     from wsgrasp.planning.search import _contacts

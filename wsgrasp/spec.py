@@ -472,9 +472,17 @@ class Sampling(_Model):
         description="no candidate approaches pointing up (from under the table) by "
         "more than this",
     )
+    fallback: Sampling | None = Field(
+        None,
+        description="where no candidate of this sampling is feasible, the search "
+        "runs once more with this one (on the same object frame, table and "
+        "neighbours), and the result's info says so (fallback)",
+    )
 
     @model_validator(mode="after")
     def _mode_fields(self) -> Sampling:
+        if self.fallback is not None and self.fallback.fallback is not None:
+            raise ValueError("a fallback sampling has no fallback of its own")
         if self.steps is not None:
             if self.mode != "xyz":
                 raise ValueError(f"steps is for mode xyz, not {self.mode}")

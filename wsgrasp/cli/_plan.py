@@ -82,6 +82,20 @@ def print_result(result: Any, title: str = "plan") -> None:
         + f"{n} evaluated, {int(result.candidates.feasible.sum())} feasible; rejected: "
         + ", ".join(f"{k} {v}" for k, v in result.rejections.items() if v),
     )
+    fallback = result.info.get("fallback")
+    if fallback is not None:
+        table.add_row(
+            "fallback",
+            "the spec's sampling found no grasp ("
+            + (
+                ", ".join(
+                    str(v) if k == "too_large" else f"{k} {v}"
+                    for k, v in fallback["first_search"].items()
+                )
+                or "no candidate"
+            )
+            + "); these are sampling.fallback's",
+        )
     table.add_row(
         "timing",
         ", ".join(f"{k} {v:.1f} ms" for k, v in result.timing_ms.items()),

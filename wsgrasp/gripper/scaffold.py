@@ -36,11 +36,11 @@ from wsgrasp.gripper._scaffold_urdf import (
     collisions_from_visuals,
     copy_urdf,
     expand_xacro,
+    free_fixed_mimics,
     is_xacro,
     joint_names,
     narrow_limits,
     prune_urdf,
-    free_fixed_mimics,
     repair_mimics,
     set_limits,
 )

@@ -21,8 +21,11 @@ __all__ = ["PlanObserver", "STAGES"]
 #:   ``table_points`` (m, 3), ``object_points`` (no, 3), ``obstacles`` list of (k, 3)
 #: - ``object_frame``: ``T_world_object`` (4, 4), ``extents`` (3,),
 #:   ``samples_world`` (ns, 3), ``T_world_table`` (4, 4)
+#: - ``fallback``, only where the spec's sampling found no grasp and
+#:   ``sampling.fallback`` was searched: ``first_search`` (the first search's
+#:   rejections), ``samples_world`` (ns, 3), ``R_world_gwc`` (O, 3, 3)
 #: - ``candidates``: ``candidates`` (CandidateSet)
-STAGES = ("preprocess", "segmentation", "object_frame", "candidates")
+STAGES = ("preprocess", "segmentation", "object_frame", "fallback", "candidates")
 
 
 class PlanObserver(Protocol):
@@ -32,7 +35,7 @@ class PlanObserver(Protocol):
         """Before any processing: the resolved spec, gripper model and inputs."""
 
     def on_stage(self, stage: str, data: dict[str, Any]) -> None:
-        """After each stage in :data:`STAGES`."""
+        """After each stage in :data:`STAGES` (``fallback`` only where it ran)."""
 
     def on_result(self, result: PlanResult) -> None:
         """After the plan finished (grasp found or not)."""

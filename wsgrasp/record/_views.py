@@ -182,6 +182,7 @@ _CLOUDS = {
         ("obstacles", "/scene/obstacles", (0.9, 0.5, 0.1, 1.0)),
     ],
     "object_frame": [("samples_world", "/object/samples", (1.0, 0.85, 0.1, 1.0))],
+    "fallback": [("samples_world", "/object/fallback_samples", (1.0, 0.55, 0.1, 1.0))],
 }
 
 

@@ -155,6 +155,8 @@ def run_layers(run: Run) -> RunLayers:
     pre = run.stages.get("preprocess", {})
     seg = run.stages.get("segmentation", {})
     frame = run.stages.get("object_frame", {})
+    # where the spec's sampling found no grasp, the candidates are its fallback's
+    sampled = run.stages.get("fallback") or frame
     if "points" in pre:
         scene = _pts(pre["points"])
     elif run.inputs is not None:
@@ -222,12 +224,14 @@ def run_layers(run: Run) -> RunLayers:
             f"sampling {mode}: {res.info.get('orientations')} orientations, "
             f"{len(cands)} candidates"
         )
+    if run.stages.get("fallback"):
+        notes.append("the spec's sampling found no grasp: sampling.fallback's")
     return RunLayers(
         scene=_thin(scene, MAX_SCENE_POINTS),
         table=_thin(_pts(seg.get("table_points")), MAX_SCENE_POINTS // 2),
         object=obj,
         obstacles=_pts(seg.get("obstacles")),
-        samples=_pts(frame.get("samples_world")),
+        samples=_pts(sampled.get("samples_world")),
         candidates=cands,
         reasons=reasons,
         reason_names=tuple(REASONS),
