@@ -149,6 +149,36 @@ def test_a_view_with_a_wrong_pose_is_named(tmp_path: Path, mistake: str) -> None
         assert len(scene_from_arrays(pairs, views_overlap=False).views) == 3
 
 
+def test_two_cameras_over_a_wide_table_agree() -> None:
+    """Two cameras 2 m from a 3 m table, posed right, seeing it at 1.3 and
+    1.1 cm spacing: a thousand points of one view lie 9 cm apart there, so
+    matched against the other's thousand they met few of them and the scene
+    was refused as misposed; against all of the other's points they agree. The
+    same view half a metre off is still refused."""
+    rng = np.random.default_rng(0)
+
+    def view(camera: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
+        axis = np.arange(-1.5, 1.5, step)
+        grid = np.stack(np.meshgrid(axis, axis), -1).reshape(-1, 2)
+        table = np.column_stack([grid, np.zeros(len(grid))])  # world, z up
+        z = -camera / np.linalg.norm(camera)  # looking at the origin
+        x = np.cross(z, [0.0, 0.0, 1.0])
+        x /= np.linalg.norm(x)
+        T = np.eye(4)
+        T[:3, :3] = np.column_stack([x, np.cross(z, x), z])
+        T[:3, 3] = camera
+        seen = table + rng.normal(0, 0.001, table.shape)
+        return transform_points(invert_transforms(T), seen), T
+
+    a = view(np.array([2.0, 0.0, 1.2]), 0.013)
+    b = view(np.array([0.0, 2.0, 1.2]), 0.011)
+    assert len(scene_from_arrays([a, b]).views) == 2
+    moved = b[1].copy()
+    moved[:3, 3] += [0.0, 0.0, 0.5]
+    with pytest.raises(InputError, match="share almost nothing"):
+        scene_from_arrays([a, (b[0], moved)])
+
+
 def test_scene_yaml_in_millimetres(tmp_path: Path) -> None:
     T = random_rigid(np.random.default_rng(1), reach=0.5)
     np.savez(tmp_path / "v.npz", points=RNG_POINTS * 1000.0)
