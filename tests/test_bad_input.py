@@ -514,6 +514,17 @@ def test_structured_arrays_are_read_by_field_name(tmp_path):
     np.testing.assert_array_equal(load_cloud(tmp_path / "cloud.npz"), xyz)
     scene = scene_from_arrays(_structured(xyz))
     np.testing.assert_array_equal(scene.points, xyz)
+    # the Python API's own entry too, flat and organised
+    from wsgrasp.api import as_scene
+
+    np.testing.assert_array_equal(as_scene(_structured(xyz)).points, xyz)
+    if len(xyz) % 2 == 0:
+        organised = _structured(xyz.reshape(2, -1, 3))
+        np.testing.assert_array_equal(as_scene(organised).points, xyz)
+    pose = np.eye(4)
+    assert len(as_scene([(xyz, pose), (xyz, pose)]).views) == 2
+    with pytest.raises(InputError, match=r"views\[1\] is not a \(points, T_world"):
+        as_scene([(xyz, pose), (xyz,)])
     flat = np.zeros(len(xyz), dtype=[("a", "<f4"), ("b", "<f4"), ("c", "<f4")])
     np.save(tmp_path / "abc.npy", flat)
     with pytest.raises(InputError, match="fields \\['a', 'b', 'c'\\].*x, y and z"):

@@ -52,8 +52,9 @@ def as_scene(
     *,
     icp: bool = False,
 ) -> Scene:
-    """Turn points ``(N, 3)``, a ``Scene``, or cloud/scene files into a ``Scene``
-    (view poses refined with ICP when ``icp``)."""
+    """Turn points ``(N, 3)`` (or a structured array with fields x, y, z),
+    ``(points, T_world_camera)`` pairs, a ``Scene``, or cloud/scene files into
+    a ``Scene`` (view poses refined with ICP when ``icp``)."""
     from wsgrasp.perception.io import load_scene, scene_from_arrays
 
     if isinstance(source, Scene):
@@ -66,7 +67,9 @@ def as_scene(
         and isinstance(source[0], (str, Path))
     ):
         return load_scene(list(source), icp=icp)
-    return scene_from_arrays(np.asarray(source, dtype=np.float64), icp=icp)
+    # points (N, 3), a structured array read by field name (x, y, z), or
+    # (points, T_world_camera) pairs
+    return scene_from_arrays(source, icp=icp)  # type: ignore[arg-type]
 
 
 class Pipeline:

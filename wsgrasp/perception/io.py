@@ -700,6 +700,14 @@ def scene_from_arrays(
         (:func:`check_views_overlap`); False for a rig whose cameras see apart.
     """
     if isinstance(views, (list, tuple)) and views and isinstance(views[0], tuple):
+        for i, pair in enumerate(views):
+            if not isinstance(pair, tuple) or len(pair) != 2:
+                raise InputError(
+                    f"views[{i}] is not a (points, T_world_camera) pair",
+                    hint="give every view as a pair: its points in the camera "
+                    "frame, (n, 3), and the camera's pose in the world, a 4x4 "
+                    "matrix or a CameraPose; or one (n, 3) cloud in the world",
+                )
         vlist = [
             View(
                 points=_check_shape(p, f"views[{i}]"),
