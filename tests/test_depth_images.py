@@ -121,10 +121,24 @@ def test_every_wrong_depth_image_is_named(tmp_path: Path, capsys):
         load_scene(png, intrinsics=off)
     with pytest.raises(InputError, match="no pixel with a depth"):
         load_scene(_png(tmp_path / "z.png", np.zeros_like(depth)), intrinsics=K)
+    # the camera's intrinsics at half and twice this resolution (a colour
+    # stream's, a binned one's), and fx swapped with cx: refused, not deprojected
+    # along the wrong rays into a grasp decimetres off
+    for k, size, scale in (
+        (Intrinsics(fx=138.0, fy=138.0, cx=79.5, cy=59.5), "160 x 120", "2"),
+        (Intrinsics(fx=554.0, fy=554.0, cx=319.5, cy=239.5), "640 x 480", "0.5"),
+    ):
+        with pytest.raises(InputError, match=f"middle of a {size} image") as info:
+            load_scene(png, intrinsics=k)
+        assert f"scale fx, fy, cx, cy by {scale}" in (info.value.hint or "")
+    swapped = Intrinsics(fx=159.5, fy=277.0, cx=277.0, cy=119.5)
+    with pytest.raises(InputError, match="at 87 % of its width") as info:
+        load_scene(png, intrinsics=swapped)
+    assert "order fx,fy,cx,cy" in (info.value.hint or "")
     # a scale or focal lengths that do not fit, a sensor's 65535 for no depth
     for scale, k, values in (
         (1.0, K, depth),
-        (None, Intrinsics(fx=1, fy=1, cx=0, cy=0), depth),
+        (None, Intrinsics(fx=1, fy=1, cx=159.5, cy=119.5), depth),
         (None, K, depth * 0 + 65535),
     ):
         image = _png(tmp_path / "far.png", values)

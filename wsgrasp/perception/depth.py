@@ -445,6 +445,7 @@ def depth_points(
             hint="give the intrinsics of the depth stream at this resolution "
             "(camera_info's K of the depth topic; cx, cy are in pixels)",
         )
+    _check_principal_point(k, w, h, name)
     if depth_scale is None:
         integer = np.issubdtype(d.dtype, np.integer)
         depth_scale = INTEGER_DEPTH_SCALE if integer else 1.0
@@ -478,6 +479,47 @@ def depth_points(
     points[~valid.reshape(-1)] = 0.0
     _check_extent(points[valid.reshape(-1)], name, float(depth_scale), k)
     return points
+
+
+#: a depth camera's principal point lies near its image's middle (RealSense,
+#: Azure Kinect, Orbbec and Zivid calibrations: within 42-59 % of the width and
+#: height); one outside this share of either is not this image's camera
+_PRINCIPAL_SPAN = (0.15, 0.85)
+#: ...and one off the middle by the same share along both axes, past this, is
+#: the camera's at another resolution (a colour stream's, a binned one's)
+_RESOLUTION_SHIFT = 0.15
+
+
+def _check_principal_point(k: Intrinsics, w: int, h: int, name: str) -> None:
+    """Refuse intrinsics whose principal point lies far from the middle of the
+    ``w`` x ``h`` image: those of another resolution (the point shifted
+    alike along both axes, towards a corner for a smaller image, the far corner
+    for a larger one), or of another camera or with fx and cx swapped. The
+    points would be deprojected along the wrong rays, and a grasp planned on
+    them lands centimetres to decimetres from the object."""
+    fx, fy = (k.cx + 0.5) / w, (k.cy + 0.5) / h  # shares of the image
+    lo, hi = _PRINCIPAL_SPAN
+    alike = abs(fx - fy) < 0.5 * _RESOLUTION_SHIFT
+    if alike and abs(fx - 0.5) > _RESOLUTION_SHIFT:
+        W, H = round(2.0 * k.cx + 1.0), round(2.0 * k.cy + 1.0)
+        raise InputError(
+            f"depth image {name!r} is {w} x {h} pixels, but its intrinsics' "
+            f"principal point ({k.cx:g}, {k.cy:g}) is the middle of a {W} x {H} "
+            "image: they are the camera's at another resolution",
+            hint=f"give the depth stream's intrinsics at {w} x {h} (camera_info's "
+            f"K of the depth topic), or scale fx, fy, cx, cy by {w / W:.3g}",
+        )
+    if not (lo <= fx <= hi and lo <= fy <= hi):
+        raise InputError(
+            f"depth image {name!r} is {w} x {h} pixels, but its intrinsics put "
+            f"the principal point ({k.cx:g}, {k.cy:g}) at {100 * fx:.0f} % of its "
+            f"width and {100 * fy:.0f} % of its height, where a depth camera's "
+            "lies near the middle",
+            hint="check the order fx,fy,cx,cy (cx and cy are the principal point "
+            "in pixels, about half the width and height; fx and fy the focal "
+            "lengths) and that they are this camera's; for a crop of a larger "
+            "image, give the whole image",
+        )
 
 
 def _check_extent(points: Array, name: str, depth_scale: float, k: Intrinsics) -> None:
