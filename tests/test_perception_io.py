@@ -317,6 +317,33 @@ def test_scene_yaml_errors(tmp_path: Path) -> None:
         load_scene([tmp_path / "u.yaml", tmp_path / "v.npz"])
 
 
+def test_a_pose_written_with_few_decimals_or_transposed(tmp_path: Path) -> None:
+    """A rotation printed to 3 or 4 decimals (tf2_echo, calibration exports) is
+    taken as the nearest rotation; a matrix given column after column is named
+    as transposed; a rotation off by more than rounding is still refused."""
+    np.savez(tmp_path / "v.npz", points=RNG_POINTS)
+    T = random_rigid(np.random.default_rng(3), reach=0.5)
+
+    def scene(pose: np.ndarray, name: str):
+        path = tmp_path / f"{name}.yaml"
+        doc = {"views": [{"cloud": "v.npz", "T_world_camera": pose.tolist()}]}
+        path.write_text(yaml.safe_dump(doc))
+        return load_scene(path)
+
+    exact = scene(T, "exact").points
+    for decimals in (3, 4):
+        rounded = np.round(T, decimals)
+        assert np.abs(rounded[:3, :3] @ rounded[:3, :3].T - np.eye(3)).max() > 1e-6
+        assert_allclose(scene(rounded, f"r{decimals}").points, exact, atol=3e-3)
+    with pytest.raises(InputError, match="transposed") as info:
+        scene(T.T, "transposed")
+    assert "row after row" in (info.value.hint or "")
+    skewed = T.copy()
+    skewed[:3, :3] *= 1.02
+    with pytest.raises(InputError, match="not orthonormal .* up to 0.04"):
+        scene(skewed, "skewed")
+
+
 @pytest.mark.parametrize("suffix", [".npy", ".npz"])
 def test_damaged_array_header_is_one_input_error(tmp_path: Path, suffix: str) -> None:
     """A flipped bit that turns the header's ``(`` into ``)`` reaches numpy's

@@ -643,20 +643,50 @@ def _read_scene_yaml(path: Path) -> tuple[list[View], bool]:
     return views, doc.views_overlap
 
 
+#: a pose's rotation whose ``R Rᵀ`` is this near the identity is a rotation
+#: written with few decimals (``tf2_echo`` prints 3, calibration files 4 to 6:
+#: 3 leave up to about 1e-3): it is taken as the nearest rotation (at most a
+#: fraction of a degree from it); farther, it is refused
+_ROUNDED_ROTATION = 5e-3
+
+
 def _check_pose(T: Any, name: str) -> Array:
     from wsgrasp.geometry import check_transforms
 
-    arr = np.asarray(T, dtype=np.float64)
+    arr = np.array(T, dtype=np.float64)
     if arr.shape == (3, 4):
         arr = np.vstack([arr, [0.0, 0.0, 0.0, 1.0]])
+    hint = (
+        "give a rigid 4x4 transform [[R, t], [0, 0, 0, 1]] with R a rotation "
+        "matrix, row after row"
+    )
+    if arr.shape == (4, 4):
+        if not np.allclose(arr[3], [0.0, 0.0, 0.0, 1.0], atol=1e-9) and np.allclose(
+            arr[:, 3], [0.0, 0.0, 0.0, 1.0], atol=1e-9
+        ):
+            raise InputError(
+                f"{name}: its bottom row is {np.round(arr[3], 6).tolist()} and its "
+                "last column [0, 0, 0, 1]: the matrix is transposed (column after "
+                "column, as Eigen and MATLAB store it)",
+                hint="give it row after row (its transpose), the translation in "
+                "the last column",
+            )
+        R = arr[:3, :3]
+        off = float(np.abs(R @ R.T - np.eye(3)).max())
+        if 1e-6 < off <= _ROUNDED_ROTATION and np.linalg.det(R) > 0.0:
+            U, _, Vt = np.linalg.svd(R)  # the nearest rotation
+            arr[:3, :3] = U @ Vt
+        elif off > _ROUNDED_ROTATION:
+            raise InputError(
+                f"{name}: rotation part is not orthonormal (R Rᵀ differs from the "
+                f"identity by up to {off:.2g}; a rotation written with few "
+                f"decimals is taken up to {_ROUNDED_ROTATION:g})",
+                hint=hint,
+            )
     try:
         return np.array(check_transforms(arr, name))
     except ValueError as exc:
-        raise InputError(
-            f"{exc}",
-            hint="give a rigid 4x4 transform [[R, t], [0, 0, 0, 1]] with R a "
-            "rotation matrix",
-        ) from None
+        raise InputError(f"{exc}", hint=hint) from None
 
 
 def _pose_matrix(pose: Any, name: str) -> Array:
