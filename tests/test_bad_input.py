@@ -531,6 +531,25 @@ def test_structured_arrays_are_read_by_field_name(tmp_path):
         load_cloud(tmp_path / "abc.npy")
 
 
+def test_float32_far_from_its_origin_is_refused(tmp_path):
+    """A cloud in a map or UTM frame saved as float32: 5.6 million metres from
+    the origin float32 steps by half a metre, and the scene planned on is
+    another (it was refused as "nothing stands on the table, lower
+    min_points"). Refused naming float32; the same in float64, or float32 a
+    kilometre out (steps of 0.06 mm), is read."""
+    offset = np.array([350_000.0, 5_600_000.0, 100.0])
+    far = (POINTS + offset).astype(np.float32)
+    np.save(tmp_path / "utm.npy", far)
+    with pytest.raises(InputError, match="float32 coordinates as large as") as info:
+        load_cloud(tmp_path / "utm.npy")
+    assert "float64" in (info.value.hint or "")
+    np.save(tmp_path / "utm64.npy", POINTS + offset)
+    np.testing.assert_array_equal(load_cloud(tmp_path / "utm64.npy"), POINTS + offset)
+    near = (POINTS + 1000.0).astype(np.float32)
+    np.save(tmp_path / "km.npy", near)
+    assert len(load_cloud(tmp_path / "km.npy")) == len(POINTS)
+
+
 def test_bad_numpy_files(tmp_path):
     empty = tmp_path / "empty.npy"
     empty.write_bytes(b"")

@@ -69,6 +69,16 @@ def test_nan_and_inf_are_dropped_and_counted(tmp_path: Path) -> None:
         assert scene.dropped_nonfinite == 3, suffix
         assert scene.points.shape == (47, 3)
         assert np.isfinite(scene.points).all()
+    # a sensor's FLT_MAX for a pixel without a return, in float32 and float64:
+    # dropped as NaN is (the voxel grid's arithmetic overflowed on it)
+    flt_max = float(np.finfo(np.float32).max)
+    for dtype in (np.float32, np.float64):
+        marked = pts.astype(dtype)
+        marked[11] = flt_max
+        marked[12, 0] = -flt_max
+        scene = scene_from_arrays(marked)
+        assert scene.dropped_nonfinite == 5
+        assert np.abs(scene.points).max() < 10.0
 
 
 def test_points_without_depth_are_dropped_and_counted(tmp_path: Path) -> None:

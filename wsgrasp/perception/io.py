@@ -359,7 +359,46 @@ def _check_shape(arr: ArrayLike, name: str) -> Array:
         raise InputError(
             f"cloud {name!r} has shape {a.shape}, expected (n, 3)", hint=hint
         )
+    _check_precision(a, name)
     return a
+
+
+#: float32 steps by more than this (m) at the cloud's coordinates: its points
+#: no longer hold the object's shape (a map or UTM frame, millions of metres
+#: from its origin, steps by 0.25-0.5 m)
+_FLOAT32_STEP = 1e-3
+
+
+def _check_precision(a: Array, name: str) -> None:
+    """Refuse a cloud stored as float32 (every value exactly a float32) far
+    from its origin compared with its size, where float32 steps by more than
+    :data:`_FLOAT32_STEP`: the stored points have lost the shape."""
+    rows = a[:: max(1, len(a) // 10_000)]
+    rows = rows[np.isfinite(rows).all(axis=1)]
+    if not len(rows):
+        return
+    far = float(np.abs(rows).max())
+    if far >= float(np.finfo(np.float32).max):
+        return  # not float32's
+    step = float(np.spacing(np.float32(far)))
+    if step <= _FLOAT32_STEP:
+        return
+    spread = float(
+        (np.percentile(rows, 99, axis=0) - np.percentile(rows, 1, axis=0)).max()
+    )
+    if far < 100.0 * spread or not np.array_equal(
+        rows.astype(np.float32).astype(np.float64), rows
+    ):
+        return
+    raise InputError(
+        f"cloud {name!r} holds float32 coordinates as large as {far:.6g} for a "
+        f"scene about {spread:.3g} across: float32 steps there by {step:.3g} "
+        "(0.001 is a millimetre), and the points no longer hold the objects' "
+        "shape",
+        hint="store the points in float64, or relative to an origin near them "
+        "(subtract it from the points and from the camera poses' translations, "
+        "and add it to the planned poses)",
+    )
 
 
 #: an (n, k) array of up to this many columns is points with more per point than
@@ -751,6 +790,11 @@ def scene_from_arrays(
     return _merge(vlist, icp=icp, icp_distance=icp_distance, overlap=views_overlap)
 
 
+#: a coordinate this large (m) is no measurement: a sensor's marker for a
+#: pixel without a return (FLT_MAX, 3.4e38), dropped as NaN and inf are
+_INVALID_BEYOND = 1e12
+
+
 def _merge(
     views: list[View], *, icp: bool, icp_distance: float, overlap: bool = True
 ) -> Scene:
@@ -761,11 +805,14 @@ def _merge(
                 f"cloud {v.name!r} is empty (0 points)",
                 hint="check that the capture or export wrote points",
             )
-        finite = np.isfinite(v.points).all(axis=1)
+        # NaN, inf, and a sensor's marker for no return written as a number
+        # (FLT_MAX): dropped alike; past 1e12 m the grid arithmetic overflows
+        finite = (np.abs(v.points) < _INVALID_BEYOND).all(axis=1)
         n_bad = int(v.points.shape[0] - finite.sum())
         if n_bad == v.points.shape[0]:
             raise InputError(
-                f"cloud {v.name!r} has no finite point: all {n_bad} are NaN or inf",
+                f"cloud {v.name!r} has no finite point: all {n_bad} are NaN, inf "
+                f"or beyond {_INVALID_BEYOND:g} m",
                 hint="the capture produced no valid depth; check the camera and "
                 "the export",
             )

@@ -47,7 +47,8 @@ class Scene:
     points : (N, 3) float
         Merged finite points in the world (input) frame.
     dropped_nonfinite : int
-        NaN/inf points removed while merging.
+        NaN/inf points, and points beyond 1e12 m (a sensor's FLT_MAX for no
+        return), removed while merging.
     dropped_no_depth : int
         Points at their own camera's centre, ``(0, 0, 0)`` in their view,
         removed while merging: what depth cameras and their SDKs (RealSense's
