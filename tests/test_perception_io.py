@@ -431,6 +431,26 @@ def test_a_tilted_table_under_camera_poses_is_a_warning():
     assert pipe.plan(scene_from_arrays(view.points)).warnings == []
 
 
+def test_one_camera_posed_in_millimetres_is_a_warning():
+    """One view whose pose's translation is in millimetres in a scene in metres:
+    no other view to disagree with, and the table level, so the plan went on a
+    thousand times too far out without a word. The cameras' distance from the
+    world's origin says so; the same view with its pose does not."""
+    from wsgrasp.api import Pipeline
+    from wsgrasp.default_specs import default_spec
+    from wsgrasp.spec import load_spec
+
+    view = small_scene("box", "upright", 0).views[0]
+    pipe = Pipeline(load_spec(default_spec("franka_hand")[0]))
+    mm = view.T_world_camera.copy()
+    mm[:3, 3] *= 1000.0
+    wrong = pipe.plan(scene_from_arrays([(view.points, mm)]))
+    assert len(wrong.warnings) == 1 and "millimetres" in wrong.warnings[0]
+    assert "m from the world's origin" in wrong.warnings[0]
+    right = pipe.plan(scene_from_arrays([(view.points, view.T_world_camera)]))
+    assert right.warnings == []
+
+
 @pytest.mark.parametrize("mistake", ["inverted", "camera_link", "scalar_first"])
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
 def test_the_tilt_warning_names_the_mistake_that_levels_the_table(

@@ -586,6 +586,7 @@ class Pipeline:
             finger_targets=finger_targets,
             warnings=_frame_warnings(scene, inp.table.T_world_table[:3, 2])
             + _range_warnings(inp.viewpoints, inp.object_points)
+            + _origin_warnings(inp.viewpoints, inp.object_points)
             + _noise_warnings(prep.depth_noise)
             + _side_warnings(prep.standing_sides),
         )
@@ -692,6 +693,33 @@ def _range_warnings(cameras: Array, object_points: Array) -> list[str]:
         "probably wrong (a depth image in 0.2 mm units, as TUM RGB-D's, read as "
         "millimetres puts everything 5 times too far and each object 5 times too "
         "large: --depth-scale 0.0002), and so is every pose of this plan"
+    ]
+
+
+#: a camera farther than this (m) from the world's origin, with the object
+#: within FAR_OBJECT_WARNING_M of it, gets a warning: a robot's base frame has
+#: its cameras within a few metres
+FAR_CAMERA_WARNING_M = 50.0
+
+
+def _origin_warnings(cameras: Array, object_points: Array) -> list[str]:
+    """A warning when the views' cameras ``cameras`` stand farther than
+    :data:`FAR_CAMERA_WARNING_M` from the world's origin while the object lies
+    near them: one camera alone cannot be checked against another, and a
+    translation in millimetres in a scene in metres puts the whole scene, and
+    every pose of the plan, a thousand times too far out."""
+    if not len(cameras) or not len(object_points):
+        return []
+    out = float(np.linalg.norm(cameras, axis=1).min())
+    centre = np.asarray(object_points, dtype=np.float64).mean(axis=0)
+    near = float(np.linalg.norm(cameras - centre, axis=1).min())
+    if out <= FAR_CAMERA_WARNING_M or near > FAR_OBJECT_WARNING_M:
+        return []
+    return [
+        f"the cameras stand {out:.0f} m from the world's origin, {near:.2f} m from "
+        "the object: if the world is a robot's base frame, a T_world_camera's "
+        "translation is probably in millimetres (or another unit) while the scene "
+        "is in metres, and so is every pose of this plan"
     ]
 
 
