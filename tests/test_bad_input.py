@@ -550,6 +550,40 @@ def test_float32_far_from_its_origin_is_refused(tmp_path):
     assert len(load_cloud(tmp_path / "km.npy")) == len(POINTS)
 
 
+def test_a_file_named_for_another_format_is_named_by_its_bytes(tmp_path):
+    """A PLY file named .npy or .pcd (numpy called it "Python objects", pypcd4
+    printed its validation errors), a PNG named .npy: named for what their
+    first bytes say, with the name to give them; an empty .xyz holds no point."""
+    from wsgrasp.perception.io import save_cloud
+
+    save_cloud(tmp_path / "c.ply", POINTS)
+    for suffix in (".npy", ".pcd", ".xyz"):
+        wrong = tmp_path / f"cloud{suffix}"
+        wrong.write_bytes((tmp_path / "c.ply").read_bytes())
+        with pytest.raises(InputError, match=f"named {suffix} but .* a PLY file") as e:
+            load_cloud(wrong)
+        assert e.value.hint == "rename it to cloud.ply"
+    png = tmp_path / "depth.npy"
+    png.write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(64))
+    with pytest.raises(InputError, match="a PNG image file"):
+        load_cloud(png)
+    (tmp_path / "empty.xyz").write_text("# x y z\n")
+    with pytest.raises(InputError, match="holds no point"):
+        load_cloud(tmp_path / "empty.xyz")
+
+
+def test_one_point_repeated_is_no_tabletop():
+    """5,000 copies of one point: one voxel, which the segmenter called a
+    plane of 0 of 1 points (with advice on metres and plane_distance)."""
+    from wsgrasp.api import Pipeline
+    from wsgrasp.default_specs import default_spec
+    from wsgrasp.spec import load_spec
+
+    pipe = Pipeline(load_spec(default_spec("franka_hand")[0]))
+    with pytest.raises(InputError, match="5000 points lie within 0 m of each other"):
+        pipe.plan(np.tile([[0.1, 0.2, 0.5]], (5000, 1)))
+
+
 def test_bad_numpy_files(tmp_path):
     empty = tmp_path / "empty.npy"
     empty.write_bytes(b"")

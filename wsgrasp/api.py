@@ -184,6 +184,7 @@ class Pipeline:
             t = time.perf_counter()
 
         points, flying = preprocess(scene, spec.preprocess)
+        _check_spread(scene.points, points, spec.preprocess.voxel_size)
         pre: dict[str, Any] = {"points": points, "flying_pixels": len(flying)}
         if len(flying):
             pre["flying_points"] = flying  # drawn in Foxglove
@@ -694,6 +695,26 @@ def _range_warnings(cameras: Array, object_points: Array) -> list[str]:
         "millimetres puts everything 5 times too far and each object 5 times too "
         "large: --depth-scale 0.0002), and so is every pose of this plan"
     ]
+
+
+def _check_spread(scene_points: Array, downsampled: Array, voxel: float) -> None:
+    """Refuse a scene whose points fall into a handful of voxels (one point
+    repeated, a cloud a few millimetres across): nothing in it is a table with
+    objects, and the segmenter would only say that it found no plane."""
+    if len(downsampled) >= _FEWEST_VOXELS or len(scene_points) < _FEWEST_VOXELS:
+        return
+    across = float(np.ptp(scene_points, axis=0).max())
+    raise InputError(
+        f"the scene's {len(scene_points)} points lie within {across:.3g} m of each "
+        f"other: {len(downsampled)} voxel(s) of {voxel:g} m hold them all, no "
+        "table and objects",
+        hint="check the capture or export (one point repeated, every pixel at one "
+        "depth); for a cloud in other units than metres, scale it to metres",
+    )
+
+
+#: a scene downsampled to fewer voxels than this is no tabletop
+_FEWEST_VOXELS = 10
 
 
 #: a camera farther than this (m) from the world's origin, with the object

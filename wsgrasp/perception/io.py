@@ -111,6 +111,7 @@ def load_cloud(path: str | Path) -> Array:
             hint="give a cloud file such as scene.ply or scene.npz",
         )
     suffix = p.suffix.lower()
+    _check_format(p, suffix)
     if suffix == ".ply":
         arr = _read_ply(p)
     elif suffix == ".pcd":
@@ -135,6 +136,39 @@ def load_cloud(path: str | Path) -> Array:
             hint="convert it to PLY or NPZ, or give a scene YAML (.yaml)",
         )
     return _check_shape(arr, str(p))
+
+
+#: a file's first bytes, the format they start, and its suffixes
+_MAGIC: tuple[tuple[bytes, str, tuple[str, ...]], ...] = (
+    (b"ply\n", "PLY", (".ply",)),
+    (b"ply\r\n", "PLY", (".ply",)),
+    (b"\x93NUMPY", "NumPy .npy", (".npy",)),
+    (b"PK\x03\x04", "zip (NumPy .npz)", (".npz",)),
+    (b"\x89PNG", "PNG image", (".png",)),
+    (b"II*\x00", "TIFF image", (".tif", ".tiff")),
+    (b"MM\x00*", "TIFF image", (".tif", ".tiff")),
+    (b"\x89MCAP", "MCAP recording", (".mcap",)),
+    (b"SQLite format 3", "SQLite database (a ROS 2 bag's .db3)", (".db3",)),
+    (b"# .PCD", "PCD", (".pcd",)),
+)
+
+
+def _check_format(p: Path, suffix: str) -> None:
+    """Refuse a file whose first bytes say it is another format than its
+    suffix (a PLY file named .npy, a PNG named .pcd): read as its suffix says,
+    it failed with that reader's puzzling message."""
+    try:
+        with open(p, "rb") as f:
+            head = f.read(16)
+    except OSError:
+        return  # the reader reports it
+    for magic, kind, suffixes in _MAGIC:
+        if head.startswith(magic) and suffix not in suffixes:
+            raise InputError(
+                f"cloud file {str(p)!r} is named {suffix or '(no suffix)'} but its "
+                f"first bytes say it is a {kind} file",
+                hint=f"rename it to {p.stem}{suffixes[0]}",
+            )
 
 
 def _read_ply(p: Path) -> Array:
@@ -227,6 +261,11 @@ def _read_text(p: Path) -> Array:
                 f"cloud file {str(p)!r} is not a table of numbers: {exc}",
                 hint="write one point per line as 'x y z' or 'x,y,z' (metres)",
             ) from None
+    if arr.size == 0:
+        raise InputError(
+            f"cloud file {str(p)!r} holds no point",
+            hint="check that the export wrote points: one per line as 'x y z'",
+        )
     if arr.ndim == 2 and arr.shape[1] > 3:
         arr = arr[:, :3]  # extra columns (colour, intensity) are ignored
     return np.asarray(arr, dtype=np.float64)
