@@ -155,6 +155,36 @@ def test_an_object_seen_from_straight_above_stands_on_the_table(
     assert len(low) > 0.2 * len(obj)
 
 
+@pytest.mark.parametrize("gap", [0.008, 0.0095])
+def test_the_sides_of_a_sparsely_seen_top_stand_under_its_outline(gap: float) -> None:
+    """A 15 cm box whose top alone is seen, and sparsely (from far or at a
+    slant: rows of points ``gap`` apart, 5 mm along them, within DBSCAN's reach
+    of each other), its gap to the table
+    hidden: its sides are filled in under the top's outline, not under the
+    rows in its middle (they stood up to 5 cm inside the box)."""
+    rng = np.random.default_rng(0)
+    ax = np.arange(-0.3, 0.3, VOXEL)
+    table = np.stack(np.meshgrid(ax, ax), -1).reshape(-1, 2)
+    table = table[(np.abs(table) > 0.085).any(axis=1)]  # hidden under the box
+    u = np.arange(-0.075, 0.0751, VOXEL)
+    v = np.arange(-0.075, 0.0751, gap)
+    top = np.stack(np.meshgrid(u, v), -1).reshape(-1, 2)
+    points = np.vstack(
+        [
+            np.column_stack([table, np.zeros(len(table))]),
+            np.column_stack([top, np.full(len(top), 0.15)]),
+        ]
+    ) + rng.normal(0, 0.0005, (len(table) + len(top), 3))
+    seg = segment(points)
+    assert seg.info["planes_tried"][-1].get("sides filled in", 0) > 0
+    (obj,) = seg.clusters
+    low = obj[obj[:, 2] < 0.1]  # the filled-in sides
+    # how far in from the outline of the top as seen (its rows' ends)
+    edge = np.abs(top).max(axis=0)  # (2,)
+    inside = (edge - np.abs(low[:, :2])).min(axis=1)
+    assert len(low) > 100 and inside.max() < 0.015  # 3 cells; 7 cm unclosed
+
+
 @pytest.mark.parametrize("elevation", [45.0, 60.0])
 @pytest.mark.parametrize("lift", [0.05, 0.15])
 def test_an_object_hanging_over_the_table_does_not_stand_on_it(

@@ -567,17 +567,41 @@ def _footprint(
     uv: Array, cell: float
 ) -> tuple[NDArray[np.bool_], Array, NDArray[np.int64]]:
     """The footprint of points projected on a plane, ``uv`` ``(k, 2)``: the
-    cells of side ``cell`` they fall into, holes filled, on a grid with a cell
-    of border on each side; the grid's corner ``lo`` ``(2,)`` and each point's
-    cell ``(k, 2)``."""
-    from scipy.ndimage import binary_fill_holes
+    cells of side ``cell`` they fall into, the gaps between the points' rows
+    closed and holes filled, on a grid with a border as wide as the closing
+    and a cell; the grid's corner ``lo`` ``(2,)`` and each point's cell
+    ``(k, 2)``.
 
-    lo = uv.min(axis=0) - cell
-    shape = tuple(int(n) for n in np.floor((uv.max(axis=0) - lo) / cell) + 2)
+    A top seen at a slant, or from far, falls into rows with empty cells
+    between them (a 15 cm cube's top seen from 1.5 m: 399 points in 900
+    cells) that open its footprint to the outside: without the closing, its
+    outline ran through its middle, and the sides filled in under it
+    (:func:`_hidden_sides`) stood up to 5 cm inside the object. The closing
+    spans the points' spacing across their rows: the median distance to a
+    point's sixth nearest (its row's neighbours are the first four), at least
+    one cell."""
+    from scipy.ndimage import binary_dilation, binary_erosion, binary_fill_holes
+    from scipy.spatial import cKDTree
+
+    reach = 1
+    if len(uv) > _ROW_NEIGHBOURS:
+        d, _ = cKDTree(uv).query(uv, k=_ROW_NEIGHBOURS + 1)
+        spacing = float(np.median(d[:, -1]))
+        reach = max(1, min(_MAX_CLOSING, math.ceil(spacing / cell - 1e-9) - 1))
+    lo = uv.min(axis=0) - (reach + 1) * cell
+    shape = tuple(int(n) for n in np.floor((uv.max(axis=0) - lo) / cell) + reach + 2)
     ij = np.floor((uv - lo) / cell).astype(np.int64)  # (k, 2)
     foot = np.zeros(shape, dtype=bool)
     foot[ij[:, 0], ij[:, 1]] = True
+    grown = binary_dilation(foot, iterations=reach)
+    foot |= binary_erosion(grown, iterations=reach, border_value=0)
     return binary_fill_holes(foot), lo, ij
+
+
+#: ``_footprint``: the neighbour whose distance tells the points' spacing
+#: across their rows, and the widest closing (cells)
+_ROW_NEIGHBOURS = 6
+_MAX_CLOSING = 4
 
 
 def _hidden_sides(
