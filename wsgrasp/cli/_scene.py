@@ -260,7 +260,9 @@ def info(
         if spec
         else PipelineSpec.model_validate({"gripper": "franka_hand"})
     )
-    import open3d  # noqa: F401 - imported before timing starts
+    from wsgrasp._open3d import load_open3d
+
+    load_open3d()  # imported before timing starts
 
     entry = get_registry().get("segmenters", ps.segmenter.name)
     options = entry.obj.Options.model_validate(ps.segmenter.options)

@@ -433,7 +433,9 @@ def depth_points(
     name
         The image, for errors.
     """
-    import open3d as o3d
+    from wsgrasp._open3d import load_open3d
+
+    o3d = load_open3d()
 
     d = np.asarray(depth)
     h, w = d.shape

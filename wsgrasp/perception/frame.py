@@ -398,7 +398,9 @@ def estimate_normals(
 def _open3d_normals(p: Array, k: int, covariances: Array | None = None) -> Array:
     """open3d's unoriented normals of the points ``p`` (n, 3) from their ``k``
     nearest neighbours, or from the given ``covariances`` (n, 3, 3)."""
-    import open3d as o3d
+    from wsgrasp._open3d import load_open3d
+
+    o3d = load_open3d()
 
     pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(p))
     if covariances is not None:  # open3d then takes them instead of its own

@@ -1073,7 +1073,9 @@ def refine_views_icp(
     The first view anchors the world frame. Poses are updated in place; each
     view's points stay in its camera frame.
     """
-    import open3d as o3d
+    from wsgrasp._open3d import load_open3d
+
+    o3d = load_open3d()
 
     reg = o3d.pipelines.registration
 
@@ -1121,7 +1123,9 @@ def save_cloud(path: str | Path, points: ArrayLike) -> Path:
     elif suffix == ".npy":
         np.save(p, pts.astype(np.float32))
     elif suffix in (".ply", ".pcd"):
-        import open3d as o3d
+        from wsgrasp._open3d import load_open3d
+
+        o3d = load_open3d()
 
         pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts))
         o3d.io.write_point_cloud(p, pcd)

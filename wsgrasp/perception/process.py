@@ -30,7 +30,9 @@ __all__ = [
 
 
 def _pcd(points: Array) -> Any:
-    import open3d as o3d
+    from wsgrasp._open3d import load_open3d
+
+    o3d = load_open3d()
 
     return o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
 

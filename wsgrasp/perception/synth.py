@@ -285,7 +285,9 @@ def render_scene(
     list of View
         Each view's hit points ``(n_i, 3)`` in its camera frame and its pose.
     """
-    import open3d as o3d
+    from wsgrasp._open3d import load_open3d
+
+    o3d = load_open3d()
     import trimesh
 
     scene = o3d.t.geometry.RaycastingScene()

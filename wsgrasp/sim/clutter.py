@@ -409,7 +409,9 @@ def render_world(
 
 def object_owners(points: Array, meshes: list[tuple[Any, Array]]) -> NDArray[np.int64]:
     """Index into ``meshes`` of the surface nearest each point ``(n, 3)``."""
-    import open3d as o3d
+    from wsgrasp._open3d import load_open3d
+
+    o3d = load_open3d()
 
     from wsgrasp.geometry import transform_points
 
