@@ -6,8 +6,10 @@ process (cProfile; open3d 0.20.0, dash 3, on this project's 2-core machine), for
 a viewer wsgrasp never calls. Measured by ``benchmarks/open3d_import.py`` (7
 fresh processes each, load 3): the import 0.59 s as ``import open3d`` against
 0.30 s without the viewer; a whole ``wsgrasp plan`` on the bundled scene 2.00 s
-against 1.51 s (alternating runs of the code before and after). Before open3d's first import that submodule is stood in for by a
-module whose functions import the real one when called, so that a user's
+against 1.51 s (alternating runs of the code before and after).
+
+Before open3d's first import that submodule is stood in for by a module whose
+functions import the real one when called, so that a user's
 ``open3d.visualization.draw_plotly(...)`` in the same process still works; the
 stand-in leaves ``sys.modules`` once open3d is in, and any other name asked of
 it imports the real module at once.
