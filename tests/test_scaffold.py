@@ -935,6 +935,59 @@ def test_gripper_new_frees_a_fixed_joint_that_follows_another(tmp_path):
     assert path.read_text() == plain
 
 
+def _placed(text: str, joint: str, xyz: str = "0.3 0.1 0.5", rpy: str = "0 3.14159 0"):
+    """``text`` (a URDF whose root is ``palm``) under a ``world`` link that
+    places it, as a simulator's spawn does."""
+    head, tail = text.split("\n", 2)[:2], text.split("\n", 2)[2]
+    world = (
+        '  <link name="world"/>\n'
+        f'  <joint name="world_joint" type="{joint}">\n'
+        '    <parent link="world"/><child link="palm"/>\n'
+        f'    <origin xyz="{xyz}" rpy="{rpy}"/>\n'
+        "  </joint>\n"
+    )
+    return "\n".join(head) + "\n" + world + tail
+
+
+def test_gripper_new_takes_the_hand_below_a_world_link_that_places_it(tmp_path):
+    """A ``world`` root without geometry, joined by a fixed joint that moves and
+    turns the hand (a simulator's spawn), was taken for the gripper's base: the
+    pads went on the wrong half of the fingers and the tool frame 3 cm off. The
+    base is the first link with geometry below it; the guess is the plain one."""
+    plain = _write(tmp_path, jaw_urdf(), "plain.urdf")
+    placed = _write(tmp_path, _placed(jaw_urdf(), "fixed"), "placed.urdf")
+    a = guess_description(plain, "jaw").data
+    b = guess_description(placed, "jaw").data
+    assert b["base_link"] == "palm"
+    for key in ("tool_frame", "approach_axis", "closing_axis", "fingers", "closed"):
+        assert b[key] == a[key], key
+
+
+def test_a_floating_joint_above_the_gripper_is_held_still(tmp_path):
+    """A floating joint from a ``world`` link to the hand: below --base-link it
+    is no part of the gripper and stands still; without --base-link it is one
+    error naming the link to pass."""
+    urdf = _write(tmp_path, _placed(jaw_urdf(), "floating", "0 0 0", "0 0 0"))
+    with pytest.raises(GripperError, match="type 'floating'") as err:
+        guess_description(urdf, "jaw")
+    assert "--base-link palm" in (err.value.hint or "")
+    sc = guess_description(urdf, "jaw", base_link="palm")
+    assert sc.data["base_link"] == "palm" and len(sc.data["fingers"]) == 2
+
+
+def test_a_finger_joint_that_turns_a_full_turn_is_one_error(tmp_path):
+    """A finger joint whose limits span a full turn (-3.14 to 3.14: its ends
+    meet) has no end-stops to close between; the thumb closed at one of them
+    landed on the back of the hand. One error naming the joint."""
+    source = write_claw(tmp_path / "claw")
+    text = source.read_text().replace(
+        '<limit lower="-0.3" upper="0.7"', '<limit lower="-3.14" upper="3.14"', 1
+    )
+    source.write_text(text)
+    with pytest.raises(GripperError, match="joint 'upper_knuckle' moves a finger"):
+        guess_description(source, "claw")
+
+
 def test_gripper_new_names_the_users_urdf_in_its_errors(tmp_path):
     """An error found reading the package's copy of the URDF names the file the
     user gave (the copy goes with the half-written package) and a fix to it."""

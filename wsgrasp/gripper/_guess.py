@@ -222,6 +222,42 @@ class _Urdf:
 # ------------------------------------------------------------------------------
 # Helpers
 # ------------------------------------------------------------------------------
+def _placement_chain(kin: Kinematics, root: str) -> list[str]:
+    """The links below ``root`` down to the first with geometry, where ``root``
+    is the ``world`` link of Gazebo's convention that places the hand in a
+    simulation, and it and each link on the way has no geometry and one child
+    joint, a fixed one, which together move the hand away from the world's
+    origin: the gripper's frame is the hand's own link, not where the world
+    put it (the guesses measured from the base's origin went wrong there: the
+    Franka hand's pads on the wrong half of its fingers). Empty otherwise: a
+    root without geometry under another name (the Ability hand's
+    ``base_link``, turned 90 degrees from its palm) is the mount the arm holds,
+    and a world that only turns the hand about its origin changes no guess."""
+    chain: list[str] = []
+    if root.lower() != "world":
+        return chain
+    link = root
+    moved = np.zeros(3)  # the chain's translation, in the root's frame
+    turn = np.eye(3)
+    while not kin.shapes.get(link):
+        down = [j for j in kin.joints.values() if j.parent == link]
+        if len(down) != 1 or down[0].kind != 0:
+            return []
+        T = np.asarray(down[0].origin, dtype=np.float64)
+        moved = moved + turn @ T[:3, 3]
+        turn = turn @ T[:3, :3]
+        link = down[0].child
+        chain.append(link)
+    # a world that only turns the hand about its own origin (the Shadow hand's,
+    # 90 degrees about z) leaves the guesses as they are: kept as the base
+    return chain if float(np.linalg.norm(moved)) > _PLACED_AWAY else []
+
+
+#: a world link whose fixed joints move the hand this far (m) from its origin
+#: places it elsewhere (a simulator's spawn point)
+_PLACED_AWAY = 1e-3
+
+
 def _link_boxes(kin: Kinematics, links: list[str]) -> Boxes:
     """Axis-aligned bounds ``(lo, hi)`` of each link's geometry in its own frame."""
     out = {}
@@ -331,6 +367,15 @@ def _read(
     else:
         base = roots[0]
         notes["base_link"] = "the root link of the URDF tree"
+        placed = _placement_chain(kin, base)
+        if placed:
+            base = placed[-1]
+            notes["base_link"] = (
+                "the first link with geometry below the URDF's root: "
+                + ", ".join(repr(link) for link in [roots[0], *placed[:-1]])
+                + " only place it (no geometry, one fixed joint down, as a "
+                "simulator's world link does)"
+            )
     below = kin.subtree(base)
 
     movable = [j for j in kin.joints.values() if j.kind != 0 and j.parent in below]
@@ -620,7 +665,23 @@ def _fingers(u: _Urdf) -> dict[str, list[str]]:
         u.warnings.append(
             f"continuous joint {j!r} has no limits and moves no finger; it is held at 0"
         )
+    for j in sorted(used - set(unlimited)):
+        joint = u.kin.joints[j]
+        if joint.kind == JOINT_REVOLUTE and joint.upper - joint.lower >= _FULL_TURN:
+            raise GripperError(
+                f"URDF {u.path.name}: joint {j!r} moves a finger through a full turn "
+                f"or more ({joint.lower:g} to {joint.upper:g} rad), so its two ends "
+                "meet: no end-stops to open from and close to (a thumb closed "
+                "there lands on the back of the hand)",
+                hint=f"give joint {j!r} <limit lower=... upper=...> in the URDF with "
+                "the range the finger really uses",
+            )
     return {link: masters[link] for link in distal}
+
+
+#: a revolute finger joint whose limits span this much (rad) turns all the way
+#: round, its ends within 3 degrees of each other (-3.14 to 3.14: 0.2 degrees)
+_FULL_TURN = 2.0 * np.pi - 0.05
 
 
 def _still_links(u: _Urdf) -> list[str]:

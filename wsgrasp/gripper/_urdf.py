@@ -453,13 +453,13 @@ def load_kinematics(
     joints: dict[str, Joint] = {}
     parent_joint: dict[str, str] = {}
     unlimited: dict[str, str] = {}  # joint -> type, movable without limits
+    # joint -> type: floating and planar joints, which place a robot in a world
+    # (a simulator's spawn); outside the gripper they stand still
+    placing: dict[str, str] = {}
     for j in robot.joints:
         if j.type not in _KINDS:
-            raise fail(
-                f"has joint {j.name!r} of type {j.type!r}; supported: "
-                + ", ".join(_KINDS)
-            )
-        kind = _KINDS[j.type]
+            placing[j.name] = str(j.type)
+        kind = _KINDS.get(j.type, JOINT_FIXED)
         if j.parent not in links or j.child not in links:
             raise fail(f"has joint {j.name!r} between unknown links")
         axis = np.asarray(j.axis if j.axis is not None else (1, 0, 0), float)
@@ -532,6 +532,22 @@ def load_kinematics(
     gripper_links = (
         set(kin.subtree(below)) if below is not None and below in links else set(links)
     )
+    for name, kind_name in placing.items():
+        if joints[name].parent not in gripper_links:
+            kin.warnings.append(
+                f"{kind_name} joint {name!r} is outside the gripper below {below!r} "
+                "and held still"
+            )
+            continue
+        raise GripperError(
+            f"gripper {gripper!r}: urdf {str(path)!r} has joint {name!r} of type "
+            f"{kind_name!r}, which no gripper's finger moves on (supported: "
+            + ", ".join(_KINDS)
+            + ")",
+            hint=f"a {kind_name} joint places a robot in a world (a simulator's "
+            f"spawn): pass --base-link {joints[name].child} to take the gripper "
+            "below it, or remove the joint and its parent link from the URDF",
+        )
     for name, kind_name in unlimited.items():
         if joints[name].parent in gripper_links:
             raise fail(f"has {kind_name} joint {name!r} without <limit lower upper>")
