@@ -543,22 +543,21 @@ def _write_package(
             "they did)"
         )
     kept = set(joint_names(urdf_copy))  # those of the hand, where an arm went
-    if any(j in kept for j in mimics):
-        repaired = (
-            "mimics that name no joint, pointed at the joint they mean in the "
-            "copied URDF: "
-            + ", ".join(f"{j} ({m})" for j, m in mimics.items() if j in kept)
-        )
-        header.append(repaired)
-        scaffold.warnings.append(repaired)
-    if any(j in kept for j in freed):
-        note = (
-            "fixed joints that follow another (<mimic>, <axis>, <limit>), made to "
-            "move in the copied URDF as they follow it: "
-            + ", ".join(f"{j} ({k})" for j, k in freed.items() if j in kept)
-        )
-        header.append(note)
-        scaffold.warnings.append(note)
+    # the joints repaired in the copy, each kind once, where the hand kept them
+    for what, repairs in (
+        ("mimics that name no joint, pointed at the joint they mean", mimics),
+        (
+            "fixed joints that follow another (<mimic>, <axis>, <limit>), made "
+            "to move as they follow it",
+            freed,
+        ),
+    ):
+        if any(j in kept for j in repairs):
+            note = f"{what} in the copied URDF: " + ", ".join(
+                f"{j} ({r})" for j, r in repairs.items() if j in kept
+            )
+            header.append(note)
+            scaffold.warnings.append(note)
     if from_visuals:
         note = (
             "collision shapes that envelop the fingers (drawn round them for arm "
