@@ -704,6 +704,8 @@ def _check_spread(scene_points: Array, downsampled: Array, voxel: float) -> None
     if len(downsampled) >= _FEWEST_VOXELS or len(scene_points) < _FEWEST_VOXELS:
         return
     across = float(np.ptp(scene_points, axis=0).max())
+    if across >= _FEWEST_VOXELS * voxel:  # a wide scene a crop left little of
+        return
     raise InputError(
         f"the scene's {len(scene_points)} points lie within {across:.3g} m of each "
         f"other: {len(downsampled)} voxel(s) of {voxel:g} m hold them all, no "
