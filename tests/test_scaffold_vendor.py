@@ -5,6 +5,7 @@ descriptions of ../shared/grippers, scaffolded and checked with no hand edit."""
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -632,6 +633,45 @@ def test_collada_gripper_scaffolds_and_checks(tmp_path):
 # ------------------------------------------------------------------------------
 # The development descriptions
 # ------------------------------------------------------------------------------
+@pytest.mark.skipif(
+    not SHARED.is_dir(),
+    reason=f"the vendor URDFs of ../shared/grippers are not here ({SHARED}): "
+    "development data, kept out of the repository",
+)
+def test_barrett_spread_stays_a_spread_with_its_distal_joints_coupled(tmp_path):
+    """The BarrettHand with each distal joint a mimic of its middle one (its
+    real 1:3 drive, as other descriptions write it): one master flexes each
+    finger, yet its joints turned about the flexion axis are still two, so the
+    spread joints are held as in the URDF as published; they were taken for
+    closers and closed the two spreading fingers 146 degrees round the palm,
+    onto each other."""
+    import re
+
+    source = SHARED / VENDOR["barrett"]
+    folder = tmp_path / "coupled"
+    shutil.copytree(source.parent, folder)
+    text = (folder / source.name).read_text()
+
+    def couple(m: re.Match[str]) -> str:
+        k = m.group(1)
+        return m.group(0).replace(
+            "</joint>",
+            f'  <mimic joint="finger_{k}_med_joint" multiplier="0.32"/>\n  </joint>',
+        )
+
+    coupled = re.sub(
+        r'<joint name="finger_(\d)_dist_joint".*?</joint>', couple, text, flags=re.S
+    )
+    assert coupled.count("<mimic") >= 3
+    (folder / source.name).write_text(coupled)
+    plain = guess_description(source, "barrett").data
+    d = guess_description(folder / source.name, "barrett").data
+    spread = [j for j in plain["closed"] if "prox" in j]
+    assert spread and all(d["closed"][j] == plain["closed"][j] == 0.0 for j in spread)
+    fingers = [f["joints"] for f in d["fingers"]]
+    assert fingers == [f["joints"] for f in plain["fingers"]]
+
+
 @pytest.mark.skipif(
     not SHARED.is_dir(),
     reason=f"the vendor URDFs of ../shared/grippers are not here ({SHARED}): "

@@ -976,12 +976,24 @@ def _postures(
         for m in masters_all
     }
     mains = {link: _main_closers(u, link, fingers[link], effect) for link in distal}
+    # how many joints of the finger's chain its main closers turn, the joints
+    # that follow them included: a BarrettHand's distal joint coupled to its
+    # middle one by a mimic (its real 1:3 drive) is a closer still, and its
+    # spread joint stays a spread joint
+    turned = {
+        link: sum(
+            1
+            for j in kin.chain(u.base, link)
+            if j.kind != 0 and kin.master(j.name) in mains[link]
+        )
+        for link in distal
+    }
     # about another axis than its finger's several main closers, in every finger
     cross = {
         m
         for m in masters_all
         if all(
-            len(mains[link]) > 1 and m not in mains[link]
+            turned[link] > 1 and m not in mains[link]
             for link in distal
             if m in fingers[link]
         )
