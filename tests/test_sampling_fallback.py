@@ -56,6 +56,9 @@ def test_no_grasp_searches_the_fallback_and_says_why_the_first_found_none(scene)
     assert result.best_index == direct.best_index
     np.testing.assert_array_equal(result.T_world_ee, direct.T_world_ee)
     assert "fallback" in result.timing_ms
+    # what `plan --json` prints says so too
+    assert result.to_json()["fallback"] == result.info["fallback"]
+    assert "fallback" not in direct.to_json()
 
 
 def test_a_grasp_found_leaves_the_fallback_unsearched(scene):

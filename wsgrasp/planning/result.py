@@ -249,6 +249,9 @@ class PlanResult:
             "timing_ms": self.timing_ms,
             "hint": self.hint,
             "warnings": self.warnings,
+            # where the spec's sampling found no grasp: sampling.fallback's are
+            # the candidates, and the first search's rejections are here
+            **({"fallback": self.info["fallback"]} if "fallback" in self.info else {}),
             "T_world_object": m(self.T_world_object),
             "object_extents": m(self.object_extents),
             # the same poses as a robot's messages take them (geometry_msgs/Pose)
