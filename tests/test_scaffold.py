@@ -1034,6 +1034,36 @@ def test_gripper_new_warns_of_a_collision_mesh_placed_apart_from_its_visual(tmp_
             assert "fix the collision element's <origin>" in w
 
 
+def test_gripper_new_places_a_misplaced_collision_mesh_as_its_visual(tmp_path):
+    """`gripper new` gives a link whose collision mesh is its visual's mesh
+    placed apart the visual's shapes in the copy it writes, and says so: the
+    visual is what the URDF's authors looked at."""
+    import trimesh
+
+    box = trimesh.creation.box((0.02, 0.015, 0.05))
+    box.apply_translation((0.0, 0.0075, 0.025))
+    box.export(tmp_path / "finger.obj")
+
+    def mesh(tag: str, rpy: str) -> str:
+        return (
+            f'<{tag}><origin xyz="0 0 0" rpy="{rpy}"/>'
+            f'<geometry><mesh filename="finger.obj"/></geometry></{tag}>'
+        )
+
+    left = '<link name="left_finger">'
+    text = jaw_urdf()
+    start = text.index(left)
+    end = text.index("</link>", start) + len("</link>")
+    body = mesh("visual", "0 0 0") + mesh("collision", "0 0 1.5708")
+    urdf = _write(tmp_path, text[:start] + left + body + "</link>" + text[end:])
+    yaml_path, sc = scaffold_plugin("jaw", urdf, tmp_path / "out")
+    copied = (yaml_path.parent / "jaw.urdf").read_text()
+    link = copied[copied.index(left) : copied.index("</link>", copied.index(left))]
+    assert 'rpy="0 0 1.5708"' not in link and "<collision" in link
+    assert any("placed apart" in w and "left_finger" in w for w in sc.warnings)
+    assert not any("fix the collision element" in w for w in sc.warnings)
+
+
 def test_a_urdf_element_without_its_name_is_one_error_naming_it(tmp_path):
     """yourdfpy fails on an unnamed <robot> or link with a bare KeyError: the
     reader names the element instead."""
