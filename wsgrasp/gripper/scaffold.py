@@ -498,7 +498,7 @@ def _write_package(
         )
         # a collision mesh that is the link's visual mesh placed elsewhere: the
         # visual is what the URDF's authors looked at (the SAKE EZGripper's in
-        # one robot's URDF, 90 degrees apart: it held 8 of random:000-019 under
+        # one robot's URDF, 90 degrees apart: it held 6-8 of random:000-019 under
         # the strict protocol as placed, 18 with the visual's placement)
         misplaced = collisions_from_visuals(
             urdf_copy, {link for link in kin.misplaced if link in kin.subtree(base)}
