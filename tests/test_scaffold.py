@@ -1002,10 +1002,9 @@ def test_gripper_new_names_the_users_urdf_in_its_errors(tmp_path):
     assert not (tmp_path / "out").exists()
 
 
-def test_gripper_new_warns_of_a_collision_mesh_placed_apart_from_its_visual(tmp_path):
-    """A link whose collision element is its visual's mesh file at another
-    origin (a visual turned into place, its collision copy not) gets one
-    warning naming the link and the fix; the same mesh in the same place none."""
+def _finger_meshes(tmp_path, visual_rpy: str, collision_rpy: str) -> Path:
+    """The jaw, its left finger's visual and collision one mesh file placed at
+    the two given rotations."""
     import trimesh
 
     box = trimesh.creation.box((0.02, 0.015, 0.05))
@@ -1022,10 +1021,16 @@ def test_gripper_new_warns_of_a_collision_mesh_placed_apart_from_its_visual(tmp_
     text = jaw_urdf()
     start = text.index(left)
     end = text.index("</link>", start) + len("</link>")
+    body = mesh("visual", visual_rpy) + mesh("collision", collision_rpy)
+    return _write(tmp_path, text[:start] + left + body + "</link>" + text[end:])
+
+
+def test_gripper_new_warns_of_a_collision_mesh_placed_apart_from_its_visual(tmp_path):
+    """A link whose collision element is its visual's mesh file at another
+    origin (a visual turned into place, its collision copy not) gets one
+    warning naming the link and the fix; the same mesh in the same place none."""
     for rpy, warned in (("0 0 1.5708", True), ("0 0 0", False)):
-        body = mesh("visual", rpy) + mesh("collision", "0 0 0")
-        urdf = _write(tmp_path, text[:start] + left + body + "</link>" + text[end:])
-        sc = guess_description(urdf, "jaw")
+        sc = guess_description(_finger_meshes(tmp_path, rpy, "0 0 0"), "jaw")
         found = [w for w in sc.warnings if "collision mesh 'finger.obj'" in w]
         assert bool(found) == warned, sc.warnings
         if warned:
@@ -1038,26 +1043,10 @@ def test_gripper_new_places_a_misplaced_collision_mesh_as_its_visual(tmp_path):
     """`gripper new` gives a link whose collision mesh is its visual's mesh
     placed apart the visual's shapes in the copy it writes, and says so: the
     visual is what the URDF's authors looked at."""
-    import trimesh
-
-    box = trimesh.creation.box((0.02, 0.015, 0.05))
-    box.apply_translation((0.0, 0.0075, 0.025))
-    box.export(tmp_path / "finger.obj")
-
-    def mesh(tag: str, rpy: str) -> str:
-        return (
-            f'<{tag}><origin xyz="0 0 0" rpy="{rpy}"/>'
-            f'<geometry><mesh filename="finger.obj"/></geometry></{tag}>'
-        )
-
-    left = '<link name="left_finger">'
-    text = jaw_urdf()
-    start = text.index(left)
-    end = text.index("</link>", start) + len("</link>")
-    body = mesh("visual", "0 0 0") + mesh("collision", "0 0 1.5708")
-    urdf = _write(tmp_path, text[:start] + left + body + "</link>" + text[end:])
+    urdf = _finger_meshes(tmp_path, "0 0 0", "0 0 1.5708")
     yaml_path, sc = scaffold_plugin("jaw", urdf, tmp_path / "out")
     copied = (yaml_path.parent / "jaw.urdf").read_text()
+    left = '<link name="left_finger">'
     link = copied[copied.index(left) : copied.index("</link>", copied.index(left))]
     assert 'rpy="0 0 1.5708"' not in link and "<collision" in link
     assert any("placed apart" in w and "left_finger" in w for w in sc.warnings)
