@@ -240,7 +240,7 @@ def _placement_chain(kin: Kinematics, root: str) -> list[str]:
     moved = np.zeros(3)  # the chain's translation, in the root's frame
     turn = np.eye(3)
     while not kin.shapes.get(link):
-        down = [j for j in kin.joints.values() if j.parent == link]
+        down = kin.child_joints(link)
         if len(down) != 1 or down[0].kind != 0:
             return []
         T = np.asarray(down[0].origin, dtype=np.float64)

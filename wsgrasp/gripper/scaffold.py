@@ -501,7 +501,7 @@ def _write_package(
         # one robot's URDF, 90 degrees apart: it held 6-8 of random:000-019 under
         # the strict protocol as placed, 18 with the visual's placement)
         misplaced = collisions_from_visuals(
-            urdf_copy, {link for link in kin.misplaced if link in kin.subtree(base)}
+            urdf_copy, set(kin.misplaced) & set(kin.subtree(base))
         )
         if from_visuals or misplaced:
             scaffold = guess_description(
