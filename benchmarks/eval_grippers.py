@@ -25,11 +25,14 @@ YAMLs. Each gripper's trials run in a ``wsgrasp eval`` process of their own, so
 a crash costs only that row. Writes ``grippers.json`` (every figure) and
 ``grippers.md`` (the table) under ``--out``, and the same ``grippers.json`` to
 ``--results`` (``docs/results/grippers.json``), which the documentation renders
-(its Results: grippers page, with a chart), and a short table into the README.
+(its Results: grippers page, with a chart), and a short table into the README:
+the lift run's rows with the strict run's success beside them (from
+``grippers-strict.json`` beside ``--results``, where there is one).
 ``--render FILE`` prints the table of a ``grippers.json``; ``--readme FILE``
-writes the README's table from one; ``--no-readme`` leaves the README as it is
-(``make eval-grippers-strict``: the strict protocol's run goes to
-``docs/results/grippers-strict.json`` only).
+writes the README's table from one (and the ``grippers-strict.json`` beside it);
+``--no-readme`` leaves the README as it is (``make eval-grippers-strict``: the
+strict protocol's run goes to ``docs/results/grippers-strict.json``, then the
+README's table is written again from both).
 
     python benchmarks/eval_grippers.py                  # what `make eval-grippers` runs
     python benchmarks/eval_grippers.py --objects random:000-019 --no-results
@@ -414,9 +417,17 @@ README_START = (
 README_END = "<!-- end of gripper table -->"
 
 
-def readme_table(report: dict[str, Any]) -> str:
-    """The README's short gripper table: one row per gripper, with the run."""
+def readme_table(report: dict[str, Any], strict: dict[str, Any] | None = None) -> str:
+    """The README's short gripper table: one row per gripper, with the run
+    (``report``, the lift protocol's) and, where ``strict`` is given, the
+    strict protocol's success beside it (``wsgrasp eval``'s default)."""
     tuned = any("tune" in r for r in report["rows"])
+    held_strict = {  # the cell, with the commit of a row re-run into the table
+        r["name"]: f"{100 * r['success_rate']:.1f} %"
+        + (f" (at {r['rerun']['commit']})" if r.get("rerun") else "")
+        for r in (strict or {}).get("rows", [])
+        if r.get("success_rate") is not None
+    }
     lines = [
         f"From `make eval-grippers` at commit {report['commit']}: `gripper new` with",
         "no edit"
@@ -429,11 +440,20 @@ def readme_table(report: dict[str, Any]) -> str:
         "synthetic shapes,",
         f"grasps held in {_mujoco(report)} (protocol `{report['protocol']}`, "
         f"`{report['objects']}`, {report['trials']} trial",
-        "each, default spec).",
+        "each, default spec)"
+        + (
+            f"; held under the protocol `{strict['protocol']}`, `wsgrasp eval`'s "
+            f"default, from `make eval-grippers-strict` at commit {strict['commit']} "
+            f"(`{strict['objects']}`, the same drops)."
+            if strict is not None
+            else "."
+        ),
         "",
         "| gripper | fingers | from | scaffolds | `gripper check` | plans found "
-        f"| held | held, objects under {100 * LOW_OBJECT:.0f} cm high / taller |",
-        "|---|---:|---|---|---|---|---:|---:|",
+        f"| held | held, objects under {100 * LOW_OBJECT:.0f} cm high / taller |"
+        + (" held, strict |" if strict is not None else ""),
+        "|---|---:|---|---|---|---|---:|---:|"
+        + ("---:|" if strict is not None else ""),
     ]
     for r in report["rows"]:
         built_in = r["source"] == "built-in"
@@ -444,11 +464,21 @@ def readme_table(report: dict[str, Any]) -> str:
             f"| {_name(r)} | {r.get('fingers', '–')} | {source} | {scaf} | "
             f"{_cell_check(r)} | {_cell_plans(r).split(' (')[0]} | {held} | "
             f"{_cell_heights(r)} |"
+            + (f" {held_strict.get(r['name'], '–')} |" if strict is not None else "")
         )
     return "\n".join(lines) + "\n"
 
 
-def write_readme(report: dict[str, Any], readme: Path) -> None:
+def strict_beside(results: Path) -> dict[str, Any] | None:
+    """The strict protocol's report beside the lift one at ``results``
+    (``grippers-strict.json`` in the same folder), or None."""
+    path = results.with_name("grippers-strict.json")
+    return json.loads(path.read_text()) if path.is_file() else None
+
+
+def write_readme(
+    report: dict[str, Any], readme: Path, strict: dict[str, Any] | None = None
+) -> None:
     """Replace the table between ``README_START`` and ``README_END`` in
     ``readme`` with :func:`readme_table`."""
     text = readme.read_text()
@@ -459,7 +489,7 @@ def write_readme(report: dict[str, Any], readme: Path) -> None:
             f"{README_END!r}); put them where the table goes"
         )
     head = text[: start + len(README_START)]
-    readme.write_text(head + "\n" + readme_table(report) + text[end:])
+    readme.write_text(head + "\n" + readme_table(report, strict) + text[end:])
 
 
 def merged(old: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
@@ -522,7 +552,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--no-readme",
         action="store_true",
-        help="leave the README's table as it is (it shows the lift protocol's run)",
+        help="leave the README's table as it is (the lift run's rows, the strict "
+        "run's success beside them)",
     )
     ap.add_argument("--no-eval", action="store_true", help="skip the trials")
     ap.add_argument(
@@ -545,14 +576,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--readme",
         type=Path,
-        help="only write the README's table from this grippers.json",
+        help="only write the README's table from this grippers.json (and the "
+        "grippers-strict.json beside it)",
     )
     args = ap.parse_args(argv)
     if args.render is not None:
         print(markdown(json.loads(args.render.read_text())), end="")
         return 0
     if args.readme is not None:
-        write_readme(json.loads(args.readme.read_text()), ROOT / "README.md")
+        write_readme(
+            json.loads(args.readme.read_text()),
+            ROOT / "README.md",
+            strict_beside(args.readme),
+        )
         return 0
 
     from rich.console import Console
@@ -643,7 +679,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.no_readme:
             console.print(f"wrote {args.results}")
         else:
-            write_readme(report, ROOT / "README.md")
+            write_readme(report, ROOT / "README.md", strict_beside(args.results))
             console.print(f"wrote {args.results} and the README's table")
     return 0
 

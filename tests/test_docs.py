@@ -304,17 +304,21 @@ def test_spec_file_comment_is_one_line_linking_to_its_rationale(path: Path) -> N
 
 def test_readme_gripper_table_is_the_published_run():
     """The README's gripper table is what ``benchmarks/eval_grippers.py`` writes
-    from ``docs/results/grippers.json``, not typed by hand."""
+    from ``docs/results/grippers.json`` and ``grippers-strict.json``, not typed
+    by hand."""
     sys.path.insert(0, str(ROOT / "benchmarks"))
     try:
         import eval_grippers
     finally:
         sys.path.remove(str(ROOT / "benchmarks"))
     text = (ROOT / "README.md").read_text()
-    report = json.loads((DOCS / "results" / "grippers.json").read_text())
+    results = DOCS / "results" / "grippers.json"
+    report = json.loads(results.read_text())
+    strict = eval_grippers.strict_beside(results)
+    assert strict is not None, "docs/results/grippers-strict.json is published"
     start = text.index(eval_grippers.README_START) + len(eval_grippers.README_START)
     table = text[start : text.index(eval_grippers.README_END)]
-    assert table == "\n" + eval_grippers.readme_table(report), (
+    assert table == "\n" + eval_grippers.readme_table(report, strict), (
         "the README's gripper table differs from docs/results/grippers.json: run "
         "python benchmarks/eval_grippers.py --readme docs/results/grippers.json"
     )
@@ -322,7 +326,7 @@ def test_readme_gripper_table_is_the_published_run():
 
 def test_gripper_run_without_readme_leaves_it(tmp_path: Path) -> None:
     """``eval_grippers.py --no-readme`` (``make eval-grippers-strict``) writes
-    its results file and leaves the README's table, the lift run's, as it is."""
+    its results file and leaves the README's table as it is."""
     before = (ROOT / "README.md").read_text()
     results = tmp_path / "grippers-strict.json"
     argv = ["--grippers-dir", str(tmp_path / "none"), "--only", "no_such_gripper"]
