@@ -449,6 +449,35 @@ def test_meshes_in_millimetres(tmp_path):
     assert d["approach_axis"] == [1.0, 0.0, 0.0]
 
 
+def test_a_long_mesh_above_the_base_link_is_no_unit_error(tmp_path):
+    """A robot's URDF may hold a part truly over a metre long above the gripper
+    (a mobile manipulator's mast): that is no mesh in millimetres, and with
+    ``--base-link`` naming the gripper it is left out of the copy; a gripper
+    link's own mesh that long is still refused."""
+    import trimesh
+
+    urdf = write_claw(tmp_path / "src")
+    trimesh.creation.box(extents=(0.05, 0.05, 1.3)).export(
+        tmp_path / "src" / "meshes" / "mast.stl"
+    )
+    text = urdf.read_text().replace(
+        '<robot name="claw">',
+        '<robot name="claw">\n  <link name="mast"><collision><geometry><mesh '
+        'filename="package://claw_description/meshes/mast.stl"/></geometry>'
+        '</collision></link>\n  <joint name="lift" type="fixed"><parent '
+        'link="mast"/><child link="claw_base"/><origin xyz="0.1 0 0.5"/></joint>',
+    )
+    urdf.write_text(text)
+    pkg, sc = scaffold_plugin("claw", urdf, tmp_path / "o", base_link="claw_base")
+    assert sc.data["base_link"] == "claw_base"
+    assert not list(pkg.rglob("mast.stl"))
+    with pytest.raises(GripperError) as err:
+        scaffold_plugin("claw", urdf, tmp_path / "p", base_link="mast")
+    assert "'mast.stl' of link mast" in str(err.value) and "millimetres" in str(
+        err.value
+    )
+
+
 def test_missing_mesh_names_link_and_fix(tmp_path):
     urdf = write_claw(tmp_path / "src")
     moved = tmp_path / "elsewhere"

@@ -258,6 +258,7 @@ def copy_urdf(
     mesh_units: str | None = None,
     package_paths: list[Path] | None = None,
     warnings: list[str] | None = None,
+    oversized: list[tuple[set[str], GripperError]] | None = None,
 ) -> tuple[Path, list[str]]:
     """Copy a URDF and the meshes it references into ``out_dir``.
 
@@ -278,6 +279,11 @@ def copy_urdf(
         ``ROS_PACKAGE_PATH``).
     warnings
         Appended to: one line per visual mesh left out or looking oversized.
+    oversized
+        Appended to, where given, instead of raising: per collision mesh that
+        looks like millimetres, the links that use it and the error naming it
+        (the caller raises it if one of those links is the gripper's: a robot's
+        URDF may hold a mast or a body that is truly metres long above it).
 
     Returns
     -------
@@ -392,7 +398,7 @@ def copy_urdf(
         mesh = meshes[orig]
         extent = float(np.max(np.asarray(mesh.extents) * np.abs(_scale_of(tag))))
         if extent > MAX_MESH_EXTENT and is_shape(orig):
-            raise GripperError(
+            error = GripperError(
                 f"URDF {urdf.name}: mesh {sources[orig].name!r} of link "
                 f"{links_of(orig)} is {extent:.1f} m across as the URDF scales "
                 "it; its units look like millimetres (URDF lengths are metres)",
@@ -400,6 +406,9 @@ def copy_urdf(
                 'of the URDF gets scale="0.001 0.001 0.001"), or add that scale to '
                 "its <mesh> element",
             )
+            if oversized is None:
+                raise error
+            oversized.append(({link for link, _ in uses[orig]}, error))
         if extent > MAX_MESH_EXTENT:
             warned.append(
                 f"visual mesh {sources[orig].name!r} of link {links_of(orig)} is "

@@ -471,6 +471,7 @@ def _write_package(
     pkg = out / module
     pkg.mkdir(parents=True, exist_ok=True)
     mesh_warnings: list[str] = []
+    oversized: list[tuple[set[str], GripperError]] = []
     urdf_copy, mesh_notes = copy_urdf(
         urdf,
         pkg,
@@ -479,6 +480,7 @@ def _write_package(
         mesh_units=mesh_units,
         package_paths=package_paths,
         warnings=mesh_warnings,
+        oversized=oversized,
     )
     mimics = repair_mimics(urdf_copy)
     freed = free_fixed_mimics(urdf_copy)
@@ -487,6 +489,11 @@ def _write_package(
             urdf_copy, name, base_link=base_link, close_past=close_past
         )
         base = scaffold.data["base_link"]
+        # a mesh in millimetres matters where the gripper uses it, not on a link
+        # of the robot above it (left out of the copy below)
+        for links, error in oversized:
+            if links & set(scaffold.links_below):
+                raise error
         kin = load_kinematics(urdf_copy, name, below=base)
         # a link whose collision shapes envelop the fingers (drawn round them
         # for arm motion planning) takes its visual shapes, and the guess is
