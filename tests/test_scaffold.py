@@ -449,6 +449,31 @@ def test_meshes_in_millimetres(tmp_path):
     assert d["approach_axis"] == [1.0, 0.0, 0.0]
 
 
+def test_a_marker_drawn_at_the_tool_frame_is_not_solid(tmp_path):
+    """A URDF that gives its links collision geometry and draws a marker sphere
+    at its tool frame, between the jaws, with a visual alone: the marker is no
+    body (a solid there would meet every object the jaws close on); in a URDF
+    without any collision element, visuals are the shapes."""
+    from wsgrasp.gripper._urdf import load_kinematics
+
+    marker = (
+        '<link name="tool0"><visual><geometry><sphere radius="0.005"/></geometry>'
+        '</visual></link><joint name="tool0_joint" type="fixed"><parent '
+        'link="palm"/><child link="tool0"/><origin xyz="0 0 0.09"/></joint>\n</robot>'
+    )
+    urdf = _write(tmp_path, jaw_urdf().replace("</robot>", marker))
+    kin = load_kinematics(urdf, "jaw")
+    assert kin.shapes["tool0"] == [] and kin.drawn_only == ["tool0"]
+    assert kin.shapes["palm"]
+    yaml_path, _ = scaffold_plugin("jaw", urdf, tmp_path / "o")
+    header = yaml_path.read_text()
+    assert "drawn but not solid" in header and "tool0" in header
+    drawn = urdf.read_text().replace("<collision>", "<visual>")
+    drawn = drawn.replace("</collision>", "</visual>")
+    kin = load_kinematics(_write(tmp_path, drawn, "drawn.urdf"), "jaw")
+    assert kin.shapes["tool0"] and kin.shapes["palm"] and not kin.drawn_only
+
+
 def test_a_long_mesh_above_the_base_link_is_no_unit_error(tmp_path):
     """A robot's URDF may hold a part truly over a metre long above the gripper
     (a mobile manipulator's mast): that is no mesh in millimetres, and with
@@ -468,9 +493,12 @@ def test_a_long_mesh_above_the_base_link_is_no_unit_error(tmp_path):
         'link="mast"/><child link="claw_base"/><origin xyz="0.1 0 0.5"/></joint>',
     )
     urdf.write_text(text)
-    pkg, sc = scaffold_plugin("claw", urdf, tmp_path / "o", base_link="claw_base")
+    yaml_path, sc = scaffold_plugin(
+        "claw", urdf, tmp_path / "o", base_link="claw_base"
+    )
     assert sc.data["base_link"] == "claw_base"
-    assert not list(pkg.rglob("mast.stl"))
+    assert list(yaml_path.parent.rglob("palm.stl"))
+    assert not list(yaml_path.parent.rglob("mast.stl"))
     with pytest.raises(GripperError) as err:
         scaffold_plugin("claw", urdf, tmp_path / "p", base_link="mast")
     assert "'mast.stl' of link mast" in str(err.value) and "millimetres" in str(

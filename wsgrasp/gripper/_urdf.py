@@ -4,9 +4,11 @@ and mass properties.
 yourdfpy parses the file; forward kinematics is ours (batched, in
 :mod:`wsgrasp.geometry`), so no yourdfpy call is made per configuration. Meshes are
 loaded lazily, only when a cloud is sampled, with trimesh (STL, OBJ, PLY, GLB/GLTF,
-and COLLADA through pycollada). A link's shapes are its collision elements; a link
-without any takes its visual ones. ``package://PKG/...`` URIs resolve as ROS
-resolves them (:func:`package_roots`). The planner (:mod:`wsgrasp.gripper`) and the
+and COLLADA through pycollada). A link's shapes are its collision elements; where
+the URDF has none at all, its visual ones. ``package://PKG/...`` URIs resolve as ROS
+resolves them (:func:`package_roots`). In a URDF that gives collision elements,
+a link with visual ones alone is drawn, not solid (a marker sphere at a tool
+frame, display copies of links), as every simulator reads it. The planner (:mod:`wsgrasp.gripper`) and the
 simulator (:mod:`wsgrasp.sim.gripper`) both read their URDF here.
 """
 
@@ -106,7 +108,8 @@ class Kinematics:
     parent_joint : dict of str to str
         For each link with a parent, the joint that attaches it.
     shapes : dict of str to list of Shape
-        Collision elements per link (visual ones where a link has no collision).
+        Collision elements per link (visual ones where the URDF has no collision
+        element at all).
     inertials : dict of str to Inertial
         Mass properties of the links whose ``<inertial>`` gives a mass.
     warnings : list of str
@@ -115,6 +118,9 @@ class Kinematics:
     misplaced : dict of str to str
         Per link whose collision mesh is a visual's mesh placed elsewhere, a
         sentence saying so (``gripper new`` warns of those in the gripper).
+    drawn_only : list of str
+        The links with visual elements alone in a URDF that gives other links
+        collision elements: no shape (``gripper new`` notes those in the gripper).
     """
 
     robot_name: str
@@ -126,6 +132,7 @@ class Kinematics:
     inertials: dict[str, Inertial] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
     misplaced: dict[str, str] = field(default_factory=dict)
+    drawn_only: list[str] = field(default_factory=list)
 
     # -- names -------------------------------------------------------------------
     def check_link(self, link: str, gripper: str, where: str) -> None:
@@ -555,7 +562,14 @@ def load_kinematics(
             f"{kind_name} joint {name!r} has no <limit lower upper>; it is outside "
             f"the gripper below {below!r} and held at 0"
         )
+    # visual elements are a link's shapes only in a URDF without collision ones
+    solid = any(link.collisions for link in robot.links)
     for link in robot.links:
+        if solid and not link.collisions:
+            kin.shapes[link.name] = []
+            if link.visuals:
+                kin.drawn_only.append(link.name)
+            continue
         kin.shapes[link.name] = _shapes(
             link, path.parent, fail, kin.warnings, package_paths
         )
@@ -582,9 +596,9 @@ def _shapes(
     warnings: list[str],
     package_paths: Sequence[Path],
 ) -> list[Shape]:
-    """A link's collision elements, or its visual ones when it has none. A
-    collision mesh that is not found raises; a visual one is left out, with a
-    warning."""
+    """A link's collision elements, or its visual ones when it has none (the
+    caller asks only in a URDF without collision elements). A collision mesh
+    that is not found raises; a visual one is left out, with a warning."""
     collision = bool(link.collisions)
     elements = link.collisions if collision else (link.visuals or [])
     out = []

@@ -590,6 +590,12 @@ def _write_package(
             )
             header.append(note)
             scaffold.warnings.append(note)
+    drawn = [link for link in kin.drawn_only if link in set(kin.subtree(base))]
+    if drawn:  # a marker at the tool frame would be a solid between the jaws
+        header.append(
+            "links with visual geometry alone, drawn but not solid (the URDF "
+            "gives its other links collision geometry): " + ", ".join(drawn)
+        )
     if coupling is not None:
         header.append(coupling.note(effort))
         scaffold.warnings.append(coupling.note(effort))
