@@ -155,6 +155,43 @@ def test_an_object_seen_from_straight_above_stands_on_the_table(
     assert len(low) > 0.2 * len(obj)
 
 
+def test_a_box_on_a_desk_stands_on_the_desk_not_on_the_floor_it_hides() -> None:
+    """A wide camera over a desk sees more floor than desk. The box on the
+    desk hides the floor under it, as an object seen from straight above hides
+    the table under it, but the desk round its foot holds it up: the desk is
+    the table, and the box is as tall as it is (its sides were filled in down
+    to the floor, 85 cm)."""
+    rng = np.random.default_rng(0)
+
+    def grid(x: tuple[float, float], y: tuple[float, float], step: float) -> np.ndarray:
+        u, v = np.arange(*x, step), np.arange(*y, step)
+        return np.stack(np.meshgrid(u, v), -1).reshape(-1, 2)
+
+    floor = grid((-1.2, 1.2), (-1.2, 1.2), 0.01)
+    floor = floor[(np.abs(floor[:, 0]) > 0.5) | (np.abs(floor[:, 1]) > 0.35)]
+    desk = grid((-0.5, 0.5), (-0.35, 0.35), VOXEL)
+    # hidden by the box: under it, and its shadow away from the camera (-y)
+    desk = desk[(np.abs(desk[:, 0]) > 0.03) | (desk[:, 1] < -0.03) | (desk[:, 1] > 0.1)]
+    top = grid((-0.03, 0.03), (-0.03, 0.03), VOXEL)
+    face = grid((-0.03, 0.03), (0.76, 0.85), VOXEL)  # the side facing the camera
+    points = np.vstack(
+        [
+            np.column_stack([floor, np.zeros(len(floor))]),
+            np.column_stack([desk, np.full(len(desk), 0.75)]),
+            np.column_stack([top, np.full(len(top), 0.85)]),
+            np.column_stack([face[:, 0], np.full(len(face), -0.03), face[:, 1]]),
+        ]
+    )
+    points += rng.normal(0.0, 0.0005, points.shape)
+    assert len(floor) > len(desk)
+    seg = RansacDbscan().segment(
+        points, RansacDbscanOptions(), seed=0, viewpoints=np.array([[0.0, -0.8, 1.6]])
+    )
+    assert abs(seg.table.signed_distance(np.array([[0.0, 0.0, 0.75]]))[0]) < 0.003
+    (obj,) = seg.clusters
+    assert np.ptp(obj[:, 2]) < 0.11  # 10 cm tall, not filled down to the floor
+
+
 @pytest.mark.parametrize("gap", [0.008, 0.0095])
 def test_the_sides_of_a_sparsely_seen_top_stand_under_its_outline(gap: float) -> None:
     """A 15 cm box whose top alone is seen, and sparsely (from far or at a

@@ -341,6 +341,19 @@ class RansacDbscan:
                 ah,
                 low - o.contact_distance,
             )
+            # ... unless a surface at its foot holds it up: a box on a desk, seen
+            # from above, hides the floor under it, yet stands on the desk
+            hidden &= ~_held_up(
+                normal,
+                p,
+                idx,
+                lab,
+                np.flatnonzero(hidden),
+                o.cluster_eps,
+                ah,
+                low,
+                o.contact_distance,
+            )
             far &= ~hidden
         if far.any():  # the largest of them, for the error's hint
             k = int(np.flatnonzero(far)[np.argmax(counts[far])])
@@ -560,6 +573,58 @@ def _hidden_below(
             ok = (t >= 0).all(axis=1) & (t < foot.shape).all(axis=1)
             seen[t[ok, 0], t[ok, 1]] = True
         out[c] = np.count_nonzero(seen & core) < _SEEN_BELOW * core.sum()
+    return out
+
+
+#: a cluster is held up by a surface at its foot where that surface is seen in
+#: at least this share of the cells round its footprint (the side of it that
+#: the cameras see: a desk round a box seen from one side, the box hiding the
+#: desk behind it)
+_HELD_AROUND = 0.3
+#: ... the ring of cells round the footprint that is looked at, in cells
+_RING_CELLS = 2
+
+
+def _held_up(
+    normal: Array,
+    p: Array,
+    idx: NDArray[np.int64],
+    lab: NDArray[np.int64],
+    clusters: NDArray[np.int64],
+    cell: float,
+    ah: Array,
+    low: Array,
+    reach: float,
+) -> NDArray[np.bool_]:
+    """Per cluster ``(nlab,)``: whether one of ``clusters``, hanging over the
+    plane, rests on another surface: points not its own (``p`` ``(n, 3)``,
+    heights ``ah`` ``(n,)`` over the plane) within ``reach`` of its lowest
+    height ``low`` ``(nlab,)`` in at least ``_HELD_AROUND`` of the ring of
+    cells round its footprint (side ``cell``, ``_RING_CELLS`` wide).
+
+    A box on a desk, seen from above with the floor in view, hides the floor
+    under it as an object standing on the floor would; the desk round its
+    foot, level with it, says where it stands. An object seen from straight
+    above shows its top alone, and round its top nothing lies at that height."""
+    from scipy.ndimage import binary_dilation
+
+    basis = plane_basis(normal)  # (3, 2)
+    out = np.zeros(int(lab.max()) + 1, dtype=bool)
+    mine = np.zeros(p.shape[0], dtype=bool)
+    for c in clusters:
+        members = idx[lab == c]
+        foot, lo, _ = _footprint(p[members] @ basis, cell)
+        ring = binary_dilation(foot, iterations=_RING_CELLS) & ~foot
+        if not ring.any():
+            continue
+        mine[members] = True
+        level = np.flatnonzero((np.abs(ah - low[c]) <= reach) & ~mine)
+        mine[members] = False
+        t = np.floor((p[level] @ basis - lo) / cell).astype(np.int64)  # (m, 2)
+        ok = (t >= 0).all(axis=1) & (t < foot.shape).all(axis=1)
+        seen = np.zeros(foot.shape, dtype=bool)
+        seen[t[ok, 0], t[ok, 1]] = True
+        out[c] = np.count_nonzero(seen & ring) >= _HELD_AROUND * ring.sum()
     return out
 
 
