@@ -82,6 +82,7 @@ def write_cloud_bag(
     *,
     fields: Sequence[str] = ("x", "y", "z"),
     chunk_size: int = 1024 * 1024,
+    clock: int = 0,
 ) -> Path:
     """Write a ROS 2 bag (MCAP) of PointCloud2 clouds and transforms.
 
@@ -96,6 +97,9 @@ def write_cloud_bag(
         Names of the three float32 fields (to write clouds without x/y/z).
     chunk_size
         Bytes after which a chunk ends.
+    clock
+        The messages are recorded at ``t_ns`` and stamped ``t_ns - clock``: a
+        bag recorded with ``use_sim_time``, its stamps in simulated time.
     """
     from mcap_ros2.writer import Writer
     from scipy.spatial.transform import Rotation
@@ -115,7 +119,7 @@ def write_cloud_bag(
                 _, topic, frame_id, pts = ev
                 p32 = np.ascontiguousarray(np.asarray(pts, dtype="<f4").reshape(-1, 3))
                 msg = {
-                    "header": {"stamp": _time(t), "frame_id": frame_id},
+                    "header": {"stamp": _time(t - clock), "frame_id": frame_id},
                     "height": 1,
                     "width": len(p32),
                     "fields": [
@@ -136,7 +140,7 @@ def write_cloud_bag(
                 msg = {
                     "transforms": [
                         {
-                            "header": {"stamp": _time(t), "frame_id": parent},
+                            "header": {"stamp": _time(t - clock), "frame_id": parent},
                             "child_frame_id": child,
                             "transform": {
                                 "translation": dict(

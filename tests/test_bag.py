@@ -69,6 +69,26 @@ def test_at_picks_the_cloud_and_the_transform_of_that_time(
         read_bag_scene(bag, "/camera/points", at=0.5)
 
 
+def test_transforms_stamped_in_simulated_time(
+    tmp_path: Path, cloud: np.ndarray
+) -> None:
+    """A bag recorded with ``use_sim_time``: messages recorded in wall-clock
+    time, stamped in simulated time (seconds since the simulator started). A
+    wrist camera's pose is the transform stamped last at or before the cloud's
+    stamp (it was the first one recorded: 10 cm off), as in a bag stamped in
+    wall-clock time."""
+    wall = 1_700_000_000 * S
+    clouds = [("/camera/points", "camera", cloud, wall + 12 * S + S // 2)]
+    tf = [
+        ("/tf", "base", "camera", _T([0.0, 0.0, 0.1 * k]), wall + (8 + 2 * k) * S)
+        for k in (1, 2, 3)
+    ]
+    for clock in (wall - 10 * S, 0):
+        bag = write_cloud_bag(tmp_path / f"{clock}.mcap", clouds, tf, clock=clock)
+        (view,) = read_bag_scene(bag, "/camera/points").views
+        np.testing.assert_allclose(view.T_world_camera, _T([0.0, 0.0, 0.2]), atol=1e-12)
+
+
 def test_frame_option(bag: Path) -> None:
     scene = read_bag_scene(bag, "/camera/points", frame="base")
     np.testing.assert_allclose(

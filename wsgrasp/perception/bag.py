@@ -53,12 +53,14 @@ class BagCloud:
     """One PointCloud2 message, or one depth Image deprojected with its
     ``camera_info``, decoded: ``points`` (n, 3) float64 x, y, z in ``frame_id``
     (NaN points kept; a pixel without depth at (0, 0, 0)), ``stamp_ns`` its
-    ``header.stamp`` (the log time when the stamp is zero)."""
+    ``header.stamp`` (the log time when the stamp is zero), ``log_time_ns`` when
+    the bag recorded it."""
 
     topic: str
     frame_id: str
     stamp_ns: int
     points: Array
+    log_time_ns: int = 0
 
 
 def is_mcap(path: str | Path) -> bool:
@@ -513,37 +515,75 @@ def read_bag_clouds(
         else:
             points = pointcloud2_xyz(msg, topic)
         stamp = _stamp(msg, log_time)
-        out.append(BagCloud(topic, str(msg.header.frame_id), stamp, points))
+        out.append(BagCloud(topic, str(msg.header.frame_id), stamp, points, log_time))
     return out
 
 
 # -- transforms ---------------------------------------------------------------------
-def _tf_edges(p: Path, t_ns: int) -> dict[str, tuple[str, Array]]:
-    """child → (parent, T_parent_child): static transforms, and the latest dynamic
-    one at or before ``t_ns`` (the earliest after it when none is before)."""
+#: the /tf messages recorded within this long (ns) of a cloud are searched for
+#: the transforms stamped at its time
+TF_WINDOW_NS = 2_000_000_000
+
+
+def _tf_edges(
+    p: Path, t_ns: int, log_ns: int | None = None
+) -> dict[str, tuple[str, Array]]:
+    """child → (parent, T_parent_child): static transforms, and per child the
+    dynamic one stamped latest at or before ``t_ns`` (the earliest after it
+    when none is before).
+
+    The stamps compared are the messages' ``header.stamp``, the clock the
+    cloud's ``t_ns`` is on (a bag recorded with ``use_sim_time`` stamps them in
+    simulated time, and records them in wall-clock time); the messages looked
+    at are those recorded within ``TF_WINDOW_NS`` of the cloud, ``log_ns``.
+    Without ``log_ns``, or with no /tf message there, the messages recorded at
+    or before ``t_ns``, then after it."""
     from scipy.spatial.transform import Rotation
 
-    edges: dict[str, tuple[str, Array]] = {}
-    # static ones first; then the dynamic ones from t_ns back, then after it
-    # (each child keeps the first one met)
-    reads = [
-        _messages(p, ["/tf_static"]),
+    def pose(tr: Any) -> tuple[str, Array]:
+        q, v = tr.transform.rotation, tr.transform.translation
+        T = np.eye(4)
+        T[:3, :3] = Rotation.from_quat([q.x, q.y, q.z, q.w]).as_matrix()
+        T[:3, 3] = [v.x, v.y, v.z]
+        return str(tr.header.frame_id).lstrip("/"), T
+
+    def transforms(read: Iterator[tuple[Any, Any, Any]]) -> Iterator[tuple[Any, int]]:
+        for schema, channel, message in read:
+            if schema is not None and schema.name == TF_MESSAGE:
+                for tr in _decode(schema, channel, message).transforms:
+                    yield tr, _stamp(tr, int(message.log_time))
+
+    edges = {
+        str(tr.child_frame_id).lstrip("/"): pose(tr)
+        for tr, _ in transforms(_messages(p, ["/tf_static"]))
+    }
+    static = set(edges)
+    if log_ns is not None:
+        # per child, the latest stamp at or before t_ns, else the earliest after
+        best: dict[str, tuple[bool, int, Any]] = {}
+        window = _messages(
+            p,
+            ["/tf"],
+            starting_at=max(0, log_ns - TF_WINDOW_NS),
+            ending_at=log_ns + TF_WINDOW_NS,
+        )
+        for tr, stamp in transforms(window):
+            child = str(tr.child_frame_id).lstrip("/")
+            key = (stamp <= t_ns, stamp if stamp <= t_ns else -stamp)
+            if child not in static and (child not in best or key > best[child][:2]):
+                best[child] = (*key, tr)
+        if best:
+            edges.update({child: pose(b[2]) for child, b in best.items()})
+            return edges
+    # recorded from t_ns back, then after it (each child keeps the first met)
+    for read in (
         _messages(p, ["/tf"], ending_at=t_ns, reverse=True),
         _messages(p, ["/tf"], starting_at=t_ns + 1),
-    ]
-    for read in reads:
-        for schema, channel, message in read:
-            if schema is None or schema.name != TF_MESSAGE:
-                continue
-            for tr in _decode(schema, channel, message).transforms:
-                child = str(tr.child_frame_id).lstrip("/")
-                if child in edges and channel.topic == "/tf":
-                    continue
-                q, v = tr.transform.rotation, tr.transform.translation
-                T = np.eye(4)
-                T[:3, :3] = Rotation.from_quat([q.x, q.y, q.z, q.w]).as_matrix()
-                T[:3, 3] = [v.x, v.y, v.z]
-                edges[child] = (str(tr.header.frame_id).lstrip("/"), T)
+    ):
+        for tr, _ in transforms(read):
+            child = str(tr.child_frame_id).lstrip("/")
+            if child not in edges:
+                edges[child] = pose(tr)
     return edges
 
 
@@ -604,8 +644,8 @@ def read_bag_scene(
 
     p = _open(path)
     clouds = read_bag_clouds(p, topic, at=at)
-    t_ref = max(c.stamp_ns for c in clouds)
-    edges = _tf_edges(p, t_ref)
+    latest = max(clouds, key=lambda c: c.stamp_ns)
+    edges = _tf_edges(p, latest.stamp_ns, latest.log_time_ns or None)
     poses = [camera_pose(edges, frame, c.frame_id) for c in clouds]
     worlds = {world for world, _ in poses}
     if len(worlds) > 1:
