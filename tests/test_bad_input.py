@@ -1164,6 +1164,7 @@ def test_an_object_lying_flat_wider_than_the_gripper_opens_is_named():
 _SHAPE_FIXES = {
     "transpose": "pass its transpose",
     "columns": "pass those alone: points[:, :3]",
+    "pixels": "pass those alone: points[..., :3]",
     "image": "depth image: pass --intrinsics",
 }
 
@@ -1171,11 +1172,12 @@ _SHAPE_FIXES = {
 @pytest.mark.parametrize(
     ("shape", "kind"),
     [((3, 2000), "transpose"), ((2000, 4), "columns"), ((2000, 6), "columns")]
-    + [((240, 320), "image")],
+    + [((240, 320), "image"), ((48, 64, 4), "pixels")],
 )
 def test_a_cloud_of_the_wrong_shape_names_the_likely_fix(tmp_path, shape, kind):
     """Points stored a point per column, with intensity or colour beside x, y, z
-    (XYZI, XYZRGB), or a depth image: each gets the fix that fits it, and no
+    (XYZI, XYZRGB), an organised cloud with colour per pixel (a ZED's XYZRGBA,
+    (h, w, 4)), or a depth image: each gets the fix that fits it, and no
     other."""
     path = tmp_path / "c.npy"
     np.save(path, np.zeros(shape))

@@ -395,6 +395,12 @@ def _check_shape(arr: ArrayLike, name: str) -> Array:
                 "; an (h, w) array is a depth image: pass --intrinsics "
                 "fx,fy,cx,cy with it"
             )
+        elif a.ndim == 3 and 3 < a.shape[-1] <= _EXTRA_COLUMNS:
+            # an organised cloud with more per pixel (a ZED's XYZRGBA, (h, w, 4))
+            hint += (
+                f"; if the first three of its {a.shape[-1]} values per pixel are x, "
+                "y, z (then colour or intensity), pass those alone: points[..., :3]"
+            )
         raise InputError(
             f"cloud {name!r} has shape {a.shape}, expected (n, 3)", hint=hint
         )
