@@ -8,8 +8,9 @@ and COLLADA through pycollada). A link's shapes are its collision elements; wher
 the URDF has none at all, its visual ones. ``package://PKG/...`` URIs resolve as ROS
 resolves them (:func:`package_roots`). In a URDF that gives collision elements,
 a link with visual ones alone is drawn, not solid (a marker sphere at a tool
-frame, display copies of links), as every simulator reads it. The planner (:mod:`wsgrasp.gripper`) and the
-simulator (:mod:`wsgrasp.sim.gripper`) both read their URDF here.
+frame, display copies of links), as every simulator reads it. The planner
+(:mod:`wsgrasp.gripper`) and the simulator (:mod:`wsgrasp.sim.gripper`) both read
+their URDF here.
 """
 
 from __future__ import annotations

@@ -491,8 +491,8 @@ def _write_package(
         base = scaffold.data["base_link"]
         # a mesh in millimetres matters where the gripper uses it, not on a link
         # of the robot above it (left out of the copy below)
-        for links, error in oversized:
-            if links & set(scaffold.links_below):
+        for users, error in oversized:
+            if users & set(scaffold.links_below):
                 raise error
         kin = load_kinematics(urdf_copy, name, below=base)
         # a link whose collision shapes envelop the fingers (drawn round them
