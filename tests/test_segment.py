@@ -125,8 +125,13 @@ def one_view(
 @pytest.mark.parametrize("seed", range(2))
 @pytest.mark.parametrize(
     "kind,size",
-    [("box", (0.06, 0.08, 0.16)), ("cylinder", (0.04, 0.1)), ("sphere", (0.04,))],
-    ids=["box", "can", "ball"],
+    [
+        ("box", (0.06, 0.08, 0.16)),
+        ("cylinder", (0.04, 0.1)),
+        ("cylinder", (0.02, 0.1)),
+        ("sphere", (0.04,)),
+    ],
+    ids=["box", "can", "thin-can", "ball"],
 )
 def test_an_object_seen_from_straight_above_stands_on_the_table(
     kind: str, size: tuple[float, ...], seed: int
