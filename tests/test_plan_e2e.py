@@ -107,6 +107,24 @@ def test_cone_views_scene_yaml(pipelines):
     assert pipelines["franka_hand"].plan(scene).found
 
 
+def test_a_view_posed_degrees_off_is_named(pipelines):
+    """One of three views posed 3 degrees off (a hand-eye calibration gone
+    wrong) sees its own table apart from the others': the plan warns, naming
+    it and the fix; the views as calibrated give no such warning."""
+    from scipy.spatial.transform import Rotation
+
+    scene = load_scene([ROOT / "examples" / "scenes" / "cone_views" / "scene.yaml"])
+    assert not any("apart" in w for w in pipelines["franka_hand"].plan(scene).warnings)
+    views = [(v.points, np.array(v.T_world_camera)) for v in scene.views]
+    turn = np.eye(4)  # 3 degrees about the camera's own x axis
+    turn[:3, :3] = Rotation.from_rotvec([np.radians(3.0), 0.0, 0.0]).as_matrix()
+    views[2] = (views[2][0], views[2][1] @ turn)
+    off = pipelines["franka_hand"].plan(scene_from_arrays(views))
+    (warning,) = [w for w in off.warnings if "see the table apart" in w]
+    assert "'view_2' (3.0°" in warning and "icp" in warning
+    assert "'view_0'" not in warning and "'view_1'" not in warning
+
+
 def test_object_too_wide_is_a_no_grasp_result(pipelines):
     syn = synth_scene("box", size=(0.2, 0.22, 0.25), seed=3, width=160, height=120)
     result = pipelines["franka_hand"].plan(syn.points)

@@ -589,7 +589,8 @@ class Pipeline:
             + _range_warnings(inp.viewpoints, inp.object_points)
             + _origin_warnings(inp.viewpoints, inp.object_points)
             + _noise_warnings(prep.depth_noise)
-            + _side_warnings(prep.standing_sides),
+            + _side_warnings(prep.standing_sides)
+            + _calibration_warnings(scene, prep.table_plane, inp.object_points),
         )
 
 
@@ -743,6 +744,50 @@ def _origin_warnings(cameras: Array, object_points: Array) -> list[str]:
         "the object: if the world is a robot's base frame, a T_world_camera's "
         "translation is probably in millimetres (or another unit) while the scene "
         "is in metres, and so is every pose of this plan"
+    ]
+
+
+#: views whose tables, each fitted to what that view sees, lie this far apart
+#: (degrees, or metres at the object) get a warning: hand-eye calibrations err
+#: by a few tenths of a degree and a few millimetres; a view 2-3 degrees off
+#: lifts its side of the table into slivers that pass for objects
+TABLE_DISAGREE_DEG = 1.5
+TABLE_DISAGREE_M = 0.008
+
+
+def _calibration_warnings(scene: Scene, table: Any, object_points: Array) -> list[str]:
+    """A warning naming the views whose own table (``Scene.view_tables``) lies
+    apart from every other view's by more than :data:`TABLE_DISAGREE_DEG` or
+    :data:`TABLE_DISAGREE_M` at the object: their poses are off."""
+    if len(scene.views) < 2 or not any(v.posed for v in scene.views):
+        return []
+    at = np.asarray(object_points, dtype=np.float64).mean(axis=0)
+    tables = [t for t in scene.view_tables(table, at) if t is not None]
+    off = []
+    for i, (name, n, h) in enumerate(tables):
+        apart = [
+            (
+                float(np.degrees(np.arccos(min(1.0, float(n @ m))))),
+                abs(h - g),
+            )
+            for j, (_, m, g) in enumerate(tables)
+            if j != i
+        ]
+        if apart and all(
+            deg > TABLE_DISAGREE_DEG or dist > TABLE_DISAGREE_M for deg, dist in apart
+        ):
+            deg, dist = min(apart)
+            off.append(f"{name!r} ({deg:.1f}°, {dist * 1000:.0f} mm)")
+    if not off:
+        return []
+    return [
+        "the views see the table apart: "
+        + ", ".join(off)
+        + " from the nearest other view's, where calibrated cameras agree within "
+        "a few tenths of a degree and millimetres; a T_world_camera is off, and "
+        "the table seen by one view may stand up as objects beside the others' "
+        "(refine the poses with `preprocess: {icp: true}` in the spec, see them "
+        "with `wsgrasp scene info --icp`, or calibrate again)"
     ]
 
 

@@ -96,6 +96,44 @@ class Scene:
         ]
         return np.array(centres).reshape(-1, 3)
 
+    def view_tables(
+        self, plane: Plane, at: Array, band: float = 0.05, sample: int = 2000
+    ) -> list[tuple[str, Array, float] | None]:
+        """Per view, the table as that view alone sees it: ``(name, normal,
+        height)``, the plane fitted to its points within ``band`` of ``plane``
+        (at most ``sample`` of them, every k-th) and its height over ``plane``
+        along ``plane``'s normal at the point ``at`` ``(3,)``; None for a view
+        that sees under 300 such points. Views whose poses disagree see tables
+        apart, however well each is fitted."""
+        out: list[tuple[str, Array, float] | None] = []
+        n0 = np.asarray(plane.normal, dtype=np.float64)
+        for i, v in enumerate(self.views):
+            pts = np.asarray(v.points)  # every k-th first: views hold 300,000
+            pts = np.asarray(pts[:: max(1, len(pts) // sample)], dtype=np.float64)
+            T = np.asarray(v.T_world_camera, dtype=np.float64)
+            w = pts @ T[:3, :3].T + T[:3, 3]
+            q = w[np.abs(plane.signed_distance(w)) < band]
+            fit = None
+            # the plane, then again without what stands off it, narrower each time
+            for keep in (0.01, 0.005, None):
+                if len(q) < 300:
+                    break
+                c = q.mean(axis=0)
+                d = q - c
+                n = np.linalg.eigh(d.T @ d)[1][:, 0]  # the least spread direction
+                n = n if n @ n0 >= 0 else -n
+                fit = (c, n)
+                if keep is not None:
+                    q = q[np.abs((q - c) @ n) < keep]
+            if fit is None:
+                out.append(None)
+                continue
+            c, n = fit
+            # where the line through `at` along n0 meets this view's plane
+            height = float((c - at) @ n / max(float(n @ n0), 1e-9))
+            out.append((v.name or f"view {i}", n, height))
+        return out
+
     def table_tilt(self, normal: Array) -> float | None:
         """The angle (degrees) between a plane's ``normal`` and the world's z
         axis where a view was given a pose (the world is then likely a robot's
