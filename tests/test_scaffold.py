@@ -474,6 +474,25 @@ def test_a_marker_drawn_at_the_tool_frame_is_not_solid(tmp_path):
     assert kin.shapes["tool0"] and kin.shapes["palm"] and not kin.drawn_only
 
 
+def test_a_sphere_of_radius_zero_is_no_shape(tmp_path):
+    """A frame link written with ``<sphere radius="0.00"/>`` (ARMAR-4's) is no
+    solid: no shape, and no division by zero in the mesh library."""
+    import warnings
+
+    from wsgrasp.gripper._urdf import load_kinematics
+
+    frame = (
+        '<link name="frame"><collision><geometry><sphere radius="0.00"/></geometry>'
+        '</collision></link><joint name="frame_joint" type="fixed"><parent '
+        'link="palm"/><child link="frame"/></joint>\n</robot>'
+    )
+    urdf = _write(tmp_path, jaw_urdf().replace("</robot>", frame))
+    assert load_kinematics(urdf, "jaw").shapes["frame"] == []
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        scaffold_plugin("jaw", urdf, tmp_path / "o")
+
+
 def test_a_long_mesh_above_the_base_link_is_no_unit_error(tmp_path):
     """A robot's URDF may hold a part truly over a metre long above the gripper
     (a mobile manipulator's mast): that is no mesh in millimetres, and with

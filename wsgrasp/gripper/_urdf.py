@@ -612,9 +612,11 @@ def _shapes(
             out.append(Shape(link.name, "box", T, tuple(float(v) for v in g.box.size)))
         elif g.cylinder is not None:
             size = (float(g.cylinder.radius), float(g.cylinder.length))
-            out.append(Shape(link.name, "cylinder", T, size))
+            if size[0] > 0.0:  # radius 0: a line, no solid (written as a frame)
+                out.append(Shape(link.name, "cylinder", T, size))
         elif g.sphere is not None:
-            out.append(Shape(link.name, "sphere", T, (float(g.sphere.radius),)))
+            if float(g.sphere.radius) > 0.0:  # radius 0: a point, no solid
+                out.append(Shape(link.name, "sphere", T, (float(g.sphere.radius),)))
         elif g.mesh is not None:
             mesh_path = resolve_mesh(g.mesh.filename, urdf_dir, package_paths)
             if mesh_path is None and collision:
