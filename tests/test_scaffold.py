@@ -512,9 +512,7 @@ def test_a_long_mesh_above_the_base_link_is_no_unit_error(tmp_path):
         'link="mast"/><child link="claw_base"/><origin xyz="0.1 0 0.5"/></joint>',
     )
     urdf.write_text(text)
-    yaml_path, sc = scaffold_plugin(
-        "claw", urdf, tmp_path / "o", base_link="claw_base"
-    )
+    yaml_path, sc = scaffold_plugin("claw", urdf, tmp_path / "o", base_link="claw_base")
     assert sc.data["base_link"] == "claw_base"
     assert list(yaml_path.parent.rglob("palm.stl"))
     assert not list(yaml_path.parent.rglob("mast.stl"))
