@@ -29,12 +29,7 @@ from wsgrasp.gripper.model import GripperModel
 from wsgrasp.perception.footprint import Footprint, narrowest_width
 from wsgrasp.perception.sides import mirror_hidden
 from wsgrasp.perception.types import Plane, Scene
-from wsgrasp.planning.candidates import (
-    Orientations,
-    depth_reach,
-    far_side,
-    orientation_set,
-)
+from wsgrasp.planning.candidates import Orientations, far_side, orientation_set
 from wsgrasp.planning.evaluate import FingerSpheres, TableSE
 from wsgrasp.planning.observer import PlanObserver
 from wsgrasp.planning.result import PlanResult
@@ -109,9 +104,11 @@ class Pipeline:
             gripper = load_gripper(name, registry=self.registry)
         self.gripper = gripper
         self._spheres = FingerSpheres(gripper)
-        # the depths along the approach where every contact finger reaches
-        # (sampling.depths spreads its offsets over them), GWC frame
-        self._reach = depth_reach(gripper)
+        # the workspace spheres' extent along the approach, GWC frame
+        z = (gripper.sphere_centers - gripper.T_gripper_gwc[:3, 3]) @ (
+            gripper.T_gripper_gwc[:3, 2]
+        )
+        self._reach = (float(z.min()), float(z.max())) if len(z) else (0.0, 0.0)
         # the side of its approach axis the body reaches farther along, GWC x
         T = gripper.T_gripper_gwc
         self._side = far_side((gripper.cloud - T[:3, 3]) @ T[:3, :3])

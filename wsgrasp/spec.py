@@ -462,8 +462,8 @@ class Sampling(_Model):
         ge=1,
         le=16,
         description="each orientation also tried with the gripper this many depths "
-        "along its approach, over the span where every contact finger's pad "
-        "reaches (1: the box sample at the workspace centroid, as the paper)",
+        "along its approach, over the fingers' workspace extent (1: the box "
+        "sample at the workspace centroid, as the paper)",
     )
     upward_tolerance_deg: float = Field(
         5.0,

@@ -37,7 +37,7 @@ Array = NDArray[np.float64]
 Progress = Callable[[str], None]
 
 #: bumped whenever the builder's output changes for the same inputs (cache key)
-BUILDER_VERSION = 7
+BUILDER_VERSION = 6
 
 
 def _noop(_: str) -> None:
@@ -170,11 +170,7 @@ def build_model(
     radii = np.concatenate([f.radii for f in fills])  # (S,)
     finger_idx = np.repeat(np.arange(len(fills)), [len(f.radii) for f in fills])
     R_gwc = np.stack([np.cross(closing, approach), closing, approach], axis=1)
-    # the centroid of the finger workspaces (each finger's voxels, fingers weighted
-    # alike): not of the spheres, whose placement moves with spheres_per_finger and
-    # would move every candidate pose with it
-    gwc = np.mean([v.mean(axis=0) for v in ws_voxels], axis=0)
-    T_gripper_gwc = transform_from(R_gwc, gwc)
+    T_gripper_gwc = transform_from(R_gwc, centers.mean(axis=0))
     # widest span along the closing axis between two different fingers' workspaces
     proj = [ws.points @ closing for ws in workspaces]
     hi = np.array([p.max() for p in proj])

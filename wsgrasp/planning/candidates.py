@@ -57,16 +57,13 @@ fingertips). An orientation of the set is a rotation and such an offset.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
 from wsgrasp.planning.poses import CandidateStructure, StructuredPoses
-
-if TYPE_CHECKING:
-    from wsgrasp.gripper.model import GripperModel
 
 __all__ = [
     "Orientations",
@@ -77,7 +74,6 @@ __all__ = [
     "approach_sphere_orientations",
     "candidate_poses",
     "depth_offsets",
-    "depth_reach",
     "far_side",
     "from_above",
 ]
@@ -329,47 +325,13 @@ def _across(d: Array, first: Array, second: Array) -> Array:
     return a / np.linalg.norm(a, axis=1, keepdims=True)
 
 
-def depth_reach(g: GripperModel) -> tuple[float, float]:
-    """The span along the approach (GWC frame, m) that ``sampling.depths``
-    spreads its offsets over: where the pads of every contact finger reach (the
-    overlap of their pad centres' extents over each finger's joint grid), else,
-    where they do not overlap, where any of them reaches.
-
-    It does not depend on ``spheres_per_finger``: the spheres' extent did, and
-    with it every candidate pose (a Shadow hand's 160 spheres a finger, placed in
-    the little finger's fringes, put the deepest of 4 depths 8 mm past its
-    thumb's reach, and found no grasp on 16 of random:000-059 where 40 spheres
-    missed 1). A model without finger configurations (format 1): the spheres'.
-
-    A jaw whose pads slide straight across (prismatic fingers) reaches one
-    depth: a span of nothing, which :func:`depth_offsets` samples once."""
-    T = g.T_gripper_gwc
-    if not g.has_configurations:
-        z = (g.sphere_centers - T[:3, 3]) @ T[:3, 2]
-        return (float(z.min()), float(z.max())) if len(z) else (0.0, 0.0)
-    z = (g.config_pad - T[:3, 3]) @ T[:3, 2]  # (Q,)
-    fingers = np.flatnonzero(g.contact_fingers)
-    lo = [float(z[g.config_finger == f].min()) for f in fingers]
-    hi = [float(z[g.config_finger == f].max()) for f in fingers]
-    if max(lo) < min(hi):
-        return max(lo), min(hi)
-    return min(lo), max(hi)
-
-
-#: a depth span (m) shorter than this is sampled at one depth
-MIN_DEPTH_SPAN = 0.001
-
-
 def depth_offsets(count: int, reach: tuple[float, float]) -> Array:
     """``count`` GWC offsets (m) along the approach that put the box sample at
-    evenly spaced depths over ``reach`` (:func:`depth_reach`, GWC frame, ends
-    included); ``[0]`` for one. A span under :data:`MIN_DEPTH_SPAN` is one
-    depth, its middle: the same candidates ``count`` times over are none more."""
+    evenly spaced depths over ``reach`` (the span of the workspace spheres along
+    the approach axis, GWC frame, ends included); ``[0]`` for one."""
     if count <= 1:
         return np.zeros(1)
     lo, hi = reach
-    if hi - lo < MIN_DEPTH_SPAN:
-        return np.array([-0.5 * (lo + hi)])
     # moving the GWC by -z along the approach brings the object to GWC z: the
     # offsets that put the object at each depth of the workspaces
     return -np.linspace(lo, hi, count)
