@@ -793,8 +793,14 @@ def test_a_target_too_large_whose_top_fits_names_the_clutter_segmenter():
     big = _box(rng, [0.0, 0.0, 0.1], [0.2, 0.2, 0.2], 4000)
     assert _what_fits(prep(big), g) == ""
     assert _what_fits(prep(big, [big + [0.4, 0, 0]]), g) == ""
-    # a target that fits needs no suggestion
+    # a target that fits but holds no grasp, beside nothing else that fits: no
+    # suggestion; beside another object that fits (the rule picked a robot's arm
+    # hanging low over the table): that object
     assert _what_fits(prep(box, [big]), g) == ""
+    other = box + [0.3, 0.0, 0.0]
+    hint = _what_fits(prep(box, [big, other]), g)
+    assert "another object on the table fits" in hint
+    assert "rule: nearest, point: [0.330, 0.020" in hint, hint
 
 
 @pytest.mark.parametrize("noise", [0.0, 0.003, 0.01])

@@ -1470,18 +1470,20 @@ _SUGGESTED_POINTS = 20
 
 
 def _what_fits(prep: Prepared, g: GripperModel) -> str:
-    """When the target is wider than the gripper encloses seen from above, what
-    in the scene would fit between the fingers, and the spec that plans for it
-    (``""`` when nothing does): other objects on the table (the one a
-    ``nearest`` rule picks at their centroid), else the target's own top part,
-    which may be an object standing on another (a box on a plate, a book or a
-    tray) that the ``clutter`` segmenter splits off."""
+    """What in the scene would fit between the fingers of a plan without a
+    grasp, and the spec that plans for it (``""`` when nothing does): other
+    objects on the table (the one a ``nearest`` rule picks at their centroid:
+    the target rule may have picked what is no object to grasp, a robot's arm
+    hanging low over the table); where the target is wider
+    than the gripper encloses seen from above, else its own top part, which may
+    be an object standing on another (a box on a plate, a book or a tray) that
+    the ``clutter`` segmenter splits off."""
     from wsgrasp.perception.pile import UNSEGMENTED
 
     points = prep.search_input.object_points
     up = np.asarray(prep.table_plane.normal, dtype=np.float64)
     fits = g.enclosure + _WIDTH_SLACK
-    if g.enclosure <= 0.0 or len(points) < 4 or narrowest_width(points, up) <= fits:
+    if g.enclosure <= 0.0 or len(points) < 4:
         return ""
     others = []
     for name, cloud in zip(prep.obstacle_names, prep.obstacles, strict=False):
@@ -1499,6 +1501,8 @@ def _what_fits(prep: Prepared, g: GripperModel) -> str:
             f"one {width * 100:.1f} cm across at [{at}] is planned for with "
             f"`target: {{rule: nearest, point: [{at}]}}`"
         )
+    if narrowest_width(points, up) <= fits:
+        return ""
     heights = prep.table_plane.signed_distance(points)
     levels = np.arange(_TOP_PART_STEP, heights.max() - _TOP_PART_HEIGHT, _TOP_PART_STEP)
     # the part above a higher cut is a subset, never wider: the lowest cut
