@@ -474,6 +474,20 @@ def test_a_marker_drawn_at_the_tool_frame_is_not_solid(tmp_path):
     assert kin.shapes["tool0"] and kin.shapes["palm"] and not kin.drawn_only
 
 
+def test_a_finger_joint_whose_limits_are_equal_is_named(tmp_path):
+    """A jaw's joint written with ``lower = upper`` (Hello Robot's SG3 gripper,
+    whose second jaw follows the first by a transmission the URDF leaves
+    out): the error names the joint and its limits, and the <mimic> fix."""
+    text = jaw_urdf(mimic=False)
+    right = text.index('<joint name="right_joint"')
+    text = text[:right] + text[right:].replace('upper="0.04"', 'upper="0"', 1)
+    with pytest.raises(GripperError) as err:
+        scaffold_plugin("jaw", _write(tmp_path, text), tmp_path / "o")
+    msg = str(err.value)
+    assert "right_joint (lower = upper = 0) spans nothing" in msg
+    assert "<mimic" in msg
+
+
 def test_a_sphere_of_radius_zero_is_no_shape(tmp_path):
     """A frame link written with ``<sphere radius="0.00"/>`` (ARMAR-4's) is no
     solid: no shape, and no division by zero in the mesh library."""

@@ -222,6 +222,20 @@ def sample_workspace(
     pad_centers = transform_points(T, np.asarray(pad.center, float)[None])[:, 0]
     travel = float(np.linalg.norm(np.ptp(pts[:, 0, :], axis=0)))
     if d and travel < MIN_PAD_TRAVEL:
+        # a joint whose URDF limits are equal cannot move: the URDF's fault
+        stuck = [m for i, m in enumerate(masters) if upper[i] - lower[i] <= 1e-12]
+        if stuck:
+            limits = ", ".join(
+                f"{m} (lower = upper = {lower[masters.index(m)]:g})" for m in stuck
+            )
+            raise GripperError(
+                f"{where}: the URDF's <limit> of joint(s) {limits} spans nothing, "
+                f"so pad link {pad.link!r} does not move",
+                hint="give the joint its range in the URDF; if it moves with "
+                "another joint (one motor driving both jaws), give it a <mimic "
+                "joint=...> of that joint instead, then run `wsgrasp gripper new` "
+                "again",
+            )
         raise GripperError(
             f"{where}: joints {masters} do not move pad link {pad.link!r} "
             f"(it travels {travel * 1000:.3f} mm over their limits)",
