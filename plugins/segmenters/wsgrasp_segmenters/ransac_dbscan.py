@@ -606,7 +606,7 @@ def _held_up(
     reach: float,
 ) -> NDArray[np.bool_]:
     """Per cluster ``(nlab,)``: whether one of ``clusters``, hanging over the
-    plane, rests on another surface: points not its own (``p`` ``(n, 3)``,
+    plane, rests on another surface: points of no cluster (``p`` ``(n, 3)``,
     heights ``ah`` ``(n,)`` over the plane) within ``reach`` of its lowest
     height ``low`` ``(nlab,)`` in at least ``_HELD_AROUND`` of the ring of
     cells round its footprint (side ``cell``, ``_RING_CELLS`` wide).
@@ -619,16 +619,17 @@ def _held_up(
 
     basis = plane_basis(normal)  # (3, 2)
     out = np.zeros(int(lab.max()) + 1, dtype=bool)
-    mine = np.zeros(p.shape[0], dtype=bool)
+    # a surface is no cluster's points: a far view's box falls into its top and
+    # shreds of its sides, level with the top round its outline
+    clustered = np.zeros(p.shape[0], dtype=bool)
+    clustered[idx] = True
     for c in clusters:
         members = idx[lab == c]
         foot, lo, _ = _footprint(p[members] @ basis, cell)
         ring = binary_dilation(foot, iterations=_RING_CELLS) & ~foot
         if not ring.any():
             continue
-        mine[members] = True
-        level = np.flatnonzero((np.abs(ah - low[c]) <= reach) & ~mine)
-        mine[members] = False
+        level = np.flatnonzero((np.abs(ah - low[c]) <= reach) & ~clustered)
         t = np.floor((p[level] @ basis - lo) / cell).astype(np.int64)  # (m, 2)
         ok = (t >= 0).all(axis=1) & (t < foot.shape).all(axis=1)
         seen = np.zeros(foot.shape, dtype=bool)
