@@ -576,11 +576,8 @@ def _hidden_below(
         foot, lo, _ = _footprint(uv_c, side)
         depth = distance_transform_edt(foot)
         core = depth >= _CORE_DEPTH * depth.max()
-        seen = np.zeros(foot.shape, dtype=bool)
-        for uv in (plane_uv, p[ah < under[c]] @ basis):
-            t = np.floor((uv - lo) / side).astype(np.int64)  # (m, 2)
-            ok = (t >= 0).all(axis=1) & (t < foot.shape).all(axis=1)
-            seen[t[ok, 0], t[ok, 1]] = True
+        seen = _cells_seen(plane_uv, lo, side, foot.shape)
+        seen |= _cells_seen(p[ah < under[c]] @ basis, lo, side, foot.shape)
         out[c] = np.count_nonzero(seen & core) < _SEEN_BELOW * core.sum()
     return out
 
@@ -630,12 +627,21 @@ def _held_up(
         if not ring.any():
             continue
         level = np.flatnonzero((np.abs(ah - low[c]) <= reach) & ~clustered)
-        t = np.floor((p[level] @ basis - lo) / cell).astype(np.int64)  # (m, 2)
-        ok = (t >= 0).all(axis=1) & (t < foot.shape).all(axis=1)
-        seen = np.zeros(foot.shape, dtype=bool)
-        seen[t[ok, 0], t[ok, 1]] = True
+        seen = _cells_seen(p[level] @ basis, lo, cell, foot.shape)
         out[c] = np.count_nonzero(seen & ring) >= _HELD_AROUND * ring.sum()
     return out
+
+
+def _cells_seen(
+    uv: Array, lo: Array, side: float, shape: tuple[int, ...]
+) -> NDArray[np.bool_]:
+    """The cells of side ``side`` of a grid of ``shape`` from corner ``lo``
+    ``(2,)`` that points projected on the plane, ``uv`` ``(m, 2)``, fall in."""
+    t = np.floor((uv - lo) / side).astype(np.int64)  # (m, 2)
+    ok = (t >= 0).all(axis=1) & (t < shape).all(axis=1)
+    seen = np.zeros(shape, dtype=bool)
+    seen[t[ok, 0], t[ok, 1]] = True
+    return seen
 
 
 def _footprint(
