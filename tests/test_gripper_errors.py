@@ -120,10 +120,18 @@ def test_finger_whose_joints_are_not_on_its_pads_chain(franka):
 
 
 def test_finger_whose_joints_do_not_move_its_pad(franka):
+    # a range of a micrometre: the pad travels next to nothing
+    urdf = franka.parent / "franka_hand.urdf"
+    _edit(urdf, 'lower="0.0" upper="0.04"', 'lower="0.0" upper="0.000001"')
+    _edit(franka, "pregrasp: {panda_finger_joint1: 0.04}", "pregrasp: {}")
+    _fails(franka, "fingers[left]", "do not move pad link")
+
+
+def test_finger_joint_whose_limits_are_equal(franka):
     urdf = franka.parent / "franka_hand.urdf"
     _edit(urdf, 'lower="0.0" upper="0.04"', 'lower="0.0" upper="0.0"')
     _edit(franka, "pregrasp: {panda_finger_joint1: 0.04}", "pregrasp: {}")
-    _fails(franka, "fingers[left]", "do not move pad link")
+    _fails(franka, "fingers[left]", "(lower = upper = 0) spans nothing", "<mimic")
 
 
 def test_workspace_too_thin_for_a_sphere(franka):

@@ -570,10 +570,10 @@ def load_kinematics(
             kin.shapes[link.name] = []
             if link.visuals:
                 kin.drawn_only.append(link.name)
-            continue
-        kin.shapes[link.name] = _shapes(
-            link, path.parent, fail, kin.warnings, package_paths
-        )
+        else:
+            kin.shapes[link.name] = _shapes(
+                link, path.parent, fail, kin.warnings, package_paths
+            )
         twin = _misplaced_collision(link)
         if twin:
             kin.misplaced[link.name] = twin
