@@ -1474,10 +1474,10 @@ def _what_fits(prep: Prepared, g: GripperModel) -> str:
     grasp, and the spec that plans for it (``""`` when nothing does): other
     objects on the table (the one a ``nearest`` rule picks at their centroid:
     the target rule may have picked what is no object to grasp, a robot's arm
-    hanging low over the table); where the target is wider
-    than the gripper encloses seen from above, else its own top part, which may
-    be an object standing on another (a box on a plate, a book or a tray) that
-    the ``clutter`` segmenter splits off."""
+    hanging low over the table); else, where the target is wider than the
+    gripper encloses seen from above, its own top part, which may be an object
+    standing on another (a box on a plate, a book or a tray) that the
+    ``clutter`` segmenter splits off."""
     from wsgrasp.perception.pile import UNSEGMENTED
 
     points = prep.search_input.object_points
