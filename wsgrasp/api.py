@@ -755,7 +755,9 @@ TABLE_DISAGREE_DEG = 1.5
 TABLE_DISAGREE_M = 0.008
 
 
-def _calibration_warnings(scene: Scene, table: Any, object_points: Array) -> list[str]:
+def _calibration_warnings(
+    scene: Scene, table: Plane, object_points: Array
+) -> list[str]:
     """A warning naming the views whose own table (``Scene.view_tables``) lies
     apart from every other view's by more than :data:`TABLE_DISAGREE_DEG` or
     :data:`TABLE_DISAGREE_M` at the object: their poses are off."""

@@ -223,11 +223,13 @@ def sample_workspace(
     travel = float(np.linalg.norm(np.ptp(pts[:, 0, :], axis=0)))
     if d and travel < MIN_PAD_TRAVEL:
         # a joint whose URDF limits are equal cannot move: the URDF's fault
-        stuck = [m for i, m in enumerate(masters) if upper[i] - lower[i] <= 1e-12]
+        stuck = [
+            f"{m} (lower = upper = {lower[i]:g})"
+            for i, m in enumerate(masters)
+            if upper[i] - lower[i] <= 1e-12
+        ]
         if stuck:
-            limits = ", ".join(
-                f"{m} (lower = upper = {lower[masters.index(m)]:g})" for m in stuck
-            )
+            limits = ", ".join(stuck)
             raise GripperError(
                 f"{where}: the URDF's <limit> of joint(s) {limits} spans nothing, "
                 f"so pad link {pad.link!r} does not move",

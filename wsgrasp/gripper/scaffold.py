@@ -590,7 +590,7 @@ def _write_package(
             )
             header.append(note)
             scaffold.warnings.append(note)
-    drawn = [link for link in kin.drawn_only if link in set(kin.subtree(base))]
+    drawn = [link for link in kin.drawn_only if link in set(scaffold.links_below)]
     if drawn:  # a marker at the tool frame would be a solid between the jaws
         header.append(
             "links with visual geometry alone, drawn but not solid (the URDF "
