@@ -22,6 +22,7 @@ a checkout of the commit before the change), then run the test on the change.
 from __future__ import annotations
 
 import argparse
+import functools
 import hashlib
 import json
 import sys
@@ -98,16 +99,26 @@ def _digest(*arrays: Any) -> str:
 
 def _gripper_ref(name: str) -> str:
     """What a spec names the gripper ``name`` by: :data:`HAND5`'s YAML is
-    written into a temporary folder first."""
+    written once per process into a temporary folder, removed at exit."""
     if name != HAND5:
         return GRIPPERS[name]
+    return _hand5_yaml()
+
+
+@functools.cache
+def _hand5_yaml() -> str:
     import tempfile
 
     from hand_factory import write_hand
 
-    path = write_hand(Path(tempfile.mkdtemp(prefix="wsgrasp-hand5-")), 5, HAND5)
+    folder = tempfile.TemporaryDirectory(prefix="wsgrasp-hand5-")
+    _KEEP.append(folder)  # removed when the interpreter exits
+    path = write_hand(Path(folder.name), 5, HAND5)
     path.write_text(path.read_text() + "contact_fingers: [f0, f1, f2]\n")
     return str(path)
+
+
+_KEEP: list[Any] = []
 
 
 def _pipeline(gripper: str, sampling: dict[str, Any] | None = None) -> Any:
