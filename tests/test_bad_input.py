@@ -1211,3 +1211,23 @@ def test_far_points_in_a_cloud_in_metres_are_not_taken_for_millimetres():
     for scale, unit in ((1000.0, "millimetres"), (100.0, "centimetres")):
         with pytest.raises(InputError, match=f"probably in {unit}"):
             Pipeline(load_spec(SPEC)).plan(syn.points * scale)
+
+
+def test_a_far_target_in_a_wide_view_is_told_to_crop_not_a_depth_scale() -> None:
+    """An object 3.5 m from the camera in a scene seen mostly within 1.2 m (a
+    wide view of a room whose far floor gave the target) is told to crop the
+    scene, with a radius that keeps the near scene; a scene all as far (a depth
+    scale read wrong puts everything far) is told its depth scale."""
+    from wsgrasp.api import _range_warnings
+
+    rng = np.random.default_rng(0)
+    camera = np.zeros((1, 3))
+    obj = rng.normal([0.0, 0.0, 3.5], 0.02, (200, 3))
+    near = rng.uniform([-0.5, -0.5, 0.8], [0.5, 0.5, 1.2], (5000, 3))
+    (wide,) = _range_warnings(camera, obj, np.vstack([near, obj]))
+    assert "crop the scene" in wide and "depth scale" not in wide
+    radius = float(re.search(r"crop_radius: ([0-9.]+)", wide).group(1))
+    assert 1.2 < radius < 3.5
+    (scaled,) = _range_warnings(camera, obj, 3.0 * near)
+    assert "depth scale is probably wrong" in scaled
+    assert _range_warnings(camera, obj / 2.0, near) == []

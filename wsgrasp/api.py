@@ -586,7 +586,7 @@ class Pipeline:
             joints_grasp=joints_grasp,
             finger_targets=finger_targets,
             warnings=_frame_warnings(scene, inp.table.T_world_table[:3, 2])
-            + _range_warnings(inp.viewpoints, inp.object_points)
+            + _range_warnings(inp.viewpoints, inp.object_points, prep.downsampled)
             + _origin_warnings(inp.viewpoints, inp.object_points)
             + _noise_warnings(prep.depth_noise)
             + _side_warnings(prep.standing_sides)
@@ -677,25 +677,51 @@ def _pose_mistake(scene: Scene, up: Array) -> str:
 FAR_OBJECT_WARNING_M = 2.0
 
 
-def _range_warnings(cameras: Array, object_points: Array) -> list[str]:
+def _range_warnings(
+    cameras: Array, object_points: Array, scene_points: Array
+) -> list[str]:
     """A warning when the object lies farther than
     :data:`FAR_OBJECT_WARNING_M` from the nearest of the views' cameras
     ``cameras`` (those :meth:`Scene.viewpoints` knows, as the search input
-    keeps them): the likely cause is a depth scale, and every pose of the plan
-    is as far off as the object."""
+    keeps them). Where the cameras saw much of the scene (``scene_points``, the
+    downsampled cloud) at under half the object's range, the target was taken
+    far out in a wide view (a room's floor behind the desk): crop the scene;
+    else the likely cause is a depth scale, and every pose of the plan is as
+    far off as the object."""
     if not len(cameras) or not len(object_points):
         return []
     centre = np.asarray(object_points, dtype=np.float64).mean(axis=0)
     far = float(np.linalg.norm(cameras - centre, axis=1).min())
     if far <= FAR_OBJECT_WARNING_M:
         return []
-    return [
-        f"the object lies {far:.2f} m from the nearest camera, far for a depth "
-        "camera over a table: if the views are depth images, their depth scale is "
-        "probably wrong (a depth image in 0.2 mm units, as TUM RGB-D's, read as "
-        "millimetres puts everything 5 times too far and each object 5 times too "
-        "large: --depth-scale 0.0002), and so is every pose of this plan"
+    head = f"the object lies {far:.2f} m from the nearest camera, far for a depth "
+    pts = np.asarray(scene_points, dtype=np.float64)[
+        :: max(1, len(scene_points) // 20000)
     ]
+    ranges = np.min(
+        [np.linalg.norm(pts - c, axis=1) for c in np.asarray(cameras)], axis=0
+    )
+    if len(ranges) and float(np.percentile(ranges, _NEAR_SHARE)) < 0.5 * far:
+        near = float(np.percentile(ranges, _NEAR_SHARE))
+        return [
+            head + f"camera over a table, while a tenth of the scene lies within "
+            f"{near:.2f} m of it: a wide view of a room, its far floor and walls "
+            "noisy, may have given the target; crop the scene to the workspace "
+            f"(preprocess: {{crop_radius: {max(near * 2.0, 1.0):.1f}}}, metres from "
+            "the world's origin, the camera for a cloud in its frame) or give the "
+            "table (the given_table segmenter)"
+        ]
+    return [
+        head + "camera over a table: if the views are depth images, their depth "
+        "scale is probably wrong (a depth image in 0.2 mm units, as TUM RGB-D's, "
+        "read as millimetres puts everything 5 times too far and each object 5 "
+        "times too large: --depth-scale 0.0002), and so is every pose of this plan"
+    ]
+
+
+#: the share (percent) of the scene's points whose range, under half the
+#: object's, tells a wide view from a depth scale read wrong
+_NEAR_SHARE = 10.0
 
 
 def _check_spread(scene_points: Array, downsampled: Array, voxel: float) -> None:
