@@ -4,7 +4,8 @@ arbitrary rigid frames (nothing may assume z up)."""
 from __future__ import annotations
 
 import re
-from typing import Any
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,6 +21,8 @@ from wsgrasp.perception.synth import default_cameras, make_object, render_scene
 from wsgrasp.perception.types import Segmentation
 from wsgrasp.plugins import get_registry
 from wsgrasp.spec import TargetRule
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def segment(points: np.ndarray, **options: float) -> Segmentation:
@@ -198,34 +201,6 @@ def test_a_box_on_a_desk_stands_on_the_desk_not_on_the_floor_it_hides() -> None:
     assert np.ptp(obj[:, 2]) < 0.11  # 10 cm tall, not filled down to the floor
 
 
-def _room(kind: str, size: tuple[float, ...], eye: np.ndarray) -> tuple[Any, ...]:
-    """One 640 x 480 camera's view (2 mm noise, its frame) of an object on a
-    desk (1.2 x 0.8 m on four legs, 72 cm) in a room: a floor and a wall.
-    Returns the downsampled points, the camera's pose and the object's
-    centre (world, the desk's top at z = 0)."""
-    import trimesh
-
-    from wsgrasp.perception.synth import Camera, look_at
-
-    mesh = make_object(kind, size)
-    T = transform_from(None, [0.05, -0.1, -mesh.bounds[0][2]])
-    box = trimesh.creation.box
-    parts = [
-        (mesh, T),
-        (box(extents=(0.8, 1.2, 0.03)), transform_from(None, [0, 0, -0.015])),
-        (box(extents=(8, 8, 0.02)), transform_from(None, [0, 0, -0.76])),
-        (box(extents=(0.02, 8, 2.5)), transform_from(None, [-1.6, 0, 0.45])),
-    ]
-    for sx in (-1, 1):
-        for sy in (-1, 1):
-            leg = transform_from(None, [sx * 0.35, sy * 0.55, -0.39])
-            parts.append((box(extents=(0.05, 0.05, 0.72)), leg))
-    cam = Camera.from_fov(look_at(eye, [0, 0, 0.05]), 640, 480, 69.0)
-    (view,) = render_scene(parts, None, [cam], 0.002, np.random.default_rng(0), 0.3)
-    centre = T[:3, 3] + mesh.bounds.mean(axis=0)
-    return downsample(view.points, VOXEL), view.T_world_camera, centre
-
-
 @pytest.mark.parametrize(
     "kind,size,distance,elevation,azimuth",
     [
@@ -250,8 +225,15 @@ def test_a_desks_legs_under_its_top_are_no_objects_on_the_floor(
     eye = distance * np.array(
         [np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)]
     )
-    points, T_world_camera, centre = _room(kind, size, eye)
-    seg = segment(points)
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        from room_views import CAMERAS, room
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    points, T_world_camera, centre = room(
+        kind, size, eye, CAMERAS["640"], 0.002, 0.0, 0
+    )
+    seg = segment(downsample(points, VOXEL))
     R, t = T_world_camera[:3, :3], T_world_camera[:3, 3]
     up = R @ seg.table.normal
     assert up[2] > 0.99

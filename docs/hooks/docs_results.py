@@ -1248,3 +1248,49 @@ def render_clutter_segments() -> str:
             )
         )
     return "\n".join(out)
+
+
+def render_room_views() -> str:
+    """The published runs of ``benchmarks/room_views.py``
+    (``docs/results/rooms/``): per run (commit, depth noise, crop), how many of
+    the views of a room around a desk planned on the object, elsewhere (a
+    leg, the floor), found no grasp or stopped with an error; then, per
+    camera distance to the desk, the views that planned on the object."""
+    paths = sorted((RESULTS / "rooms").glob("*.json"))
+    if not paths:
+        return "No run of `benchmarks/room_views.py` is published yet.\n"
+    outcomes = ("on the object", "elsewhere", "no grasp", "error")
+    runs = [(path, json.loads(path.read_text())) for path in paths]
+    dists = sorted({x["distance"] for _, r in runs for x in r["rows"]})
+    rows, by_distance = [], []
+    for path, r in runs:
+        if r.get("noise_per_m2"):
+            noise = f"{r['noise_per_m2'] * 1e3:g} mm × range² (m)"
+        else:
+            noise = f"{r['noise'] * 1e3:g} mm"
+        crop = r.get("crop_past")
+        rows.append(
+            [
+                f"`{path.name}`",
+                f"`{r.get('commit') or 'not recorded'}`",
+                f"`{r['gripper']}`",
+                noise,
+                "none" if crop is None else f"{crop:g} m past the desk",
+                r["views"],
+                *(r["outcomes"].get(o, 0) for o in outcomes),
+            ]
+        )
+        cells = []
+        for d in dists:
+            at = [x for x in r["rows"] if x["distance"] == d]
+            on = sum(x["outcome"] == "on the object" for x in at)
+            cells.append(f"{on} of {len(at)}" if at else "–")
+        by_distance.append([f"`{path.name}`", *cells])
+    return (
+        table(
+            ["file", "commit", "gripper", "depth noise", "crop", "views", *outcomes],
+            rows,
+        )
+        + "\nOn the object, by the camera's distance to the desk:\n\n"
+        + table(["file", *(f"{d:g} m" for d in dists)], by_distance)
+    )

@@ -63,6 +63,7 @@ from docs_results import (
     render_results_grippers,
     render_results_grippers_strict,
     render_results_scorers,
+    render_room_views,
     render_simulator_versions_runs,
     render_thumb_drive_runs,
     render_thumb_turn_runs,
@@ -112,6 +113,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "allegro-closings-runs": render_allegro_closings_runs,
     "one-camera-runs": render_one_camera_runs,
     "flying-pixels-runs": render_flying_pixels_runs,
+    "room-views": render_room_views,
     "results-scorers": render_results_scorers,
 }
 
