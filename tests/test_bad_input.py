@@ -1216,8 +1216,8 @@ def test_far_points_in_a_cloud_in_metres_are_not_taken_for_millimetres():
 def test_a_far_target_in_a_wide_view_is_told_to_crop_not_a_depth_scale() -> None:
     """An object 3.5 m from the camera in a scene seen mostly within 1.2 m (a
     wide view of a room whose far floor gave the target) is told to crop the
-    scene, with a radius that keeps the near scene; a scene all as far (a depth
-    scale read wrong puts everything far) is told its depth scale."""
+    scene, naming a radius that keeps the near scene; a scene all as far (a
+    depth scale read wrong puts everything far) is told its depth scale."""
     from wsgrasp.api import _range_warnings
 
     rng = np.random.default_rng(0)
@@ -1226,8 +1226,63 @@ def test_a_far_target_in_a_wide_view_is_told_to_crop_not_a_depth_scale() -> None
     near = rng.uniform([-0.5, -0.5, 0.8], [0.5, 0.5, 1.2], (5000, 3))
     (wide,) = _range_warnings(camera, obj, np.vstack([near, obj]))
     assert "crop the scene" in wide and "depth scale" not in wide
-    radius = float(re.search(r"crop_radius: ([0-9.]+)", wide).group(1))
+    radius = float(re.search(r"within ([0-9.]+) m of the cameras", wide).group(1))
     assert 1.2 < radius < 3.5
     (scaled,) = _range_warnings(camera, obj, 3.0 * near)
     assert "depth scale is probably wrong" in scaled
     assert _range_warnings(camera, obj / 2.0, near) == []
+
+
+def test_a_far_target_in_a_wide_view_gives_way_to_the_near_scenes() -> None:
+    """One camera sees a small table 1 m away with a box on it, and beyond it
+    a floor 3.5 m away, larger in points, with a crate standing on it: the
+    floor, the largest plane, was the table and the crate the target. The
+    target lies far while much of the scene lies near the camera, so the near
+    scene is segmented again: its table and its box are planned on, and the
+    result says so. Given a crop radius, the plan keeps the spec's."""
+    from wsgrasp.api import Pipeline
+    from wsgrasp.perception.io import scene_from_arrays
+
+    rng = np.random.default_rng(0)
+
+    def grid(lo: tuple[float, float], hi: tuple[float, float], z: float, step: float):
+        u, v = np.arange(lo[0], hi[0], step), np.arange(lo[1], hi[1], step)
+        uv = np.stack(np.meshgrid(u, v), -1).reshape(-1, 2)
+        return np.column_stack([uv, np.full(len(uv), z)])
+
+    def box(centre: tuple[float, float, float], size: tuple[float, float, float]):
+        """Points on a box's sides and top."""
+        pts = rng.uniform(-0.5, 0.5, (40000, 3))  # dense: one cluster
+        face = rng.integers(0, 3, len(pts))
+        side = np.where(face == 2, 0.5, np.sign(rng.normal(size=len(pts))) * 0.5)
+        pts[np.arange(len(pts)), face] = side
+        return pts * np.array(size) + np.array(centre)
+
+    # a z-up world, the camera 1 m over the near table looking down
+    table = grid((-0.3, -0.3), (0.3, 0.3), 0.0, 0.004)
+    near_box = box((0.0, 0.0, 0.05), (0.05, 0.07, 0.1))
+    floor = grid((-2.5, 1.0), (2.5, 4.0), -2.5, 0.01)
+    crate = box((0.0, 2.5, -2.4), (0.25, 0.25, 0.2))
+    points = np.vstack([table, near_box, floor, crate])
+    points += rng.normal(0.0, 0.001, points.shape)
+    pose = np.eye(4)
+    pose[2, 3] = 1.0  # its axes the world's: the points seen are shifted alone
+    camera_points = points - pose[:3, 3]
+    spec = {
+        "version": 1,
+        "gripper": "franka_hand",
+        "segmenter": {"name": "ransac_dbscan"},
+    }
+    from wsgrasp.spec import PipelineSpec
+
+    result = Pipeline(PipelineSpec.model_validate(spec)).plan(
+        scene_from_arrays([(camera_points, pose)])
+    )
+    assert result.found
+    assert np.linalg.norm(result.T_world_tcp[:3, 3] - [0.0, 0.0, 0.05]) < 0.08
+    assert any("first found lay" in w for w in result.warnings), result.warnings
+    spec["preprocess"] = {"crop_radius": 6.0}
+    kept = Pipeline(PipelineSpec.model_validate(spec)).plan(
+        scene_from_arrays([(camera_points, pose)])
+    )
+    assert not any("first found lay" in w for w in kept.warnings)

@@ -194,28 +194,49 @@ class Pipeline:
         kwargs: dict[str, Any] = {}
         if len(viewpoints) and _accepts(self._segmenter.segment, "viewpoints"):
             kwargs["viewpoints"] = viewpoints
-        try:
-            segmentation = self._segmenter.segment(
-                points, self._segmenter_options, seed=spec.seed, **kwargs
-            )
-        except InputError as exc:
-            from wsgrasp.perception.flying import pixel_grid
 
-            image = any(pixel_grid(v.points) is not None for v in scene.views)
-            units = units_hint(points, image)
-            if units is None:
+        def segmented(cloud: Array) -> tuple[Any, Array, list[Array]]:
+            """The segmentation of ``cloud`` and its target and obstacles."""
+            try:
+                seg = self._segmenter.segment(
+                    cloud, self._segmenter_options, seed=spec.seed, **kwargs
+                )
+            except InputError as exc:
+                from wsgrasp.perception.flying import pixel_grid
+
+                image = any(pixel_grid(v.points) is not None for v in scene.views)
+                units = units_hint(cloud, image)
+                if units is None:
+                    raise
+                hint = f"{exc.hint}; or {units}" if exc.hint else units
+                raise InputError(exc.message, hint=hint) from exc
+            except WsgraspError:
                 raise
-            hint = f"{exc.hint}; or {units}" if exc.hint else units
-            raise InputError(exc.message, hint=hint) from exc
-        except WsgraspError:
-            raise
-        except Exception as exc:  # noqa: BLE001 - a plugin's failure, reported
-            raise PluginError(
-                f"segmenter {spec.segmenter.name!r} raised {type(exc).__name__}: {exc}",
-                hint="check the segmenter's options in the spec, or report it to "
-                "the plugin's authors",
-            ) from exc
-        object_points, obstacles = select_target(segmentation, spec.target)
+            except Exception as exc:  # noqa: BLE001 - a plugin's failure, reported
+                raise PluginError(
+                    f"segmenter {spec.segmenter.name!r} raised "
+                    f"{type(exc).__name__}: {exc}",
+                    hint="check the segmenter's options in the spec, or report it "
+                    "to the plugin's authors",
+                ) from exc
+            return (seg, *select_target(seg, spec.target))
+
+        segmentation, object_points, obstacles = segmented(points)
+        # a target far out in a wide view (a room's noisy far floor) while the
+        # cameras see much of the scene near them: the near scene alone, if its
+        # target is nearer
+        near_crop = None
+        radius = _near_radius(viewpoints, object_points, points)
+        if radius is not None and spec.preprocess.crop_radius is None:
+            near = _within(points, viewpoints, radius)
+            try:
+                again = segmented(points[near])
+            except WsgraspError:
+                again = None
+            if again is not None and _range(viewpoints, again[1]) <= radius:
+                near_crop = (_range(viewpoints, object_points), radius)
+                points = points[near]
+                segmentation, object_points, obstacles = again
         _check_table_side(segmentation.table, object_points, viewpoints, spec)
         object_points, obstacles = _one_object(
             segmentation, object_points, obstacles, spec
@@ -302,6 +323,7 @@ class Pipeline:
         )
         return Prepared(
             search_input=search_input,
+            near_crop=near_crop,
             downsampled=points,
             table_plane=segmentation.table,
             obstacles=obstacles,
@@ -586,7 +608,9 @@ class Pipeline:
             joints_grasp=joints_grasp,
             finger_targets=finger_targets,
             warnings=_frame_warnings(scene, inp.table.T_world_table[:3, 2])
-            + _range_warnings(inp.viewpoints, inp.object_points, prep.downsampled)
+            + _range_warnings(
+                inp.viewpoints, inp.object_points, prep.downsampled, prep.near_crop
+            )
             + _origin_warnings(inp.viewpoints, inp.object_points)
             + _noise_warnings(prep.depth_noise)
             + _side_warnings(prep.standing_sides)
@@ -677,51 +701,107 @@ def _pose_mistake(scene: Scene, up: Array) -> str:
 FAR_OBJECT_WARNING_M = 2.0
 
 
-def _range_warnings(
+def _range(cameras: Array, points: Array) -> float:
+    """The distance (m) from the centre of ``points`` to the nearest of
+    ``cameras`` ``(k, 3)``."""
+    centre = np.asarray(points, dtype=np.float64).mean(axis=0)
+    return float(np.linalg.norm(np.asarray(cameras) - centre, axis=1).min())
+
+
+def _ranges(cameras: Array, points: Array) -> Array:
+    """Each of ``points``' distance (m) to the nearest of ``cameras``."""
+    p = np.asarray(points, dtype=np.float64)
+    return np.min([np.linalg.norm(p - c, axis=1) for c in np.asarray(cameras)], axis=0)
+
+
+def _near_radius(
     cameras: Array, object_points: Array, scene_points: Array
+) -> float | None:
+    """Where the object lies farther than :data:`FAR_OBJECT_WARNING_M` from
+    the nearest of ``cameras``: the radius (m) round the cameras that keeps
+    the near scene, :data:`_NEAR_MARGIN` times the range within which
+    :data:`_NEAR_SHARE` percent of the scene (``scene_points``, at most 20,000
+    of them evenly spaced) lies, at least 1 m; None where that radius does not
+    fall short of the object's range by a quarter (a depth scale read wrong
+    puts the whole scene far).
+
+    A wide view of a room around a desk (87 degrees) sees its far floor and
+    walls thick with a stereo camera's noise, which grows with the square of
+    the range, and the nearest surfaces seen are the desk and what stands on
+    it: a twentieth of a 1280 x 720 view's points lay within 2-4 % of the
+    camera's distance to the object on the desk, 1-3 m away."""
+    if not len(cameras) or not len(object_points) or not len(scene_points):
+        return None
+    far = _range(cameras, object_points)
+    if far <= FAR_OBJECT_WARNING_M:
+        return None
+    pts = np.asarray(scene_points)[:: max(1, len(scene_points) // 20000)]
+    near = float(np.percentile(_ranges(cameras, pts), _NEAR_SHARE))
+    radius = max(_NEAR_MARGIN * near, 1.0)
+    return radius if radius < 0.75 * far else None
+
+
+def _within(points: Array, cameras: Array, radius: float) -> NDArray[np.bool_]:
+    """Which of ``points`` lie within ``radius`` (m) of one of ``cameras``."""
+    return _ranges(cameras, points) <= radius  # type: ignore[no-any-return]
+
+
+def _range_warnings(
+    cameras: Array,
+    object_points: Array,
+    scene_points: Array,
+    near_crop: tuple[float, float] | None = None,
 ) -> list[str]:
     """A warning when the object lies farther than
     :data:`FAR_OBJECT_WARNING_M` from the nearest of the views' cameras
     ``cameras`` (those :meth:`Scene.viewpoints` knows, as the search input
-    keeps them). Where the cameras saw much of the scene (``scene_points``, the
-    downsampled cloud) at under half the object's range, the target was taken
-    far out in a wide view (a room's floor behind the desk): crop the scene;
-    else the likely cause is a depth scale, and every pose of the plan is as
-    far off as the object."""
+    keeps them): where much of the scene lies near them (:func:`_near_radius`),
+    a wide view's far floor may have given the target; else the likely cause
+    is a depth scale, and every pose of the plan is as far off as the object.
+    Where the near scene was segmented instead (``near_crop``: the first
+    target's range and the radius kept), a note that says so and how to choose
+    the crop."""
+    if near_crop is not None:
+        first, radius = near_crop
+        return [
+            f"the target first found lay {first:.2f} m from the nearest camera, "
+            "far out in a wide view (a room's far floor and walls, noisy), while "
+            "much of the scene lay near it: the plan is on the points within "
+            f"{radius:.1f} m of the cameras; set preprocess.crop_radius (metres "
+            "from the world's origin, the camera for a cloud in its frame) to "
+            "choose the workspace yourself"
+        ]
     if not len(cameras) or not len(object_points):
         return []
-    centre = np.asarray(object_points, dtype=np.float64).mean(axis=0)
-    far = float(np.linalg.norm(cameras - centre, axis=1).min())
+    far = _range(cameras, object_points)
     if far <= FAR_OBJECT_WARNING_M:
         return []
     head = f"the object lies {far:.2f} m from the nearest camera, far for a depth "
-    pts = np.asarray(scene_points, dtype=np.float64)[
-        :: max(1, len(scene_points) // 20000)
-    ]
-    ranges = np.min(
-        [np.linalg.norm(pts - c, axis=1) for c in np.asarray(cameras)], axis=0
-    )
-    if len(ranges) and float(np.percentile(ranges, _NEAR_SHARE)) < 0.5 * far:
-        near = float(np.percentile(ranges, _NEAR_SHARE))
+    near = _near_radius(cameras, object_points, scene_points)
+    if near is not None:  # the near scene had no target of its own
         return [
-            head + f"camera over a table, while a tenth of the scene lies within "
-            f"{near:.2f} m of it: a wide view of a room, its far floor and walls "
-            "noisy, may have given the target; crop the scene to the workspace "
-            f"(preprocess: {{crop_radius: {max(near * 2.0, 1.0):.1f}}}, metres from "
-            "the world's origin, the camera for a cloud in its frame) or give the "
+            head + "camera over a table, while much of the scene lies near it: a "
+            "wide view of a room, its far floor and walls noisy, may have given "
+            "the target, and the scene within "
+            f"{near:.1f} m of the cameras has no target of its own; crop the "
+            "scene to the workspace (preprocess.crop_radius, metres from the "
+            "world's origin, the camera for a cloud in its frame) or give the "
             "table (the given_table segmenter)"
         ]
     return [
-        head + "camera over a table: if the views are depth images, their depth "
-        "scale is probably wrong (a depth image in 0.2 mm units, as TUM RGB-D's, "
-        "read as millimetres puts everything 5 times too far and each object 5 "
-        "times too large: --depth-scale 0.0002), and so is every pose of this plan"
+        head
+        + "camera over a table: if the views are depth images, their depth scale is "
+        "probably wrong (a depth image in 0.2 mm units, as TUM RGB-D's, read as "
+        "millimetres puts everything 5 times too far and each object 5 times too "
+        "large: --depth-scale 0.0002), and so is every pose of this plan"
     ]
 
 
-#: the share (percent) of the scene's points whose range, under half the
-#: object's, tells a wide view from a depth scale read wrong
-_NEAR_SHARE = 10.0
+#: :func:`_near_radius`: the share (percent) of the scene's points whose range
+#: tells the near scene's ...
+_NEAR_SHARE = 5.0
+#: ... and how far past that range the near scene reaches (times it)
+_NEAR_MARGIN = 1.5
 
 
 def _check_spread(scene_points: Array, downsampled: Array, voxel: float) -> None:
@@ -906,6 +986,10 @@ class Prepared:
     #: where the spec's sampling found no grasp and ``sampling.fallback`` was
     #: searched instead: the first search's rejections (``first_search``)
     fallback: dict[str, Any] = field(default_factory=dict)
+    #: where the target first found lay far out in a wide view and the near
+    #: scene was segmented instead (:func:`_near_radius`): the first target's
+    #: range from the nearest camera and the radius kept (m)
+    near_crop: tuple[float, float] | None = None
 
 
 def _instances(

@@ -590,7 +590,7 @@ def _hidden_below(
     basis = plane_basis(normal)  # (3, 2)
     out = np.zeros(int(lab.max()) + 1, dtype=bool)
     inliers = _Window(plane_uv)
-    everything = _Window(p @ basis)
+    everything = _Window(p, basis)
     for c in clusters:
         uv_c = p[idx[lab == c]] @ basis
         # a narrow footprint on cells of half the side: on 1 cm cells, a 4 cm
@@ -652,7 +652,7 @@ def _held_up(
     clustered = np.zeros(p.shape[0], dtype=bool)
     clustered[objects] = True
     free = np.flatnonzero(~clustered)
-    window = _Window(p[free] @ basis)
+    window = _Window(p[free], basis)
     for c in clusters:
         members = idx[lab == c]
         foot, lo, _ = _footprint(p[members] @ basis, cell)
@@ -698,46 +698,55 @@ def _under_surface(
 
     out = np.zeros(int(lab.max()) + 1, dtype=bool)
     basis = plane_basis(normal)  # (3, 2)
+    window = _Window(p, basis)
     for c in clusters:
         members = idx[lab == c]
-        above = np.flatnonzero(h > float(h[members].max()) + cell)
-        if above.size < _ROW_NEIGHBOURS + 1:
-            continue
         uv = p[members] @ basis
+        top = float(h[members].max()) + cell
+        lo = uv.min(axis=0)
+        shape = tuple(int(n) + 1 for n in np.ceil((uv.max(axis=0) - lo) / cell))
+        near = window.within(lo, shape, cell)
+        if np.count_nonzero(h[near] > top) <= _ROW_NEIGHBOURS:
+            continue  # nothing over its outline's box: in the open
         foot, lo, _ = _footprint(uv, cell)
-        hi = lo + np.array(foot.shape) * cell
-        uv_above = p[above] @ basis
-        over = np.flatnonzero(((uv_above >= lo) & (uv_above <= hi)).all(axis=1))
-        if over.size < _ROW_NEIGHBOURS + 1:
-            continue
+        near = window.within(lo, foot.shape, cell)
+        over = near[h[near] > top]
         # the highest layer over it (under it: the rest of the leg, hidden
         # between the top and the floor in shreds)
-        level = np.percentile(h[above[over]], 90.0)
-        over = over[np.abs(h[above[over]] - level) <= _UNDER_LAYER * cell]
-        if over.size < _ROW_NEIGHBOURS + 1:
+        level = np.percentile(h[over], 90.0) if over.size else 0.0
+        over = over[np.abs(h[over] - level) <= _UNDER_LAYER * cell]
+        if over.size <= _ROW_NEIGHBOURS:
             continue
-        tree = cKDTree(uv_above[over])
-        d, _ = tree.query(uv_above[over], k=_ROW_NEIGHBOURS + 1)
+        tree = cKDTree(window.uv[over])
+        d, _ = tree.query(window.uv[over], k=_ROW_NEIGHBOURS + 1)
         spacing = max(cell, float(np.median(d[:, -1])))
         centres = lo + (np.argwhere(foot) + 0.5) * cell
-        near, _ = tree.query(centres, distance_upper_bound=spacing)
-        out[c] = np.count_nonzero(np.isfinite(near)) >= _UNDER_COVER * len(centres)
+        hit, _ = tree.query(centres, distance_upper_bound=spacing)
+        out[c] = np.count_nonzero(np.isfinite(hit)) >= _UNDER_COVER * len(centres)
     return out
 
 
 class _Window:
-    """Points projected on a plane, ``uv`` ``(n, 2)``, from which those in a
-    cluster's grid are taken: by one pass over them all for the first
-    ``_WINDOW_PASSES`` clusters, then from the points sorted along the first
-    axis (a noisy room's floor, 100,000 inliers under 400 noise clusters, took
-    3 s to look at cluster by cluster; sorting a tabletop's points for its one
-    object costs more than the pass)."""
+    """Points ``p`` ``(n, 3)`` projected on a plane (``basis`` ``(3, 2)``;
+    ``uv``, once asked for), from which those in a cluster's grid are taken:
+    by one pass over them all for the first ``_WINDOW_PASSES`` clusters, then
+    from the points sorted along the first axis (a noisy room's floor,
+    100,000 inliers under 400 noise clusters, took 3 s to look at cluster by
+    cluster; sorting a tabletop's points for its one object costs more than
+    the pass)."""
 
-    def __init__(self, uv: Array) -> None:
-        self.uv = uv
+    def __init__(self, p: Array, basis: Array | None = None) -> None:
+        self.p, self.basis = p, basis
         self.calls = 0
         self.order: NDArray[np.int64] | None = None
-        self.u = uv[:, 0]
+        self._uv: Array | None = None
+
+    @property
+    def uv(self) -> Array:
+        """The points on the plane ``(n, 2)`` (``p`` itself without a basis)."""
+        if self._uv is None:
+            self._uv = self.p if self.basis is None else self.p @ self.basis
+        return self._uv
 
     def within(
         self, lo: Array, shape: tuple[int, ...], side: float
@@ -747,19 +756,19 @@ class _Window:
         point falls in are then told as over the whole)."""
         a = lo - side
         b = lo + (np.asarray(shape) + 1) * side
+        uv = self.uv
         self.calls += 1
         if self.calls <= _WINDOW_PASSES:
-            u, v = self.uv[:, 0], self.uv[:, 1]
-            return np.flatnonzero((u >= a[0]) & (u <= b[0]) & (v >= a[1]) & (v <= b[1]))
+            u, v = uv[:, 0], uv[:, 1]
+            inside = (u >= a[0]) & (u <= b[0]) & (v >= a[1]) & (v <= b[1])
+            return np.flatnonzero(inside)
         if self.order is None:
-            self.order = np.argsort(self.uv[:, 0], kind="stable")
-            self.u = self.uv[self.order, 0]
-        i, j = (
-            int(np.searchsorted(self.u, a[0], "left")),
-            int(np.searchsorted(self.u, b[0], "right")),
-        )
+            self.order = np.argsort(uv[:, 0], kind="stable")
+            self.u = uv[self.order, 0]
+        i = int(np.searchsorted(self.u, a[0], "left"))
+        j = int(np.searchsorted(self.u, b[0], "right"))
         rows = self.order[i:j]
-        v = self.uv[rows, 1]
+        v = uv[rows, 1]
         return np.sort(rows[(v >= a[1]) & (v <= b[1])])
 
 
