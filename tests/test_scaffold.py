@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from numpy.testing import assert_allclose
 from urdf_factory import jaw_urdf, rigid_jaw_urdf, write_claw
 
 from wsgrasp.errors import GripperError
@@ -1023,14 +1024,20 @@ def test_gripper_new_frees_a_fixed_joint_that_follows_another(tmp_path):
     assert path.read_text() == plain
 
 
-def _placed(text: str, joint: str, xyz: str = "0.3 0.1 0.5", rpy: str = "0 3.14159 0"):
-    """``text`` (a URDF whose root is ``palm``) under a ``world`` link that
-    places it, as a simulator's spawn does."""
+def _placed(
+    text: str,
+    joint: str,
+    xyz: str = "0.3 0.1 0.5",
+    rpy: str = "0 3.14159 0",
+    root: str = "world",
+):
+    """``text`` (a URDF whose root is ``palm``) under a ``root`` link without
+    geometry that places it, as a simulator's spawn (or a robot's stage) does."""
     head, tail = text.split("\n", 2)[:2], text.split("\n", 2)[2]
     world = (
-        '  <link name="world"/>\n'
-        f'  <joint name="world_joint" type="{joint}">\n'
-        '    <parent link="world"/><child link="palm"/>\n'
+        f'  <link name="{root}"/>\n'
+        f'  <joint name="{root}_joint" type="{joint}">\n'
+        f'    <parent link="{root}"/><child link="palm"/>\n'
         f'    <origin xyz="{xyz}" rpy="{rpy}"/>\n'
         "  </joint>\n"
     )
@@ -1049,6 +1056,44 @@ def test_gripper_new_takes_the_hand_below_a_world_link_that_places_it(tmp_path):
     assert b["base_link"] == "palm"
     for key in ("tool_frame", "approach_axis", "closing_axis", "fingers", "closed"):
         assert b[key] == a[key], key
+
+
+@pytest.mark.parametrize("drawn_palm", [False, True], ids=["palm", "drawn-palm"])
+def test_gripper_new_takes_the_hand_above_a_stage_its_fingers_reach(
+    tmp_path, drawn_palm
+):
+    """A root without geometry under any name (the TriFinger's ``base_link``,
+    the floor of its stage) that a fixed joint puts where the fingers reach, 29
+    cm below the holder they hang from, was taken for the gripper's base: the
+    base 29 cm below the hand. The base is the hand's first link, also where
+    that link is drawn only and its joints part (the TriFinger's holder); the
+    guess is the plain one. A root behind the hand is the mount an arm holds,
+    and stays the base."""
+    text = jaw_urdf()
+    if drawn_palm:  # the palm drawn, not solid; its fingers hang from it
+        start = text.index('<link name="palm">')
+        end = text.index("</link>", start)
+        palm = text[start:end].replace("collision", "visual")
+        text = text[:start] + palm + text[end:]
+    plain = _write(tmp_path, text, "plain.urdf")
+    # the hand upside down 0.3 m above the root: its fingers reach down to it
+    stage = _placed(text, "fixed", "0 0 0.3", "0 3.14159 0", root="base_link")
+    placed = _write(tmp_path, stage, "stage.urdf")
+    a = guess_description(plain, "jaw").data
+    b = guess_description(placed, "jaw")
+    assert b.data["base_link"] == "palm"
+    assert "where a drawn-only holder's joints part" in b.notes["base_link"]
+    for key in ("tool_frame", "approach_axis", "closing_axis", "fingers", "closed"):
+        assert b.data[key] == a[key], key
+    # the same root 5 cm behind the palm, the fingers pointing away: a mount
+    mount = _placed(text, "fixed", "0 0 0.05", "0 0 0", root="base_link")
+    c = guess_description(_write(tmp_path, mount, "mount.urdf"), "jaw").data
+    assert c["base_link"] == "base_link"
+    assert_allclose(
+        c["tool_frame"]["xyz"],
+        np.add(a["tool_frame"]["xyz"], [0.0, 0.0, 0.05]),
+        atol=1e-4,
+    )
 
 
 def test_a_floating_joint_above_the_gripper_is_held_still(tmp_path):

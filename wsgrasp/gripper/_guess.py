@@ -222,40 +222,101 @@ class _Urdf:
 # ------------------------------------------------------------------------------
 # Helpers
 # ------------------------------------------------------------------------------
-def _placement_chain(kin: Kinematics, root: str) -> list[str]:
-    """The links below ``root`` down to the first with geometry, where ``root``
-    is the ``world`` link of Gazebo's convention that places the hand in a
-    simulation, and it and each link on the way has no geometry and one child
-    joint, a fixed one, which together move the hand away from the world's
-    origin: the gripper's frame is the hand's own link, not where the world
-    put it (the guesses measured from the base's origin went wrong there: the
-    Franka hand's pads on the wrong half of its fingers). Empty otherwise: a
-    root without geometry under another name (the Ability hand's
-    ``base_link``, turned 90 degrees from its palm) is the mount the arm holds,
-    and a world that only turns the hand about its origin changes no guess."""
+def _fixed_chain(
+    kin: Kinematics, root: str, *, to_branch: bool = False
+) -> tuple[list[str], Array]:
+    """The links below ``root`` down to the first with geometry (or, with
+    ``to_branch``, the first where several joints part: a holder drawn only,
+    its fingers hanging from it), where ``root`` and each link on the way has
+    no geometry and one child joint, a fixed one; with the translation (m) the
+    chain moves that link by, in the root's frame. Empty (and no translation)
+    where a link on the way branches or moves."""
     chain: list[str] = []
-    if root.lower() != "world":
-        return chain
     link = root
     moved = np.zeros(3)  # the chain's translation, in the root's frame
     turn = np.eye(3)
     while not kin.shapes.get(link):
         down = kin.child_joints(link)
+        if to_branch and len(down) > 1 and chain:
+            break
         if len(down) != 1 or down[0].kind != 0:
-            return []
+            return [], np.zeros(3)
         T = np.asarray(down[0].origin, dtype=np.float64)
         moved = moved + turn @ T[:3, 3]
         turn = turn @ T[:3, :3]
         link = down[0].child
         chain.append(link)
-    # a world that only turns the hand about its own origin (the Shadow hand's,
-    # 90 degrees about z) leaves the guesses as they are: kept as the base
-    return chain if float(np.linalg.norm(moved)) > _PLACED_AWAY else []
+    return chain, moved
+
+
+def _placement_chain(kin: Kinematics, root: str) -> list[str]:
+    """The links below ``root`` down to the hand's first link
+    (:func:`_fixed_chain`), where they only place the hand: ``root`` is the
+    ``world`` link of Gazebo's convention that places the hand in a simulation
+    and the chain moves the hand away from the world's origin, or ``root``,
+    under any name, stands where the fingers reach (:func:`_on_fingers_side`:
+    the floor of the TriFinger's stage, 29 cm below the holder its fingers hang
+    from). The gripper's frame is then the hand's own link, not where the world
+    or the stage put it (the guesses measured from the base's origin went wrong
+    there: the Franka hand's pads on the wrong half of its fingers; the
+    TriFinger's base 29 cm below its holder). Empty otherwise: a root without
+    geometry under another name behind the hand (the Ability hand's
+    ``base_link``, turned 90 degrees from its palm) is the mount the arm holds,
+    and a world that only turns the hand about its origin changes no guess."""
+    world = root.lower() == "world"
+    chain, moved = _fixed_chain(kin, root, to_branch=not world)
+    if not chain or float(np.linalg.norm(moved)) <= _PLACED_AWAY:
+        # a world that only turns the hand about its own origin (the Shadow
+        # hand's, 90 degrees about z) leaves the guesses as they are
+        return []
+    if world or _on_fingers_side(kin, root, chain[-1]):
+        return chain
+    return []
 
 
 #: a world link whose fixed joints move the hand this far (m) from its origin
 #: places it elsewhere (a simulator's spawn point)
 _PLACED_AWAY = 1e-3
+
+
+def _on_fingers_side(kin: Kinematics, root: str, hand: str) -> bool:
+    """Whether ``root``'s origin lies on the side of link ``hand`` (below it,
+    :func:`_fixed_chain`) that its moving links reach to: beyond the plane
+    through the centre of ``hand``'s geometry (its origin, where it has none),
+    within 60 degrees (:data:`_STAGE_COS`) of the way from there to the
+    centre of the geometry of the links its joints move (every joint at 0,
+    clipped into its limits). An arm holds a hand from behind its palm (or
+    beside it); an origin among or beyond the fingers is a stage's or a
+    table's."""
+    below = kin.subtree(hand)
+    moving = [
+        link
+        for link in below
+        if link != hand
+        and kin.shapes.get(link)
+        and any(j.kind != 0 for j in kin.chain(hand, link))
+    ]
+    if not moving:
+        return False
+    poses = kin.link_poses(root, {})
+    boxes = _link_boxes(kin, [hand, *moving])
+
+    def centre(link: str) -> Array:
+        T = poses[link]
+        if link not in boxes:
+            return T[:3, 3]
+        lo, hi = boxes[link]
+        return T[:3, :3] @ (0.5 * (lo + hi)) + T[:3, 3]
+
+    p_hand = centre(hand)  # (3,) in the root's frame
+    forward = np.mean([centre(link) for link in moving], axis=0) - p_hand  # (3,)
+    size = float(np.linalg.norm(p_hand) * np.linalg.norm(forward))
+    return size > 0.0 and float(-p_hand @ forward) > _STAGE_COS * size
+
+
+#: a root's origin within this cosine's angle (60 degrees) of the way from the
+#: hand to its moving links lies where they reach (:func:`_on_fingers_side`)
+_STAGE_COS = 0.5
 
 
 def _link_boxes(kin: Kinematics, links: list[str]) -> Boxes:
@@ -371,10 +432,18 @@ def _read(
         if placed:
             base = placed[-1]
             notes["base_link"] = (
-                "the first link with geometry below the URDF's root: "
+                "the hand's first link below the URDF's root (the first with "
+                "geometry, or where a drawn-only holder's joints part): "
                 + ", ".join(repr(link) for link in [roots[0], *placed[:-1]])
-                + " only place it (no geometry, one fixed joint down, as a "
-                "simulator's world link does)"
+                + (
+                    " only place it (no geometry, one fixed joint down, as a "
+                    "simulator's world link does)"
+                    if roots[0].lower() == "world"
+                    else " only place it (no geometry, one fixed joint down, "
+                    "its origin on the side of the hand its fingers reach to, "
+                    "as a stage's or a table's is: an arm holds a hand from "
+                    "behind; --base-link LINK chooses another link)"
+                )
             )
     below = kin.subtree(base)
 
