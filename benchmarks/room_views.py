@@ -52,7 +52,7 @@ ON_OBJECT_M = 0.08
 
 
 def room(
-    kind: str,
+    kind: str | None,
     size: tuple[float, ...],
     eye: np.ndarray,
     camera: tuple[int, int, float],
@@ -60,15 +60,20 @@ def room(
     noise_per_m2: float,
     seed: int,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The camera's points (its frame), its pose and the object's centre."""
+    """The camera's points (its frame), its pose and the object's centre (an
+    empty desk without ``kind``: the desk's top's middle)."""
     import trimesh
 
     rng = np.random.default_rng(seed)
-    mesh = make_object(kind, size)
-    T = transform_from(None, [0.05, -0.1, -mesh.bounds[0][2]])
     box = trimesh.creation.box
-    parts = [
-        (mesh, T),
+    parts = []
+    centre = np.zeros(3)
+    if kind is not None:
+        mesh = make_object(kind, size)
+        T = transform_from(None, [0.05, -0.1, -mesh.bounds[0][2]])
+        parts.append((mesh, T))
+        centre = T[:3, 3] + mesh.bounds.mean(axis=0)
+    parts += [
         (box(extents=(0.8, 1.2, 0.03)), transform_from(None, [0, 0, -0.015])),
         (box(extents=(8, 8, 0.02)), transform_from(None, [0, 0, -0.76])),
         (box(extents=(0.02, 8, 2.5)), transform_from(None, [-1.6, 0, 0.45])),
@@ -84,7 +89,7 @@ def room(
     if noise_per_m2:  # along each ray, growing with the square of the range
         z = np.abs(points[..., 2:3])
         points = points * (1.0 + rng.normal(0.0, 1.0, z.shape) * noise_per_m2 * z)
-    return points, view.T_world_camera, T[:3, 3] + mesh.bounds.mean(axis=0)
+    return points, view.T_world_camera, centre
 
 
 def main() -> int:

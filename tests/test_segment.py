@@ -545,3 +545,33 @@ def test_an_object_too_small_for_min_points_is_named_with_the_fix() -> None:
     seg = segment(points, min_points=count)
     obj = select_target(seg, TargetRule(rule="largest"))[0]
     assert np.linalg.norm(obj.mean(axis=0) - syn.T_world_mesh[:3, 3]) < 0.01
+
+
+def test_an_empty_desks_legs_are_planned_on_with_a_warning() -> None:
+    """An empty desk on legs, the floor in view: nothing stands in the open, so
+    the floor's legs, which stand under the desk's top, are the objects (the
+    desk holds none), and the plan warns that every object stands under a
+    surface: the target may be a leg."""
+    from wsgrasp.api import Pipeline
+    from wsgrasp.default_specs import default_spec
+    from wsgrasp.perception.io import scene_from_arrays
+    from wsgrasp.spec import PipelineSpec
+
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        from room_views import CAMERAS, room
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    el, az = np.radians(40.0), np.radians(20.0)
+    eye = 1.5 * np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
+    points, _, _ = room(None, (), eye, CAMERAS["640"], 0.002, 0.0, 0)
+    seg = RansacDbscan().segment(
+        downsample(points, VOXEL),
+        RansacDbscanOptions(),
+        seed=0,
+        viewpoints=np.zeros((1, 3)),
+    )
+    assert seg.info.get("under_surface") is True
+    pipe = Pipeline(PipelineSpec.model_validate(default_spec("franka_hand")[0]))
+    result = pipe.plan(scene_from_arrays(points))
+    assert any("stands under a flat surface" in w for w in result.warnings)

@@ -334,6 +334,7 @@ class Pipeline:
             segments=segments,
             depth_noise=_float_or_none(segmentation.info.get("depth_noise")),
             standing_sides=_sides(segmentation.info.get("standing_sides")),
+            under_surface=bool(segmentation.info.get("under_surface", False)),
             sampled=sampled,
         )
 
@@ -614,6 +615,7 @@ class Pipeline:
             + _origin_warnings(inp.viewpoints, inp.object_points)
             + _noise_warnings(prep.depth_noise)
             + _side_warnings(prep.standing_sides)
+            + _under_warnings(prep.under_surface)
             + _calibration_warnings(scene, prep.table_plane, inp.object_points),
         )
 
@@ -954,6 +956,23 @@ def _side_warnings(sides: tuple[int, int] | None) -> list[str]:
     ]
 
 
+def _under_warnings(under_surface: bool) -> list[str]:
+    """A warning when every object the segmenter found stands under a surface
+    seen above it and nothing stands in the open: the target may be a desk's
+    leg (an empty desk, its floor in view) or sit in a shelf's compartment,
+    which is not planned for (the boards above are obstacles only where seen)."""
+    if not under_surface:
+        return []
+    return [
+        "every object found stands under a flat surface seen above it, and "
+        "nothing stands in the open: the target may be a desk's leg (the floor "
+        "under an empty desk taken for the table) or stand in a shelf's "
+        "compartment, which is not planned for; put the object on the table in "
+        "view, crop the scene to it (preprocess.crop_radius) or give the table "
+        "(the given_table segmenter)"
+    ]
+
+
 @dataclass
 class Prepared:
     """The stages before the search, ready for it."""
@@ -980,6 +999,9 @@ class Prepared:
     #: where no view has a pose: the points standing on the side of the table
     #: taken as up and on the other (``Segmentation.info["standing_sides"]``)
     standing_sides: tuple[int, int] | None = None
+    #: every object found stands under a surface seen above it (a desk's legs
+    #: under its top; ``Segmentation.info["under_surface"]``)
+    under_surface: bool = False
     #: another sampling's box samples, orientations and ``too_large``, from the
     #: same object frame (``sampling.fallback``)
     sampled: Callable[[Sampling], tuple[Array, Orientations, str]] | None = None

@@ -17,6 +17,10 @@ one. Walls are passed over because the table (a cluster larger than
 sees only the legs, likewise too long.
 When looking for what stands on one plane, the points of other wide planes with a
 fair share of its inliers (a table seen from the wall beside it) are left out.
+What stands under a flat surface seen above it (:func:`_under_surface`: a desk's
+legs under its top) is no object where something else stands in the open; a plane
+on which only such things stand is the table only where no plane after it holds
+an object in the open (``info["under_surface"]`` then says so).
 A noisy camera's table scatters past ``min_height``: where ``noise_floor``
 deviations of the points' depth noise about the plane (:func:`height_noise`)
 exceed it, ``min_height`` and ``contact_distance`` rise by the difference, and the
@@ -209,6 +213,10 @@ class RansacDbscan:
                 deferred = deferred or result
             k += 1
         if deferred is not None:
+            # no plane after it holds an object in the open: what stands under
+            # the surface is the target (a shelf's board under the one above, or
+            # an empty desk's legs), and the result says so
+            deferred.info["under_surface"] = True
             return deferred
         if not tried or tried[0]["inliers"] < o.min_plane_points:
             best = tried[0]["inliers"] if tried else 0
@@ -669,7 +677,9 @@ def _held_up(
 #: a cluster stands under a surface where that surface is seen over at least
 #: this share of its footprint's cells ...
 _UNDER_COVER = 0.5
-#: ... as points higher than the cluster's top within this many ``cluster_eps``
+#: ... seen as this many points at least ...
+_UNDER_FEWEST = 3
+#: ... higher than the cluster's top within this many ``cluster_eps``
 #: of the 90th percentile of their heights (a layer parallel to the plane: a
 #: desk's top over its legs)
 _UNDER_LAYER = 2.0
@@ -702,14 +712,16 @@ def _under_surface(
     for c in clusters:
         members = idx[lab == c]
         top = float(h[members].max()) + cell
-        if np.count_nonzero(h > top) <= _ROW_NEIGHBOURS:
+        if np.count_nonzero(h > top) < _UNDER_FEWEST:
             continue  # nothing higher anywhere: a tabletop's object
         uv = p[members] @ basis
-        lo = uv.min(axis=0)
-        shape = tuple(int(n) + 1 for n in np.ceil((uv.max(axis=0) - lo) / cell))
+        # its outline's box, two cells wider each way (a leg seen from one
+        # side is a strip a cell wide under the desk's edge)
+        lo = uv.min(axis=0) - 2.0 * cell
+        shape = tuple(int(n) + 4 for n in np.ceil((uv.max(axis=0) - lo) / cell))
         near = window.within(lo, shape, cell)
-        if np.count_nonzero(h[near] > top) <= _ROW_NEIGHBOURS:
-            continue  # nothing over its outline's box: in the open
+        if np.count_nonzero(h[near] > top) < _UNDER_FEWEST:
+            continue  # nothing over it: in the open
         foot, lo, _ = _footprint(uv, cell)
         near = window.within(lo, foot.shape, cell)
         over = near[h[near] > top]
@@ -717,11 +729,13 @@ def _under_surface(
         # between the top and the floor in shreds)
         level = np.percentile(h[over], 90.0) if over.size else 0.0
         over = over[np.abs(h[over] - level) <= _UNDER_LAYER * cell]
-        if over.size <= _ROW_NEIGHBOURS:
+        if over.size < _UNDER_FEWEST:
             continue
         tree = cKDTree(window.uv[over])
-        d, _ = tree.query(window.uv[over], k=_ROW_NEIGHBOURS + 1)
-        spacing = max(cell, float(np.median(d[:, -1])))
+        spacing = cell
+        if over.size > _ROW_NEIGHBOURS:
+            d, _ = tree.query(window.uv[over], k=_ROW_NEIGHBOURS + 1)
+            spacing = max(cell, float(np.median(d[:, -1])))
         centres = lo + (np.argwhere(foot) + 0.5) * cell
         hit, _ = tree.query(centres, distance_upper_bound=spacing)
         out[c] = np.count_nonzero(np.isfinite(hit)) >= _UNDER_COVER * len(centres)
