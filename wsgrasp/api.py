@@ -730,7 +730,7 @@ def _near_radius(
     A wide view of a room around a desk (87 degrees) sees its far floor and
     walls thick with a stereo camera's noise, which grows with the square of
     the range, and the nearest surfaces seen are the desk and what stands on
-    it: a twentieth of a 1280 x 720 view's points lay within 2-4 % of the
+    it: a twentieth of a 1280 x 720 view's points lay within 10 % of the
     camera's distance to the object on the desk, 1-3 m away."""
     if not len(cameras) or not len(object_points) or not len(scene_points):
         return None
@@ -780,15 +780,14 @@ def _range_warnings(
         return []
     head = f"the object lies {far:.2f} m from the nearest camera, far for a depth "
     near = _near_radius(cameras, object_points, scene_points)
-    if near is not None:  # the near scene had no target of its own
+    if near is not None:  # the near scene held no target, or the spec crops
         return [
             head + "camera over a table, while much of the scene lies near it: a "
             "wide view of a room, its far floor and walls noisy, may have given "
-            "the target, and the scene within "
-            f"{near:.1f} m of the cameras has no target of its own; crop the "
-            "scene to the workspace (preprocess.crop_radius, metres from the "
-            "world's origin, the camera for a cloud in its frame) or give the "
-            "table (the given_table segmenter)"
+            "the target; crop the scene to the workspace, within about "
+            f"{near:.1f} m of the cameras (preprocess.crop_radius, metres from "
+            "the world's origin, the camera for a cloud in its frame), or give "
+            "the table (the given_table segmenter)"
         ]
     return [
         head
