@@ -210,7 +210,8 @@ class RansacDbscan:
                 if not found["under"]:
                     return result
                 # all it holds stands under a surface: the next planes first
-                deferred = deferred or result
+                if deferred is None:
+                    deferred = result
             k += 1
         if deferred is not None:
             # no plane after it holds an object in the open: what stands under
@@ -754,8 +755,13 @@ class _Window:
     def __init__(self, p: Array, basis: Array | None = None) -> None:
         self.p, self.basis = p, basis
         self.calls = 0
-        self.order: NDArray[np.int64] | None = None
         self._uv: Array | None = None
+        # once sorted: the points' order by square, their squares' keys in that
+        # order, the squares' corner and how many rows of squares there are
+        self.order: NDArray[np.int64] | None = None
+        self.keys = np.zeros(0, dtype=np.int64)
+        self.origin = np.zeros(2)
+        self.rows_per = 0
 
     @property
     def uv(self) -> Array:
