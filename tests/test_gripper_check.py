@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 import yaml
-from urdf_factory import jaw_urdf
+from urdf_factory import jaw_urdf, swing_jaw_urdf
 
 from wsgrasp.cli import main
 from wsgrasp.gripper.check import check_gripper
@@ -198,3 +198,44 @@ def test_a_collision_envelope_round_the_fingers_is_named(tmp_path):
         for p in check_gripper(plain, cache_dir=tmp_path / "cache").problems
         if p.field == "urdf"
     ]
+
+
+@pytest.mark.parametrize("opening", [0.8, 0.96], ids=["46deg", "55deg"])
+def test_jaws_that_swing_open_leave_their_workspace_free(tmp_path, opening):
+    """Jaws hinged on a palm and tilted open in the pre-grasp posture: the box
+    round a tilted jaw holds the air it closes through, so the superellipsoids
+    beyond the palm's go to the jaws; the default five then leave most of each
+    jaw's workspace free, and the ones round a jaw's own link (its pad centre
+    inside or not) are expected there, not reported."""
+    from wsgrasp.gripper.scaffold import scaffold_plugin
+
+    (tmp_path / "swing.urdf").write_text(swing_jaw_urdf(opening))
+    yaml_path, sc = scaffold_plugin("swing", tmp_path / "swing.urdf", tmp_path / "pkg")
+    assert sc.data["pregrasp"] == {"left_hinge": opening}
+    report = check_gripper(yaml_path, cache_dir=tmp_path / "cache")
+    assert not report.errors, report.format()
+    assert not [p for p in report.problems if p.field == "ellipsoids"]
+    assert sc.data["ellipsoids"]["count"] == 5
+    for f in report.model.stats["fingers"]:
+        assert f["workspace_inside_se"] < 0.35, f
+
+
+def test_one_superellipsoid_round_a_jaw_swung_open_is_an_error(tmp_path):
+    """The same jaws with one superellipsoid per link: the box round each
+    tilted jaw swallows most of its workspace, an error naming the finger's
+    own links and the count to raise."""
+    from wsgrasp.gripper.scaffold import scaffold_plugin
+
+    (tmp_path / "swing.urdf").write_text(swing_jaw_urdf(0.96))
+    yaml_path, _ = scaffold_plugin(
+        "swing", tmp_path / "swing.urdf", tmp_path / "pkg", check=False
+    )
+    data = yaml.safe_load(yaml_path.read_text())
+    data["ellipsoids"]["count"] = 3
+    yaml_path.write_text(yaml.safe_dump(data))
+    report = check_gripper(yaml_path, cache_dir=tmp_path / "cache")
+    found = [p for p in report.errors if p.field == "ellipsoids"]
+    assert len(found) == 2, report.format()
+    for p, finger in zip(found, ("left", "right"), strict=True):
+        assert f"fitted round finger {finger}'s own links open" in p.message
+        assert "raise ellipsoids.count" in p.fix

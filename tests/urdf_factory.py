@@ -155,3 +155,29 @@ def rigid_jaw_urdf(width: float = 0.02) -> str:
   </joint>
 </robot>
 """
+
+
+def swing_jaw_urdf(opening: float = 0.96) -> str:
+    """Two long jaws hinged on a palm, swinging open outwards (approach +z,
+    closing along x), as on a gripper whose jaws tilt open rather than slide:
+    a palm box 120 x 80 x 160 mm under hinges at x = +-26 mm, 30 mm up; each
+    jaw a bar 12 x 20 x 140 mm standing up from its hinge, upright and 4 mm
+    from the other jaw at 0, tilted out by ``opening`` (rad) at its upper
+    limit (the right jaw a mimic of the left)."""
+
+    def jaw(side: str, sign: int, mimic: str) -> str:
+        return f"""
+  <link name="{side}_jaw">{_box("0.012 0.02 0.14", f"{-0.018 * sign:g} 0 0.07")}</link>
+  <joint name="{side}_hinge" type="revolute">
+    <parent link="palm"/><child link="{side}_jaw"/>
+    <origin xyz="{0.026 * sign:g} 0 0.03"/><axis xyz="0 {sign} 0"/>
+    <limit lower="0" upper="{opening:g}" effort="2" velocity="1"/>{mimic}
+  </joint>"""
+
+    return f"""<?xml version="1.0"?>
+<robot name="swing_jaw">
+  <link name="palm">{_box("0.12 0.08 0.16", "0 0 -0.05")}</link>{jaw("left", -1, "")}{
+        jaw("right", 1, '<mimic joint="left_hinge"/>')
+    }
+</robot>
+"""

@@ -134,6 +134,34 @@ def _split(
     return best
 
 
+def _next_split(
+    groups: list[Array], workspace: Array, cost: Callable[[Array, Array], float]
+) -> tuple[int, tuple[Array, Array]]:
+    """The group to halve next, and its halves (see :func:`_split`): the one
+    whose halves swallow the most less finger workspace than it does (a finger
+    link tilted open, whose box holds the air it closes through); where no
+    split frees workspace, the group with the largest box."""
+    vols = [_volume(*_box(g)) for g in groups]
+    best, best_freed = None, 0.0
+    for i, g in enumerate(groups):
+        lo, hi = _box(g)
+        if not _inside_box(workspace, lo, hi):
+            continue
+        left, right = _split(g, workspace, cost)
+        if not len(right):
+            continue
+        # swallowed workspace (in volume units, as ``cost`` weighs it)
+        freed = (cost(lo, hi) - _volume(lo, hi)) - sum(
+            cost(*_box(h)) - _volume(*_box(h)) for h in (left, right)
+        )
+        if freed > best_freed + 1e-12:
+            best, best_freed = (i, (left, right)), freed
+    if best is not None:
+        return best
+    i = int(np.argmax(vols))
+    return i, _split(groups[i], workspace, cost)
+
+
 def group_links(
     body: BodySamples, count: int, workspace: Array, cell_volume: float
 ) -> list[Array]:
@@ -141,8 +169,9 @@ def group_links(
 
     Starts from one group per link and merges, greedily, the pair whose common
     bounding box adds the least volume, counting finger-workspace volume it
-    swallows ``WORKSPACE_WEIGHT`` times; with fewer links than ``count``, the group
-    with the largest box is halved along its longest side.
+    swallows ``WORKSPACE_WEIGHT`` times; with fewer links than ``count``, groups
+    are halved one at a time (:func:`_next_split`): first the one whose halves
+    free the most finger workspace, else the one with the largest box.
 
     Parameters
     ----------
@@ -178,15 +207,13 @@ def group_links(
             groups.append(g)
 
     while len(groups) < count:
-        vols = [_volume(*_box(g)) for g in groups]
-        i = int(np.argmax(vols))
-        g = groups.pop(i)
-        left, right = _split(g, workspace, cost)
+        i, (left, right) = _next_split(groups, workspace, cost)
         if not len(right):
             raise GripperError(
                 f"cannot split the gripper body into {count} superellipsoids",
                 hint="lower ellipsoids.count",
             )
+        groups.pop(i)
         groups += [left, right]
     boxes = [_box(g) for g in groups]
 

@@ -37,7 +37,7 @@ Array = NDArray[np.float64]
 Progress = Callable[[str], None]
 
 #: bumped whenever the builder's output changes for the same inputs (cache key)
-BUILDER_VERSION = 8
+BUILDER_VERSION = 9
 
 
 def _noop(_: str) -> None:

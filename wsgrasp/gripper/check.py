@@ -30,8 +30,12 @@ MIN_COVERAGE = 0.3
 MIN_CLOUD_INSIDE = 0.98
 #: a superellipsoid holding more than this fraction of a finger workspace: warning
 INTRUSION_WARN = 0.10
-#: ... and more than this: error (object points there reject every grasp)
+#: ... and more than this: error (object points there reject every grasp); for
+#: the superellipsoids round a finger's own links open, their union's fraction
 INTRUSION_ERROR = 0.35
+#: a superellipsoid is round a finger's own links where more than this share of
+#: the body surface inside it lies on links the finger's joints move
+OWN_SHARE = 0.5
 #: a joint that moves no geometry by more than this (m) moves nothing
 MIN_MOTION = 1e-4
 #: a pad normal within this cosine of the direction to the others faces them
@@ -355,6 +359,37 @@ def _enveloping_link(
     return best
 
 
+def _own_ellipsoids(kin: Any, desc: Any, model: GripperModel) -> list[set[int]]:
+    """Per finger, the body superellipsoids fitted round its own links in the
+    pre-grasp posture: those most of whose body surface (sampled as the builder
+    samples it) lies on links that the finger's joints move."""
+    from wsgrasp.gripper._body import sample_body
+    from wsgrasp.gripper._sweep import finger_links
+
+    body = sample_body(kin, desc.base_link, dict(desc.pregrasp), desc.cloud_points)
+    moved_by = finger_links(
+        kin, desc, [[kin.master(j) for j in f.joints] for f in desc.fingers]
+    )  # per finger, the links its joints move
+    owners = np.array(body.links)[body.link]  # (N,) link of each sample
+    inside = [
+        points_in_superellipsoids(
+            body.points, c[None], a[None], model.se_exponent
+        )  # (N,)
+        for c, a in zip(model.se_centers, model.se_semi_axes, strict=True)
+    ]
+    out = []
+    for links in moved_by:
+        moved = np.isin(owners, sorted(links))  # (N,)
+        out.append(
+            {
+                i
+                for i, hit in enumerate(inside)
+                if hit.any() and moved[hit].mean() > OWN_SHARE
+            }
+        )
+    return out
+
+
 def _check_kinematics(report: CheckReport, desc: Any, base_dir: Path) -> None:
     from scipy.spatial import cKDTree
 
@@ -410,41 +445,72 @@ def _check_kinematics(report: CheckReport, desc: Any, base_dir: Path) -> None:
                 "<visual> mesh, say) in the URDF, and the fingers theirs, then rerun "
                 "`wsgrasp gripper new ... --force`",
             )
-    for i, e in enumerate(model.se_centers):
-        for finger, pts in zip(desc.fingers, voxels, strict=True):
-            inside = points_in_superellipsoids(
-                pts, e[None], model.se_semi_axes[i][None], model.se_exponent
-            )
-            frac = float(np.mean(inside))
-            # the finger's own links in the pre-grasp posture: expected, and only
-            # a problem when they swallow much of the workspace
-            own = bool(pad_inside(finger, i))
+    own_links = _own_ellipsoids(kin, desc, model)
+    for k, (finger, pts) in enumerate(zip(desc.fingers, voxels, strict=True)):
+        inside = np.stack(
+            [
+                points_in_superellipsoids(
+                    pts, e[None], model.se_semi_axes[i][None], model.se_exponent
+                )
+                for i, e in enumerate(model.se_centers)
+            ]
+        )  # (ne, W)
+        fracs = inside.mean(axis=1)  # (ne,)
+        # the finger's own links in the pre-grasp posture: expected, and only a
+        # problem when together they swallow much of the workspace
+        own = [i in own_links[k] or pad_inside(finger, i) for i in range(len(fracs))]
+        for i, frac in enumerate(fracs):
             if frac > INTRUSION_WARN:
                 report.intrusions.append(
                     {
                         "ellipsoid": i,
                         "finger": finger.name,
-                        "fraction": round(frac, 3),
-                        "own_link": own,
+                        "fraction": round(float(frac), 3),
+                        "own_link": own[i],
                     }
                 )
-            if finger.name in enveloped:
-                continue  # said above, with the fix that helps
-            if frac > (INTRUSION_ERROR if own else INTRUSION_WARN):
-                _add(
-                    report,
-                    "error" if frac > INTRUSION_ERROR else "warning",
-                    "ellipsoids",
-                    f"body superellipsoid {i} (centre "
-                    f"{np.round(e * 1000).astype(int).tolist()} mm) holds {frac:.0%} "
-                    f"of finger {finger.name}'s workspace: object points there "
-                    "reject the grasp",
-                    "raise ellipsoids.count so links are fitted apart, or give "
-                    "ellipsoids.given by hand; if the finger reaches into the body at "
-                    "the end of its joint range, narrow that joint's <limit> in the "
-                    "URDF (then set closed to the new limit, or rerun `wsgrasp "
-                    "gripper new ... --force`)",
-                )
+        if finger.name in enveloped:
+            continue  # said above, with the fix that helps
+        for i, frac in enumerate(fracs):
+            if own[i] or frac <= INTRUSION_WARN:
+                continue
+            e = model.se_centers[i]
+            _add(
+                report,
+                "error" if frac > INTRUSION_ERROR else "warning",
+                "ellipsoids",
+                f"body superellipsoid {i} (centre "
+                f"{np.round(e * 1000).astype(int).tolist()} mm) holds {frac:.0%} "
+                f"of finger {finger.name}'s workspace: object points there "
+                "reject the grasp",
+                "raise ellipsoids.count so links are fitted apart, or give "
+                "ellipsoids.given by hand; if the finger reaches into the body at "
+                "the end of its joint range, narrow that joint's <limit> in the "
+                "URDF (then set closed to the new limit, or rerun `wsgrasp "
+                "gripper new ... --force`)",
+            )
+        mine = [i for i in range(len(fracs)) if own[i]]
+        frac = float(inside[mine].any(axis=0).mean()) if mine else 0.0
+        if frac > INTRUSION_ERROR:
+            one = len(mine) == 1
+            centres = ", ".join(
+                str(np.round(model.se_centers[i] * 1000).astype(int).tolist())
+                for i in mine
+            )
+            _add(
+                report,
+                "error",
+                "ellipsoids",
+                f"body superellipsoid{'' if one else 's'} "
+                f"{', '.join(map(str, mine))} (centre{'' if one else 's'} {centres} "
+                f"mm), fitted round finger {finger.name}'s own links open, "
+                f"hold{'s' if one else ''} {frac:.0%} of finger {finger.name}'s "
+                "workspace: object points there reject the grasp",
+                "raise ellipsoids.count (added superellipsoids go to the links "
+                "whose boxes swallow the most finger workspace), or give "
+                f"ellipsoids.given by hand; or open finger {finger.name} less in "
+                "pregrasp",
+            )
     if len(voxels) > 1:
         for k, finger in enumerate(desc.fingers):
             others = np.concatenate([v for j, v in enumerate(voxels) if j != k])
