@@ -575,3 +575,27 @@ def test_an_empty_desks_legs_are_planned_on_with_a_warning() -> None:
     pipe = Pipeline(PipelineSpec.model_validate(default_spec("franka_hand")[0]))
     result = pipe.plan(scene_from_arrays(points))
     assert any("stands under a flat surface" in w for w in result.warnings)
+
+
+def test_the_window_round_a_cluster_takes_the_points_a_pass_over_all_takes() -> None:
+    """The points in a cluster's grid (and a cell round it), as the segmenter
+    takes them from its sorted squares after the first clusters, are those a
+    pass over every point takes, for boxes of any size and place (past the
+    points' edges too)."""
+    from wsgrasp_segmenters.ransac_dbscan import _Window
+
+    rng = np.random.default_rng(3)
+    p = rng.uniform(-2.0, 2.0, (50_000, 3))
+    basis = plane_basis(rng.normal(size=3))
+    window = _Window(p, basis)
+    uv = window.uv  # the projection it sorts
+    for _ in range(60):
+        lo = rng.uniform(-2.5, 2.5, 2)
+        shape = tuple(int(n) for n in rng.integers(1, 60, 2))
+        side = float(rng.uniform(0.002, 0.03))
+        a, b = lo - side, lo + (np.asarray(shape) + 1) * side
+        inside = ((uv >= a) & (uv <= b)).all(axis=1)
+        np.testing.assert_array_equal(
+            window.within(lo, shape, side), np.flatnonzero(inside)
+        )
+    assert window.order is not None  # the sorted squares were used
