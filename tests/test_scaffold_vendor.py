@@ -18,6 +18,7 @@ from vendor_factory import (
     forearm_hand_urdf,
     hand_urdf,
     named_jaw_urdf,
+    swing_thumb_hand_urdf,
     write_mesh_jaw,
     write_package_xml,
 )
@@ -211,6 +212,29 @@ def test_thumb_is_held_where_it_closes_against_the_fingers(tmp_path):
     urdf.write_text(forearm_hand_urdf(thumb_turn=("0", "0.1")))
     d = guess_description(urdf, "hand").data
     assert d["pregrasp"]["THJ_TURN"] == d["closed"]["THJ_TURN"] == 0.0
+
+
+def test_a_thumb_swung_about_the_fingers_is_held_closing_against_them(tmp_path):
+    """A thumb whose swing joint turns it about a line near where the fingers
+    reach (Dexmate's F5D6 hand): swinging brings it barely nearer them, but at
+    0 it curls across the palm, beside the fingers, and swung it curls back
+    against their pads. It is held swung, where it closes most straight against
+    the fingers, and still closes by flexing; a swing too short to turn it much
+    keeps its hold value."""
+    urdf = tmp_path / "hand.urdf"
+    urdf.write_text(swing_thumb_hand_urdf())
+    sc = guess_description(urdf, "hand")
+    d = sc.data
+    thumb = next(f for f in d["fingers"] if f["pad"]["link"] == "th")
+    assert thumb["joints"] == ["THJ1"]
+    assert d["pregrasp"]["THJ0"] == d["closed"]["THJ0"]
+    assert d["pregrasp"]["THJ0"] > 0.8  # in front of the palm
+    assert "straight against the other fingers" in sc.notes["pregrasp"]
+    assert sc.thumb_turning is not None
+    assert sc.thumb_turning["turned"] == {"THJ0": (0.0, d["closed"]["THJ0"])}
+    urdf.write_text(swing_thumb_hand_urdf(swing=("0", "0.1")))
+    d = guess_description(urdf, "hand").data
+    assert d["pregrasp"]["THJ0"] == d["closed"]["THJ0"] == 0.0
 
 
 def test_a_held_thumb_has_a_turning_alternative_and_choose_thumb_picks(

@@ -17,6 +17,9 @@ _SLIDE_R = ("0 -1 0", "0", "0.04")
 _WRIST = ("0 1 0", "-0.5", "0.2")
 _CURL = ("-1 0 0", "0", "1.4")
 _THUMB = ("0 -1 0", "-0.3", "1.2")
+#: ... and of the swing-thumb hand's finger and thumb flexion joints
+_CURL_Y = ("0 1 0", "-0.2", "1.4")
+_THUMB_Z = ("0 0 1", "-0.2", "0.8")
 #: the Shadow hand's way of writing 30 and 10 degrees
 DEG30 = "0.523598775598"
 DEG10 = "0.174532925199"
@@ -187,6 +190,49 @@ def forearm_hand_urdf(*, thumb_turn: tuple[str, str] = ("0", "1.5708")) -> str:
         ]
     body = "\n  ".join(parts)
     return f'<?xml version="1.0"?>\n<robot name="forearm_hand">\n  {body}\n</robot>\n'
+
+
+def swing_thumb_hand_urdf(*, swing: tuple[str, str] = ("0", "1.6")) -> str:
+    """A five-finger hand whose thumb swings about the fingers' direction, laid
+    out as Dexmate's F5D6 hand is, in boxes.
+
+    The ``palm`` is a slab 2 cm thick whose front faces -z; four fingers of one
+    joint (``F0J1`` ... ``F3J1``, about y) stand on its +x edge and curl
+    towards -z. The thumb's swing joint ``THJ0`` turns about x (``swing`` its
+    limits) through a point near where the fingers reach, and carries the
+    thumb 3.5 cm out from that line: at 0 the thumb lies beside the palm, on
+    its -y side, and its flexion joint ``THJ1`` (about z there) curls it
+    across the palm towards the first finger's side; swung, it stands in front
+    of the palm and curls back towards the finger pads. Swinging moves the
+    thumb about a line near where the fingers reach, so it brings it barely
+    nearer them; it changes only which way the thumb closes.
+    """
+    swing_lower, swing_upper = swing
+    parts = [f'<link name="palm">{_box((0.08, 0.08, 0.02), (0, 0, 0.01))}</link>']
+    for i, y in enumerate((-0.03, -0.01, 0.01, 0.03)):
+        parts += [
+            f'<link name="f{i}">{_box((0.05, 0.016, 0.016), (0.025, 0, 0))}</link>',
+            _joint(f"F{i}J1", "revolute", "palm", f"f{i}", (0.04, y, 0.01), *_CURL_Y),
+        ]
+    parts += [
+        '<link name="th_base"/>',
+        f'<link name="th">{_box((0.05, 0.016, 0.016), (0.025, 0, 0))}</link>',
+        _joint(
+            "THJ0",
+            "revolute",
+            "palm",
+            "th_base",
+            (-0.02, -0.01, -0.01),
+            "1 0 0",
+            swing_lower,
+            swing_upper,
+        ),
+        _joint("THJ1", "revolute", "th_base", "th", (0, -0.035, 0), *_THUMB_Z),
+    ]
+    body = "\n  ".join(parts)
+    return (
+        f'<?xml version="1.0"?>\n<robot name="swing_thumb_hand">\n  {body}\n</robot>\n'
+    )
 
 
 def write_box_mesh(

@@ -91,6 +91,9 @@ HOLD_BUDGET = 200_000
 #: among held postures whose finger gets this fraction of the best gain near,
 #: the one moving the held joints least is taken
 HOLD_TIE = 0.1
+#: a thumb whose held joints bring it no nearer the other fingers is held where
+#: its closing motion turns at least this much (degrees) more against theirs
+HOLD_OPPOSE_DEG = 20.0
 #: configurations sampled per finger when sizing joint_samples
 CONFIG_BUDGET = 6000
 #: sphere coverage of every finger workspace the scaffolder aims for
@@ -1193,6 +1196,84 @@ def _nearest_approach(
     return np.linalg.norm(tips - target, axis=-1).min(axis=1)  # (V,)
 
 
+def _closing_directions(
+    u: _Urdf,
+    link: str,
+    held: dict[str, Array],
+    closers: dict[str, tuple[float, float]],
+) -> Array:
+    """Which way fingertip ``link`` moves while closing, for each of a batch of
+    held-joint values: the unit vector from its position with its closing
+    joints at pregrasp to that with them closed.
+
+    Parameters
+    ----------
+    held : dict of str to (V,) float
+        Held joint -> its value in each of ``V`` postures (may be empty: one
+        posture, every other joint at ``default``).
+    closers : dict of str to (float, float)
+        Closing joint -> (pregrasp, closed).
+
+    Returns
+    -------
+    (V, 3) float
+    """
+    n = len(next(iter(held.values()))) if held else 1
+    values: dict[str, Any] = dict(u.default)
+    for m, v in held.items():
+        values[m] = np.repeat(v, 2)  # (V 2,) postures outer
+    for m, (a, b) in closers.items():
+        values[m] = np.tile([a, b], n)  # (V 2,)
+    tips = u.tips(link, values).reshape(n, 2, 3)  # (V, open/closed, 3)
+    d = tips[:, 1] - tips[:, 0]  # (V, 3)
+    return d / np.maximum(np.linalg.norm(d, axis=-1, keepdims=True), 1e-12)
+
+
+def _opposition_angles(
+    u: _Urdf,
+    link: str,
+    joints: dict[str, list[str]],
+    closing: dict[str, list[str]],
+    held: dict[str, Array],
+    ends: dict[str, tuple[float, float]],
+) -> Array:
+    """How far (degrees) finger ``link``'s closing motion is from straight
+    against the other fingers' (the mean of their closing directions,
+    :func:`_closing_directions`, each with its own closing joints from
+    pregrasp to closed), for each of a batch of held-joint values: 0 where its
+    pad closes head-on against theirs, 90 where it moves across them.
+
+    Parameters
+    ----------
+    joints
+        Distal link -> every actuated joint of the finger.
+    closing
+        Distal link -> its closing joints.
+    held : dict of str to (V,) float
+        ``link``'s held joints -> their value in each of ``V`` postures.
+    ends : dict of str to (float, float)
+        Closing joint -> (pregrasp, closed), for every finger's closing joints.
+
+    Returns
+    -------
+    (V,) float
+        180 for each posture where the other fingers' directions cancel out.
+    """
+    others = [
+        _closing_directions(u, o, {}, {c: ends[c] for c in closing[o]})[0]
+        for o in joints
+        if o != link and closing[o]
+    ]  # each (3,)
+    n = len(next(iter(held.values())))
+    theirs = np.mean(others, axis=0) if others else np.zeros(3)
+    size = float(np.linalg.norm(theirs))
+    if size < 1e-6:
+        return np.full(n, 180.0)
+    mine = _closing_directions(u, link, held, {c: ends[c] for c in closing[link]})
+    cos = -(mine @ theirs) / size  # (V,)
+    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+
+
 def _hold_postures(
     u: _Urdf,
     joints: dict[str, list[str]],
@@ -1218,7 +1299,13 @@ def _hold_postures(
     (:func:`_nearest_approach`) is measured; when the best brings it nearer
     than the hold value by at least ``POSTURE_FRACTION`` of its strongest
     closer's effect, the held joints take the values that gain nearly the
-    most (``HOLD_TIE``) while moving least. Its closing joints keep the ends
+    most (``HOLD_TIE``) while moving least. When none does, a thumb closing
+    across the palm beside the fingers and one closing against their pads may
+    end as near where they reach: then the held joints take, among the values
+    that bring it no farther, those whose closing motion is nearly the most
+    straight against the other fingers' (:func:`_opposition_angles`), when
+    that is at least ``HOLD_OPPOSE_DEG`` straighter than at the hold value
+    (the F5D6 hand's thumb swing). Its closing joints keep the ends
     :func:`_postures` gave them. ``pregrasp``, ``closed`` and ``u.default`` are
     updated in place: the postures that follow are found with the thumb held
     opposed.
@@ -1298,31 +1385,50 @@ def _hold_postures(
         held = {m: g.reshape(-1) for m, g in zip(own, mesh, strict=True)}  # (V,)
         ends = {c: (pregrasp[c], closed[c]) for c in closers}
         near = _nearest_approach(u, link, target, held, ends)  # (V,)
+        every = {c: (pregrasp[c], closed[c]) for cs in closing.values() for c in cs}
         now = np.all(
             [held[m] == u.default[m] for m in own], axis=0
         )  # (V,) the hold values
         start = float(near[now][0])
         gain = start - float(near.min())
-        if gain < max(POSTURE_FRACTION * strongest, 2e-4):
-            continue
         span = np.array([kin.joints[m].upper - kin.joints[m].lower for m in own])
         moved = sum(
             np.abs(held[m] - u.default[m]) / max(s, 1e-12)
             for m, s in zip(own, span, strict=True)
         )  # (V,) how far each posture moves the held joints, in ranges
-        good = near <= near.min() + HOLD_TIE * gain
-        pick = int(np.argmin(np.where(good, moved, np.inf)))
+        if gain >= max(POSTURE_FRACTION * strongest, 2e-4):
+            good = near <= near.min() + HOLD_TIE * gain
+            pick = int(np.argmin(np.where(good, moved, np.inf)))
+            why = (
+                f"closing, the fingertip gets within {near[pick] * 1000:.0f} mm "
+                f"of where the other fingers reach, {start * 1000:.0f} mm before"
+            )
+        else:
+            # nearer by too little: a thumb that closes across the palm, beside
+            # the fingers, and one that closes against their pads may end as
+            # near where they reach; which way it moves tells them apart
+            angle = _opposition_angles(u, link, joints, closing, held, every)  # (V,)
+            angle = np.where(near <= start, angle, np.inf)  # none farther
+            turn = float(angle[now][0] - angle.min())
+            if turn < HOLD_OPPOSE_DEG:
+                continue
+            good = angle <= angle.min() + HOLD_TIE * turn
+            pick = int(np.argmin(np.where(good, moved, np.inf)))
+            why = (
+                f"no value brings it {POSTURE_FRACTION:g} of its strongest "
+                "closer's effect nearer, so where it closes most straight against "
+                "the other fingers' closing without getting farther: its fingertip "
+                f"moves {angle[pick]:.0f} deg off straight, {angle[now][0]:.0f} deg "
+                f"before; it gets within {near[pick] * 1000:.0f} mm of where they "
+                f"reach, {start * 1000:.0f} mm before"
+            )
         turned[link] = {}
         for m in own:
             value = float(held[m][pick])
             if value != u.default[m]:
                 turned[link][m] = u.default[m]
             pregrasp[m] = closed[m] = u.default[m] = value
-        how.append(
-            ", ".join(f"{m} at {u.default[m]:g}" for m in own)
-            + f" (closing, the fingertip gets within {near[pick] * 1000:.0f} mm "
-            f"of where the other fingers reach, {start * 1000:.0f} mm before)"
-        )
+        how.append(", ".join(f"{m} at {u.default[m]:g}" for m in own) + f" ({why})")
     if how:
         u.notes["pregrasp"] += (
             "; a thumb's held joints (a finger flexing about an axis no other "
