@@ -599,3 +599,56 @@ def test_the_window_round_a_cluster_takes_the_points_a_pass_over_all_takes() -> 
             window.within(lo, shape, side), np.flatnonzero(inside)
         )
     assert window.order is not None  # the sorted squares were used
+
+
+def test_a_floor_found_as_slabs_leaves_the_desk_over_it_a_plane_to_try() -> None:
+    """A noisy floor is found as parallel slabs, each a plane larger than the
+    desk: they used up the three planes tried, and the legs standing on them
+    under the desk's top were the objects. Where all that stands on the planes
+    tried stands under a surface, as many planes again are tried: the desk is
+    the table and the box on it the object."""
+    rng = np.random.default_rng(0)
+
+    def grid(x: tuple[float, float], y: tuple[float, float], z: float, step: float):
+        u, v = np.arange(*x, step), np.arange(*y, step)
+        uv = np.stack(np.meshgrid(u, v), -1).reshape(-1, 2)
+        return np.column_stack([uv, np.full(len(uv), z)])
+
+    def box(lo: tuple[float, float, float], hi: tuple[float, float, float]):
+        """Points on a box's four sides and top, 5 mm apart."""
+        (x0, y0, z0), (x1, y1, z1) = lo, hi
+        zs = np.arange(z0, z1, 0.005)
+        sides = []
+        for x in np.arange(x0, x1, 0.005):
+            sides += [[x, y0, z] for z in zs] + [[x, y1, z] for z in zs]
+        for y in np.arange(y0, y1, 0.005):
+            sides += [[x0, y, z] for z in zs] + [[x1, y, z] for z in zs]
+        return np.vstack([np.array(sides), grid((x0, x1), (y0, y1), z1, 0.005)])
+
+    slabs = [grid((-1.5, 1.5), (-1.5, 1.5), z, 0.01) for z in (-0.76, -0.75, -0.77)]
+    floor = np.vstack(slabs)
+    floor = floor[(np.abs(floor[:, 0]) > 0.42) | (np.abs(floor[:, 1]) > 0.62)]
+    # the legs' upper half hidden under the desk's top, as a camera over it sees
+    legs = [
+        box(
+            (sx * 0.35 - 0.025, sy * 0.55 - 0.025, -0.745),
+            (sx * 0.35 + 0.025, sy * 0.55 + 0.025, -0.35),
+        )
+        for sx in (-1, 1)
+        for sy in (-1, 1)
+    ]
+    desk = grid((-0.4, 0.4), (-0.6, 0.6), 0.0, 0.005)
+    desk = desk[(np.abs(desk[:, 0] - 0.05) > 0.03) | (np.abs(desk[:, 1]) > 0.04)]
+    thing = box((0.02, -0.04, 0.003), (0.08, 0.04, 0.12))
+    points = np.vstack([floor, *legs, desk, thing])
+    points += rng.normal(0.0, 0.0005, points.shape)
+    assert min(len(s) for s in slabs) > len(desk)
+    seg = RansacDbscan().segment(
+        downsample(points, VOXEL),
+        RansacDbscanOptions(),
+        seed=0,
+        viewpoints=np.array([[1.2, 0.0, 1.0]]),
+    )
+    assert abs(seg.table.signed_distance(np.zeros((1, 3)))[0]) < 0.005
+    assert "under_surface" not in seg.info
+    assert np.linalg.norm(seg.clusters[0].mean(axis=0)[:2] - [0.05, 0.0]) < 0.02

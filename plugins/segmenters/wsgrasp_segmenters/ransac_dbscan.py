@@ -20,7 +20,8 @@ fair share of its inliers (a table seen from the wall beside it) are left out.
 What stands under a flat surface seen above it (:func:`_under_surface`: a desk's
 legs under its top) is no object where something else stands in the open; a plane
 on which only such things stand is the table only where no plane after it holds
-an object in the open (``info["under_surface"]`` then says so).
+an object in the open (``info["under_surface"]`` then says so), the planes tried
+then up to twice ``max_planes``.
 A noisy camera's table scatters past ``min_height``: where ``noise_floor``
 deviations of the points' depth noise about the plane (:func:`height_noise`)
 exceed it, ``min_height`` and ``contact_distance`` rise by the difference, and the
@@ -61,7 +62,11 @@ class RansacDbscanOptions(BaseModel):
         100, ge=3, description="a plane with fewer inliers is not a table"
     )
     max_planes: int = Field(
-        3, ge=1, le=10, description="planes tried, largest first, to find the table"
+        3,
+        ge=1,
+        le=10,
+        description="planes tried, largest first, to find the table (twice as "
+        "many where all that stands on one stands under a surface)",
     )
     cluster_eps: float = Field(
         0.01, gt=0.0, le=0.2, description="DBSCAN neighbourhood radius"
@@ -209,9 +214,12 @@ class RansacDbscan:
                 )
                 if not found["under"]:
                     return result
-                # all it holds stands under a surface: the next planes first
+                # all it holds stands under a surface: the next planes first,
+                # as many again as were to be tried (a noisy floor found as
+                # slabs, three times over, left the desk over it untried)
                 if deferred is None:
                     deferred = result
+                    finder.limit = 2 * o.max_planes
             k += 1
         if deferred is not None:
             # no plane after it holds an object in the open: what stands under
@@ -962,6 +970,9 @@ class _PlaneFinder:
         self.remaining = np.arange(p.shape[0])
         self.planes: list[tuple[Array, float, NDArray[np.int64], bool]] = []
         self.exhausted = False
+        #: planes it may find (``max_planes``, raised where every object on
+        #: those tried stands under a surface)
+        self.limit = o.max_planes
 
     def worth_another(self, fraction: float) -> bool:
         """Whether what is left could hold a wide plane with ``fraction`` of the
@@ -975,11 +986,9 @@ class _PlaneFinder:
         """Find one more plane; False when no more can be found."""
         o = self.o
         k = len(self.planes)
-        if (
-            self.exhausted
-            or k >= o.max_planes
-            or self.remaining.size < max(o.min_plane_points, 3)
-        ):
+        if k >= self.limit:
+            return False
+        if self.exhausted or self.remaining.size < max(o.min_plane_points, 3):
             self.exhausted = True
             return False
         # the first plane is found among all the points: no gathered copy
