@@ -55,3 +55,13 @@ def move_plane(T: np.ndarray, plane: Plane) -> Plane:
 def moved(T: np.ndarray, points: np.ndarray) -> np.ndarray:
     """``points`` (n, 3) mapped by ``T``."""
     return transform_points(T, points)
+
+
+def level_grid(
+    x: tuple[float, float], y: tuple[float, float], z: float, step: float
+) -> np.ndarray:
+    """Points ``(n, 3)`` on a grid of ``step`` over ``x`` by ``y`` (ranges,
+    the upper ends left out), at height ``z``: a table top, a floor."""
+    u, v = np.arange(*x, step), np.arange(*y, step)
+    uv = np.stack(np.meshgrid(u, v), -1).reshape(-1, 2)
+    return np.column_stack([uv, np.full(len(uv), z)])

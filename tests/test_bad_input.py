@@ -1240,15 +1240,12 @@ def test_a_far_target_in_a_wide_view_gives_way_to_the_near_scenes() -> None:
     target lies far while much of the scene lies near the camera, so the near
     scene is segmented again: its table and its box are planned on, and the
     result says so. Given a crop radius, the plan keeps the spec's."""
+    from conftest_perception import level_grid
+
     from wsgrasp.api import Pipeline
     from wsgrasp.perception.io import scene_from_arrays
 
     rng = np.random.default_rng(0)
-
-    def grid(lo: tuple[float, float], hi: tuple[float, float], z: float, step: float):
-        u, v = np.arange(lo[0], hi[0], step), np.arange(lo[1], hi[1], step)
-        uv = np.stack(np.meshgrid(u, v), -1).reshape(-1, 2)
-        return np.column_stack([uv, np.full(len(uv), z)])
 
     def box(centre: tuple[float, float, float], size: tuple[float, float, float]):
         """Points on a box's sides and top."""
@@ -1259,9 +1256,9 @@ def test_a_far_target_in_a_wide_view_gives_way_to_the_near_scenes() -> None:
         return pts * np.array(size) + np.array(centre)
 
     # a z-up world, the camera 1 m over the near table looking down
-    table = grid((-0.3, -0.3), (0.3, 0.3), 0.0, 0.004)
+    table = level_grid((-0.3, 0.3), (-0.3, 0.3), 0.0, 0.004)
     near_box = box((0.0, 0.0, 0.05), (0.05, 0.07, 0.1))
-    floor = grid((-2.5, 1.0), (2.5, 4.0), -2.5, 0.01)
+    floor = level_grid((-2.5, 2.5), (1.0, 4.0), -2.5, 0.01)
     crate = box((0.0, 2.5, -2.4), (0.25, 0.25, 0.2))
     points = np.vstack([table, near_box, floor, crate])
     points += rng.normal(0.0, 0.001, points.shape)

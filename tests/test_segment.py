@@ -9,7 +9,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest_perception import VOXEL, move_plane, moved, random_rigid, small_scene
+from conftest_perception import (
+    VOXEL,
+    level_grid,
+    move_plane,
+    moved,
+    random_rigid,
+    small_scene,
+)
 from numpy.testing import assert_allclose
 from wsgrasp_segmenters.given_table import GivenTable, GivenTableOptions
 from wsgrasp_segmenters.ransac_dbscan import RansacDbscan, RansacDbscanOptions
@@ -609,11 +616,6 @@ def test_a_floor_found_as_slabs_leaves_the_desk_over_it_a_plane_to_try() -> None
     the table and the box on it the object."""
     rng = np.random.default_rng(0)
 
-    def grid(x: tuple[float, float], y: tuple[float, float], z: float, step: float):
-        u, v = np.arange(*x, step), np.arange(*y, step)
-        uv = np.stack(np.meshgrid(u, v), -1).reshape(-1, 2)
-        return np.column_stack([uv, np.full(len(uv), z)])
-
     def box(lo: tuple[float, float, float], hi: tuple[float, float, float]):
         """Points on a box's four sides and top, 5 mm apart."""
         (x0, y0, z0), (x1, y1, z1) = lo, hi
@@ -623,9 +625,11 @@ def test_a_floor_found_as_slabs_leaves_the_desk_over_it_a_plane_to_try() -> None
             sides += [[x, y0, z] for z in zs] + [[x, y1, z] for z in zs]
         for y in np.arange(y0, y1, 0.005):
             sides += [[x0, y, z] for z in zs] + [[x1, y, z] for z in zs]
-        return np.vstack([np.array(sides), grid((x0, x1), (y0, y1), z1, 0.005)])
+        return np.vstack([np.array(sides), level_grid((x0, x1), (y0, y1), z1, 0.005)])
 
-    slabs = [grid((-1.5, 1.5), (-1.5, 1.5), z, 0.01) for z in (-0.76, -0.75, -0.77)]
+    slabs = [
+        level_grid((-1.5, 1.5), (-1.5, 1.5), z, 0.01) for z in (-0.76, -0.75, -0.77)
+    ]
     floor = np.vstack(slabs)
     floor = floor[(np.abs(floor[:, 0]) > 0.42) | (np.abs(floor[:, 1]) > 0.62)]
     # the legs' upper half hidden under the desk's top, as a camera over it sees
@@ -637,7 +641,7 @@ def test_a_floor_found_as_slabs_leaves_the_desk_over_it_a_plane_to_try() -> None
         for sx in (-1, 1)
         for sy in (-1, 1)
     ]
-    desk = grid((-0.4, 0.4), (-0.6, 0.6), 0.0, 0.005)
+    desk = level_grid((-0.4, 0.4), (-0.6, 0.6), 0.0, 0.005)
     desk = desk[(np.abs(desk[:, 0] - 0.05) > 0.03) | (np.abs(desk[:, 1]) > 0.04)]
     thing = box((0.02, -0.04, 0.003), (0.08, 0.04, 0.12))
     points = np.vstack([floor, *legs, desk, thing])

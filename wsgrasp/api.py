@@ -842,8 +842,7 @@ def _origin_warnings(cameras: Array, object_points: Array) -> list[str]:
     if not len(cameras) or not len(object_points):
         return []
     out = float(np.linalg.norm(cameras, axis=1).min())
-    centre = np.asarray(object_points, dtype=np.float64).mean(axis=0)
-    near = float(np.linalg.norm(cameras - centre, axis=1).min())
+    near = _range(cameras, object_points)
     if out <= FAR_CAMERA_WARNING_M or near > FAR_OBJECT_WARNING_M:
         return []
     return [
