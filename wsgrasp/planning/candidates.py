@@ -18,21 +18,16 @@ With ``flip``, each pose is also tried turned half a turn about its approach axi
 approach axis, a different one for a hand with a thumb on one side.
 
 The paper measures θ from the object frame's x axis and leaves the half turn to
-the sign of the major axis; both follow the object's shape, not the table. With
-``sampling.angles_from: table`` (the default; ``object`` is the paper's) the
-angles are turned so that the middle one approaches from straight above the
-table (:func:`from_above`; four angles over a full turn: a top grasp and two side
+the sign of the major axis (``sampling.angles_from: object``). With ``angles_from:
+table`` (the default) the middle angle approaches from straight above the table
+(:func:`from_above`: four angles over a full turn give a top grasp and two side
 grasps, where the paper's could give two approaches 45° down and two from under
-the table); on an object standing upright, where every angle is a side approach,
-they are turned so that one closes across the object's narrowest width seen from
-above (``sampling.across_narrowest``, :func:`across_narrowest`: across a box's
-faces, where the paper's frame, split along the farthest points of the part the
-cameras see, can put every closing direction across a box's corners); and a
-gripper whose body reaches farther on one side of its approach
-axis (:func:`far_side`: a wrist camera, a thumb's base) is turned where that side
-would face the table (the major axis more than ``LEVEL_DEG`` out of the table's
-plane): a side grasp on a short upright object keeps the camera above the hand,
-not between the hand and the table.
+the table); on an upright object one closes across its narrowest width seen from
+above (:func:`across_narrowest`: across a box's faces, not its corners); and a
+gripper whose body reaches farther on one side of its approach axis
+(:func:`far_side`: a wrist camera, a thumb's base) is turned where that side would
+face the table (the major axis more than ``LEVEL_DEG`` out of the table's plane):
+a side grasp on a short upright object keeps the camera above the hand.
 
 ``xyz`` (the authors' follow-up): ``R_object_gwc = Rz(γ) Ry(β) Rx(α)``, rotations
 about the object frame's fixed x, y and z axes over a full turn each; the grid
@@ -286,7 +281,9 @@ def approach_sphere_orientations(
     h[0] = -1.0
     phi = i * np.pi * (3.0 - np.sqrt(5.0))  # golden angle
     r = np.sqrt(np.clip(1.0 - h * h, 0.0, None))
-    u = _perpendicular(n)
+    e = np.eye(3)[int(np.argmin(np.abs(n)))]
+    u = e - (e @ n) * n
+    u = u / np.linalg.norm(u)  # (3,) a unit vector perpendicular to n
     v = np.cross(n, u)
     d = (
         (r * np.cos(phi))[:, None] * u + (r * np.sin(phi))[:, None] * v + h[:, None] * n
@@ -295,7 +292,7 @@ def approach_sphere_orientations(
     # roll 0: x_gwc along the major axis (object z) across the approach, else x
     x0 = _across(d, R_wo[:, 2], R_wo[:, 0])  # (D, 3)
     y0 = np.cross(d, x0)
-    psi = np.deg2rad(roll_range_deg) * np.arange(rolls, dtype=np.float64) / rolls
+    psi = orientation_angles(rolls, roll_range_deg)
     c, s = np.cos(psi)[None, :, None], np.sin(psi)[None, :, None]  # (1, M, 1)
     x = c * x0[:, None, :] + s * y0[:, None, :]  # (D, M, 3)
     z = np.broadcast_to(d[:, None, :], x.shape)
@@ -307,20 +304,12 @@ def approach_sphere_orientations(
     return Orientations(R, theta, none.astype(bool), none, "approach_sphere")
 
 
-def _perpendicular(n: Array) -> Array:
-    """A unit vector perpendicular to ``n`` (3,)."""
-    e = np.eye(3)[int(np.argmin(np.abs(n)))]
-    u = e - (e @ n) * n
-    return u / np.linalg.norm(u)
-
-
 def _across(d: Array, first: Array, second: Array) -> Array:
     """``first`` made perpendicular to each direction ``d`` (D, 3), unit; where it
     is (nearly) parallel to ``d``, ``second`` instead."""
     a = first[None, :] - (d @ first)[:, None] * d  # (D, 3)
     b = second[None, :] - (d @ second)[:, None] * d
-    na = np.linalg.norm(a, axis=1, keepdims=True)
-    use_b = na[:, 0] < 1e-3
+    use_b = np.linalg.norm(a, axis=1) < 1e-3
     a[use_b] = b[use_b]
     return a / np.linalg.norm(a, axis=1, keepdims=True)
 
@@ -329,12 +318,8 @@ def depth_offsets(count: int, reach: tuple[float, float]) -> Array:
     """``count`` GWC offsets (m) along the approach that put the box sample at
     evenly spaced depths over ``reach`` (the span of the workspace spheres along
     the approach axis, GWC frame, ends included); ``[0]`` for one."""
-    if count <= 1:
-        return np.zeros(1)
-    lo, hi = reach
-    # moving the GWC by -z along the approach brings the object to GWC z: the
-    # offsets that put the object at each depth of the workspaces
-    return -np.linspace(lo, hi, count)
+    # moving the GWC by -z along the approach brings the object to GWC z
+    return -np.linspace(*reach, count) if count > 1 else np.zeros(1)
 
 
 def orientation_set(
@@ -369,6 +354,8 @@ def orientation_set(
     """
     mode = getattr(sampling, "mode", "major_axis")
     tol = float(getattr(sampling, "upward_tolerance_deg", 5.0))
+    R_world_object = np.asarray(T_world_object, dtype=np.float64)[:3, :3]
+    n = np.asarray(table_normal, dtype=np.float64)
     if mode == "xyz":
         o = xyz_orientations(tuple(sampling.steps or (4, 4, 4)))
     elif mode == "approach_sphere":
@@ -384,8 +371,6 @@ def orientation_set(
         flip = bool(sampling.flip)
         thetas = orientation_angles(sampling.orientations, sampling.angle_range_deg)
         table = getattr(sampling, "angles_from", "object") == "table"
-        R_world_object = np.asarray(T_world_object, dtype=np.float64)[:3, :3]
-        n = np.asarray(table_normal, dtype=np.float64)
         level = np.sin(np.deg2rad(LEVEL_DEG))
         if table:
             normal_object = R_world_object.T @ n
@@ -403,8 +388,7 @@ def orientation_set(
         if table and not flip and -side * float(n @ R_world_object[:, 2]) > level:
             o.R_object_gwc[:, :, :2] *= -1.0  # half a turn about the approach
             o.flipped[:] = True
-    approach = np.asarray(T_world_object)[:3, :3] @ o.R_object_gwc[:, :, 2].T
-    up = np.asarray(table_normal, dtype=np.float64) @ approach  # (O,)
+    up = n @ (R_world_object @ o.R_object_gwc[:, :, 2].T)  # (O,) along the normal
     o = o.select(up <= np.sin(np.deg2rad(tol)) + 1e-12)
     return o.with_depths(depth_offsets(int(getattr(sampling, "depths", 1)), reach))
 

@@ -149,8 +149,7 @@ def grasp_targets(
         held_all = [transform_points(T_gripper_world, c.points) for c in contacts]
         # the middle of the grasp: the mean of the fingers' contact centroids
         centre = np.mean([h.mean(axis=0) for h in held_all if len(h)], axis=0)
-        for f, contact in enumerate(contacts):
-            held = held_all[f]  # (k, 3)
+        for f, (held, contact) in enumerate(zip(held_all, contacts, strict=True)):
             ft = _finger_target(
                 g, f, held, contact.spheres, squeeze, pre, centre, closed
             )
@@ -209,8 +208,10 @@ def _finger_target(
     configuration does, the nearest of all.
     """
     joints = g.finger_joints[f]
-    if len(held) == 0:
-        return _free_finger_target(g, f, pre)
+    if len(held) == 0:  # no contact: it closes with the others to its ``closed``
+        grasp = _within_limits(g, {j: g.closed.get(j, pre.get(j, 0.0)) for j in joints})
+        pad = pad_positions(g, f, np.array([[grasp[j] for j in joints]]))[0]
+        return FingerTarget(g.finger_names[f], {}, grasp, pad, None, 0.0)
     start = int(g.config_offsets[f])
     q_grid = g.finger_configurations(f)  # (K, d)
     is_allowed = _allowed_mask(g, f, spheres)  # (K,)
@@ -233,15 +234,17 @@ def _finger_target(
         outside = _outside(g.config_pad[start + candidates], held, centre)  # (c,)
         if not outside.any():
             continue
-        bound = np.inf
+        limit = np.inf  # pads farther are not searched (their distance: inf)
         if candidates is first:
             # a held point's distance to a qualifying configuration among its
-            # nearest bounds the least pad distance from above
+            # nearest bounds the least pad distance from above (with a relative
+            # margin, so that a pad at exactly that distance stays found)
             qualifies = np.zeros(len(q_grid), dtype=bool)
             qualifies[candidates[outside]] = True
-            bound = float(d_near[qualifies[near]].min())
+            limit = float(d_near[qualifies[near]].min()) * (1.0 + 1e-9) + 1e-12
         kept = np.flatnonzero(outside)  # (o,)
-        nearest = _held_distances(g.config_pad[start + candidates[kept]], held, bound)
+        pads = g.config_pad[start + candidates[kept]]
+        nearest, _ = cKDTree(held).query(pads, distance_upper_bound=limit)  # (o,)
         k = int(np.argmin(nearest))
         local, best, gap = candidates, int(kept[k]), float(nearest[k])
         break
@@ -272,14 +275,8 @@ def _finger_target(
     travel = np.linalg.norm(p_ray - p_ray[0], axis=1)  # (T,)
     reach = np.flatnonzero(travel >= squeeze)
     k = int(reach[0]) if len(reach) else len(t) - 1
-    return FingerTarget(
-        finger=g.finger_names[f],
-        contact=contact,
-        grasp={j: float(v) for j, v in zip(joints, ray[k], strict=True)},
-        pad_world=pad,
-        gap=gap,
-        squeeze=float(travel[k]),
-    )
+    grasp = {j: float(v) for j, v in zip(joints, ray[k], strict=True)}
+    return FingerTarget(g.finger_names[f], contact, grasp, pad, gap, float(travel[k]))
 
 
 def _pad_at(g: GripperModel, f: int, q: tuple[float, ...]) -> Array:
@@ -296,24 +293,6 @@ def _pad_at(g: GripperModel, f: int, q: tuple[float, ...]) -> Array:
             cache.clear()
         cache[key] = pad_positions(g, f, np.array([q]))[0]
     return cache[key]
-
-
-def _free_finger_target(g: GripperModel, f: int, pre: dict[str, float]) -> FingerTarget:
-    """The target of finger ``f`` where it holds no object point (a finger
-    outside the gripper's ``contact_fingers``): no contact posture; it closes
-    with the others to its ``closed`` posture, and where it meets the object
-    on the way, it holds it there too. ``pad_world`` is its pad at that
-    posture, gripper frame (as a contact's is before the caller moves it)."""
-    joints = g.finger_joints[f]
-    grasp = _within_limits(g, {j: g.closed.get(j, pre.get(j, 0.0)) for j in joints})
-    return FingerTarget(
-        finger=g.finger_names[f],
-        contact={},
-        grasp=grasp,
-        pad_world=pad_positions(g, f, np.array([[grasp[j] for j in joints]]))[0],
-        gap=None,
-        squeeze=0.0,
-    )
 
 
 def _allowed_mask(
@@ -359,16 +338,6 @@ def _outside(pads: Array, held: Array, centre: Array) -> NDArray[np.bool_]:
     if norm > 1e-9:
         return np.asarray((pads - c_f) @ (out / norm) >= 0.0)
     return np.ones(len(pads), dtype=bool)
-
-
-def _held_distances(pads: Array, held: Array, bound: float) -> Array:
-    """Distance of each pad centre ``(c, 3)`` to the nearest held point ``(k, 3)``,
-    ``(c,)``; infinite for pads farther than ``bound`` (m), which the KD-tree
-    search then leaves early. Within it, exactly ``cKDTree(held).query(pads)``."""
-    # a relative margin, so that a pad at exactly ``bound`` stays found
-    limit = bound * (1.0 + 1e-9) + 1e-12 if np.isfinite(bound) else np.inf
-    nearest, _ = cKDTree(held).query(pads, distance_upper_bound=limit)  # (c,)
-    return np.asarray(nearest, dtype=np.float64)
 
 
 def config_tree(g: GripperModel, finger: int) -> cKDTree:
