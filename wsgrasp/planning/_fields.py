@@ -37,10 +37,6 @@ class BuiltOnRead:
         """What ``obj`` keeps for the field, not built into the value."""
         return obj.__dict__[self._slot]
 
-    def replace_stored(self, obj: Any, stored: Any) -> None:
-        """Keep ``stored`` for the field of ``obj`` as it is."""
-        obj.__dict__[self._slot] = stored
-
     def read(self, stored: Any) -> Any:
         """The value, from what is kept."""
         return stored

@@ -123,13 +123,6 @@ class Orientations:
             self.mode,
         )
 
-    def with_depths(self, offsets: Array) -> Orientations:
-        """Every orientation at each of ``offsets`` (m) along its approach:
-        orientations outer, offsets inner."""
-        out = self.select(np.repeat(np.arange(len(self)), len(offsets)))
-        out.depth = out.depth + np.tile(np.asarray(offsets, np.float64), len(self))
-        return out
-
 
 #: a major axis within this angle of the table's plane is level (no side of the
 #: gripper faces the table), one within this angle of its normal upright (no
@@ -389,8 +382,12 @@ def orientation_set(
             o.R_object_gwc[:, :, :2] *= -1.0  # half a turn about the approach
             o.flipped[:] = True
     up = n @ (R_world_object @ o.R_object_gwc[:, :, 2].T)  # (O,) along the normal
-    o = o.select(up <= np.sin(np.deg2rad(tol)) + 1e-12)
-    return o.with_depths(depth_offsets(int(getattr(sampling, "depths", 1)), reach))
+    keep = np.flatnonzero(up <= np.sin(np.deg2rad(tol)) + 1e-12)
+    # each orientation kept at each depth offset: orientations outer, offsets inner
+    offsets = depth_offsets(int(getattr(sampling, "depths", 1)), reach)
+    o = o.select(np.repeat(keep, len(offsets)))
+    o.depth = o.depth + np.tile(offsets, len(keep))
+    return o
 
 
 def candidate_poses(

@@ -1,24 +1,18 @@
 """The search's verdicts as a pipeline (Algorithm 1, lines 8-24): table → body →
-fingers → holdings, each stage a module with one function, each taking the
-candidate structure (samples × orientations) and the candidates the stage
-before left.
+fingers → holdings, each stage a module with one function taking the candidate
+structure (samples × orientations) and the candidates the stage before left
+(the docs' search pipeline page describes each).
 
 Each candidate gets the first rejection reason that applies, in Algorithm 1's
-order: table collision (``table``: gripper cloud inside the table
-superellipsoid), object collision and obstacle collision (``body``: points of
-the object, or of other objects, inside a body superellipsoid), and a finger
-with no object point inside any of its workspace spheres (``fingers``; of the
-gripper's ``contact_fingers``, every finger unless its description names them). The
-feasible candidates' holdings (``holdings``) are what the scorers read
-(``scoring``, the search's last stage, in ``search``). Which kernel runs behind
-the body and finger stages is decided once per evaluation (``kernels``); the
-verdicts are the loop-by-loop reference's (``reference``) whichever runs.
+order (``result.REASONS``). Which kernel runs behind the body and finger stages is
+decided once per evaluation (``kernels``); the verdicts are the loop-by-loop
+reference's (``reference``) whichever runs.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -115,16 +109,14 @@ def evaluate_candidates(
         does not count as a search in the kernel choice (``kernels``).
     """
     spheres = spheres or FingerSpheres(gripper)
-    if structure is None:
-        poses = StructuredPoses.of_transforms(
-            T_world_gripper.whole()
-            if isinstance(T_world_gripper, PoseArray)
-            else T_world_gripper
-        )
-    else:
+    if structure is not None:
         poses = StructuredPoses.checked(
             structure, gripper.T_gripper_gwc, T_world_gripper
         )
+    elif isinstance(T_world_gripper, PoseArray):
+        poses = StructuredPoses.of_transforms(T_world_gripper.whole())
+    else:
+        poses = StructuredPoses.of_transforms(T_world_gripper)
     C, nf, no = poses.num_candidates, gripper.num_fingers, len(object_points)
     reason = np.zeros(C, dtype=np.int64)
     contacts = np.zeros((C, nf), dtype=np.int64)
@@ -145,12 +137,8 @@ def evaluate_candidates(
     ok = np.flatnonzero(holds)  # positions in live
     reason[live] = np.where(holds, 0, 4)
     feasible = live[ok]
-    # 4. holdings, of the feasible candidates (built when read)
-    holdings = feasible_holdings(fingers, ok)
+    # 4. holdings, of the feasible candidates (as Holdings: built when read)
+    holdings: Any = feasible_holdings(fingers, ok)
     return Evaluation(
-        reason,
-        contacts,
-        feasible,
-        holdings,  # type: ignore[arg-type]
-        table_v.lowest_heights(feasible),
+        reason, contacts, feasible, holdings, table_v.lowest_heights(feasible)
     )

@@ -1,15 +1,10 @@
 """Stage 4, the holdings: which object points each finger holds, for the feasible
 candidates, held densely or computed in blocks on demand.
 
-Evaluation decides feasibility from per-finger counts; scorers need per finger the
-sums of the held points (and of their normals); the chosen grasp needs its own
-holding. None of these needs the dense ``(F, no, nf)`` mask of every feasible
-candidate at once, which for the Allegro's dense sampling is ~90,000 × 800 × 4
-bools. :class:`Holdings` gives the counts, row blocks, per-finger sums over the
-held points and, for code that reads it, the whole mask, built on first use.
-
-``HoldingField`` lets a dataclass field named ``holding`` take either a bool array
-or a :class:`Holdings` and read back as the bool array.
+Evaluation decides feasibility from per-finger counts, scorers read per-finger sums
+over the held points, the chosen grasp its own holding: none needs the dense
+``(F, no, nf)`` mask at once (~90,000 × 800 × 4 bools for the Allegro's dense
+sampling), which :class:`Holdings` builds only for code that reads it.
 """
 
 from __future__ import annotations
@@ -92,12 +87,10 @@ class Holdings:
         """The holdings in consecutive blocks of rows, bounded in size."""
         F, no, nf = self.shape
         step = max(1, _BLOCK_ENTRIES // max(no * nf, 1))
+        d = self._dense
         for a in range(0, F, step):
             sl = slice(a, min(a + step, F))
-            if self._dense is not None:
-                yield sl, self._dense[sl]
-            else:
-                yield sl, self.rows(np.arange(sl.start, sl.stop))
+            yield sl, d[sl] if d is not None else self.rows(np.arange(a, sl.stop))
 
     def dense(self) -> NDArray[np.bool_]:
         """The whole ``(F, no, nf)`` mask (built once, then kept)."""
@@ -158,10 +151,8 @@ class HoldingField(BuiltOnRead):
     read). ``holdings_of(obj)`` gives the :class:`Holdings` without building it.
     """
 
-    def read(self, stored: Any) -> NDArray[np.bool_]:
-        if isinstance(stored, Holdings):
-            return stored.dense()
-        return stored  # type: ignore[no-any-return]
+    def read(self, stored: NDArray[np.bool_] | Holdings) -> NDArray[np.bool_]:
+        return stored.dense() if isinstance(stored, Holdings) else stored
 
     def keep(self, value: NDArray[np.bool_] | Holdings) -> Any:
         return value if isinstance(value, Holdings) else np.asarray(value, dtype=bool)
@@ -171,5 +162,5 @@ class HoldingField(BuiltOnRead):
         if isinstance(got, Holdings):
             return got
         h = Holdings.of(got)
-        self.replace_stored(obj, h)
+        self.__set__(obj, h)  # kept as it is
         return h

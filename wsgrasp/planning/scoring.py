@@ -139,14 +139,13 @@ class CandidateBatch:
 
     def _held_normals(self) -> Array:
         """``object_normals`` where a finger of some candidate holds the point,
-        ``(no, 3)``: estimated for those points alone (zero elsewhere) when
-        ``normals_of`` is given, the holdings are at hand and the normals of
-        every point are not already known. The sums over the held points are
-        the same either way: an unheld point adds ``0 * n``, a zero."""
+        ``(no, 3)``: for those points alone (zero elsewhere) with ``normals_of``,
+        dense holdings (else finding the held points builds every row) and no
+        normals of every point known yet. The sums over the held points are the
+        same either way: an unheld point adds ``0 * n``, a zero."""
         h = self.holdings
-        if self.normals_of is None or "object_normals" in self.__dict__:
-            return self.object_normals
-        if not h.is_dense:  # finding the held points would build every row
+        known = "object_normals" in self.__dict__
+        if self.normals_of is None or known or not h.is_dense:
             return self.object_normals
         # (F, no, nf) -> (no, nf) -> (no,); one axis at a time: 10x faster
         anyone = np.any(h.dense(), axis=0)  # (no, nf)
@@ -210,12 +209,10 @@ class CandidateBatch:
     def _behind_the_side(self, middle: Array) -> Array:
         """:func:`behind_the_side` of ``middle`` ``(3,)``; zeros without the
         table or the cameras' poses."""
-        if self.T_world_table is None or self.viewpoints is None:
+        v = self.viewpoints
+        if self.T_world_table is None or v is None or not len(v):
             return np.zeros(3)
-        if not len(self.viewpoints):
-            return np.zeros(3)
-        n = self.T_world_table[:3, 2]
-        return behind_the_side(self.object_points, middle, n, self.viewpoints)
+        return behind_the_side(self.object_points, middle, self.T_world_table[:3, 2], v)
 
     @property
     def approach(self) -> Array:

@@ -108,16 +108,8 @@ def run_search(
     T_world_gripper = PoseArray(StructuredPoses.build(structure, g.T_gripper_gwc))
     sample, orientation = structure.indices()
     theta = o.theta[orientation]
-    flipped = o.flipped[orientation]
-    ev = evaluate_candidates(
-        T_world_gripper,
-        g,
-        inp.object_points,
-        inp.obstacle_points,
-        inp.table,
-        spheres,
-        structure=structure,
-    )
+    scene = (inp.object_points, inp.obstacle_points, inp.table, spheres)
+    ev = evaluate_candidates(T_world_gripper, g, *scene, structure=structure)
     t1 = time.perf_counter()
     C = len(sample)
     score = np.full(C, np.nan)
@@ -131,10 +123,7 @@ def run_search(
 
         def feasible_at(T: Array) -> NDArray[np.bool_]:
             """The search's verdict on other poses of the gripper."""
-            v = evaluate_candidates(
-                T, g, inp.object_points, inp.obstacle_points, inp.table, spheres
-            )
-            return v.reason == 0
+            return evaluate_candidates(T, g, *scene).reason == 0
 
         batch = CandidateBatch(
             gripper=g,
@@ -157,9 +146,8 @@ def run_search(
         total, terms = combine_scores(batch, scorers)
         score[f] = total
         for name, values in terms.items():
-            column = np.full(C, np.nan)
+            terms_all[name] = column = np.full(C, np.nan)
             column[f] = values
-            terms_all[name] = column
         # stable: ties keep the earlier candidate, as Algorithm 1's strict "<"
         order = np.argsort(-total, kind="stable")
         best_local = int(order[0])
@@ -187,7 +175,7 @@ def run_search(
         contacts=ev.contacts,
         score=score,
         terms=terms_all,
-        flipped=flipped,
+        flipped=o.flipped[orientation],
         orientation=orientation,
     )
     return SearchOutput(
@@ -209,7 +197,11 @@ def _contacts(
     """Per finger: the object points its spheres hold and the spheres holding them.
 
     ``holding`` ``(no, nf)`` is the search's answer for this pose; only the held
-    points are tested against each sphere.
+    points are tested against each sphere, and only the spheres within their
+    radius of the held points' bounding box along every axis (exact for
+    ``points_in_spheres``: a point's distance to a centre along one axis is at
+    least the box's; testing every sphere took about 0.2 ms a finger on the
+    Allegro hand's 77 spheres and some 300 held points; about half are dropped).
     """
     p = transform_points(invert_transforms(T_world_gripper), object_points)  # (no, 3)
     out = []
@@ -218,38 +210,18 @@ def _contacts(
         held_points = holding[:, f]
         held = p[held_points]  # (k, 3)
         if len(held):
-            mine = mine[~_beyond_box(held, mine, g)]
+            c = g.sphere_centers[mine]  # (m, 3)
+            gap = np.maximum(held.min(axis=0) - c, c - held.max(axis=0)).max(axis=1)
+            mine = mine[~(gap > g.sphere_radii[mine] + _BOX_MARGIN)]
         hit = spheres_hit_by_points(held, g.sphere_centers[mine], g.sphere_radii[mine])
-        out.append(
-            Contact(
-                finger=name,
-                points=object_points[held_points],
-                spheres=mine[hit].astype(np.int64),
-            )
-        )
+        spheres = mine[hit].astype(np.int64)
+        out.append(Contact(name, object_points[held_points], spheres))
     return out
 
 
 #: a sphere whose centre lies this far (m) past its radius from the held points'
 #: bounding box, along one axis, holds none of them, whatever the rounding
 _BOX_MARGIN = 1e-9
-
-
-def _beyond_box(
-    held: Array, spheres: NDArray[np.int64], g: GripperModel
-) -> NDArray[np.bool_]:
-    """Per sphere of ``spheres`` ``(m,)``: whether it lies too far from the
-    bounding box of the points ``held`` ``(k, 3)`` to hold any of them.
-
-    Exact for ``points_in_spheres``: a point's distance to a sphere's centre
-    along one axis is at least the box's, so, rounded, its square and the sum
-    are at least the radius squared, and it is not strictly inside. The test of
-    every point against every sphere takes about 0.2 ms a finger on the Allegro
-    hand's 77 spheres and some 300 held points; about half the spheres are
-    dropped here first."""
-    c = g.sphere_centers[spheres]  # (m, 3)
-    gap = np.maximum(held.min(axis=0) - c, c - held.max(axis=0)).max(axis=1)  # (m,)
-    return gap > g.sphere_radii[spheres] + _BOX_MARGIN  # type: ignore[no-any-return]
 
 
 #: each rejection reason as the hint for a table-bound search words it
@@ -285,7 +257,7 @@ def no_grasp_hint(
             f"more than the gripper opens ({gripper.max_opening:.3f} m), so only an "
             "edge or a rim of it fits between the fingers; "
         )
-    cross = float(np.sort(np.asarray(extents))[:2].min())
+    cross = float(np.min(extents))  # the object's narrowest extent
     if worst == "finger_without_contact" and cross > gripper.max_opening:
         return (
             f"object is wider ({cross:.3f} m across its major axis) than the "

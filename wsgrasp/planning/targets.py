@@ -156,13 +156,10 @@ def grasp_targets(
             ft.pad_world = transform_points(T, ft.pad_world[None])[0]
             fingers.append(ft)
         if closed is None:
-            asked: dict[str, list[float]] = {}
-            for ft in fingers:
-                for j, v in ft.grasp.items():
-                    asked.setdefault(j, []).append(v)
-            for j, values in asked.items():
-                # a joint several fingers share closes as far as any of them asks
-                grasp[j] = max(values, key=lambda v: _closure(g, j, v))
+            # a joint several fingers share closes as far as any of them asks
+            for j in dict.fromkeys(j for ft in fingers for j in ft.grasp):
+                asked = [ft.grasp[j] for ft in fingers if j in ft.grasp]
+                grasp[j] = max(asked, key=lambda v: _closure(g, j, v))
     return GraspTargets(T_pre, pre, grasp, fingers)
 
 
@@ -224,9 +221,7 @@ def _finger_target(
     d_near, near = config_tree(g, f).query(held, k=m)
     near = np.asarray(near).reshape(len(held), m)  # (k, m)
     d_near = np.asarray(d_near).reshape(len(held), m)  # (k, m)
-    is_near = np.zeros(len(q_grid), dtype=bool)
-    is_near[near.reshape(-1)] = True
-    first = np.flatnonzero(is_near & is_allowed)
+    first = np.intersect1d(near, allowed)  # (c,) sorted
     local, best, gap = allowed, 0, np.inf
     for candidates in (first, allowed):
         if len(candidates) == 0:
@@ -239,9 +234,8 @@ def _finger_target(
             # a held point's distance to a qualifying configuration among its
             # nearest bounds the least pad distance from above (with a relative
             # margin, so that a pad at exactly that distance stays found)
-            qualifies = np.zeros(len(q_grid), dtype=bool)
-            qualifies[candidates[outside]] = True
-            limit = float(d_near[qualifies[near]].min()) * (1.0 + 1e-9) + 1e-12
+            qualifies = np.isin(near, candidates[outside])  # (k, m)
+            limit = float(d_near[qualifies].min()) * (1.0 + 1e-9) + 1e-12
         kept = np.flatnonzero(outside)  # (o,)
         pads = g.config_pad[start + candidates[kept]]
         nearest, _ = cKDTree(held).query(pads, distance_upper_bound=limit)  # (o,)
@@ -256,15 +250,13 @@ def _finger_target(
         moved = float(np.linalg.norm(_pad_at(g, f, end) - pad))
         grasp = {j: posture[j] for j in joints}
         return FingerTarget(g.finger_names[f], contact, grasp, pad, gap, moved)
-    closed = np.array(
-        [g.closed.get(j, pre.get(j, q)) for j, q in zip(joints, q_contact, strict=True)]
-    )
+    pre_f = np.array([pre.get(j, q) for j, q in zip(joints, q_contact, strict=True)])
+    closed = np.array([g.closed.get(j, p) for j, p in zip(joints, pre_f, strict=True)])
     lim = np.asarray(g.finger_limits[f], dtype=np.float64)
     closed = np.clip(closed, lim[:, 0], lim[:, 1])
     # a joint whose contact lies at or past ``closed`` (a hand whose ``closed``
     # stops where its pads meet, holding a large object) squeezes on towards
     # its limit on the closing side, never back towards ``closed``
-    pre_f = np.array([pre.get(j, q) for j, q in zip(joints, q_contact, strict=True)])
     way = np.sign(closed - pre_f)  # (d,) +1 closes upwards, -1 downwards
     beyond = np.where(way > 0, lim[:, 1], lim[:, 0])  # (d,) the closing side's limit
     past = (way != 0) & ((closed - q_contact) * way <= 0.0)
