@@ -710,7 +710,7 @@ def test_sweeps_group_rotations_as_numpy_unique_does(seed, distinct, C):
     """The closing sweeps take each distinct rotation once: the same rotations,
     in the same order, and the same index per candidate as ``np.unique`` over
     rows, also where rows differ only in the sign of a zero."""
-    from wsgrasp.planning.sweeps import _distinct_rotations
+    from wsgrasp.planning.poses import distinct_rotations
 
     rng = np.random.default_rng(seed)
     R = Rotation.random(distinct, random_state=seed).as_matrix().reshape(-1, 3, 3)
@@ -719,7 +719,7 @@ def test_sweeps_group_rotations_as_numpy_unique_does(seed, distinct, C):
         R[1] = np.eye(3) * np.array([1.0, 1.0, 1.0])[:, None]
         R[1][0, 1] = -0.0
     T = R[rng.integers(0, distinct, C)]
-    got, of = _distinct_rotations(T)
+    got, of = distinct_rotations(T)
     want, want_of = np.unique(T.reshape(-1, 9), axis=0, return_inverse=True)
     np.testing.assert_array_equal(got.reshape(-1, 9), want)
     np.testing.assert_array_equal(of, want_of.reshape(-1))
@@ -762,7 +762,8 @@ def test_sweeps_lowest_heights_do_not_depend_on_blocking(seed, nf, H, U, block):
 def test_pose_array_reads_the_structures_poses_bit_for_bit(seed, ns, n_orient, depths):
     """Any subset of a ``PoseArray``'s poses, read from the structure, is the
     same bits as the whole array ``candidate_poses`` builds, for integer,
-    negative, array and mask indices; a pose set on it overrides the
+    negative, array and mask indices, and split into rotations and
+    translations; a pose set on it overrides the
     structure's wherever read, and a copy keeps its own."""
     from wsgrasp.planning.poses import PoseArray
 
@@ -786,6 +787,12 @@ def test_pose_array_reads_the_structures_poses_bit_for_bit(seed, ns, n_orient, d
         assert np.array_equal(lazy.at(i), T_wg[i])
     with pytest.raises(IndexError):
         lazy.at(C)
+    some = np.flatnonzero(mask)
+    for poses in (lazy, PoseArray(T_wg)):  # split: rotations once, translations
+        R_u, of, t = poses.split(some, some % n_orient)
+        assert np.array_equal(R_u[of], T_wg[some, :3, :3])
+        assert np.array_equal(t, T_wg[some, :3, 3])
+        assert len(R_u) == len(np.unique(some % n_orient))
     assert not lazy.built
     edit = np.eye(4)
     edit[:3, 3] = [1.0, 2.0, 3.0]

@@ -1748,15 +1748,15 @@ def _sweeps_cleared(
     feasible = np.flatnonzero(cands.reason == 0)  # (F,)
     if not len(feasible):
         return out
-    T = cands.ee_at(feasible)  # (F, 4, 4) a copy
     best = out.best
     # the candidates of one orientation share their rotation
     groups = cands.orientation[feasible] if cands.orientation is not None else None
-    d = sweep_back_offs(g, T, inp.table.T_world_table, inp.object_points, groups)
+    R_t = cands.poses()[0].split(feasible, groups)  # no (F, 4, 4) poses
+    d = sweep_back_offs(g, R_t, inp.table.T_world_table, inp.object_points)
     rejected = np.isnan(d)
     moved = np.flatnonzero(d > 0.0)
-    T_moved = T[moved]  # (m, 4, 4) a copy
-    T_moved[:, :3, 3] -= d[moved, None] * (T[moved, :3, :3] @ g.approach_axis)
+    T_moved = cands.ee_at(feasible[moved])  # (m, 4, 4) a copy
+    T_moved[:, :3, 3] -= d[moved, None] * (T_moved[:, :3, :3] @ g.approach_axis)
     if len(moved):
         ev = evaluate_candidates(
             T_moved, g, inp.object_points, inp.obstacle_points, inp.table, spheres
@@ -1765,7 +1765,9 @@ def _sweeps_cleared(
 
     def taken(i: int) -> Array:
         """Feasible candidate ``i``'s pose as a plan takes it: (4, 4)."""
-        return T_moved[np.searchsorted(moved, i)] if d[i] > 0.0 else T[i]
+        if d[i] > 0.0:
+            return T_moved[np.searchsorted(moved, i)]  # type: ignore[no-any-return]
+        return cands.ee_at(feasible[i])
 
     kept = feasible[~rejected]
     score = cands.score

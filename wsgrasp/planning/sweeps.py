@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial import ConvexHull, QhullError, cKDTree
+from scipy.spatial import cKDTree
 
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.planning.closing import (
@@ -32,7 +32,7 @@ from wsgrasp.planning.closing import (
     finger_sweep,
     pad_positions,
 )
-from wsgrasp.planning.poses import MARGIN, hull_vertices
+from wsgrasp.planning.poses import MARGIN, distinct_rotations, hull_vertices
 
 __all__ = [
     "GRAZE_SLACK",
@@ -94,8 +94,7 @@ class _SweepIndex:
         Per finger and posture, the corners of the sweep points' convex hull
         (a finger's lowest point is one of them), padded by repeating one.
     outline : list of (m, 3) float
-        Per finger, the corners (of all postures) within ``MARGIN`` of the
-        convex hull of them all: the others are never the lowest.
+        Per finger, the corners of the convex hull of all postures' corners.
     origin : (nf, 3) float
         Centre of voxel ``(0, 0, 0)`` of each finger's reach grid.
     reach : list of (X, Y, Z) uint8
@@ -126,23 +125,12 @@ def _sweep_index(g: GripperModel) -> _SweepIndex:
     hull = np.reshape(
         [np.resize(h, (H, 3)) for row in hulls for h in row], (nf, K, H, 3)
     )
-    outline = [_outline(np.unique(np.concatenate(row), axis=0)) for row in hulls]
+    outline = [hull_vertices(np.concatenate(row)) for row in hulls]
     grids = [_reach_grid(sweep[f]) for f in range(nf)]  # (origin, grid) each
     origin = np.reshape([o for o, _ in grids], (nf, 3))
     index = _SweepIndex(hull, outline, origin, [grid for _, grid in grids])
     g.__dict__["_sweep_index"] = index
     return index
-
-
-def _outline(corners: Array) -> Array:
-    """The ``corners`` (n, 3) within ``MARGIN`` of their convex hull's boundary
-    (all of them without a hull). One deeper inside lies deeper than the lowest
-    corner along any unit direction by more than the heights' rounding."""
-    try:
-        eq = ConvexHull(corners).equations  # (F, 4) outward unit normals, offsets
-    except QhullError:
-        return corners
-    return corners[(corners @ eq[:, :3].T + eq[:, 3]).max(axis=1) >= -MARGIN]
 
 
 def _reach_grid(points: Array) -> tuple[Array, NDArray[np.uint8]]:
@@ -229,7 +217,7 @@ def reach_steps(
 
 def sweep_back_offs(
     g: GripperModel,
-    T_world_gripper: Array,
+    T_world_gripper: Array | tuple[Array, NDArray[np.int64], Array],
     T_world_table: Array,
     object_points: Array,
     groups: NDArray[np.int64] | None = None,
@@ -249,7 +237,10 @@ def sweep_back_offs(
     Parameters
     ----------
     g : GripperModel
-    T_world_gripper : (C, 4, 4) float
+    T_world_gripper : (C, 4, 4) float, or (R, of, t)
+        The candidates' poses, or their rotations ``R`` (U, 3, 3), each one's
+        row of ``R`` ``of`` (C,) and translations ``t`` (C, 3)
+        (:meth:`~wsgrasp.planning.poses.PoseArray.split`).
     T_world_table : (4, 4) float
         Table frame: origin on the surface, z its normal towards the object.
     object_points : (n, 3) float
@@ -258,7 +249,8 @@ def sweep_back_offs(
         A label per candidate (its orientation in a search's candidate set)
         such that candidates with one label share their rotation: the
         rotations are then told apart by label (checked; see
-        :func:`_distinct_rotations`). The answers are the same without it.
+        :func:`~wsgrasp.planning.poses.distinct_rotations`). The answers are
+        the same without it.
 
     Returns
     -------
@@ -267,8 +259,14 @@ def sweep_back_offs(
         no step up to ``BACK_OFF_STEPS[-1]`` clears them. All zeros for a model
         without finger configurations.
     """
-    T = np.asarray(T_world_gripper, dtype=np.float64).reshape(-1, 4, 4)
-    C = len(T)
+    if isinstance(T_world_gripper, tuple):
+        R, of, t = T_world_gripper
+    else:
+        T = np.asarray(T_world_gripper, dtype=np.float64).reshape(-1, 4, 4)
+        # candidates share their rotations (samples x orientations): each once
+        R, of = distinct_rotations(T[:, :3, :3], groups)  # (U, 3, 3), (C,) into R
+        t = T[:, :3, 3]
+    C = len(of)
     if g.num_fingers == 0 or not (g.has_sweeps or g.has_configurations):
         return np.zeros(C)
     out = np.full(C, np.nan)
@@ -276,19 +274,19 @@ def sweep_back_offs(
     nf, K = index.hull.shape[:2]
     n = np.asarray(T_world_table, dtype=np.float64)[:3, 2]
     o = np.asarray(T_world_table, dtype=np.float64)[:3, 3]
-    # candidates share their rotations (samples x orientations): each once
-    R, of = _distinct_rotations(T[:, :3, :3], groups)  # (U, 3, 3), (C,) into R
     u = np.einsum("uij,i->uj", R, n)  # (U, 3) table normal, gripper frame
-    # a finger's sweep dips below the table at some posture iff at its lowest
-    # corner of all (heights rise with a candidate's lift, rounding included):
-    # postures are followed only for the rotations of candidates that cross
-    # (the Allegro's dense sweeps: 627 of 87,417 candidates, 192 of 4,670
-    # rotations; all postures of all rotations took 170 of their 370 ms): (nf, U)
+    # a finger's sweep dips below the table at some posture only if its lowest
+    # corner of all does (less MARGIN: a corner on a face of their hull may
+    # round lower than the face's own corners, never by that much): postures
+    # are followed only for the rotations of candidates that cross (the
+    # Allegro's dense sweeps: 627 of 87,417 candidates, 192 of 4,670 rotations;
+    # all postures of all rotations took 170 of their 370 ms): (nf, U)
     lowest = np.stack([_lowest(c[None, None], u)[0, 0] for c in index.outline])
-    lift = (T[:, :3, 3] - o) @ n  # (C,) each candidate's origin above the table
+    lowest -= MARGIN
+    lift = (t - o) @ n  # (C,) each candidate's origin above the table
     a_n = u[of] @ g.approach_axis  # (C,) how the approach moves along the normal
     pts = np.asarray(object_points, dtype=np.float64).reshape(-1, 3)
-    t_g = np.einsum("cji,cj->ci", R[of], T[:, :3, 3])  # (C, 3) R^T t
+    t_g = np.einsum("cji,cj->ci", R[of], t)  # (C, 3) R^T t
     slack = np.where(slides(g), GRAZE_SLACK, SWEEP_SLACK)[:, None]  # (nf, 1)
     todo = np.arange(C)  # candidates not yet settled
     for d in BACK_OFF_STEPS:
@@ -434,35 +432,6 @@ def _lowest(hull: Array, u: Array) -> Array:
         # (c, nf, K, H) -> least over the corners -> (nf, K, c)
         out[:, :, a : a + c] = z[:c].reshape(c, nf, K, H).min(axis=3).transpose(1, 2, 0)
     return out
-
-
-def _distinct_rotations(
-    R: Array, groups: NDArray[np.int64] | None = None
-) -> tuple[Array, NDArray[np.int64]]:
-    """The distinct rotations of ``R`` (C, 3, 3), in ``np.unique``'s order (rows
-    compared as numbers, lexicographically), and each one's index: (U, 3, 3),
-    (C,). Rows are grouped by ``groups`` (C,) (nonnegative labels, a rotation
-    per label: a row of each label stands for it, checked), then only the
-    groups' first rows are sorted: sorting every row took 99 ms of the Allegro's
-    dense sweeps (87,417 rows, 4,670 distinct), the labels (the candidates'
-    orientations) 4 ms. Without labels (a search's callers give them; a pose
-    checked alone has one row), every row is sorted."""
-    rows = np.ascontiguousarray(R, dtype=np.float64).reshape(-1, 9)  # (C, 9)
-    first = of = np.arange(len(rows))
-    if groups is not None and len(rows):
-        label = np.asarray(groups, dtype=np.int64).reshape(-1)
-        # a row of each label (whichever the assignment keeps), labels renumbered
-        some = np.full(int(label.max()) + 1, -1, dtype=np.int64)
-        some[label] = np.arange(len(label))
-        used = np.flatnonzero(some >= 0)
-        renumber = np.zeros(len(some), dtype=np.int64)
-        renumber[used] = np.arange(len(used))
-        if np.array_equal(rows[some[used]][renumber[label]], rows):  # one per label
-            first, of = some[used], renumber[label]
-    # a stable sort (``return_index``): of rows equal as numbers (0.0 and -0.0),
-    # the first stands for them
-    s, _, rank = np.unique(rows[first], axis=0, return_index=True, return_inverse=True)
-    return s.reshape(-1, 3, 3), rank.reshape(-1)[of]
 
 
 def _reached_first(
