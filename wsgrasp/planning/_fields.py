@@ -1,11 +1,7 @@
-"""Dataclass fields kept in a cheaper form than they are read in.
-
-A field of :class:`BuiltOnRead` stores what it is set to as :meth:`keep` makes
-it, and reads as :meth:`read` builds it from that: the feasible candidates'
-holdings (``holdings.HoldingField``: kept as ``Holdings``, read as the bool
-mask) and a candidate set's poses (``result.PoseField``: kept as a
-``PoseArray``, read as the ``(C, 4, 4)`` array). The class declaring one
-declares the field's type for readers under ``TYPE_CHECKING``.
+"""Dataclass fields kept in a cheaper form than they are read in: the feasible
+candidates' holdings (``holdings.HoldingField``: kept as ``Holdings``, read as the
+bool mask) and a candidate set's poses (``result.PoseField``: kept as a
+``PoseArray``, read as the ``(C, 4, 4)`` array).
 """
 
 from __future__ import annotations
@@ -16,7 +12,9 @@ __all__ = ["BuiltOnRead"]
 
 
 class BuiltOnRead:
-    """A dataclass field set as the value or its cheaper form, read as the value.
+    """A dataclass field set as the value or its cheaper form (stored as
+    :meth:`keep` makes it), read as the value (:meth:`read` builds it). The class
+    declaring one declares the field's type for readers under ``TYPE_CHECKING``.
 
     The field has no default: reading it on the class raises AttributeError,
     which is how ``dataclasses`` tells a descriptor that supplies none.

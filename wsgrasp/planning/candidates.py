@@ -18,35 +18,25 @@ With ``flip``, each pose is also tried turned half a turn about its approach axi
 approach axis, a different one for a hand with a thumb on one side.
 
 The paper measures θ from the object frame's x axis and leaves the half turn to
-the sign of the major axis (``sampling.angles_from: object``). With ``angles_from:
-table`` (the default) the middle angle approaches from straight above the table
-(:func:`from_above`: four angles over a full turn give a top grasp and two side
-grasps, where the paper's could give two approaches 45° down and two from under
-the table); on an upright object one closes across its narrowest width seen from
-above (:func:`across_narrowest`: across a box's faces, not its corners); and a
-gripper whose body reaches farther on one side of its approach axis
-(:func:`far_side`: a wrist camera, a thumb's base) is turned where that side would
-face the table (the major axis more than ``LEVEL_DEG`` out of the table's plane):
-a side grasp on a short upright object keeps the camera above the hand.
+the sign of the major axis (``sampling.angles_from: object``); ``angles_from:
+table`` (the default) turns them from the table instead (:func:`from_above`,
+:func:`across_narrowest`, :func:`far_side`; why: the docs' method page, "Beyond the
+paper").
 
 ``xyz`` (the authors' follow-up): ``R_object_gwc = Rz(γ) Ry(β) Rx(α)``, rotations
 about the object frame's fixed x, y and z axes over a full turn each; the grid
 reaches some rotations twice (Euler angles cover them twice), which are kept once.
 
-``approach_sphere``: approach directions spread evenly (a Fibonacci lattice, equal
-area per direction, the first one straight down) over the directions that do not
-point up from under the table, times rolls about each; roll 0 puts the GWC x axis
-along the object's major axis projected across the approach (the paper's choice
-where it applies).
+``approach_sphere``: approach directions spread evenly over those not from under
+the table (:func:`approach_sphere_orientations`), times rolls about each; roll 0
+puts the GWC x axis along the object's major axis projected across the approach.
 
 No orientation whose approach points up, from under the table, by more than
-``upward_tolerance_deg`` is generated, in any mode.
-
-With ``sampling.depths`` above 1, each orientation is also tried with the GWC
-moved along its approach axis, at offsets spread evenly over the extent of the
-fingers' workspace spheres along that axis: the object then sits nearer the palm
-or nearer the fingertips (a long-fingered hand pinches a small object with its
-fingertips). An orientation of the set is a rotation and such an offset.
+``upward_tolerance_deg`` is generated, in any mode. With ``sampling.depths`` above
+1, each is also tried with the GWC moved along its approach axis over the extent
+of the fingers' workspace spheres (:func:`depth_offsets`): the object then sits
+nearer the palm or the fingertips (a long-fingered hand pinches a small object
+with its fingertips).
 """
 
 from __future__ import annotations
@@ -77,11 +67,8 @@ Array = NDArray[np.float64]
 
 
 def orientation_angles(count: int, range_deg: float) -> Array:
-    """``count`` angles (rad) evenly spread over ``range_deg`` degrees.
-
-    A full turn (360) does not repeat its end point; a partial range is sampled
-    end point excluded too, so ``(4, 360)`` gives 0, 90, 180, 270 degrees and
-    ``(4, 180)`` gives 0, 45, 90, 135.
+    """``count`` angles (rad) evenly spread over ``range_deg`` degrees, end point
+    excluded: ``(4, 360)`` gives 0, 90, 180, 270 degrees, ``(4, 180)`` 0, 45, 90, 135.
     """
     return np.deg2rad(range_deg) * np.arange(count, dtype=np.float64) / count
 
@@ -226,9 +213,8 @@ def xyz_orientations(steps: tuple[int, int, int]) -> Orientations:
     key = np.round(R.reshape(len(R), 9), 9) + 0.0  # -0.0 and 0.0 alike
     _, first = np.unique(key, axis=0, return_index=True)
     keep = np.sort(first)
-    R = R[keep]
-    none = np.zeros(len(R))
-    return Orientations(R, grid[keep, 2].copy(), none.astype(bool), none, "xyz")
+    none = np.zeros(len(keep))
+    return Orientations(R[keep], grid[keep, 2], none.astype(bool), none, "xyz")
 
 
 def approach_sphere_orientations(
@@ -278,9 +264,8 @@ def approach_sphere_orientations(
     u = e - (e @ n) * n
     u = u / np.linalg.norm(u)  # (3,) a unit vector perpendicular to n
     v = np.cross(n, u)
-    d = (
-        (r * np.cos(phi))[:, None] * u + (r * np.sin(phi))[:, None] * v + h[:, None] * n
-    )  # (D, 3) world
+    rc, rs = (r * np.cos(phi))[:, None], (r * np.sin(phi))[:, None]
+    d = rc * u + rs * v + h[:, None] * n  # (D, 3) world
     R_wo = np.asarray(T_world_object, dtype=np.float64)[:3, :3]
     # roll 0: x_gwc along the major axis (object z) across the approach, else x
     x0 = _across(d, R_wo[:, 2], R_wo[:, 0])  # (D, 3)
@@ -338,7 +323,8 @@ def orientation_set(
     side : int
         The gripper's far side along GWC x (:func:`far_side`): ``major_axis``
         without ``flip`` turns its poses so that side does not face the table
-        (see the module docstring). 0 leaves them as the paper gives them.
+        (with ``angles_from: table``, wherever the major axis leans more than
+        ``LEVEL_DEG`` out of the table's plane); 0 leaves them as the paper's.
     object_points : (n, 3) float, optional
         The object, world frame: ``major_axis`` with ``angles_from: table``
         and ``across_narrowest`` turns the angles on an upright object to close
@@ -347,7 +333,7 @@ def orientation_set(
     """
     mode = getattr(sampling, "mode", "major_axis")
     tol = float(getattr(sampling, "upward_tolerance_deg", 5.0))
-    R_world_object = np.asarray(T_world_object, dtype=np.float64)[:3, :3]
+    R_wo = np.asarray(T_world_object, dtype=np.float64)[:3, :3]
     n = np.asarray(table_normal, dtype=np.float64)
     if mode == "xyz":
         o = xyz_orientations(tuple(sampling.steps or (4, 4, 4)))
@@ -365,23 +351,20 @@ def orientation_set(
         thetas = orientation_angles(sampling.orientations, sampling.angle_range_deg)
         table = getattr(sampling, "angles_from", "object") == "table"
         level = np.sin(np.deg2rad(LEVEL_DEG))
+        narrowest = getattr(sampling, "across_narrowest", False)
         if table:
-            normal_object = R_world_object.T @ n
+            normal_object = R_wo.T @ n
             if not _upright(normal_object):
                 thetas = thetas + from_above(normal_object, thetas)
-            elif object_points is not None and getattr(
-                sampling, "across_narrowest", False
-            ):
-                thetas = thetas + across_narrowest(
-                    object_points, R_world_object, thetas
-                )
+            elif narrowest and object_points is not None:
+                thetas = thetas + across_narrowest(object_points, R_wo, thetas)
         o = major_axis_orientations(thetas, flip)
         # x_gwc is the major axis: the far side faces the table where it points
         # down out of the table's plane
-        if table and not flip and -side * float(n @ R_world_object[:, 2]) > level:
+        if table and not flip and -side * float(n @ R_wo[:, 2]) > level:
             o.R_object_gwc[:, :, :2] *= -1.0  # half a turn about the approach
             o.flipped[:] = True
-    up = n @ (R_world_object @ o.R_object_gwc[:, :, 2].T)  # (O,) along the normal
+    up = n @ (R_wo @ o.R_object_gwc[:, :, 2].T)  # (O,) along the normal
     keep = np.flatnonzero(up <= np.sin(np.deg2rad(tol)) + 1e-12)
     # each orientation kept at each depth offset: orientations outer, offsets inner
     offsets = depth_offsets(int(getattr(sampling, "depths", 1)), reach)

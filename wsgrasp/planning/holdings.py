@@ -112,8 +112,7 @@ class Holdings:
         """
         v = np.asarray(values, dtype=np.float64).reshape(self.num_points, -1)
         F, _, nf = self.shape
-        d = v.shape[1]
-        out = np.zeros((F, nf, d))
+        out = np.zeros((F, nf, v.shape[1]))
         for sl, block in self.blocks():
             n = sl.stop - sl.start
             if block.size <= _SMALL_BLOCK:
@@ -127,7 +126,7 @@ class Holdings:
             cj, f = np.divmod(np.flatnonzero(block.reshape(-1)), nf)
             c, j = np.divmod(cj, block.shape[1])
             key = c * nf + f  # (pairs,) the (candidate, finger) of each
-            for k in range(d):
+            for k in range(v.shape[1]):
                 out[sl, :, k] = np.bincount(
                     key, weights=v[j, k], minlength=n * nf
                 ).reshape(n, nf)

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from wsgrasp.geometry import transform_points
+from wsgrasp.geometry import invert_transforms, transform_points
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.planning.poses import TableSE
 
@@ -34,13 +34,6 @@ class ReferenceResult:
 def _se_value(p: Array, center: Array, axes: Array, exponent: float) -> Array:
     d = np.abs(p - center) / axes
     return d[:, 0] ** exponent + d[:, 1] ** exponent + d[:, 2] ** 2
-
-
-def _inv(T: Array) -> Array:
-    out = np.eye(4)
-    out[:3, :3] = T[:3, :3].T
-    out[:3, 3] = -T[:3, :3].T @ T[:3, 3]
-    return out
 
 
 def _in_body(g: GripperModel, p: Array) -> bool:
@@ -86,8 +79,8 @@ def reference_search(
     C = len(samples_object) * len(R_object_gwc)
     reason = np.zeros(C, dtype=np.int64)
     contacts = np.zeros((C, nf), dtype=np.int64)
-    T_table_world = _inv(table.T_world_table)
-    T_gwc_gripper = _inv(g.T_gripper_gwc)
+    T_table_world = invert_transforms(table.T_world_table)
+    T_gwc_gripper = invert_transforms(g.T_gripper_gwc)
     centroid = T_world_object[:3, 3]
     best, best_d = None, np.inf
     depths = np.zeros(len(R_object_gwc)) if depth is None else depth
@@ -105,7 +98,7 @@ def reference_search(
         ):
             reason[k] = 1
             continue
-        T_gripper_world = _inv(T_world_gripper)
+        T_gripper_world = invert_transforms(T_world_gripper)
         obj = transform_points(T_gripper_world, object_points)
         if _in_body(g, obj):
             reason[k] = 2
@@ -117,11 +110,10 @@ def reference_search(
             continue
         d = float(np.linalg.norm(T_world_gwc[:3, 3] - centroid))
         held = np.zeros((len(obj), nf), dtype=bool)
-        for i_sphere in range(len(g.sphere_centers)):
-            f = g.sphere_finger[i_sphere]
-            r = g.sphere_radii[i_sphere]
-            inside = np.sum((obj - g.sphere_centers[i_sphere]) ** 2, axis=-1) < r * r
-            held[:, f] |= inside
+        for c, r, f in zip(
+            g.sphere_centers, g.sphere_radii, g.sphere_finger, strict=True
+        ):
+            held[:, f] |= np.sum((obj - c) ** 2, axis=-1) < r * r
         contacts[k] = held.sum(axis=0)
         if all(contacts[k, f] > 0 for f in range(nf) if required[f]):
             if d < best_d:

@@ -20,11 +20,9 @@ __all__ = [
     "translation_quaternion",
 ]
 
-#: Rejection reasons, by code. Code 0 is a feasible candidate. A candidate gets the
-#: first reason that applies, in this order (the order of Algorithm 1's checks,
-#: then the fingers' closing sweeps: ``finger_sweeps_table``, a candidate whose
-#: fingers would pass through the table before reaching the object however far
-#: it is backed off, up to 3 cm, along its approach).
+#: Rejection reasons, by code (0 feasible): a candidate gets the first that applies,
+#: in Algorithm 1's order, then ``finger_sweeps_table`` (fingers that would pass
+#: through the table before the object however far, up to 3 cm, it backs off).
 REASONS: tuple[str, ...] = (
     "feasible",
     "table_collision",

@@ -170,11 +170,10 @@ class CandidateBatch:
         out = np.full(self.contacts.shape, -1, dtype=np.int64)
         if not g.has_configurations:
             return out
-        offsets = g.config_offsets
         for f in range(g.num_fingers):
             rows = np.flatnonzero(self.contacts[:, f] > 0)
             _, k = config_tree(g, f).query(self.contact_centroids_gripper[rows, f])
-            out[rows, f] = offsets[f] + np.asarray(k, dtype=np.int64)
+            out[rows, f] = g.config_offsets[f] + np.asarray(k, dtype=np.int64)
         return out
 
     @cached_property
@@ -192,8 +191,7 @@ class CandidateBatch:
         mid = self.T_world_object[:3, 3] + R @ (0.5 * (p.min(axis=0) + p.max(axis=0)))
         if self.T_world_table is None:
             return mid
-        n = self.T_world_table[:3, 2]
-        origin = self.T_world_table[:3, 3]
+        n, origin = self.T_world_table[:3, 2], self.T_world_table[:3, 3]
         top = float(((self.object_points - origin) @ n).max())
         mid = mid + (0.5 * top - float((mid - origin) @ n)) * n
         return mid + self._behind_the_side(mid)

@@ -264,13 +264,12 @@ def no_grasp_hint(
             f"gripper opening ({gripper.max_opening:.3f} m)"
         )
     if worst == "table_collision":
-        rest = total - histogram[worst]
         others = sorted(
             (r for r in REASONS if r not in ("feasible", worst) and histogram[r]),
             key=lambda r: -histogram[r],
         )
         listed = ", ".join(f"{histogram[r]} {_REJECTED[r]}" for r in others)
-        why = f"; of the other {rest}, {listed}" if others else ""
+        why = f"; of the other {total - histogram[worst]}, {listed}" if others else ""
         return wide + (
             f"the gripper hits the table at {histogram[worst]} of {total} poses "
             f"(the object stands {height:.3f} m tall){why}; sample approach "

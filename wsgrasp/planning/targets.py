@@ -1,17 +1,13 @@
 """What the hand does for one grasp: joint targets from the holding spheres.
 
 Each workspace sphere of the gripper model remembers the finger configurations
-whose pad samples fell inside it (``GripperModel.sphere_config_index``). For the
-chosen grasp, each finger's contact posture is the configuration, among those of
-the spheres holding object points, whose pad centre lies nearest the points the
-finger holds. The grasp posture drives it further towards the gripper's ``closed``
-posture (each joint already at or past its ``closed`` value: towards its limit on
-the closing side) until the pad has travelled ``squeeze`` metres through the
-contact (or the joint limit stops it): a position-controlled finger whose target
-lies inside the object presses on it. The pre-grasp pose backs the gripper off
-along its approach axis. No inverse kinematics is solved: the finger's pad
-positions over its joint grid, kept in the model, are interpolated (multilinear)
-between grid points.
+whose pad samples fell inside it (``GripperModel.sphere_config_index``). Each
+finger's contact posture is the configuration, among those of the spheres holding
+object points, whose pad centre lies nearest the points it holds; its grasp posture
+drives it on towards ``closed`` until the pad has travelled ``squeeze`` metres
+through the contact (or a joint limit stops it): a position-controlled finger whose
+target lies inside the object presses on it. No inverse kinematics is solved: the
+pad positions over each finger's joint grid, kept in the model, are interpolated.
 """
 
 from __future__ import annotations
@@ -137,7 +133,6 @@ def grasp_targets(
     """
     g = gripper
     T = np.asarray(T_world_gripper, dtype=np.float64)
-    T_pre = pregrasp_pose(g, T, approach_distance)
     pre = _within_limits(g, {j: g.pregrasp.get(j, 0.0) for j in g.actuated_joints})
     closed: dict[str, float] | None = None
     if close_to == "closed" or not g.has_configurations:
@@ -160,7 +155,7 @@ def grasp_targets(
             for j in dict.fromkeys(j for ft in fingers for j in ft.grasp):
                 asked = [ft.grasp[j] for ft in fingers if j in ft.grasp]
                 grasp[j] = max(asked, key=lambda v: _closure(g, j, v))
-    return GraspTargets(T_pre, pre, grasp, fingers)
+    return GraspTargets(pregrasp_pose(g, T, approach_distance), pre, grasp, fingers)
 
 
 def _within_limits(g: GripperModel, posture: dict[str, float]) -> dict[str, float]:
