@@ -752,6 +752,56 @@ def test_sweeps_lowest_heights_do_not_depend_on_blocking(seed, nf, H, U, block):
     np.testing.assert_allclose(whole, heights.min(axis=3), rtol=0, atol=1e-15)
 
 
+@pytest.mark.skipif(not _compiled.available(), reason="numba cannot be imported")
+@SETTINGS
+@given(
+    seed=st.integers(0, 10_000),
+    nf=st.integers(1, 6),
+    n=st.integers(1, 60),
+    x=st.integers(0, 40),
+    halves=st.booleans(),
+)
+def test_sweeps_reach_test_is_numpys_in_every_kernel(seed, nf, n, x, halves):
+    """Whether each finger reaches an object point before it enters the table:
+    the same answer from numpy's lookups, the loop as written and the loop
+    compiled, with points outside the grids and on voxel halves (rounded to
+    even)."""
+    from types import SimpleNamespace
+
+    from wsgrasp.planning import _loops, sweeps
+
+    rng = np.random.default_rng(seed)
+    K = 8
+    reach = [
+        rng.integers(0, K + 1, rng.integers(2, 9, 3)).astype(np.uint8)
+        for _ in range(nf)
+    ]
+    index = SimpleNamespace(
+        hull=np.zeros((nf, K, 1, 3)),
+        origin=rng.normal(0.0, 0.004, (nf, 3)),
+        reach=reach,
+    )
+    p_rot = rng.uniform(-2.0, 10.0, (3, n, 3)).astype(np.float32)
+    rotation = rng.integers(0, 3, x)
+    shift = rng.uniform(-1.0, 1.0, (x, 3))
+    if halves:  # points half-way between voxels
+        p_rot = np.floor(p_rot) + np.float32(0.5)
+        shift = np.round(shift)
+        index.origin[:] = 0.0
+    limit = rng.integers(0, K + 1, (nf, x))
+    got = {}
+    for name, loop in (
+        ("numpy", None),
+        ("loop", _loops._reach_loop),
+        ("compiled", _compiled.load() and _compiled.reach_loop()),
+    ):
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(_compiled, "reach_loop", lambda loop=loop: loop)
+            got[name] = sweeps._reached_first(index, p_rot, rotation, shift, limit)
+    np.testing.assert_array_equal(got["loop"], got["numpy"])
+    np.testing.assert_array_equal(got["compiled"], got["numpy"])
+
+
 @SETTINGS
 @given(
     seed=st.integers(0, 2**16),
@@ -788,8 +838,8 @@ def test_pose_array_reads_the_structures_poses_bit_for_bit(seed, ns, n_orient, d
     with pytest.raises(IndexError):
         lazy.at(C)
     some = np.flatnonzero(mask)
-    for poses in (lazy, PoseArray(T_wg)):  # split: rotations once, translations
-        R_u, of, t = poses.split(some, some % n_orient)
+    for kept in (lazy, PoseArray(T_wg)):  # split: rotations once, translations
+        R_u, of, t = kept.split(some, some % n_orient)
         assert np.array_equal(R_u[of], T_wg[some, :3, :3])
         assert np.array_equal(t, T_wg[some, :3, 3])
         assert len(R_u) == len(np.unique(some % n_orient))

@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from wsgrasp.geometry._superellipsoid import _power as superellipsoid_power
 from wsgrasp.planning import _loops
 from wsgrasp.planning._grids import FingerDepth, NearestPoint
-from wsgrasp.planning._loops import _body_loop, _count_loop
+from wsgrasp.planning._loops import _body_loop, _count_loop, _reach_loop
 from wsgrasp.planning.poses import MARGIN
 
 __all__ = [
@@ -33,6 +33,7 @@ __all__ = [
     "available",
     "load",
     "loaded",
+    "reach_loop",
 ]
 
 Array = NDArray[np.float64]
@@ -48,6 +49,7 @@ _AVAILABLE = (
 #: the compiled loops, once :func:`load` has compiled or loaded them
 _compiled_count: Callable[..., None] | None = None
 _compiled_body: Callable[..., None] | None = None
+_compiled_reach: Callable[..., None] | None = None
 _LOADING = threading.Lock()  # one thread loads them, the others wait for it
 
 
@@ -199,3 +201,18 @@ def load() -> tuple[Callable[..., None], Callable[..., None]]:
         _compiled_count = numba.njit(cache=True, nogil=True)(_count_loop)
         _compiled_body = numba.njit(cache=True, nogil=True)(_body_loop)
         return _compiled_count, _compiled_body
+
+
+def reach_loop() -> Callable[..., None] | None:
+    """The closing sweeps' reach test compiled (``_loops._reach_loop``), in a
+    process that has loaded the loops (:func:`load`; compiled or read from
+    numba's cache on the first call), else None: numpy's (``sweeps``) runs."""
+    global _compiled_reach
+    if not loaded():
+        return None
+    with _LOADING:
+        if _compiled_reach is None:
+            import numba
+
+            _compiled_reach = numba.njit(cache=True, nogil=True)(_reach_loop)
+        return _compiled_reach

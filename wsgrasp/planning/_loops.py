@@ -4,7 +4,9 @@ and object point, the depth grid's verdict at the nearest node
 (``_grids.FingerDepth``) and, for a finger it leaves unsure, the spheres listed
 at that node, with the arithmetic of ``FingerDepth.holding_coordinates``;
 ``_body_loop``, per candidate, whether some object point lies inside a body
-superellipsoid, with the arithmetic of ``coordinates_in_superellipsoids``.
+superellipsoid, with the arithmetic of ``coordinates_in_superellipsoids``;
+``_reach_loop``, per candidate, whether a finger's closing sweep reaches an
+object point in time, with the arithmetic of ``sweeps._reached_first``.
 Plain Python functions, so tests hold their logic to the reference with or
 without numba."""
 
@@ -368,3 +370,31 @@ def _body_loop(
                 first = j
                 break
         hit[i] = found
+
+
+def _reach_loop(
+    p_rot: NDArray[np.float32],
+    rotation: NDArray[np.int64],
+    offset: NDArray[np.float32],
+    grid: NDArray[np.uint8],
+    limit: NDArray[np.int64],
+    reached: NDArray[np.bool_],
+) -> None:  # pragma: no cover - run compiled, or by the tests on tiny inputs
+    """``reached[i]``: some object point of candidate ``i``
+    (``p_rot[rotation[i]] - offset[i]``, reach-grid voxels) lies in a voxel of
+    ``grid`` whose step is below ``limit[i]``, with the float32 arithmetic of
+    ``sweeps._reached_first`` (rounded to the nearest voxel, clipped onto the
+    border); stops at the first such point."""
+    nx, ny, nz = grid.shape
+    for i in range(rotation.shape[0]):
+        P = p_rot[rotation[i]]
+        ox, oy, oz = offset[i, 0], offset[i, 1], offset[i, 2]
+        found = False
+        for j in range(P.shape[0]):
+            a = min(max(int(np.rint(P[j, 0] - ox)), 0), nx - 1)
+            b = min(max(int(np.rint(P[j, 1] - oy)), 0), ny - 1)
+            c = min(max(int(np.rint(P[j, 2] - oz)), 0), nz - 1)
+            if grid[a, b, c] < limit[i]:
+                found = True
+                break
+        reached[i] = found

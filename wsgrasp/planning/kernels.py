@@ -19,8 +19,11 @@ function, cached or not, another 0.3-0.4 s). So:
 - ``WSGRASP_NUMBA=0`` (or numba missing) leaves numpy's kernels everywhere.
 
 The clutter pipeline's test of the fingers' closing paths against neighbours
-(``wsgrasp.neighbours``) runs compiled in a process whose searches have loaded
-the loops, and with numpy's passes otherwise: the same answers either way.
+(``wsgrasp.neighbours``) and the closing sweeps' reach test (``sweeps``) run
+compiled in a process whose searches have loaded the loops, and with numpy's
+passes otherwise: the same answers either way (the reach test of the Allegro
+hand's dense search: 11 ms compiled, 44 ms with numpy, medians of 15
+alternated).
 
 From ``COMPILED_FROM`` pairs on the compiled body loop also reads the object's
 nearest-point grid (3.4 ms to build for 800 points) and the finger loop reads the

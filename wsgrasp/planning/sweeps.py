@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from wsgrasp.gripper.model import GripperModel
+from wsgrasp.planning import _compiled
 from wsgrasp.planning.closing import (
     BACK_OFF_STEPS,
     _pre_closed,
@@ -447,11 +448,14 @@ def _reached_first(
     ``p_rot[rotation] - shift`` (reach-grid voxels; ``p_rot`` ``(U, n, 3)``,
     ``rotation`` ``(x,)``, ``shift`` ``(x, 3)``): ``(x,)``. Fingers are
     looked up one after another, each only for the candidates no finger has
-    failed yet."""
+    failed yet: by the compiled loop where the search's are loaded
+    (``_loops._reach_loop``, stopping at the first point reached), else all
+    points at once."""
     nf, K = index.hull.shape[:2]
     alive = ~(limit == 0).any(axis=0)  # (x,) entering the table at once fails
     if p_rot.shape[1] == 0:
         return alive & (limit == K).all(axis=0)
+    loop = _compiled.reach_loop()  # where the search's loops are loaded
     for f in range(nf):  # fingers, each with its own grid
         rows = np.flatnonzero(alive & (limit[f] < K))
         if not len(rows):
@@ -459,6 +463,11 @@ def _reached_first(
         grid = index.reach[f]
         top = np.array(grid.shape, dtype=np.int32) - 1
         offset = (shift[rows] + index.origin[f] / REACH_VOXEL).astype(np.float32)
+        if loop is not None:
+            hit = np.empty(len(rows), dtype=bool)
+            loop(p_rot, rotation[rows], offset, grid, limit[f, rows], hit)
+            alive[rows] = hit
+            continue
         q = p_rot[rotation[rows]] - offset[:, None, :]  # (r, n, 3) voxels
         idx = np.rint(q, out=q).astype(np.int32)
         # the grid's border voxels never hold a step: clipped points fall there
