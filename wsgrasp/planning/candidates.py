@@ -267,8 +267,12 @@ def approach_sphere_orientations(
     rc, rs = (r * np.cos(phi))[:, None], (r * np.sin(phi))[:, None]
     d = rc * u + rs * v + h[:, None] * n  # (D, 3) world
     R_wo = np.asarray(T_world_object, dtype=np.float64)[:3, :3]
-    # roll 0: x_gwc along the major axis (object z) across the approach, else x
-    x0 = _across(d, R_wo[:, 2], R_wo[:, 0])  # (D, 3)
+    # roll 0: x_gwc along the major axis (object z) made perpendicular to the
+    # approach, or object x where the approach lies (nearly) along the major axis
+    x0, alt = (a[None, :] - (d @ a)[:, None] * d for a in (R_wo[:, 2], R_wo[:, 0]))
+    use_alt = np.linalg.norm(x0, axis=1) < 1e-3
+    x0[use_alt] = alt[use_alt]
+    x0 = x0 / np.linalg.norm(x0, axis=1, keepdims=True)  # (D, 3)
     y0 = np.cross(d, x0)
     psi = orientation_angles(rolls, roll_range_deg)
     c, s = np.cos(psi)[None, :, None], np.sin(psi)[None, :, None]  # (1, M, 1)
@@ -280,16 +284,6 @@ def approach_sphere_orientations(
     theta = np.tile(psi, directions)
     none = np.zeros(len(R))
     return Orientations(R, theta, none.astype(bool), none, "approach_sphere")
-
-
-def _across(d: Array, first: Array, second: Array) -> Array:
-    """``first`` made perpendicular to each direction ``d`` (D, 3), unit; where it
-    is (nearly) parallel to ``d``, ``second`` instead."""
-    a = first[None, :] - (d @ first)[:, None] * d  # (D, 3)
-    b = second[None, :] - (d @ second)[:, None] * d
-    use_b = np.linalg.norm(a, axis=1) < 1e-3
-    a[use_b] = b[use_b]
-    return a / np.linalg.norm(a, axis=1, keepdims=True)
 
 
 def depth_offsets(count: int, reach: tuple[float, float]) -> Array:

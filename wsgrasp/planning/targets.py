@@ -151,10 +151,13 @@ def grasp_targets(
             ft.pad_world = transform_points(T, ft.pad_world[None])[0]
             fingers.append(ft)
         if closed is None:
-            # a joint several fingers share closes as far as any of them asks
+            # a joint several fingers share closes as far as any of them asks: the
+            # farthest from its pre-grasp value towards its closed one
             for j in dict.fromkeys(j for ft in fingers for j in ft.grasp):
                 asked = [ft.grasp[j] for ft in fingers if j in ft.grasp]
-                grasp[j] = max(asked, key=lambda v: _closure(g, j, v))
+                p = float(g.pregrasp.get(j, 0.0))
+                way = np.sign(float(g.closed.get(j, p)) - p)
+                grasp[j] = max(asked, key=lambda v: (v - p) * way)
     return GraspTargets(pregrasp_pose(g, T, approach_distance), pre, grasp, fingers)
 
 
@@ -169,13 +172,6 @@ def _within_limits(g: GripperModel, posture: dict[str, float]) -> dict[str, floa
         j: float(np.clip(v, *limits[j])) if j in limits else float(v)
         for j, v in posture.items()
     }
-
-
-def _closure(g: GripperModel, joint: str, value: float) -> float:
-    """How far ``value`` lies from the pre-grasp value towards the closed one."""
-    p = float(g.pregrasp.get(joint, 0.0))
-    c = float(g.closed.get(joint, p))
-    return (value - p) * np.sign(c - p)
 
 
 def _finger_target(
@@ -217,11 +213,13 @@ def _finger_target(
     near = np.asarray(near).reshape(len(held), m)  # (k, m)
     d_near = np.asarray(d_near).reshape(len(held), m)  # (k, m)
     first = np.intersect1d(near, allowed)  # (c,) sorted
+    # outside: a pad not nearer the grasp's middle than the held points' centroid
+    c_f = held.mean(axis=0)
+    norm = float(np.linalg.norm(c_f - centre))
+    out = (c_f - centre) / norm if norm > 1e-9 else np.zeros(3)  # 0: all outside
     local, best, gap = allowed, 0, np.inf
     for candidates in (first, allowed):
-        if len(candidates) == 0:
-            continue
-        outside = _outside(g.config_pad[start + candidates], held, centre)  # (c,)
+        outside = (g.config_pad[start + candidates] - c_f) @ out >= 0.0  # (c,)
         if not outside.any():
             continue
         limit = np.inf  # pads farther are not searched (their distance: inf)
@@ -312,19 +310,6 @@ def sphere_config_bits(g: GripperModel) -> NDArray[np.uint8]:
         cached.flags.writeable = False
         g.__dict__["_sphere_config_bits"] = cached
     return cached  # type: ignore[no-any-return]
-
-
-def _outside(pads: Array, held: Array, centre: Array) -> NDArray[np.bool_]:
-    """``(c,)``: which pad centres ``(c, 3)`` lie on the outer side of the held
-    points ``(k, 3)``, not nearer the grasp's middle ``centre`` than their
-    centroid (inside the object); all of them when that centroid is at the
-    middle."""
-    c_f = held.mean(axis=0)
-    out = c_f - centre
-    norm = float(np.linalg.norm(out))
-    if norm > 1e-9:
-        return np.asarray((pads - c_f) @ (out / norm) >= 0.0)
-    return np.ones(len(pads), dtype=bool)
 
 
 def config_tree(g: GripperModel, finger: int) -> cKDTree:
