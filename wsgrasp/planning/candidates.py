@@ -125,10 +125,8 @@ def far_side(points_gwc: Array) -> int:
     body cloud, GWC frame) reach farther along by ``FAR_SIDE_MARGIN`` or more,
     else 0 (about as far both ways)."""
     x = np.asarray(points_gwc, dtype=np.float64).reshape(-1, 3)[:, 0]
-    if not len(x):
-        return 0
-    lean = float(x.max() + x.min())  # how much farther +x reaches than -x
-    return 0 if abs(lean) < FAR_SIDE_MARGIN else (1 if lean > 0 else -1)
+    lean = float(x.max() + x.min()) if len(x) else 0.0  # +x's reach past -x's
+    return 0 if abs(lean) < FAR_SIDE_MARGIN else int(np.sign(lean))
 
 
 def from_above(normal_object: Array, thetas: Array) -> float:

@@ -1,12 +1,10 @@
 """Where the fingers go when they close.
 
 Each finger closes along the straight line in joint space from the pre-grasp
-posture to the closed one (what a position-controlled hand closing to ``closed``
-does): :func:`closing_paths` follows its pad centre along that line, and the
-gripper model keeps points on the collision geometry of every link the finger's
-joints move at postures along it (``GripperModel.finger_sweep``;
-:func:`finger_sweep`). :mod:`wsgrasp.planning.sweeps` keeps those sweeps off the
-table for every candidate at once.
+posture to the closed one (as a position-controlled hand closing to ``closed``
+does): :func:`closing_paths` follows its pad centre along that line,
+:func:`finger_sweep` the links its joints move, and :mod:`wsgrasp.planning.sweeps`
+keeps those sweeps off the table for every candidate at once.
 """
 
 from __future__ import annotations

@@ -117,8 +117,7 @@ class Holdings:
             n = sl.stop - sl.start
             if block.size <= _SMALL_BLOCK:
                 # few entries: one product (its cost is the mask's size)
-                w = block.transpose(0, 2, 1).astype(np.float64)  # (n, nf, no)
-                out[sl] = w @ v
+                out[sl] = block.transpose(0, 2, 1).astype(np.float64) @ v  # (n, nf, d)
                 continue
             # (candidate, point, finger) of every held entry, row-major, from
             # flat indices (np.nonzero's three index arrays of the Franka's dense

@@ -39,10 +39,8 @@ def _se_value(p: Array, center: Array, axes: Array, exponent: float) -> Array:
 def _in_body(g: GripperModel, p: Array) -> bool:
     """Whether some point of ``p`` (gripper frame) lies inside some body
     superellipsoid, one superellipsoid at a time."""
-    for e in range(len(g.se_centers)):
-        if np.any(_se_value(p, g.se_centers[e], g.se_semi_axes[e], g.se_exponent) < 1):
-            return True
-    return False
+    bodies = zip(g.se_centers, g.se_semi_axes, strict=True)
+    return any(bool(np.any(_se_value(p, c, a, g.se_exponent) < 1)) for c, a in bodies)
 
 
 def paper_orientation(theta: float, turned: bool = False) -> Array:
@@ -81,7 +79,6 @@ def reference_search(
     contacts = np.zeros((C, nf), dtype=np.int64)
     T_table_world = invert_transforms(table.T_world_table)
     T_gwc_gripper = invert_transforms(g.T_gripper_gwc)
-    centroid = T_world_object[:3, 3]
     best, best_d = None, np.inf
     depths = np.zeros(len(R_object_gwc)) if depth is None else depth
     pairs = itertools.product(samples_object, zip(R_object_gwc, depths, strict=True))
@@ -108,7 +105,7 @@ def reference_search(
         ):
             reason[k] = 3
             continue
-        d = float(np.linalg.norm(T_world_gwc[:3, 3] - centroid))
+        d = float(np.linalg.norm(T_world_gwc[:3, 3] - T_world_object[:3, 3]))
         held = np.zeros((len(obj), nf), dtype=bool)
         for c, r, f in zip(
             g.sphere_centers, g.sphere_radii, g.sphere_finger, strict=True

@@ -1,11 +1,9 @@
 """The search: candidates → evaluation → scores → the chosen grasp.
 
-Every pose stays as generated: where the fingers' closing sweeps would pass
-through the table, ``wsgrasp.api`` backs the feasible candidates off afterwards
-(``wsgrasp.planning.sweeps``) and chooses again among those it clears.
-
-This module works on arrays in the world frame; ``wsgrasp.api`` turns a scene into
-them and a ``PlanResult`` out of what this returns.
+It works on arrays in the world frame; ``wsgrasp.api`` turns a scene into them and
+a ``PlanResult`` out of what this returns, after backing off the feasible
+candidates whose fingers' closing sweeps would pass through the table
+(``wsgrasp.planning.sweeps``): every pose here stays as generated.
 """
 
 from __future__ import annotations
@@ -120,11 +118,6 @@ def run_search(
     best_terms: dict[str, float] = {}
     if ev.feasible.size:
         f = ev.feasible
-
-        def feasible_at(T: Array) -> NDArray[np.bool_]:
-            """The search's verdict on other poses of the gripper."""
-            return evaluate_candidates(T, g, *scene).reason == 0
-
         batch = CandidateBatch(
             gripper=g,
             T_world_gwc=T_world_gwc.at(f),
@@ -140,7 +133,7 @@ def run_search(
             normals_fn=normals_fn,
             normals_of=normals_of,
             T_world_table=inp.table.T_world_table,
-            feasible_fn=feasible_at,
+            feasible_fn=lambda T: evaluate_candidates(T, g, *scene).reason == 0,
             viewpoints=inp.viewpoints,
         )
         total, terms = combine_scores(batch, scorers)
@@ -197,11 +190,10 @@ def _contacts(
     """Per finger: the object points its spheres hold and the spheres holding them.
 
     ``holding`` ``(no, nf)`` is the search's answer for this pose; only the held
-    points are tested against each sphere, and only the spheres within their
-    radius of the held points' bounding box along every axis (exact for
-    ``points_in_spheres``: a point's distance to a centre along one axis is at
-    least the box's; testing every sphere took about 0.2 ms a finger on the
-    Allegro hand's 77 spheres and some 300 held points; about half are dropped).
+    points are tested, against the spheres within their radius of the points' box
+    along every axis (exact: a point is at least as far from a centre along one
+    axis as the box is; every sphere took about 0.2 ms a finger on the Allegro
+    hand's 77 spheres and some 300 held points; about half are dropped).
     """
     p = transform_points(invert_transforms(T_world_gripper), object_points)  # (no, 3)
     out = []
