@@ -23,9 +23,8 @@ table`` (the default) turns them from the table instead (:func:`from_above`,
 :func:`across_narrowest`, :func:`far_side`; why: the docs' method page, "Beyond the
 paper").
 
-``xyz`` (the authors' follow-up): ``R_object_gwc = Rz(γ) Ry(β) Rx(α)``, rotations
-about the object frame's fixed x, y and z axes over a full turn each; the grid
-reaches some rotations twice (Euler angles cover them twice), which are kept once.
+``xyz`` (the authors' follow-up): ``R_object_gwc = Rz(γ) Ry(β) Rx(α)``, about the
+object frame's fixed axes over a full turn each, a rotation reached twice kept once.
 
 ``approach_sphere``: approach directions spread evenly over those not from under
 the table (:func:`approach_sphere_orientations`), times rolls about each; roll 0
@@ -33,10 +32,8 @@ puts the GWC x axis along the object's major axis projected across the approach.
 
 No orientation whose approach points up, from under the table, by more than
 ``upward_tolerance_deg`` is generated, in any mode. With ``sampling.depths`` above
-1, each is also tried with the GWC moved along its approach axis over the extent
-of the fingers' workspace spheres (:func:`depth_offsets`): the object then sits
-nearer the palm or the fingertips (a long-fingered hand pinches a small object
-with its fingertips).
+1, each is also tried moved along its approach (:func:`depth_offsets`), the object
+nearer the palm or the fingertips (a long-fingered hand pinches with its tips).
 """
 
 from __future__ import annotations

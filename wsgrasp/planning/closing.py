@@ -90,9 +90,7 @@ def finger_sweep(g: GripperModel) -> Array:
         Gripper frame; ``(nf, K, 1, 3)`` from pad centres; ``(0, K, 1, 3)`` for a
         model without finger configurations either.
     """
-    if g.has_sweeps:
-        return g.finger_sweep
-    return closing_paths(g)[:, :, None, :]
+    return g.finger_sweep if g.has_sweeps else closing_paths(g)[:, :, None, :]
 
 
 def pad_positions(g: GripperModel, finger: int, q: Array) -> Array:

@@ -73,9 +73,8 @@ class Evaluation:
 
     @property
     def holdings(self) -> Holdings:
-        """The feasible candidates' holdings as
-        :class:`~wsgrasp.planning.holdings.Holdings`: their counts, and their
-        rows or sums over the held points, without building ``holding``."""
+        """``holding`` as :class:`~wsgrasp.planning.holdings.Holdings` (counts,
+        blocks of rows, sums over the held points), without building the mask."""
         return type(self).__dict__["holding"].holdings_of(self)  # type: ignore[no-any-return]
 
 

@@ -143,20 +143,18 @@ def run_search(
             column[f] = values
         # stable: ties keep the earlier candidate, as Algorithm 1's strict "<"
         order = np.argsort(-total, kind="stable")
-        best_local = int(order[0])
-        best = int(f[best_local])
-        best_terms = {k: float(v[best_local]) for k, v in terms.items()}
-        for j in order[1 : top_k + 1]:
-            alternatives.append(
-                Alternative(
-                    index=int(f[j]),
-                    T_world_ee=T_world_gripper.at(f[j]),
-                    score=float(total[j]),
-                    terms={k: float(v[j]) for k, v in terms.items()},
-                )
+        ranked = [  # the best, then the next top_k
+            Alternative(
+                index=int(f[j]),
+                T_world_ee=T_world_gripper.at(f[j]),
+                score=float(total[j]),
+                terms={k: float(v[j]) for k, v in terms.items()},
             )
-        holding = ev.holdings.rows([best_local])[0]  # (no, nf)
-        contacts = _contacts(g, T_world_gripper.at(best), inp.object_points, holding)
+            for j in order[: top_k + 1]
+        ]
+        best, best_terms, alternatives = ranked[0].index, ranked[0].terms, ranked[1:]
+        holding = ev.holdings.rows([int(order[0])])[0]  # (no, nf)
+        contacts = _contacts(g, ranked[0].T_world_ee, inp.object_points, holding)
     t2 = time.perf_counter()
     cands = CandidateSet(
         # as PoseArrays: built whole only if read whole (a recording)

@@ -202,10 +202,9 @@ def _finger_target(
         return FingerTarget(g.finger_names[f], {}, grasp, pad, None, 0.0)
     start = int(g.config_offsets[f])
     q_grid = g.finger_configurations(f)  # (K, d)
-    is_allowed = _allowed_mask(g, f, spheres)  # (K,)
-    if not is_allowed.any():
-        is_allowed[:] = True
-    allowed = np.flatnonzero(is_allowed)  # (c,) into the finger's grid
+    allowed = np.flatnonzero(_allowed_mask(g, f, spheres))  # (c,) into the grid
+    if not len(allowed):  # none of the spheres lists one: every configuration
+        allowed = np.arange(len(q_grid))
     # first the few configurations nearest each held point (the finger's pad tree,
     # built once per model), then, if none of them qualifies, all allowed ones
     m = min(_NEAR, len(q_grid))
