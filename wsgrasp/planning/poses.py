@@ -381,8 +381,13 @@ def distinct_rotations(
 
 def in_axes(P: Array, R: Array) -> Array:
     """Points ``P`` (n, 3) in the axes of each rotation ``R`` (q, 3, 3), ``P @
-    R[o]`` per row: (q, 3, n) (one batched product; an einsum is 20× slower)."""
-    return np.matmul(R.transpose(0, 2, 1), P.T)
+    R[o]`` per row: (q, 3, n). One matrix product, ``(3q, 3) @ (3, n)``: the
+    same bits as a batched product of the ``q`` rotations (checked with
+    OpenBLAS's SkylakeX, Haswell and Sandybridge kernels) at a third of its
+    time (130 rotations, 800 points: 62 against 201 us; an einsum is slower
+    still)."""
+    Rt = np.ascontiguousarray(R.transpose(0, 2, 1)).reshape(-1, 3)  # (3q, 3)
+    return (Rt @ P.T).reshape(len(R), 3, len(P))
 
 
 def hull_vertices(cloud: Array) -> Array:
