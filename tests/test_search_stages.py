@@ -894,3 +894,16 @@ def test_a_search_builds_no_pose_array_of_every_candidate():
     )
     np.testing.assert_array_equal(out.candidates.sample, sample)
     np.testing.assert_array_equal(out.candidates.orientation, orientation)
+
+
+@SETTINGS
+@given(seed=st.integers(0, 10_000), q=st.integers(0, 90), n=st.integers(0, 3000))
+def test_points_in_each_rotations_axes_are_a_batched_products_bits(seed, q, n):
+    """``in_axes``, a matrix product per block of rotations small enough for one
+    BLAS thread: the bits of numpy's batched product per rotation."""
+    rng = np.random.default_rng(seed)
+    P = rng.normal(0.0, 0.1, (n, 3))
+    R = Rotation.random(q, random_state=seed).as_matrix().reshape(-1, 3, 3)
+    got = poses.in_axes(P, R)
+    assert got.shape == (q, 3, n)
+    np.testing.assert_array_equal(got, np.matmul(R.transpose(0, 2, 1), P.T))

@@ -24,7 +24,13 @@ from numpy.typing import NDArray
 from wsgrasp.geometry import invert_transforms
 from wsgrasp.geometry._superellipsoid import _power
 from wsgrasp.gripper.model import GripperModel
-from wsgrasp.planning.poses import MARGIN, StructuredPoses, TableSE, grouped
+from wsgrasp.planning.poses import (
+    _ONE_THREAD,
+    MARGIN,
+    StructuredPoses,
+    TableSE,
+    grouped,
+)
 from wsgrasp.planning.poses import hull_vertices as _hull_vertices
 
 __all__ = ["TableVerdicts", "table_verdicts"]
@@ -62,7 +68,15 @@ class TableVerdicts:
         if len(vertices) == 0:
             return np.full(len(s), np.inf)
         z_axes = poses.R.transpose(0, 2, 1) @ R_tw[2]  # (O, 3) normal, gripper axes
-        low = (vertices @ z_axes.T).min(axis=0)  # (O,)
+        # blocks of orientations that OpenBLAS multiplies on one thread (poses)
+        step = max(1, _ONE_THREAD // (3 * len(vertices)))
+        low = np.concatenate(
+            [
+                (vertices @ z_axes[a : a + step].T).min(axis=0)
+                for a in range(0, len(z_axes), step)
+            ]
+            or [np.zeros(0)]
+        )  # (O,)
         low = low + poses.B @ R_tw[2] + t_tw[2]
         return low[o] + poses.A[s] @ R_tw[2]  # type: ignore[no-any-return]
 
