@@ -331,7 +331,8 @@ class FingerDepth:
             np.clip(q, 0.0, float(self.shape[axis] - 1), out=q)
             q *= float(self.strides[axis])
             flat += q
-        code = codes[flat.astype(np.int64).ravel()]  # (n,) list codes
+        # (n,) list codes, widened: ``code + 1`` of a byte's last code is 256
+        code = codes[flat.astype(np.int64).ravel()].astype(np.int64)
         out = self.held_fingers[of[code]]  # (n, nf)
         # one row per (point, listed sphere): the entries of each point's code
         count = start[code + 1] - start[code]  # (n,) none where no finger is unsure
