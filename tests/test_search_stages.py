@@ -17,7 +17,7 @@ from search_kernels import KERNELS, force, loops
 from wsgrasp.geometry import coordinates_in_superellipsoids, transform_points
 from wsgrasp.planning import _compiled, kernels, poses
 from wsgrasp.planning._grids import FingerDepth, NearestPoint
-from wsgrasp.planning.body import _slab_hits, body_verdicts
+from wsgrasp.planning.body import Slabs, _slab_hits, body_verdicts
 from wsgrasp.planning.candidates import candidate_poses
 from wsgrasp.planning.evaluate import FingerSpheres, TableSE, evaluate_candidates
 from wsgrasp.planning.fingers import _Fingers, finger_verdicts
@@ -25,7 +25,6 @@ from wsgrasp.planning.holdings import feasible_holdings
 from wsgrasp.planning.kernels import Kernels
 from wsgrasp.planning.poses import (
     CandidateStructure,
-    Slabs,
     StructuredPoses,
     orientation_spans,
 )

@@ -28,7 +28,6 @@ from wsgrasp.planning import _compiled
 from wsgrasp.planning._grids import NearestPoint
 from wsgrasp.planning.kernels import SLAB_FROM, Kernels
 from wsgrasp.planning.poses import (
-    Slabs,
     StructuredPoses,
     clear_of_boxes,
     grouped,
@@ -197,3 +196,69 @@ def _inside_narrowing(
         + (d[2] / semi_axes[2]) ** 2
     )
     return at[value < 1.0]
+
+
+class Slabs:
+    """Per orientation, the points sorted along each gripper axis, so that the
+    points of a candidate inside a slab ``lo <= (Q - u)_k <= hi`` are one range.
+
+    ``Q`` (q, 3, n) are the points per orientation in the gripper axes. An axis is
+    sorted when a search along it first needs it (numpy's body test searches
+    along each body's thinnest axis).
+    """
+
+    def __init__(self, Q: Array) -> None:
+        self.Q = Q
+        q, _, self.n = Q.shape
+        self.span = float(np.ptp(Q) + 1.0) if Q.size else 1.0
+        self.q_min = float(Q.min()) if Q.size else 0.0
+        self.q_max = float(Q.max()) if Q.size else 0.0
+        self.rows = np.arange(q)
+        # per axis: the sorting order (q * n,) of each row, flat, and the sorted
+        # coordinates (q * n,), rows end to end, each shifted clear of the last
+        self._rank: dict[int, NDArray[np.int64]] = {}
+        self._flat: dict[int, Array] = {}
+
+    def _axis(self, k: int) -> tuple[NDArray[np.int64], Array]:
+        if k not in self._flat:
+            Qk = self.Q[:, k]  # (q, n)
+            rank = Qk.argsort(axis=1)  # (q, n)
+            shift = 4.0 * self.span * self.rows[:, None]  # (q, 1)
+            self._flat[k] = (Qk[self.rows[:, None], rank] + shift).ravel()
+            self._rank[k] = rank.reshape(-1)
+        return self._rank[k], self._flat[k]
+
+    def pairs(
+        self, row: NDArray[np.int64], uk: Array, k: int, lo: float, hi: float
+    ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+        """For candidates in rows ``row`` (m,) translated by ``uk`` (m,) along axis
+        ``k``: every (candidate, point) with the point in the slab, as the
+        candidate's position in ``row``, the point's index and its row.
+
+        The slab is widened by 1e-7 m, so rounding in the shifted search can only
+        add points (tested exactly later), never drop one.
+        """
+        empty = np.zeros(0, dtype=np.int64)
+        if len(row) == 0 or self.n == 0:
+            return empty, empty, empty
+        rank, flat = self._axis(k)
+        # a slab beyond every point holds none: the translation is clipped to
+        # where the slab still reaches a metre past the points, which keeps the
+        # search inside the candidate's row (np.clip, without its wrapper)
+        uk = np.minimum(np.maximum(uk, self.q_min - hi - 1.0), self.q_max - lo + 1.0)
+        off = 4.0 * self.span * row
+        i0 = flat.searchsorted(lo + uk - 1e-7 + off, side="left")
+        i1 = flat.searchsorted(hi + uk + 1e-7 + off, side="right")
+        # the search can only land in the candidate's own row
+        i0 = np.maximum(i0, row * self.n)
+        i1 = np.minimum(i1, (row + 1) * self.n)
+        counts = np.maximum(i1 - i0, 0)
+        total = int(counts.sum())
+        if total == 0:
+            return empty, empty, empty
+        pair = np.repeat(np.arange(len(row)), counts)  # (total,)
+        start = np.repeat(i0 - (np.cumsum(counts) - counts), counts)
+        pos = start + np.arange(total)
+        r = pos // self.n
+        j = rank[pos]  # the point at sorted position pos - r n of row r
+        return pair, j, r

@@ -32,7 +32,7 @@ more than it saves on a few hundred candidates, 0.13 ms of the Franka hand's
 Table I search).
 
 Within numpy's body kernel, points sorted along a gripper axis per orientation
-(``poses.Slabs``) let the test read only the points in a body's slab; sorting
+(``body.Slabs``) let the test read only the points in a body's slab; sorting
 pays from ``SLAB_FROM`` candidates per orientation on (the Franka hand's default
 search, numpy's kernels: 4.8 ms with the slabs, 6.7 ms without). numpy's finger
 kernel reads every point: its slab lookup, measured side by side over 21 runs
