@@ -906,3 +906,46 @@ def test_points_in_each_rotations_axes_are_a_batched_products_bits(seed, q, n):
     got = poses.in_axes(P, R)
     assert got.shape == (q, 3, n)
     np.testing.assert_array_equal(got, np.matmul(R.transpose(0, 2, 1), P.T))
+
+
+def test_a_batch_reads_its_poses_axes_without_building_them():
+    """A scorers' batch given ``PoseRows``: its approach, closing and GWC
+    origins are the bits of the poses' own columns, read without building the
+    poses; reading the poses whole builds them once."""
+    from dataclasses import replace
+
+    from wsgrasp.planning.poses import PoseArray, PoseRows
+    from wsgrasp.planning.scoring import CandidateBatch
+
+    rng = np.random.default_rng(3)
+    T_wo = np.eye(4)
+    T_wo[:3, :3] = Rotation.from_rotvec(rng.normal(size=3)).as_matrix()
+    structure = CandidateStructure(
+        T_wo,
+        rng.uniform(-0.1, 0.1, (6, 3)),
+        Rotation.random(5, random_state=3).as_matrix(),
+    )
+    poses = PoseArray(StructuredPoses.build(structure))
+    f = np.array([1, 4, 7, 22, 29])
+    T = poses.at(f)
+    kept = dict(
+        gripper=make_jaw_gripper(),
+        theta=np.zeros(len(f)),
+        holding=np.zeros((len(f), 1, 2), dtype=bool),
+        object_points=np.zeros((1, 3)),
+        T_world_object=T_wo,
+        extents=np.ones(3),
+        table_normal=np.array([0.0, 0.0, 1.0]),
+        min_table_height=np.zeros(len(f)),
+    )
+    lazy = CandidateBatch(
+        T_world_gwc=PoseRows(poses, f), T_world_gripper=PoseRows(poses, f), **kept
+    )
+    whole = CandidateBatch(T_world_gwc=T, T_world_gripper=T, **kept)
+    assert len(lazy) == len(f)
+    for name in ("approach", "closing", "gwc_origins"):
+        np.testing.assert_array_equal(getattr(lazy, name), getattr(whole, name))
+    assert isinstance(type(lazy).__dict__["T_world_gwc"].stored(lazy), PoseRows)
+    np.testing.assert_array_equal(lazy.T_world_gwc, T)
+    assert lazy.T_world_gwc is lazy.T_world_gwc  # built once, then kept
+    np.testing.assert_array_equal(replace(lazy).T_world_gripper, T)

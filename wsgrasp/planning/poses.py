@@ -33,6 +33,7 @@ from wsgrasp.geometry import invert_transforms
 __all__ = [
     "CandidateStructure",
     "PoseArray",
+    "PoseRows",
     "StructuredPoses",
     "TableSE",
     "hull_vertices",
@@ -380,6 +381,25 @@ def distinct_rotations(
     # the first stands for them
     s, _, rank = np.unique(rows[first], axis=0, return_index=True, return_inverse=True)
     return s.reshape(-1, 3, 3), rank.reshape(-1)[of]
+
+
+class PoseRows:
+    """Candidates ``index`` (k,) of a :class:`PoseArray`, their ``(k, 4, 4)``
+    poses built only when read whole (:meth:`whole`); :attr:`split` gives their
+    rotations and translations without them, as :meth:`PoseArray.split` does."""
+
+    def __init__(self, poses: PoseArray, index: NDArray[np.int64]) -> None:
+        self.poses, self.index = poses, np.asarray(index, dtype=np.int64)
+
+    def __len__(self) -> int:
+        return len(self.index)
+
+    def whole(self) -> Array:
+        return self.poses.at(self.index)
+
+    @cached_property
+    def split(self) -> tuple[Array, NDArray[np.int64], Array]:
+        return self.poses.split(self.index)
 
 
 def in_axes(P: Array, R: Array) -> Array:

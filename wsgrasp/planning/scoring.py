@@ -15,12 +15,28 @@ from wsgrasp.errors import PluginError
 from wsgrasp.geometry import invert_transforms, transform_points
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.perception.sides import behind_the_side
+from wsgrasp.planning._fields import BuiltOnRead
 from wsgrasp.planning.holdings import HoldingField, Holdings
+from wsgrasp.planning.poses import PoseRows
 from wsgrasp.planning.targets import config_tree
 
 __all__ = ["CandidateBatch", "Scorer", "combine_scores"]
 
 Array = NDArray[np.float64]
+
+
+class _PosesField(BuiltOnRead):
+    """A dataclass field of ``(F, 4, 4)`` poses set as an array or as
+    :class:`~wsgrasp.planning.poses.PoseRows`, read as the array (built on the
+    first read, then kept): a dense search's feasible candidates' poses took
+    12 ms of the Allegro hand's dense search, and the default scorers read
+    their axes and origins alone."""
+
+    def __get__(self, obj: Any, objtype: type | None = None) -> Any:
+        value = super().__get__(obj, objtype)
+        if isinstance(value, PoseRows):
+            value = obj.__dict__[self._slot] = value.whole()
+        return value
 
 
 @dataclass
@@ -31,6 +47,9 @@ class CandidateBatch:
     ----------
     gripper : GripperModel
     T_world_gwc, T_world_gripper : (F, 4, 4) float
+        May be given as :class:`~wsgrasp.planning.poses.PoseRows`, built only
+        if something reads them; :attr:`approach`, :attr:`closing` and
+        :attr:`gwc_origins` are read without them.
     theta : (F,) float
     holding : (F, no, nf) bool
         Which object points each finger's spheres hold. May be given as a
@@ -66,8 +85,12 @@ class CandidateBatch:
     """
 
     gripper: GripperModel
-    T_world_gwc: Array
-    T_world_gripper: Array
+    if TYPE_CHECKING:  # read as arrays; set as arrays or PoseRows
+        T_world_gwc: Array
+        T_world_gripper: Array
+    else:
+        T_world_gwc: Array = _PosesField()
+        T_world_gripper: Array = _PosesField()
     theta: Array
     if TYPE_CHECKING:  # read as the array; set as the array or Holdings
         holding: NDArray[np.bool_]
@@ -89,7 +112,7 @@ class CandidateBatch:
     viewpoints: Array | None = None
 
     def __len__(self) -> int:
-        return int(self.T_world_gwc.shape[0])
+        return len(self.theta)
 
     @property
     def holdings(self) -> Holdings:
@@ -215,12 +238,27 @@ class CandidateBatch:
     @property
     def approach(self) -> Array:
         """Approach direction of each candidate, ``(F, 3)`` (GWC z)."""
-        return self.T_world_gwc[:, :3, 2]
+        return self._gwc(lambda R, t: R[:, :, 2])
 
     @property
     def closing(self) -> Array:
         """Closing direction of each candidate, ``(F, 3)`` (GWC y)."""
-        return self.T_world_gwc[:, :3, 1]
+        return self._gwc(lambda R, t: R[:, :, 1])
+
+    @property
+    def gwc_origins(self) -> Array:
+        """Origin of each candidate's GWC frame, ``(F, 3)``."""
+        return self._gwc(lambda R, t: t)
+
+    def _gwc(self, part: Callable[[Array, Array], Array]) -> Array:
+        """``part(R, t)`` of the GWC poses' rotations ``(F, 3, 3)`` and
+        translations ``(F, 3)``, without building ``T_world_gwc`` where it is
+        kept as :class:`~wsgrasp.planning.poses.PoseRows`."""
+        kept = type(self).__dict__["T_world_gwc"].stored(self)
+        if isinstance(kept, PoseRows):
+            R, of, t = kept.split
+            return part(R[of], t)
+        return part(kept[:, :3, :3], kept[:, :3, 3])
 
 
 class Scorer(Protocol):

@@ -25,7 +25,7 @@ from wsgrasp.planning.evaluate import (
     TableSE,
     evaluate_candidates,
 )
-from wsgrasp.planning.poses import PoseArray, StructuredPoses
+from wsgrasp.planning.poses import PoseArray, PoseRows, StructuredPoses
 from wsgrasp.planning.result import REASONS, Alternative, CandidateSet, Contact
 from wsgrasp.planning.scoring import CandidateBatch, combine_scores
 
@@ -120,8 +120,9 @@ def run_search(
         f = ev.feasible
         batch = CandidateBatch(
             gripper=g,
-            T_world_gwc=T_world_gwc.at(f),
-            T_world_gripper=T_world_gripper.at(f),
+            # as PoseRows: built only if a scorer reads them whole
+            T_world_gwc=PoseRows(T_world_gwc, f),  # type: ignore[arg-type]
+            T_world_gripper=PoseRows(T_world_gripper, f),  # type: ignore[arg-type]
             theta=theta[f],
             # as Holdings: the mask is built only if a scorer reads it
             holding=ev.holdings,  # type: ignore[arg-type]

@@ -61,7 +61,7 @@ class CentroidDistanceScorer:
         pass
 
     def score(self, batch: Any, options: Options) -> np.ndarray:
-        d = np.linalg.norm(batch.T_world_gwc[:, :3, 3] - batch.centroid, axis=-1)
+        d = np.linalg.norm(batch.gwc_origins - batch.centroid, axis=-1)
         return _nearness(d, batch)
 
 
