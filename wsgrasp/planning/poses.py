@@ -333,6 +333,17 @@ class PoseArray:
         R, of = distinct_rotations(sp.R[used])  # (U, 3, 3), (used,)
         return R, of[np.cumsum(used)[o] - 1], sp.A[s] + sp.B[o]
 
+    def parts(self, index: NDArray[np.int64]) -> tuple[Array, Array]:
+        """The rotations (k, 3, 3) and translations (k, 3) of candidates
+        ``index`` (k,), bit for bit those of :meth:`at`, without building
+        ``(k, 4, 4)`` arrays from the structure."""
+        if self._poses is None or self._edits:
+            T = self.at(index)
+            return T[:, :3, :3], T[:, :3, 3]
+        sp = self._poses
+        s, o = np.divmod(np.asarray(index, dtype=np.int64), len(sp.R))
+        return sp.R[o], sp.A[s] + sp.B[o]
+
     def set(self, index: int, T: Array) -> None:
         """Set candidate ``index``'s pose to ``T`` (4, 4)."""
         if self._array is not None:
@@ -385,8 +396,8 @@ def distinct_rotations(
 
 class PoseRows:
     """Candidates ``index`` (k,) of a :class:`PoseArray`, their ``(k, 4, 4)``
-    poses built only when read whole (:meth:`whole`); :attr:`split` gives their
-    rotations and translations without them, as :meth:`PoseArray.split` does."""
+    poses built only when read whole (:meth:`whole`); :attr:`parts` gives their
+    rotations and translations without them (:meth:`PoseArray.parts`)."""
 
     def __init__(self, poses: PoseArray, index: NDArray[np.int64]) -> None:
         self.poses, self.index = poses, np.asarray(index, dtype=np.int64)
@@ -398,8 +409,8 @@ class PoseRows:
         return self.poses.at(self.index)
 
     @cached_property
-    def split(self) -> tuple[Array, NDArray[np.int64], Array]:
-        return self.poses.split(self.index)
+    def parts(self) -> tuple[Array, Array]:
+        return self.poses.parts(self.index)
 
 
 def in_axes(P: Array, R: Array) -> Array:

@@ -253,11 +253,10 @@ class CandidateBatch:
     def _gwc(self, part: Callable[[Array, Array], Array]) -> Array:
         """``part(R, t)`` of the GWC poses' rotations ``(F, 3, 3)`` and
         translations ``(F, 3)``, without building ``T_world_gwc`` where it is
-        kept as :class:`~wsgrasp.planning.poses.PoseRows`."""
+        kept as :class:`~wsgrasp.planning.poses.PoseRows` (``parts``)."""
         kept = type(self).__dict__["T_world_gwc"].stored(self)
         if isinstance(kept, PoseRows):
-            R, of, t = kept.split
-            return part(R[of], t)
+            return part(*kept.parts)
         return part(kept[:, :3, :3], kept[:, :3, 3])
 
 
