@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from scipy.spatial import ConvexHull, QhullError
 
@@ -36,6 +36,7 @@ def _cloud(kind: str, n: int, seed: int) -> np.ndarray:
     n=st.integers(3, 3000),
     seed=st.integers(0, 2**31),
 )
+@example(kind="square", n=6, seed=141)  # an offset's last bit differs
 def test_outline_is_the_hull_of_every_point(kind: str, n: int, seed: int) -> None:
     points = _cloud(kind, n, seed)
     normal = np.array([0.0, 0.0, 1.0])
@@ -45,8 +46,11 @@ def test_outline_is_the_hull_of_every_point(kind: str, n: int, seed: int) -> Non
     except QhullError:  # a few grid points on one line or one node: no area
         assert not outline.bounded and len(outline.equations) == 0
         return
-    # the same edges, bit for bit (their order may differ)
-    np.testing.assert_array_equal(_rows(outline.equations), _rows(full))
+    # the same edges (their order may differ), to the last bit of an offset that
+    # qhull computed from the edge's other end
+    got, want = _rows(outline.equations), _rows(full)
+    assert got.shape == want.shape
+    np.testing.assert_allclose(got, want, rtol=0.0, atol=1e-15)
 
 
 @pytest.mark.parametrize("n", [3, 10])
