@@ -40,6 +40,10 @@ from scipy.spatial import cKDTree
 
 from wsgrasp.errors import InputError
 from wsgrasp.geometry import plane_basis
+from wsgrasp.perception.cells import ROW_NEIGHBOURS as _ROW_NEIGHBOURS
+from wsgrasp.perception.cells import Window as _Window
+from wsgrasp.perception.cells import cells_seen as _cells_seen
+from wsgrasp.perception.cells import footprint as _footprint
 from wsgrasp.perception.footprint import Footprint
 from wsgrasp.perception.process import cluster_labels, fit_plane_ransac
 from wsgrasp.perception.types import Array, Plane, Segmentation
@@ -608,8 +612,8 @@ def _hidden_below(
 
     basis = plane_basis(normal)  # (3, 2)
     out = np.zeros(int(lab.max()) + 1, dtype=bool)
-    inliers = _Window(plane_uv)
-    everything = _Window(p, basis)
+    inliers = _Window(plane_uv, queries=len(clusters))
+    everything = _Window(p, basis, queries=len(clusters))
     for c in clusters:
         uv_c = p[idx[lab == c]] @ basis
         # a narrow footprint on cells of half the side: on 1 cm cells, a 4 cm
@@ -620,9 +624,9 @@ def _hidden_below(
         foot, lo, _ = _footprint(uv_c, side)
         depth = distance_transform_edt(foot)
         core = depth >= _CORE_DEPTH * depth.max()
-        near = inliers.within(lo, foot.shape, side)
+        near = inliers.within(lo, foot.shape, side, ordered=False)
         seen = _cells_seen(plane_uv[near], lo, side, foot.shape)
-        near = everything.within(lo, foot.shape, side)
+        near = everything.within(lo, foot.shape, side, ordered=False)
         near = near[ah[near] < under[c]]
         seen |= _cells_seen(everything.uv[near], lo, side, foot.shape)
         out[c] = np.count_nonzero(seen & core) < _SEEN_BELOW * core.sum()
@@ -663,22 +667,24 @@ def _held_up(
     above shows its top alone, and round its top nothing lies at that height."""
     from scipy.ndimage import binary_dilation
 
-    basis = plane_basis(normal)  # (3, 2)
     out = np.zeros(int(lab.max()) + 1, dtype=bool)
+    if not len(clusters):
+        return out
+    basis = plane_basis(normal)  # (3, 2)
     # a surface is no object-sized cluster's points (``objects``): a far view's
     # box falls into its top and shreds of its sides, level with the top round
     # its outline; a desk's top, too large for an object, may be one cluster
     clustered = np.zeros(p.shape[0], dtype=bool)
     clustered[objects] = True
     free = np.flatnonzero(~clustered)
-    window = _Window(p[free], basis)
+    window = _Window(p[free], basis, queries=len(clusters))
     for c in clusters:
         members = idx[lab == c]
         foot, lo, _ = _footprint(p[members] @ basis, cell)
         ring = binary_dilation(foot, iterations=_RING_CELLS) & ~foot
         if not ring.any():
             continue
-        near = window.within(lo, foot.shape, cell)
+        near = window.within(lo, foot.shape, cell, ordered=False)
         near = near[np.abs(ah[free[near]] - low[c]) <= reach]
         seen = _cells_seen(window.uv[near], lo, cell, foot.shape)
         out[c] = np.count_nonzero(seen & ring) >= _HELD_AROUND * ring.sum()
@@ -719,7 +725,7 @@ def _under_surface(
 
     out = np.zeros(int(lab.max()) + 1, dtype=bool)
     basis = plane_basis(normal)  # (3, 2)
-    window = _Window(p, basis)
+    window = _Window(p, basis, queries=2 * len(clusters))
     for c in clusters:
         members = idx[lab == c]
         top = float(h[members].max()) + cell
@@ -730,11 +736,11 @@ def _under_surface(
         # side is a strip a cell wide under the desk's edge)
         lo = uv.min(axis=0) - 2.0 * cell
         shape = tuple(int(n) + 4 for n in np.ceil((uv.max(axis=0) - lo) / cell))
-        near = window.within(lo, shape, cell)
+        near = window.within(lo, shape, cell, ordered=False)
         if np.count_nonzero(h[near] > top) < _UNDER_FEWEST:
             continue  # nothing over it: in the open
         foot, lo, _ = _footprint(uv, cell)
-        near = window.within(lo, foot.shape, cell)
+        near = window.within(lo, foot.shape, cell, ordered=False)
         over = near[h[near] > top]
         # the highest layer over it (under it: the rest of the leg, hidden
         # between the top and the floor in shreds)
@@ -751,139 +757,6 @@ def _under_surface(
         hit, _ = tree.query(centres, distance_upper_bound=spacing)
         out[c] = np.count_nonzero(np.isfinite(hit)) >= _UNDER_COVER * len(centres)
     return out
-
-
-class _Window:
-    """Points ``p`` ``(n, 3)`` projected on a plane (``basis`` ``(3, 2)``;
-    ``uv``, once asked for), from which those in a cluster's grid are taken:
-    by one pass over them all for the first ``_WINDOW_PASSES`` clusters, then
-    from the points sorted by the square of side ``_WINDOW_BUCKET`` they fall
-    in (a noisy room's floor, 100,000 inliers under 400 noise clusters, took
-    3 s to look at cluster by cluster; sorting a tabletop's points for its one
-    object costs more than the pass)."""
-
-    def __init__(self, p: Array, basis: Array | None = None) -> None:
-        self.p, self.basis = p, basis
-        self.calls = 0
-        self._uv: Array | None = None
-        # once sorted: the points' order by square, their squares' keys in that
-        # order, the squares' corner and how many rows of squares there are
-        self.order: NDArray[np.int64] | None = None
-        self.keys = np.zeros(0, dtype=np.int64)
-        self.origin = np.zeros(2)
-        self.rows_per = 0
-
-    @property
-    def uv(self) -> Array:
-        """The points on the plane ``(n, 2)`` (``p`` itself without a basis)."""
-        if self._uv is None:
-            # einsum's own loop, not BLAS: on a shared 2-core machine the
-            # BLAS threads of a (500,000, 3) @ (3, 2) product waited up to
-            # 190 ms for each other (median 10 ms; einsum 8.5, at most 11)
-            self._uv = (
-                self.p
-                if self.basis is None
-                else np.einsum("ij,jk->ik", self.p, self.basis, optimize=False)
-            )
-        return self._uv
-
-    def within(
-        self, lo: Array, shape: tuple[int, ...], side: float
-    ) -> NDArray[np.int64]:
-        """Indices (ascending) of the points in the grid of ``shape`` cells of
-        side ``side`` from corner ``lo``, and a cell round it (the cells a
-        point falls in are then told as over the whole)."""
-        a = lo - side
-        b = lo + (np.asarray(shape) + 1) * side
-        uv = self.uv
-        self.calls += 1
-        if self.calls <= _WINDOW_PASSES:
-            u, v = uv[:, 0], uv[:, 1]
-            inside = (u >= a[0]) & (u <= b[0]) & (v >= a[1]) & (v <= b[1])
-            return np.flatnonzero(inside)
-        if self.order is None:
-            self.origin = uv.min(axis=0)
-            ij = np.floor((uv - self.origin) / _WINDOW_BUCKET).astype(np.int64)
-            self.rows_per = int(ij[:, 1].max()) + 1
-            key = ij[:, 0] * self.rows_per + ij[:, 1]
-            self.order = np.argsort(key, kind="stable")
-            self.keys = key[self.order]
-        # the buckets the box overlaps, a run of keys per column of them
-        i0, j0 = np.floor((a - self.origin) / _WINDOW_BUCKET).astype(np.int64)
-        i1, j1 = np.floor((b - self.origin) / _WINDOW_BUCKET).astype(np.int64)
-        j0, j1 = max(int(j0), 0), min(int(j1), self.rows_per - 1)
-        if j1 < j0:
-            return np.zeros(0, dtype=np.int64)
-        cols = np.arange(max(int(i0), 0), int(i1) + 1) * self.rows_per
-        starts = np.searchsorted(self.keys, cols + j0, "left")
-        ends = np.searchsorted(self.keys, cols + j1, "right")
-        if not len(cols) or not (ends > starts).any():
-            return np.zeros(0, dtype=np.int64)
-        rows = np.concatenate(
-            [self.order[s:e] for s, e in zip(starts, ends, strict=True)]
-        )
-        u, v = uv[rows, 0], uv[rows, 1]
-        inside = (u >= a[0]) & (u <= b[0]) & (v >= a[1]) & (v <= b[1])
-        return np.sort(rows[inside])
-
-
-#: :class:`_Window`'s squares (m): a few times a cluster's cells
-_WINDOW_BUCKET = 0.05
-#: clusters looked at by a pass over every point before they are sorted
-_WINDOW_PASSES = 3
-
-
-def _cells_seen(
-    uv: Array, lo: Array, side: float, shape: tuple[int, ...]
-) -> NDArray[np.bool_]:
-    """The cells of side ``side`` of a grid of ``shape`` from corner ``lo``
-    ``(2,)`` that points projected on the plane, ``uv`` ``(m, 2)``, fall in."""
-    t = np.floor((uv - lo) / side).astype(np.int64)  # (m, 2)
-    ok = (t >= 0).all(axis=1) & (t < shape).all(axis=1)
-    seen = np.zeros(shape, dtype=bool)
-    seen[t[ok, 0], t[ok, 1]] = True
-    return seen
-
-
-def _footprint(
-    uv: Array, cell: float
-) -> tuple[NDArray[np.bool_], Array, NDArray[np.int64]]:
-    """The footprint of points projected on a plane, ``uv`` ``(k, 2)``: the
-    cells of side ``cell`` they fall into, the gaps between the points' rows
-    closed and holes filled, on a grid with a border as wide as the closing
-    and a cell; the grid's corner ``lo`` ``(2,)`` and each point's cell
-    ``(k, 2)``.
-
-    A top seen at a slant, or from far, falls into rows with empty cells
-    between them (a 15 cm cube's top seen from 1.5 m: 399 points in 900
-    cells) that open its footprint to the outside: without the closing, its
-    outline ran through its middle, and the sides filled in under it
-    (:func:`_hidden_sides`) stood up to 5 cm inside the object. The closing
-    spans the points' spacing across their rows: the median distance to a
-    point's sixth nearest (its row's neighbours are the first four), at least
-    one cell."""
-    from scipy.ndimage import binary_dilation, binary_erosion, binary_fill_holes
-    from scipy.spatial import cKDTree
-
-    reach = 1
-    if len(uv) > _ROW_NEIGHBOURS:
-        d, _ = cKDTree(uv).query(uv, k=_ROW_NEIGHBOURS + 1)
-        spacing = float(np.median(d[:, -1]))
-        reach = max(1, min(_MAX_CLOSING, math.ceil(spacing / cell - 1e-9) - 1))
-    lo = uv.min(axis=0) - (reach + 1) * cell
-    shape = tuple(int(n) for n in np.floor((uv.max(axis=0) - lo) / cell) + reach + 2)
-    ij = np.floor((uv - lo) / cell).astype(np.int64)  # (k, 2)
-    foot = np.zeros(shape, dtype=bool)
-    foot[ij[:, 0], ij[:, 1]] = True
-    grown = binary_dilation(foot, iterations=reach)
-    foot |= binary_erosion(grown, iterations=reach, border_value=0)
-    return binary_fill_holes(foot), lo, ij
-
-
-#: ``_footprint``: the neighbour whose distance tells the points' spacing
-#: across their rows, and the widest closing (cells)
-_ROW_NEIGHBOURS = 6
-_MAX_CLOSING = 4
 
 
 def _hidden_sides(
