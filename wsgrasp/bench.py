@@ -1,7 +1,8 @@
 """``wsgrasp bench``: timings of the whole plan, the search alone and the
 loop-by-loop reference, side by side in one run, and how the search scales.
 
-Figures are medians over repeated runs on the same inputs; the speed-up is the
+Figures are medians over repeated runs on the same inputs, after warm-up runs
+(for the whole plan, past the process's choice of kernels); the speed-up is the
 ratio of the reference's median to the search's median measured in the same run.
 """
 
@@ -20,7 +21,7 @@ import numpy as np
 
 from wsgrasp.api import Pipeline, as_scene
 from wsgrasp.perception.frame import sample_box
-from wsgrasp.planning import _compiled
+from wsgrasp.planning import _compiled, kernels
 from wsgrasp.planning.candidates import candidate_poses, orientation_set
 from wsgrasp.planning.evaluate import (
     CandidateStructure,
@@ -152,7 +153,12 @@ def run_bench(
             out.rows[label] = _dense_row(pipe, pipe.prepare(scene), label, say)
             continue
         say(f"{label}: whole plan ×{repeat}")
-        plan_ms = _median_ms(lambda: pipe.plan(scene), repeat)
+        # warmed up past the process's choice of kernels (numpy's for its first
+        # searches, then the compiled loops: ``kernels``), so that every timed
+        # plan runs the same ones; a fresh process's first plan is
+        # benchmarks/open3d_import.py's
+        settle = kernels.SMALL_BEFORE_LOADING + 1
+        plan_ms = _median_ms(lambda: pipe.plan(scene), repeat, warmup=settle)
         prep = pipe.prepare(scene)
         stages = {k: [] for k in prep.timing_ms}  # type: dict[str, list[float]]
         for _ in range(repeat):
