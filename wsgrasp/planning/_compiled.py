@@ -112,7 +112,7 @@ def count_by_fingers(
         codes,
         depth.packed_held[of],  # (L, ...) the tables per list code
         depth.held_fingers[of].view(np.uint8),
-        depth.unsure_codes[of].view(np.uint8),
+        len(depth.states),  # the list codes from here on are unsure ones
         start,
         listed,
         owner,
