@@ -43,9 +43,6 @@ Array = NDArray[np.float64]
 
 #: a bound decides a verdict only this far (in eq. (1)'s value, or metres) from it
 MARGIN = 1e-9
-#: OpenBLAS computes a matrix product of up to this many multiply-adds on one
-#: thread (``SMP_THRESHOLD_MIN`` times ``GEMM_MULTITHREAD_THRESHOLD``)
-_ONE_THREAD = 262_144
 #: a chunk of the compiled body test holds at most this many candidates, and its
 #: orientations' points at most this many coordinates
 _SPAN_CANDIDATES = 65_536
@@ -324,8 +321,8 @@ class PoseArray:
         the structure no ``(k, 4, 4)`` array is built: the Allegro hand's dense
         search takes 16 ms less than through :meth:`at`."""
         if self._poses is None or self._edits:
-            T = self.at(index)
-            return (*distinct_rotations(T[:, :3, :3], groups), T[:, :3, 3])
+            R, t = self.parts(index)
+            return (*distinct_rotations(R, groups), t)
         sp = self._poses
         s, o = np.divmod(np.asarray(index, dtype=np.int64), len(sp.R))
         used = np.zeros(len(sp.R), dtype=bool)
@@ -405,12 +402,30 @@ class PoseRows:
     def __len__(self) -> int:
         return len(self.index)
 
-    def whole(self) -> Array:
+    @cached_property
+    def _whole(self) -> Array:
         return self.poses.at(self.index)
+
+    def whole(self) -> Array:
+        """The ``(k, 4, 4)`` poses: built on the first call, then kept."""
+        return self._whole
 
     @cached_property
     def parts(self) -> tuple[Array, Array]:
         return self.poses.parts(self.index)
+
+
+#: OpenBLAS computes a matrix product of up to this many multiply-adds on one
+#: thread (``SMP_THRESHOLD_MIN`` times ``GEMM_MULTITHREAD_THRESHOLD``)
+_ONE_THREAD = 262_144
+
+
+def one_thread_block(other: int) -> int:
+    """How many rows a thin product ``(b, 3) @ (3, other)`` (or columns of
+    ``(other, 3) @ (3, b)``) may have for OpenBLAS to compute it on one thread:
+    on threads, the Allegro hand's dense search took three times as long on
+    the 2-core machine while it ran other work."""
+    return max(1, _ONE_THREAD // (3 * max(other, 1)))
 
 
 def in_axes(P: Array, R: Array) -> Array:
@@ -420,14 +435,12 @@ def in_axes(P: Array, R: Array) -> Array:
     Matrix products of blocks of rotations stacked, ``(3b, 3) @ (3, n)``: the
     same bits as a batched product per rotation (checked with OpenBLAS's
     SkylakeX, Haswell and Sandybridge kernels) in under half its time (130
-    rotations, 800 points: 89 against 200 us; an einsum is slower still). A
-    block stays under ``_ONE_THREAD`` multiply-adds, which OpenBLAS computes
-    on one thread: on threads, the Allegro hand's dense search took three times
-    as long on the 2-core machine while it ran other work."""
+    rotations, 800 points: 89 against 200 us; an einsum is slower still), each
+    block computed on one thread (:func:`one_thread_block`)."""
     q, n = len(R), len(P)
     Rt = np.ascontiguousarray(R.transpose(0, 2, 1)).reshape(-1, 3)  # (3q, 3)
     out = np.empty((3 * q, n))
-    rows = 3 * max(1, _ONE_THREAD // max(9 * n, 1))
+    rows = 3 * max(1, one_thread_block(n) // 3)  # whole rotations
     for a in range(0, 3 * q, rows):
         np.matmul(Rt[a : a + rows], P.T, out=out[a : a + rows])
     return out.reshape(q, 3, n)

@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wsgrasp.planning._fields import BuiltOnRead
-from wsgrasp.planning.poses import PoseArray
+from wsgrasp.planning.poses import PoseArray, PoseRows
 
 __all__ = [
     "REASONS",
@@ -35,15 +35,18 @@ REASONS: tuple[str, ...] = (
 
 class PoseField(BuiltOnRead):
     """A dataclass field of ``(C, 4, 4)`` poses kept as a
-    :class:`~wsgrasp.planning.poses.PoseArray`: set as an array or a
-    ``PoseArray``, read as the whole array (built on first read, then kept).
+    :class:`~wsgrasp.planning.poses.PoseArray` (or, for some of a set's
+    candidates, :class:`~wsgrasp.planning.poses.PoseRows`): set as an array or
+    either of those, read as the whole array (built on first read, then kept).
     """
 
-    def read(self, stored: PoseArray) -> NDArray[np.float64]:
+    def read(self, stored: PoseArray | PoseRows) -> NDArray[np.float64]:
         return stored.whole()
 
-    def keep(self, value: NDArray[np.float64] | PoseArray) -> PoseArray:
-        return value if isinstance(value, PoseArray) else PoseArray(value)
+    def keep(
+        self, value: NDArray[np.float64] | PoseArray | PoseRows
+    ) -> PoseArray | PoseRows:
+        return value if isinstance(value, PoseArray | PoseRows) else PoseArray(value)
 
 
 @dataclass

@@ -15,28 +15,14 @@ from wsgrasp.errors import PluginError
 from wsgrasp.geometry import invert_transforms, transform_points
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.perception.sides import behind_the_side
-from wsgrasp.planning._fields import BuiltOnRead
 from wsgrasp.planning.holdings import HoldingField, Holdings
 from wsgrasp.planning.poses import PoseRows
+from wsgrasp.planning.result import PoseField
 from wsgrasp.planning.targets import config_tree
 
 __all__ = ["CandidateBatch", "Scorer", "combine_scores"]
 
 Array = NDArray[np.float64]
-
-
-class _PosesField(BuiltOnRead):
-    """A dataclass field of ``(F, 4, 4)`` poses set as an array or as
-    :class:`~wsgrasp.planning.poses.PoseRows`, read as the array (built on the
-    first read, then kept): a dense search's feasible candidates' poses took
-    12 ms of the Allegro hand's dense search, and the default scorers read
-    their axes and origins alone."""
-
-    def __get__(self, obj: Any, objtype: type | None = None) -> Any:
-        value = super().__get__(obj, objtype)
-        if isinstance(value, PoseRows):
-            value = obj.__dict__[self._slot] = value.whole()
-        return value
 
 
 @dataclass
@@ -48,7 +34,8 @@ class CandidateBatch:
     gripper : GripperModel
     T_world_gwc, T_world_gripper : (F, 4, 4) float
         May be given as :class:`~wsgrasp.planning.poses.PoseRows`, built only
-        if something reads them; :attr:`approach`, :attr:`closing` and
+        if something reads them (a dense search's feasible poses took 12 ms of
+        the Allegro hand's dense search); :attr:`approach`, :attr:`closing` and
         :attr:`gwc_origins` are read without them.
     theta : (F,) float
     holding : (F, no, nf) bool
@@ -89,8 +76,8 @@ class CandidateBatch:
         T_world_gwc: Array
         T_world_gripper: Array
     else:
-        T_world_gwc: Array = _PosesField()
-        T_world_gripper: Array = _PosesField()
+        T_world_gwc: Array = PoseField()
+        T_world_gripper: Array = PoseField()
     theta: Array
     if TYPE_CHECKING:  # read as the array; set as the array or Holdings
         holding: NDArray[np.bool_]
@@ -257,7 +244,8 @@ class CandidateBatch:
         kept = type(self).__dict__["T_world_gwc"].stored(self)
         if isinstance(kept, PoseRows):
             return part(*kept.parts)
-        return part(kept[:, :3, :3], kept[:, :3, 3])
+        T = kept.whole()
+        return part(T[:, :3, :3], T[:, :3, 3])
 
 
 class Scorer(Protocol):

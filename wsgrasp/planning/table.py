@@ -25,11 +25,11 @@ from wsgrasp.geometry import invert_transforms
 from wsgrasp.geometry._superellipsoid import _power
 from wsgrasp.gripper.model import GripperModel
 from wsgrasp.planning.poses import (
-    _ONE_THREAD,
     MARGIN,
     StructuredPoses,
     TableSE,
     grouped,
+    one_thread_block,
 )
 from wsgrasp.planning.poses import hull_vertices as _hull_vertices
 
@@ -68,8 +68,7 @@ class TableVerdicts:
         if len(vertices) == 0:
             return np.full(len(s), np.inf)
         z_axes = poses.R.transpose(0, 2, 1) @ R_tw[2]  # (O, 3) normal, gripper axes
-        # blocks of orientations that OpenBLAS multiplies on one thread (poses)
-        step = max(1, _ONE_THREAD // (3 * len(vertices)))
+        step = one_thread_block(len(vertices))  # orientations per product
         low = np.concatenate(
             [
                 (vertices @ z_axes[a : a + step].T).min(axis=0)
